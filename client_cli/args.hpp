@@ -1,0 +1,78 @@
+// args.hpp — the `horizon` command line, parsed by hand.
+//
+// Grammar, per command: positional operands and flags in any order.
+//   --name VALUE | --name=VALUE   a flag with a value (the value may start with '-')
+//   --name                        a switch
+//   -o VALUE                      a short alias
+//   --                            everything after it is positional
+//   --help | -h                   stops parsing; the command prints its help
+// Unknown flags, a missing value, a value given to a switch and a repeated flag
+// are usage errors. The typed getters check a value's syntax and basic range
+// and throw UsageError with a message that names the flag and quotes the value
+// ("--max-distance: expected a non-negative number, got 'abc'"). Range checks
+// that belong to the engine (visibility::validate_options) stay there.
+#pragma once
+
+#include <optional>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+namespace horizon::cli {
+
+// A mistake on the command line: exit status 2, message names the flag.
+class UsageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct FlagSpec {
+  std::string_view name;   // long form, "--max-distance"
+  std::string_view alias;  // short form ("-o") or empty
+  std::string_view value;  // metavariable shown in help ("M", "X,Y"); empty for a switch
+  std::string_view help;   // one line; defaults and units included
+};
+
+class Args {
+ public:
+  // Throws UsageError. `specs` must outlive the Args.
+  static Args parse(std::span<const std::string> argv, std::span<const FlagSpec> specs);
+
+  bool help_requested() const { return help_; }
+  const std::vector<std::string>& positionals() const { return positionals_; }
+
+  // True when the flag (switch or valued) was given.
+  bool has(std::string_view flag) const;
+  // The raw value, or nullopt when the flag was not given.
+  std::optional<std::string> text(std::string_view flag) const;
+
+  // Typed getters: nullopt when absent, UsageError when malformed.
+  std::optional<double> number(std::string_view flag) const;        // finite
+  std::optional<double> non_negative(std::string_view flag) const;  // finite, >= 0
+  std::optional<int> positive_integer(std::string_view flag) const;
+  std::optional<unsigned> non_negative_integer(std::string_view flag) const;
+  // "X,Y": two finite numbers separated by one comma.
+  std::optional<std::pair<double, double>> pair(std::string_view flag) const;
+  // One of `allowed`, spelled exactly.
+  std::optional<std::string> choice(std::string_view flag, std::span<const std::string_view> allowed) const;
+
+ private:
+  const FlagSpec& spec(std::string_view flag) const;  // asserts the flag is declared
+
+  std::span<const FlagSpec> specs_;
+  std::vector<std::pair<std::string_view, std::string>> values_;  // flag name -> value ("" for switches)
+  std::vector<std::string> positionals_;
+  bool help_ = false;
+};
+
+// Parses a finite decimal number (the whole string); nullopt otherwise. Also
+// used for the parts of compound values such as "fill:H".
+std::optional<double> parse_finite(std::string_view text);
+
+// Help lines for a flag table, aligned: "  --height M        Observer height ...".
+std::string format_flag_table(std::span<const FlagSpec> specs);
+
+}  // namespace horizon::cli

@@ -1,0 +1,19 @@
+#include "commands/command.hpp"
+
+#include <cstdio>
+
+namespace horizon::cli {
+
+int report_error(const Error& error) {
+  std::fprintf(stderr, "horizon: error: %s\n", error.message.c_str());
+  return kExitFailure;
+}
+
+const std::string& single_operand(const Args& args, std::string_view what) {
+  const auto& operands = args.positionals();
+  if (operands.empty()) throw UsageError("missing " + std::string(what) + " operand");
+  if (operands.size() > 1) throw UsageError("unexpected extra operand '" + operands[1] + "'");
+  return operands.front();
+}
+
+}  // namespace horizon::cli

@@ -1,0 +1,44 @@
+// command.hpp — what every `horizon` sub-command provides, and the exit codes.
+//
+// main.cpp parses a command's flags with its FlagSpec table, answers --help
+// from the texts here, and maps a thrown UsageError to exit status 2. A
+// command's run() turns the parsed flags into engine structs, calls the engine
+// and turns the result into files and stdout; an engine Error is printed with
+// report_error() and gives exit status 1.
+#pragma once
+
+#include <span>
+#include <string_view>
+
+#include "args.hpp"
+#include "horizon/common/error.hpp"
+
+namespace horizon::cli {
+
+enum ExitCode : int {
+  kExitOk = 0,
+  kExitFailure = 1,  // the engine or the file system refused (message from horizon::Error)
+  kExitUsage = 2,    // the command line is wrong
+};
+
+struct Command {
+  std::string_view name;         // "viewshed"
+  std::string_view summary;      // one line, for `horizon --help`
+  std::string_view synopsis;     // "horizon viewshed DEM (--observer X,Y | --lat LAT --lon LON) -o OUT.tif [options]"
+  std::string_view description;  // paragraphs printed after the synopsis
+  std::span<const FlagSpec> flags;
+  std::string_view examples;  // printed last; may be empty
+  int (*run)(const Args& args);
+};
+
+const Command& info_command();
+const Command& viewshed_command();
+const Command& los_command();
+
+// Prints "horizon: error: <message>" to stderr and returns kExitFailure.
+int report_error(const Error& error);
+
+// Exactly one positional operand (the DEM path); UsageError otherwise.
+const std::string& single_operand(const Args& args, std::string_view what);
+
+}  // namespace horizon::cli

@@ -1,0 +1,164 @@
+// `horizon info DEM`: what a DEM holds and where it lies.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <iostream>
+
+#include "commands/command.hpp"
+#include "inputs.hpp"
+#include "output.hpp"
+
+namespace horizon::cli {
+namespace {
+
+constexpr FlagSpec kFlags[] = {
+    {"--band", "", "N", "Band to read, 1-based (required when the file has several)"},
+    {"--json", "", "", "Print a JSON document instead of text"},
+};
+
+struct Extent {
+  double x_min, x_max, y_min, y_max;
+};
+
+Extent extent_of(const terrain::Dem& dem) {
+  const auto& t = dem.georef.transform;
+  const double x0 = t.origin_x, x1 = t.origin_x + dem.width() * t.pixel_width;
+  const double y0 = t.origin_y, y1 = t.origin_y + dem.height() * t.pixel_height;
+  return {std::min(x0, x1), std::max(x0, x1), std::min(y0, y1), std::max(y0, y1)};
+}
+
+// WGS84 bounds of the extent: the corners and edge midpoints, which is exact
+// for geographic DEMs and within a fraction of a cell for a DEM-sized UTM area.
+struct LonLatBounds {
+  double west, east, south, north;
+};
+
+std::optional<LonLatBounds> lonlat_bounds(const geodesy::Crs& crs, const Extent& e) {
+  const double xm = (e.x_min + e.x_max) / 2, ym = (e.y_min + e.y_max) / 2;
+  const std::array<geodesy::XY, 8> points{{{e.x_min, e.y_min},
+                                           {e.x_max, e.y_min},
+                                           {e.x_min, e.y_max},
+                                           {e.x_max, e.y_max},
+                                           {xm, e.y_min},
+                                           {xm, e.y_max},
+                                           {e.x_min, ym},
+                                           {e.x_max, ym}}};
+  std::optional<LonLatBounds> b;
+  for (const geodesy::XY& p : points) {
+    auto ll = crs.to_lonlat(p);
+    if (!ll.ok()) return std::nullopt;
+    if (!b) b = LonLatBounds{ll->lon, ll->lon, ll->lat, ll->lat};
+    b->west = std::min(b->west, ll->lon);
+    b->east = std::max(b->east, ll->lon);
+    b->south = std::min(b->south, ll->lat);
+    b->north = std::max(b->north, ll->lat);
+  }
+  return b;
+}
+
+int run_info(const Args& args) {
+  const std::string& path = single_operand(args, "DEM");
+  const bool json = args.has("--json");
+  // Checked before reading so a malformed --band is a usage error, not a read.
+  (void)args.positive_integer("--band");
+
+  auto dem = load_dem(path, args, /*allow_missing_crs=*/true);
+  if (!dem.ok()) return report_error(dem.error());
+
+  const auto& t = dem->georef.transform;
+  const Extent extent = extent_of(*dem);
+  const terrain::ElevationStats stats = terrain::elevation_stats(dem->elevation);
+  const std::uint64_t cells = dem->elevation.size();
+
+  std::optional<geodesy::Crs> crs;
+  if (dem->georef.epsg != 0) {
+    auto c = geodesy::Crs::from_epsg(dem->georef.epsg);
+    if (!c.ok()) return report_error(c.error());
+    crs = *c;
+  }
+  geodesy::GroundScale scale;  // metres per CRS unit at the centre; 1 without a CRS
+  std::optional<LonLatBounds> bounds;
+  if (crs) {
+    scale = crs->ground_scale({(extent.x_min + extent.x_max) / 2, (extent.y_min + extent.y_max) / 2});
+    bounds = lonlat_bounds(*crs, extent);
+  }
+  const double cell_x_m = std::abs(t.pixel_width) * scale.metres_per_x;
+  const double cell_y_m = std::abs(t.pixel_height) * scale.metres_per_y;
+  const bool geographic = crs && crs->is_geographic();
+
+  if (json) {
+    Json j;
+    j["path"] = path;
+    j["format"] = dem->format;
+    j["width"] = dem->width();
+    j["height"] = dem->height();
+    j["cells"] = cells;
+    j["crs"] =
+        crs ? Json{{"epsg", crs->epsg()}, {"name", crs->name()}, {"geographic", crs->is_geographic()}} : Json(nullptr);
+    j["geotransform"] = to_json(t);
+    j["cell_size_m"] = {{"x", cell_x_m}, {"y", cell_y_m}};
+    j["extent"] = {{"x_min", extent.x_min}, {"y_min", extent.y_min}, {"x_max", extent.x_max}, {"y_max", extent.y_max}};
+    j["extent_lonlat"] =
+        bounds
+            ? Json{{"west", bounds->west}, {"south", bounds->south}, {"east", bounds->east}, {"north", bounds->north}}
+            : Json(nullptr);
+    j["nodata"] = dem->nodata ? finite_or_null(*dem->nodata) : Json(nullptr);
+    j["elevation"] = stats.valid_cells ? Json{{"min", stats.min}, {"max", stats.max}} : Json(nullptr);
+    j["valid_cells"] = stats.valid_cells;
+    j["void_cells"] = stats.nodata_cells;
+    print_json(j);
+    return kExitOk;
+  }
+
+  std::cout << "File:        " << path << '\n'
+            << "Format:      " << dem->format << '\n'
+            << "Size:        " << dem->width() << " x " << dem->height() << " cells (" << with_separators(cells)
+            << ")\n";
+  if (crs)
+    std::cout << "CRS:         EPSG:" << crs->epsg() << " (" << crs->name() << ")"
+              << (geographic ? ", geographic degrees" : ", projected metres") << '\n';
+  else
+    std::cout << "CRS:         none (grid coordinates only)\n";
+  std::cout << "Origin:      " << coordinate(t.origin_x, geographic) << ", " << coordinate(t.origin_y, geographic)
+            << "  (outer corner of the first cell)\n"
+            << "Pixel size:  " << fixed(t.pixel_width, geographic ? 10 : 4) << ", "
+            << fixed(t.pixel_height, geographic ? 10 : 4) << '\n'
+            << "Cell size:   " << fixed(cell_x_m, 2) << " m east-west x " << fixed(cell_y_m, 2)
+            << " m north-south (at the centre)\n"
+            << "Extent:      x " << coordinate(extent.x_min, geographic) << " .. "
+            << coordinate(extent.x_max, geographic) << ", y " << coordinate(extent.y_min, geographic) << " .. "
+            << coordinate(extent.y_max, geographic) << '\n';
+  if (bounds)
+    std::cout << "Lon/lat:     lon " << fixed(bounds->west, 6) << " .. " << fixed(bounds->east, 6) << ", lat "
+              << fixed(bounds->south, 6) << " .. " << fixed(bounds->north, 6) << '\n';
+  std::cout << "Nodata:      " << (dem->nodata ? fixed(*dem->nodata, 6) : std::string("none")) << '\n';
+  if (stats.valid_cells)
+    std::cout << "Elevation:   " << fixed(stats.min, 2) << " .. " << fixed(stats.max, 2) << " m\n";
+  else
+    std::cout << "Elevation:   no valid cells\n";
+  std::cout << "Voids:       " << with_separators(stats.nodata_cells) << " cells ("
+            << fixed(cells ? 100.0 * static_cast<double>(stats.nodata_cells) / static_cast<double>(cells) : 0.0, 2)
+            << " %)\n";
+  return kExitOk;
+}
+
+}  // namespace
+
+const Command& info_command() {
+  static const Command command{
+      "info",
+      "Describe a DEM: size, CRS, georeferencing, cell size, extent, nodata, elevations",
+      "horizon info DEM [--band N] [--json]",
+      "Reads DEM (GeoTIFF, SRTM .hgt or terrain-RGB PNG) and prints its size, coordinate\n"
+      "reference system, geotransform, true cell size in metres at its centre, extent in\n"
+      "its CRS and in WGS84 longitude/latitude, nodata value, elevation range and number\n"
+      "of void cells.",
+      kFlags,
+      "  horizon info data/dem/rainier_summit_srtm3_400x400.tif\n"
+      "  horizon info dem.tif --band 2 --json\n",
+      run_info,
+  };
+  return command;
+}
+
+}  // namespace horizon::cli

@@ -1,0 +1,256 @@
+// `horizon viewshed DEM ...`: flags -> ViewshedOptions, result -> GeoTIFF, PNG, summary.
+#include <cmath>
+#include <iostream>
+#include <string_view>
+
+#include "commands/command.hpp"
+#include "horizon/terrain/geotiff_writer.hpp"
+#include "horizon/terrain/preview.hpp"
+#include "horizon/visibility/viewshed.hpp"
+#include "inputs.hpp"
+#include "interrupt.hpp"
+#include "output.hpp"
+#include "progress.hpp"
+
+namespace horizon::cli {
+namespace {
+
+constexpr FlagSpec kFlags[] = {
+    {"--observer", "", "X,Y", "Observer in the DEM's CRS (metres or degrees, as the DEM)"},
+    {"--lat", "", "LAT", "Observer latitude, WGS84 degrees (with --lon)"},
+    {"--lon", "", "LON", "Observer longitude, WGS84 degrees (with --lat)"},
+    {"--height", "", "M", "Observer eye height above the ground, metres (default 2)"},
+    {"--altitude", "", "M", "Observer eye altitude, absolute metres (instead of --height)"},
+    {"--target-height", "", "M", "Height above ground of the points looked at, metres (default 0)"},
+    {"--max-distance", "", "M", "Ground distance limit, metres (default: the whole DEM)"},
+    {"--curvature", "", "C", "Curvature/refraction coefficient as GDAL's (default 0.85714; 0 disables)"},
+    {"--nodata", "", "POLICY", "Voids: 'transparent' (default, never block) or 'fill:H' (terrain at H metres)"},
+    {"--algorithm", "", "ALG", "'fast' (radial occlusion height field, default) or 'r3' (exact, slow)"},
+    {"--ray-spacing", "", "S", "fast: ray spacing in cells, (0, 4]; smaller is slower and closer to r3"},
+    {"--threads", "", "N", "Worker threads (default 0 = all cores)"},
+    {"--output", "", "KIND", "Raster written: 'visible' (default), 'ohf' or 'min-target-height'"},
+    {"--out", "-o", "OUT.tif", "GeoTIFF to write (required)"},
+    {"--png", "", "PREVIEW.png", "Also write a hillshade preview with the viewshed tinted over it"},
+    {"--band", "", "N", "DEM band to read, 1-based (required when the file has several)"},
+    {"--json", "", "", "Print the summary as a JSON document"},
+};
+
+constexpr std::string_view kAlgorithms[] = {"fast", "r3"};
+constexpr std::string_view kOutputs[] = {"visible", "ohf", "min-target-height"};
+
+enum class OutputKind { kVisible, kOhf, kMinTargetHeight };
+
+struct Request {
+  std::string dem_path;
+  std::string out_path;
+  std::optional<std::string> png_path;
+  geodesy::PointSpec observer;
+  visibility::ViewshedOptions options;
+  OutputKind output = OutputKind::kVisible;
+  std::string algorithm_name = "fast";
+  std::string output_name = "visible";
+  bool json = false;
+};
+
+visibility::NodataPolicy parse_nodata(const std::string& text, double& fill_height) {
+  if (text == "transparent") return visibility::NodataPolicy::kTransparent;
+  if (text.starts_with("fill:")) {
+    if (auto h = parse_finite(std::string_view(text).substr(5))) {
+      fill_height = *h;
+      return visibility::NodataPolicy::kFill;
+    }
+  }
+  throw UsageError("--nodata: expected 'transparent' or 'fill:H' (H a finite number of metres), got '" + text + "'");
+}
+
+// Every flag is read and checked here, before the DEM is opened.
+Request parse_request(const Args& args) {
+  Request r;
+  r.dem_path = single_operand(args, "DEM");
+  r.json = args.has("--json");
+
+  r.observer = point_from_flags(args, {"--observer", "--lat", "--lon"});
+  if (args.has("--height") && args.has("--altitude"))
+    throw UsageError("--height and --altitude both set the eye; give one of them");
+  if (auto altitude = args.number("--altitude")) {
+    r.observer.height = *altitude;
+    r.observer.height_mode = geodesy::HeightMode::kAbsolute;
+  } else {
+    r.observer.height = args.non_negative("--height").value_or(2.0);
+    r.observer.height_mode = geodesy::HeightMode::kAboveGround;
+  }
+
+  visibility::ViewshedOptions& o = r.options;
+  o.target_height = args.non_negative("--target-height").value_or(0.0);
+  if (auto d = args.non_negative("--max-distance")) o.max_distance = *d;
+  o.curvature_coefficient = args.non_negative("--curvature").value_or(o.curvature_coefficient);
+  if (auto policy = args.text("--nodata")) o.nodata = parse_nodata(*policy, o.nodata_fill_height);
+  if (auto algorithm = args.choice("--algorithm", kAlgorithms)) r.algorithm_name = *algorithm;
+  o.algorithm = r.algorithm_name == "r3" ? visibility::Algorithm::kR3 : visibility::Algorithm::kRadial;
+  if (auto spacing = args.non_negative("--ray-spacing")) o.radial.ray_spacing = *spacing;
+  o.threads = args.non_negative_integer("--threads").value_or(0);
+  if (auto output = args.choice("--output", kOutputs)) r.output_name = *output;
+  r.output = r.output_name == "ohf"                 ? OutputKind::kOhf
+             : r.output_name == "min-target-height" ? OutputKind::kMinTargetHeight
+                                                    : OutputKind::kVisible;
+  (void)args.positive_integer("--band");
+  // The engine owns the ranges (max distance > 0, curvature in [0, 2], ...);
+  // asking it now makes a bad value a usage error that names the flag.
+  throw_if_invalid_option(visibility::validate_options(o));
+
+  auto out = args.text("--out");
+  if (!out) throw UsageError("missing -o OUT.tif (the GeoTIFF to write)");
+  r.out_path = *out;
+  r.png_path = args.text("--png");
+  if (r.png_path && same_file(*r.png_path, r.out_path))
+    throw UsageError("--png: '" + *r.png_path + "' is also the -o output; give two different files");
+  return r;
+}
+
+// The raster asked for, written atomically by the engine's writer.
+Status write_output(const Request& r, const terrain::Dem& dem, const visibility::ViewshedResult& result,
+                    const terrain::Grid<std::uint8_t>& mask) {
+  const terrain::Georeference georef = visibility::window_georef(dem, result);
+  switch (r.output) {
+    case OutputKind::kVisible:
+      return terrain::write_geotiff(r.out_path, mask, georef, double{visibility::kNoAnswer});
+    case OutputKind::kOhf:
+      return terrain::write_geotiff(r.out_path, visibility::ohf_raster(result), georef, dem.nodata);
+    case OutputKind::kMinTargetHeight:
+      return terrain::write_geotiff(r.out_path, visibility::min_target_height(result), georef, dem.nodata);
+  }
+  return Status::Ok();
+}
+
+Status write_preview(const std::string& path, const visibility::ViewshedResult& result,
+                     const terrain::Grid<std::uint8_t>& mask) {
+  const visibility::ViewFrame& f = result.frame;
+  terrain::PreviewOptions preview;
+  preview.metres_per_col = f.metres_per_col;
+  preview.metres_per_row = f.metres_per_row;
+  preview.observer_col = f.observer_col - f.window.col0;  // the preview covers the window only
+  preview.observer_row = f.observer_row - f.window.row0;
+  return terrain::write_viewshed_preview(path, result.terrain, mask, preview);
+}
+
+int run_viewshed(const Args& args) {
+  const Request r = parse_request(args);
+  if (auto s = check_output_path(r.out_path, "-o", r.dem_path, {".tif", ".tiff"}); !s.ok())
+    return report_error(s.error());
+  if (r.png_path)
+    if (auto s = check_output_path(*r.png_path, "--png", r.dem_path, {".png"}); !s.ok()) return report_error(s.error());
+
+  const auto started = std::chrono::steady_clock::now();
+  auto dem = load_dem(r.dem_path, args);
+  if (!dem.ok()) return report_error(dem.error());
+  auto observer = geodesy::resolve_point(*dem, r.observer, "observer");
+  if (!observer.ok()) return report_error(observer.error());
+
+  InterruptScope interrupt;  // Ctrl-C cancels the computation; nothing is written
+  RunControl control;
+  control.cancel = &interrupt.token();
+  ProgressBar progress("horizon viewshed");
+  control.progress = progress.callback();
+  auto result = visibility::compute_viewshed(*dem, *observer, r.options, &control);
+  progress.finish();
+  if (!result.ok()) return report_error(result.error());
+
+  const terrain::Grid<std::uint8_t> mask = visibility::visibility_mask(*result, r.options.target_height);
+  if (auto s = write_output(r, *dem, *result, mask); !s.ok()) return report_error(s.error());
+  if (r.png_path)
+    if (auto s = write_preview(*r.png_path, *result, mask); !s.ok()) return report_error(s.error());
+  const double total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+
+  std::uint64_t visible = 0, hidden = 0;
+  for (std::uint8_t v : mask.values()) {
+    visible += v == visibility::kVisible;
+    hidden += v == visibility::kHidden;
+  }
+  const std::uint64_t evaluated = visible + hidden;
+  const visibility::ViewFrame& f = result->frame;
+  const double area_km2 = static_cast<double>(visible) * f.metres_per_col * f.metres_per_row / 1e6;
+  const double percent = evaluated ? 100.0 * static_cast<double>(visible) / static_cast<double>(evaluated) : 0.0;
+  const auto observer_lonlat = lonlat_of(*dem, observer->x, observer->y);
+  const visibility::WorkStats& stats = result->stats;
+
+  if (r.json) {
+    Json j;
+    j["dem"] = r.dem_path;
+    j["output"] = r.out_path;
+    j["output_kind"] = r.output_name;
+    j["png"] = r.png_path ? Json(*r.png_path) : Json(nullptr);
+    j["algorithm"] = r.algorithm_name;
+    j["observer"] = to_json(*observer, observer_lonlat);
+    j["options"] = {
+        {"height", r.observer.height},
+        {"height_mode", r.observer.height_mode == geodesy::HeightMode::kAbsolute ? "absolute" : "above_ground"},
+        {"target_height", r.options.target_height},
+        {"max_distance", finite_or_null(r.options.max_distance)},
+        {"curvature", r.options.curvature_coefficient},
+        {"nodata", args.text("--nodata").value_or("transparent")},
+        {"ray_spacing", r.options.radial.ray_spacing},
+        {"threads", r.options.threads}};
+    j["window"] = to_json(f.window);
+    j["cell_size_m"] = {{"x", f.metres_per_col}, {"y", f.metres_per_row}};
+    j["visible_cells"] = visible;
+    j["hidden_cells"] = hidden;
+    j["evaluated_cells"] = evaluated;
+    j["visible_area_km2"] = area_km2;
+    j["visible_percent"] = percent;
+    j["stats"] = to_json(stats);
+    j["total_seconds"] = total_seconds;
+    print_json(j);
+    return kExitOk;
+  }
+
+  const bool geographic = is_geographic(*dem);
+  std::cout << "Viewshed of " << r.dem_path << '\n'
+            << "  observer:   x " << coordinate(observer->x, geographic) << ", y "
+            << coordinate(observer->y, geographic);
+  if (observer_lonlat && !geographic)
+    std::cout << " (lon " << fixed(observer_lonlat->lon, 6) << ", lat " << fixed(observer_lonlat->lat, 6) << ")";
+  std::cout << ", eye " << fixed(observer->elevation, 1) << " m ("
+            << (std::isnan(observer->ground) ? std::string("ground: no data")
+                                             : "ground " + fixed(observer->ground, 1) + " m")
+            << ")\n"
+            << "  visible:    " << with_separators(visible) << " cells, " << fixed(area_km2, 3) << " km² ("
+            << fixed(percent, 1) << " % of " << with_separators(evaluated) << " evaluated)\n"
+            << "  evaluated:  " << with_separators(stats.cells_evaluated) << " cells of "
+            << with_separators(stats.dem_cells) << " in the DEM (window " << f.window.width() << "x"
+            << f.window.height() << ")\n"
+            << "  algorithm:  " << r.algorithm_name
+            << (r.options.algorithm == visibility::Algorithm::kRadial
+                    ? " (radial occlusion height field, ray spacing " + fixed(r.options.radial.ray_spacing, 2) + ")"
+                    : std::string(" (exact R3)"))
+            << '\n'
+            << "  compute:    " << fixed(stats.seconds, 3) << " s (" << fixed(total_seconds, 3) << " s in all)\n"
+            << "  wrote:      " << r.out_path << " (" << r.output_name << ")\n";
+  if (r.png_path) std::cout << "  preview:    " << *r.png_path << '\n';
+  return kExitOk;
+}
+
+}  // namespace
+
+const Command& viewshed_command() {
+  static const Command command{
+      "viewshed",
+      "Compute what an observer can see and write it as a GeoTIFF (and a PNG preview)",
+      "horizon viewshed DEM (--observer X,Y | --lat LAT --lon LON) -o OUT.tif [options]",
+      "Computes the viewshed of one observer over DEM and writes a georeferenced raster\n"
+      "covering the cells within --max-distance:\n"
+      "  visible            uint8: 1 visible, 0 hidden, 255 not computed (nodata 255)\n"
+      "  ohf                float32: lowest visible elevation above each cell, metres\n"
+      "  min-target-height  float32: lowest visible height above the ground, metres\n"
+      "Float rasters use the DEM's nodata value (NaN when it has none). Outputs are\n"
+      "written to a temporary name and renamed, so a failed run leaves nothing behind.",
+      kFlags,
+      "  horizon viewshed data/dem/rainier_summit_srtm3_400x400.tif --lat 46.8529 --lon -121.7604 \\\n"
+      "      -o out/rainier.tif --png out/rainier.png\n"
+      "  horizon viewshed dem.tif --observer 500100,5000200 --height 30 --max-distance 20000 \\\n"
+      "      --output min-target-height -o mth.tif --json\n",
+      run_viewshed,
+  };
+  return command;
+}
+
+}  // namespace horizon::cli

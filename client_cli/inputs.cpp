@@ -1,0 +1,118 @@
+#include "inputs.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <filesystem>
+
+#include "horizon/terrain/dem_reader.hpp"
+
+namespace horizon::cli {
+namespace fs = std::filesystem;
+
+Result<terrain::Dem> load_dem(const std::string& path, const Args& args, bool allow_missing_crs) {
+  terrain::ReadOptions options;
+  options.band = args.positive_integer("--band").value_or(0);
+  options.allow_missing_crs = allow_missing_crs;
+  return terrain::read_dem(path, options);
+}
+
+geodesy::PointSpec point_from_flags(const Args& args, const PointFlags& flags) {
+  const bool has_xy = args.has(flags.xy);
+  const bool has_lat = args.has(flags.lat);
+  const bool has_lon = args.has(flags.lon);
+  const std::string xy(flags.xy), lat(flags.lat), lon(flags.lon);
+  if (has_xy && (has_lat || has_lon))
+    throw UsageError(xy + " and " + lat + "/" + lon + " both place the point; give one of them");
+  if (has_lat != has_lon) throw UsageError((has_lat ? lon : lat) + ": required with " + (has_lat ? lat : lon));
+  if (!has_xy && !has_lat) throw UsageError("missing " + xy + " X,Y (or " + lat + " and " + lon + ")");
+
+  geodesy::PointSpec spec;
+  if (has_xy) {
+    const auto [x, y] = *args.pair(flags.xy);
+    spec.frame = geodesy::PointFrame::kDatasetCrs;
+    spec.x = x;
+    spec.y = y;
+  } else {
+    spec.frame = geodesy::PointFrame::kWgs84;
+    spec.y = *args.number(flags.lat);
+    spec.x = *args.number(flags.lon);
+    if (std::abs(spec.y) > 90.0)
+      throw UsageError(lat + ": expected a latitude in [-90, 90], got '" + *args.text(flags.lat) + "'");
+  }
+  return spec;
+}
+
+bool same_file(const std::string& a, const std::string& b) {
+  std::error_code ec;
+  if (fs::exists(a, ec) && fs::exists(b, ec)) return fs::equivalent(a, b, ec);
+  return fs::weakly_canonical(fs::absolute(a, ec), ec) == fs::weakly_canonical(fs::absolute(b, ec), ec);
+}
+
+Status check_output_path(const std::string& path, std::string_view flag, const std::string& dem_path,
+                         std::initializer_list<std::string_view> extensions) {
+  const std::string name(flag);
+  if (path.empty()) throw UsageError(name + ": expected a file name, got ''");
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) throw UsageError(name + ": '" + path + "' is a directory; give a file name");
+  if (same_file(path, dem_path)) throw UsageError(name + ": '" + path + "' is the input DEM; refusing to overwrite it");
+
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (std::find(extensions.begin(), extensions.end(), ext) == extensions.end()) {
+    std::string list;
+    for (std::string_view e : extensions) {
+      if (!list.empty()) list += " or ";
+      list += e;
+    }
+    throw UsageError(name + ": expected a file name ending in " + list + ", got '" + path + "'");
+  }
+
+  fs::path dir = fs::path(path).parent_path();
+  if (dir.empty()) dir = ".";
+  if (!fs::is_directory(dir, ec))
+    return make_error(ErrorCode::kNotFound, name + " '" + path + "': directory '" + dir.string() + "' does not exist",
+                      name);
+  if (::access(dir.c_str(), W_OK) != 0)
+    return make_error(ErrorCode::kIoError, name + " '" + path + "': directory '" + dir.string() + "' is not writable",
+                      name);
+  return Status::Ok();
+}
+
+std::string flag_for_field(std::string_view field) {
+  if (field == "curvature_coefficient") return "--curvature";
+  if (field == "nodata_fill_height") return "--nodata";
+  std::string flag = "--" + std::string(field);
+  std::replace(flag.begin(), flag.end(), '_', '-');
+  return flag;
+}
+
+void throw_if_invalid_option(const Status& status) {
+  if (status.ok()) return;
+  const Error& error = status.error();
+  if (error.field.empty()) throw UsageError(error.message);
+  std::string message = error.message;
+  // Engine messages read "<field>: <what>"; say the flag instead.
+  if (const std::string prefix = error.field + ": "; message.starts_with(prefix)) message.erase(0, prefix.size());
+  throw UsageError(flag_for_field(error.field) + ": " + message);
+}
+
+bool is_geographic(const terrain::Dem& dem) {
+  if (dem.georef.epsg == 0) return false;
+  auto crs = geodesy::Crs::from_epsg(dem.georef.epsg);
+  return crs.ok() && crs->is_geographic();
+}
+
+std::optional<geodesy::LonLat> lonlat_of(const terrain::Dem& dem, double x, double y) {
+  if (dem.georef.epsg == 0) return std::nullopt;
+  auto crs = geodesy::Crs::from_epsg(dem.georef.epsg);
+  if (!crs.ok()) return std::nullopt;
+  auto ll = crs->to_lonlat({x, y});
+  if (!ll.ok()) return std::nullopt;
+  return *ll;
+}
+
+}  // namespace horizon::cli

@@ -1,0 +1,52 @@
+// inputs.hpp — command-line values shared by several commands, translated
+// into engine terms: the DEM (with --band), points given as "X,Y" in the DEM's
+// CRS or as WGS84 --lat/--lon, and output paths checked before any work.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "args.hpp"
+#include "horizon/common/error.hpp"
+#include "horizon/geodesy/crs.hpp"
+#include "horizon/geodesy/observer.hpp"
+#include "horizon/terrain/dem.hpp"
+
+namespace horizon::cli {
+
+// Reads `path` with the band from --band (absent: the file's only band).
+Result<terrain::Dem> load_dem(const std::string& path, const Args& args, bool allow_missing_crs = false);
+
+// The flags that place one point: `xy` ("--observer", "X,Y" in the DEM's CRS)
+// or both `lat` and `lon` (WGS84 degrees). Throws UsageError when neither or
+// both forms are given, or only one of lat/lon.
+struct PointFlags {
+  std::string_view xy, lat, lon;
+};
+geodesy::PointSpec point_from_flags(const Args& args, const PointFlags& flags);
+
+// Checks an output path before any computation: `flag` names it in messages.
+// Usage errors (thrown): empty, a directory, the input DEM itself, a wrong
+// extension (one of `extensions`, lower case, with the dot). Failures
+// (returned, exit 1): the parent directory is missing or not writable.
+Status check_output_path(const std::string& path, std::string_view flag, const std::string& dem_path,
+                         std::initializer_list<std::string_view> extensions);
+
+// True when a and b name the same file (existing or not).
+bool same_file(const std::string& a, const std::string& b);
+
+// The flag that sets an engine option field ("max_distance" -> "--max-distance").
+// Used to turn validate_options() errors into usage errors.
+std::string flag_for_field(std::string_view field);
+// Throws UsageError for an invalid-argument Status from option validation,
+// naming the flag; does nothing for an ok Status.
+void throw_if_invalid_option(const Status& status);
+
+// True when the DEM's CRS is geographic (coordinates in degrees).
+bool is_geographic(const terrain::Dem& dem);
+
+// WGS84 position of a CRS point, when the CRS supports it.
+std::optional<geodesy::LonLat> lonlat_of(const terrain::Dem& dem, double x, double y);
+
+}  // namespace horizon::cli

@@ -1,0 +1,79 @@
+#include "output.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+
+namespace horizon::cli {
+
+void print_json(const Json& document) {
+  std::cout << document.dump(2) << '\n';
+}
+
+Json finite_or_null(double value) {
+  return std::isfinite(value) ? Json(value) : Json(nullptr);
+}
+
+Json to_json(const terrain::GeoTransform& t) {
+  return Json::array({t.origin_x, t.pixel_width, 0.0, t.origin_y, 0.0, t.pixel_height});
+}
+
+Json to_json(const terrain::Window& w) {
+  return Json{{"col0", w.col0}, {"row0", w.row0},     {"col1", w.col1},
+              {"row1", w.row1}, {"width", w.width()}, {"height", w.height()}};
+}
+
+Json to_json(const visibility::WorkStats& s) {
+  return Json{{"dem_cells", s.dem_cells},
+              {"window_cells", s.window_cells},
+              {"cells_evaluated", s.cells_evaluated},
+              {"terrain_samples", s.terrain_samples},
+              {"rays", s.rays},
+              {"seconds", s.seconds}};
+}
+
+Json to_json(const visibility::ProfileSample& s) {
+  return Json{{"distance", s.distance},
+              {"col", s.col},
+              {"row", s.row},
+              {"x", s.x},
+              {"y", s.y},
+              {"terrain", finite_or_null(s.terrain)},
+              {"sight_line", s.sight_line}};
+}
+
+Json to_json(const geodesy::GridPoint& p, const std::optional<geodesy::LonLat>& lonlat) {
+  Json j{{"x", p.x}, {"y", p.y}};
+  j["lon"] = lonlat ? Json(lonlat->lon) : Json(nullptr);
+  j["lat"] = lonlat ? Json(lonlat->lat) : Json(nullptr);
+  j["col"] = p.col;
+  j["row"] = p.row;
+  j["ground"] = finite_or_null(p.ground);
+  j["elevation"] = p.elevation;
+  return j;
+}
+
+std::string with_separators(std::uint64_t count) {
+  const std::string digits = std::to_string(count);
+  std::string out;
+  out.reserve(digits.size() + digits.size() / 3);
+  for (std::size_t i = 0; i < digits.size(); ++i) {
+    if (i > 0 && (digits.size() - i) % 3 == 0) out.push_back(',');
+    out.push_back(digits[i]);
+  }
+  return out;
+}
+
+std::string fixed(double value, int decimals) {
+  if (std::isnan(value)) return "n/a";
+  if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.*f", decimals, value);
+  return buffer;
+}
+
+std::string coordinate(double value, bool geographic) {
+  return fixed(value, geographic ? 7 : 2);
+}
+
+}  // namespace horizon::cli

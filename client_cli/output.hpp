@@ -1,0 +1,46 @@
+// output.hpp — how results look: JSON documents (nlohmann, keys in the order
+// written) and the number formats of the human-readable summaries.
+//
+// JSON conventions: lengths in metres, times in seconds, coordinates in the
+// DEM's CRS plus "lon"/"lat" in WGS84 degrees where the CRS allows; a value
+// that is not a finite number (no data, "no limit", "nothing blocks") is null.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "horizon/geodesy/crs.hpp"
+#include "horizon/geodesy/observer.hpp"
+#include "horizon/terrain/georef.hpp"
+#include "horizon/terrain/grid.hpp"
+#include "horizon/visibility/line_of_sight.hpp"
+#include "horizon/visibility/work_stats.hpp"
+
+namespace horizon::cli {
+
+using Json = nlohmann::ordered_json;
+
+// Pretty-printed document plus newline on stdout.
+void print_json(const Json& document);
+
+// The number, or null when it is NaN or infinite.
+Json finite_or_null(double value);
+
+Json to_json(const terrain::GeoTransform& transform);  // GDAL order [x0, dx, 0, y0, 0, dy]
+Json to_json(const terrain::Window& window);
+Json to_json(const visibility::WorkStats& stats);
+Json to_json(const visibility::ProfileSample& sample);
+// A resolved point: CRS x/y, lon/lat (when known), grid col/row, ground and point elevation.
+Json to_json(const geodesy::GridPoint& point, const std::optional<geodesy::LonLat>& lonlat);
+
+// "1234567" -> "1,234,567".
+std::string with_separators(std::uint64_t count);
+// Fixed-point with `decimals` digits; "n/a" for NaN, "inf"/"-inf" for infinities.
+std::string fixed(double value, int decimals);
+// Coordinates: 7 decimals for degrees, 2 for metres.
+std::string coordinate(double value, bool geographic);
+
+}  // namespace horizon::cli

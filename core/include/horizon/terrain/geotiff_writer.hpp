@@ -1,0 +1,35 @@
+// horizon/terrain/geotiff_writer.hpp — writing georeferenced result rasters.
+//
+// Output is a single-band GeoTIFF (deflate, predictor, 256x256 tiles) carrying
+// the georeference (ModelPixelScale + ModelTiepoint, GeoKeys from the EPSG
+// code, PixelIsArea) and a GDAL_NODATA tag, so gdalinfo and QGIS read extent,
+// CRS and nodata correctly. Written with libtiff + libgeotiff because
+// OpenImageIO 2.4 cannot write GeoTIFF tags.
+//
+// Atomic: data goes to "<path>.tmp-<pid>-<n>" in the same directory and is
+// renamed over `path` only after a successful close; on any failure the
+// temporary is removed and `path` is untouched.
+//
+// Output is deterministic: the same grid and georeference give the same bytes.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "horizon/common/error.hpp"
+#include "horizon/terrain/georef.hpp"
+#include "horizon/terrain/grid.hpp"
+
+namespace horizon::terrain {
+
+// Float32 raster. NaN cells are written as `nodata` when given (and the tag set
+// to it); with no nodata they stay NaN and the tag says "nan".
+Status write_geotiff(const std::string& path, const Grid<float>& grid, const Georeference& georef,
+                     std::optional<double> nodata);
+
+// UInt8 raster (e.g. a viewshed: 1 visible, 0 hidden, 255 nodata).
+Status write_geotiff(const std::string& path, const Grid<std::uint8_t>& grid, const Georeference& georef,
+                     std::optional<double> nodata);
+
+}  // namespace horizon::terrain

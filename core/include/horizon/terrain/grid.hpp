@@ -1,0 +1,68 @@
+// horizon/terrain/grid.hpp — a dense row-major 2-D array of cells.
+//
+// Frame: column c grows east (x), row r grows south (down the image), cell
+// (0, 0) is the first value stored. Throughout the engine the *centre* of cell
+// (c, r) sits at continuous grid coordinates (c, r); the cell covers
+// [c - 0.5, c + 0.5] x [r - 0.5, r + 0.5]. A Grid owns its storage.
+#pragma once
+
+#include <cassert>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace horizon::terrain {
+
+// A half-open rectangle of cells: columns [col0, col1), rows [row0, row1).
+struct Window {
+  int col0 = 0, row0 = 0, col1 = 0, row1 = 0;
+
+  int width() const { return col1 - col0; }
+  int height() const { return row1 - row0; }
+  bool empty() const { return col1 <= col0 || row1 <= row0; }
+  std::size_t cell_count() const {
+    return empty() ? 0 : static_cast<std::size_t>(width()) * static_cast<std::size_t>(height());
+  }
+  bool contains(int col, int row) const { return col >= col0 && col < col1 && row >= row0 && row < row1; }
+  friend bool operator==(const Window&, const Window&) = default;
+};
+
+template <class T>
+class Grid {
+ public:
+  Grid() = default;
+  Grid(int width, int height, T fill = T{})
+      : width_(width), height_(height),
+        cells_(static_cast<std::size_t>(width) * static_cast<std::size_t>(height), fill) {
+    assert(width >= 0 && height >= 0);
+  }
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  std::size_t size() const { return cells_.size(); }
+  bool empty() const { return cells_.empty(); }
+  bool contains(int col, int row) const { return col >= 0 && col < width_ && row >= 0 && row < height_; }
+
+  T& at(int col, int row) { assert(contains(col, row)); return cells_[index(col, row)]; }
+  const T& at(int col, int row) const { assert(contains(col, row)); return cells_[index(col, row)]; }
+
+  T* row(int r) { assert(r >= 0 && r < height_); return cells_.data() + static_cast<std::size_t>(r) * width_; }
+  const T* row(int r) const { assert(r >= 0 && r < height_); return cells_.data() + static_cast<std::size_t>(r) * width_; }
+
+  T* data() { return cells_.data(); }
+  const T* data() const { return cells_.data(); }
+  std::span<T> values() { return cells_; }
+  std::span<const T> values() const { return cells_; }
+
+  std::size_t index(int col, int row) const {
+    return static_cast<std::size_t>(row) * static_cast<std::size_t>(width_) + static_cast<std::size_t>(col);
+  }
+
+ private:
+  int width_ = 0;
+  int height_ = 0;
+  std::vector<T> cells_;
+};
+
+}  // namespace horizon::terrain

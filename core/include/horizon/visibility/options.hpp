@@ -1,0 +1,59 @@
+// horizon/visibility/options.hpp — what a viewshed request may tune.
+//
+// One struct for every algorithm; each algorithm reads the knobs that apply to
+// it and ignores the rest. Validation (finite, in range) happens once in
+// validate_options(), at the engine's entry.
+#pragma once
+
+#include <limits>
+
+#include "horizon/common/error.hpp"
+
+namespace horizon::visibility {
+
+enum class Algorithm {
+  kRadial,  // default: perspective-modulated radial max propagation (patent 7,027,046), O(cells)
+  kR3,      // exact reference: every target's segment tested at every grid-line crossing, O(cells * distance)
+};
+
+enum class NodataPolicy {
+  kTransparent,  // voids never block a sight line; void targets get no answer (nodata)
+  kFill,         // voids are terrain at `nodata_fill_height` (e.g. 0 for a NaN sea)
+};
+
+// How the radial sweep turns the horizons of the two rays that bracket a
+// cell centre into that cell's horizon.
+enum class RayBlend {
+  kLinear,  // interpolate by angle (default; balanced errors)
+  kMin,     // take the lower horizon (errs towards "visible")
+};
+
+struct RadialOptions {
+  // Lateral spacing of the rays, in cells, at the far edge of each sweep
+  // sector (they are closer everywhere else). Smaller is slower and closer to
+  // R3. (0, 4].
+  double ray_spacing = 0.5;
+  RayBlend blend = RayBlend::kLinear;
+};
+
+struct ViewshedOptions {
+  double target_height = 0.0;  // metres above ground at each target cell, >= 0
+  // Ground distance limit in metres; +infinity = the whole DEM. Cells beyond it
+  // are neither computed nor written.
+  double max_distance = std::numeric_limits<double>::infinity();
+  // GDAL's curvature/refraction coefficient: a point at ground distance d
+  // appears lowered by coefficient * d^2 / (2 R). 1 - k with k the refraction
+  // coefficient; 0.85714 (k = 1/7) by default, 0 disables, 1 = no refraction.
+  double curvature_coefficient = 0.85714;
+  NodataPolicy nodata = NodataPolicy::kTransparent;
+  double nodata_fill_height = 0.0;  // metres, for NodataPolicy::kFill
+  Algorithm algorithm = Algorithm::kRadial;
+  RadialOptions radial;
+  unsigned threads = 0;  // worker threads; 0 = all hardware threads
+};
+
+// Checks every field: finite, non-negative distances/heights, knob ranges.
+// The error's field names the option ("max_distance").
+Status validate_options(const ViewshedOptions& options);
+
+}  // namespace horizon::visibility

@@ -1,0 +1,38 @@
+// horizon/visibility/radial_sweep.hpp — the fast occlusion height field.
+//
+// US patent 7,027,046 (perspective modulation + orthographic propagation) done
+// on the CPU. Heights relative to the eye divided by distance ("modulated"
+// into slopes) turn perspective occlusion into a running maximum along radial
+// lines; multiplying the maximum back by the distance gives the OHF.
+//
+// The plane is split into four sectors around the observer (north, south:
+// |dx| <= |dy|; east, west: |dy| < |dx|). In each sector rays leave the eye
+// with evenly spaced slopes so that neighbouring rays are at most
+// `ray_spacing` cells apart at the sector's far edge. Each ray is marched one
+// grid line at a time along the sector's major axis and takes, at every grid
+// row and column crossing, exactly the terrain sample R3 takes, so along a ray
+// the running maximum is R3's horizon exactly. A cell centre lies between two
+// neighbouring rays; its horizon is blended from theirs at the step that
+// reaches the cell's row (RayBlend). Error therefore comes only from that
+// angular blend, and shrinks with ray_spacing.
+//
+// Work: ~2x the cells of the max-distance window at ray_spacing 1 (rays are
+// denser near the eye), no allocation per cell, O(rays) scratch per sector.
+// Sectors split into ray chunks run in parallel.
+#pragma once
+
+#include "horizon/common/control.hpp"
+#include "horizon/common/error.hpp"
+#include "horizon/terrain/grid.hpp"
+#include "horizon/visibility/options.hpp"
+#include "horizon/visibility/view_frame.hpp"
+#include "horizon/visibility/work_stats.hpp"
+
+namespace horizon::visibility {
+
+// Same contract as r3_ohf(): fills `ohf` (sized frame.window) with the OHF of
+// every in-range cell, NaN out of range or on a transparent void.
+Status radial_ohf(const terrain::Grid<float>& elevation, const ViewFrame& frame, const RadialOptions& options,
+                  unsigned threads, const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats);
+
+}  // namespace horizon::visibility

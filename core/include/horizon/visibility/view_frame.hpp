@@ -1,0 +1,40 @@
+// horizon/visibility/view_frame.hpp — the geometry shared by every viewshed
+// algorithm, computed once per request.
+//
+// All algorithms work in continuous grid coordinates (cell centres at
+// integers) relative to the observer, with ground distances in metres:
+//   d(col, row) = hypot((col - observer_col) * metres_per_col,
+//                       (row - observer_row) * metres_per_row)
+// The metric cell sizes are taken at the observer (for geographic DEMs they
+// differ east-west and north-south; across a 1-degree tile the east-west size
+// varies by ~1 %, which is far inside the distances where curvature matters).
+// Curvature and refraction lower a point at distance d by curvature * d^2.
+#pragma once
+
+#include "horizon/common/error.hpp"
+#include "horizon/geodesy/observer.hpp"
+#include "horizon/terrain/dem.hpp"
+#include "horizon/visibility/options.hpp"
+
+namespace horizon::visibility {
+
+struct ViewFrame {
+  double observer_col = 0.0, observer_row = 0.0;  // grid coordinates of the eye
+  double eye = 0.0;                                // absolute eye elevation, metres
+  double metres_per_col = 1.0, metres_per_row = 1.0;
+  double curvature = 0.0;      // metres of drop per metre^2 of distance: coefficient / (2 R)
+  double max_distance = 0.0;   // metres (may be +infinity)
+  terrain::Window window;      // cells within max_distance, clipped to the DEM
+  int dem_width = 0, dem_height = 0;
+
+  // Ground distance in metres from the eye to the centre of cell (col, row).
+  double distance(double col, double row) const;
+  // True when cell (col, row)'s centre lies within max_distance.
+  bool in_range(int col, int row) const;
+};
+
+// Builds the frame for an observer already resolved against `dem`.
+Result<ViewFrame> make_view_frame(const terrain::Dem& dem, const geodesy::GridPoint& observer,
+                                  const ViewshedOptions& options);
+
+}  // namespace horizon::visibility

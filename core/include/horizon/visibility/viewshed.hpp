@@ -1,0 +1,53 @@
+// horizon/visibility/viewshed.hpp — the engine's viewshed entry point.
+//
+//   auto dem = terrain::read_dem("dem.tif");
+//   auto eye = geodesy::resolve_point(*dem, {.x = 86.92, .y = 27.98, .height = 2,
+//                                            .frame = geodesy::PointFrame::kWgs84}, "observer");
+//   auto vs  = visibility::compute_viewshed(*dem, *eye, {.max_distance = 20000});
+//   auto visible = visibility::visibility_mask(*dem, *vs, /*target_height=*/0);
+//
+// The result is the occlusion height field (OHF) over the max-distance window;
+// every output raster is derived from it by one of the functions below, so the
+// viewshed, the OHF and the minimum visible target height can never disagree:
+//   min_target_height = max(0, OHF - z)          (float32, metres)
+//   visible           = target_height >= min_target_height
+#pragma once
+
+#include <cstdint>
+
+#include "horizon/common/control.hpp"
+#include "horizon/common/error.hpp"
+#include "horizon/geodesy/observer.hpp"
+#include "horizon/terrain/dem.hpp"
+#include "horizon/visibility/options.hpp"
+#include "horizon/visibility/view_frame.hpp"
+#include "horizon/visibility/work_stats.hpp"
+
+namespace horizon::visibility {
+
+struct ViewshedResult {
+  ViewFrame frame;                // geometry; frame.window locates the grids in the DEM
+  terrain::Grid<float> ohf;       // absolute metres, window-sized; NaN = not computed; -inf = nothing can block
+  terrain::Grid<float> terrain;   // window crop of the elevations used (voids filled per NodataPolicy)
+  double target_height = 0.0;     // from the options, used by visibility_mask() by default
+  WorkStats stats;
+};
+
+// Validates the options, builds the frame and runs the chosen algorithm.
+Result<ViewshedResult> compute_viewshed(const terrain::Dem& dem, const geodesy::GridPoint& observer,
+                                        const ViewshedOptions& options, const RunControl* control = nullptr);
+
+// Output rasters, all window-sized.
+inline constexpr std::uint8_t kVisible = 1, kHidden = 0, kNoAnswer = 255;
+
+// 1 visible / 0 hidden / 255 no answer (out of range, void target).
+terrain::Grid<std::uint8_t> visibility_mask(const ViewshedResult& result, double target_height);
+// Minimum target height above ground that is visible, metres, >= 0; NaN for no answer.
+terrain::Grid<float> min_target_height(const ViewshedResult& result);
+// OHF floored at the terrain (equal to the terrain where the ground is visible); NaN for no answer.
+terrain::Grid<float> ohf_raster(const ViewshedResult& result);
+
+// Georeference of the window-sized outputs.
+terrain::Georeference window_georef(const terrain::Dem& dem, const ViewshedResult& result);
+
+}  // namespace horizon::visibility

@@ -1,0 +1,66 @@
+// atomic_file.hpp — private helper for writing a file all-or-nothing.
+//
+// Writers produce "<path>.tmp-<pid>-<n>" in the destination's own directory
+// (so rename(2) never crosses a file system), flush it to disk, and rename it
+// over `path` only when everything succeeded. POSIX rename is atomic: readers
+// see the old file or the new one, never a half-written one. The temporary is
+// removed on every failure path by the guard's destructor.
+#pragma once
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <string>
+
+#include "horizon/common/error.hpp"
+
+namespace horizon::terrain::detail {
+
+class AtomicFile {
+ public:
+  explicit AtomicFile(std::string path) : path_(std::move(path)) {
+    static std::atomic<unsigned> counter{0};
+    temp_ = path_ + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(counter.fetch_add(1));
+  }
+  AtomicFile(const AtomicFile&) = delete;
+  AtomicFile& operator=(const AtomicFile&) = delete;
+  ~AtomicFile() {
+    if (!committed_) std::remove(temp_.c_str());
+  }
+
+  const std::string& temp_path() const { return temp_; }
+
+  // Flushes the finished temporary to disk and renames it over the target.
+  // `what` prefixes messages ("geotiff", "preview").
+  Status commit(const char* what) {
+    const int fd = ::open(temp_.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0 || ::fsync(fd) != 0) {
+      const int err = errno;
+      if (fd >= 0) ::close(fd);
+      return make_error(ErrorCode::kIoError,
+                        std::string(what) + " '" + path_ + "': cannot flush temporary file: " + std::strerror(err),
+                        path_);
+    }
+    ::close(fd);
+    if (std::rename(temp_.c_str(), path_.c_str()) != 0) {
+      const int err = errno;
+      return make_error(
+          ErrorCode::kIoError,
+          std::string(what) + " '" + path_ + "': cannot rename temporary file into place: " + std::strerror(err),
+          path_);
+    }
+    committed_ = true;
+    return Status::Ok();
+  }
+
+ private:
+  std::string path_;
+  std::string temp_;
+  bool committed_ = false;
+};
+
+}  // namespace horizon::terrain::detail

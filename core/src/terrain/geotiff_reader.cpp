@@ -1,0 +1,401 @@
+// geotiff_reader.cpp — single-band GeoTIFF DEMs into terrain::Dem.
+//
+// Formats and specifications:
+//   * TIFF 6.0 (Adobe, 1992) and BigTIFF; pixels are decoded by OpenImageIO
+//     2.4's TIFF reader, so any layout and compression libtiff handles works
+//     (striped or tiled; none, LZW, deflate, ZSTD, ...). Tiled Float64 is the
+//     exception: OIIO 2.4.7 returns zeros for it, so those tiles are decoded
+//     with libtiff directly (read_tiles_with_libtiff).
+//   * OGC GeoTIFF 1.1 (OGC 19-008r4): ModelPixelScaleTag (33550) +
+//     ModelTiepointTag (33922), or ModelTransformationTag (34264); GeoKeys
+//     GTModelTypeGeoKey (1024), GTRasterTypeGeoKey (1025),
+//     GeographicTypeGeoKey (2048), ProjectedCSTypeGeoKey (3072), read with
+//     libgeotiff because OIIO exposes none of them (TOOLCHAIN.md).
+//   * GDAL_NODATA (TIFF tag 42113, ASCII, e.g. "-32768" or "nan"), GDAL's
+//     private tag, described at https://gdal.org/drivers/raster/gtiff.html.
+//
+// Geometry: Horizon's GeoTransform always describes the outer corner of cell
+// (0, 0) ("PixelIsArea"). A PixelIsPoint file's tiepoint names the *centre*
+// of a cell, so its origin moves back by half a cell — as GDAL does.
+// Rotated or sheared transforms are rejected: every algorithm downstream
+// assumes rows run east-west.
+//
+// Pixel types: Int16, UInt16, Int32, Float32, Float64 for DEMs, and UInt8 so
+// that Horizon's own UInt8 results (viewsheds) read back.
+// Values: integer pixels are converted to float32 exactly (|v| < 2^24 for any
+// real elevation); cells equal to the GDAL_NODATA code become NaN and
+// Dem::nodata keeps the code for writers.
+#include <sys/stat.h>
+
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
+#include <optional>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "horizon/geodesy/crs.hpp"
+#include "horizon/terrain/dem_reader.hpp"
+#include "tiff_support.hpp"
+
+namespace horizon::terrain {
+namespace {
+
+using detail::GtifPtr;
+using detail::TiffMessages;
+using detail::TiffPtr;
+
+// Cells we are willing to hold (8 GiB of float32); more is a resource error.
+constexpr std::uint64_t kMaxCells = std::uint64_t{1} << 31;
+
+Error dem_error(ErrorCode code, const std::string& path, const std::string& what) {
+  return make_error(code, "dem '" + path + "': " + what, path);
+}
+
+std::string compression_name(std::uint16_t c) {
+  switch (c) {
+    case COMPRESSION_NONE:
+      return "uncompressed";
+    case COMPRESSION_LZW:
+      return "LZW";
+    case COMPRESSION_ADOBE_DEFLATE:
+    case COMPRESSION_DEFLATE:
+      return "deflate";
+    case COMPRESSION_PACKBITS:
+      return "PackBits";
+    case COMPRESSION_JPEG:
+      return "JPEG";
+    case COMPRESSION_LZMA:
+      return "LZMA";
+    case COMPRESSION_ZSTD:
+      return "ZSTD";
+    case COMPRESSION_WEBP:
+      return "WebP";
+    case COMPRESSION_LERC:
+      return "LERC";
+    default:
+      return "compression " + std::to_string(c);
+  }
+}
+
+// The values of a TIFF tag holding doubles; empty when absent. The count's C
+// type depends on how the tag was registered (uint16 for TIFF_VARIABLE,
+// uint32 for TIFF_VARIABLE2), so ask libtiff rather than assume.
+std::vector<double> get_doubles(TIFF* tif, ttag_t tag) {
+  const TIFFField* field = TIFFFindField(tif, tag, TIFF_ANY);
+  if (!field) return {};
+  double* values = nullptr;
+  std::uint32_t count = 0;
+  if (TIFFFieldReadCount(field) == TIFF_VARIABLE2) {
+    if (TIFFGetField(tif, tag, &count, &values) != 1) return {};
+  } else {
+    std::uint16_t count16 = 0;
+    if (TIFFGetField(tif, tag, &count16, &values) != 1) return {};
+    count = count16;
+  }
+  if (!values) return {};
+  return std::vector<double>(values, values + count);
+}
+
+std::optional<double> parse_nodata(const char* text) {
+  if (!text) return std::nullopt;
+  std::string s(text);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\0' || s.back() == '\n')) s.pop_back();
+  std::size_t start = s.find_first_not_of(' ');
+  if (start == std::string::npos) return std::nullopt;
+  s = s.substr(start);
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(s.c_str(), &end);  // accepts "nan", "-inf", "1e38"
+  if (end == s.c_str() || *end != '\0') return std::nullopt;
+  return v;
+}
+
+struct TiffFacts {
+  Georeference georef;
+  std::optional<double> nodata;
+  std::string layout;  // "deflate, tiled 256x256"
+  bool bigtiff = false;
+};
+
+// Reads georeferencing, nodata and layout through libtiff + libgeotiff.
+Result<TiffFacts> read_tiff_facts(const std::string& path, const ReadOptions& options) {
+  TiffMessages messages;
+  TiffPtr tif = detail::open_tiff(path, "r", messages);
+  if (!tif)
+    return dem_error(
+        ErrorCode::kDataError, path,
+        "not a raster (not a readable TIFF" + (messages.errors.empty() ? std::string() : ": " + messages.errors) + ")");
+
+  TiffFacts facts;
+  facts.bigtiff = TIFFIsBigTIFF(tif.get()) != 0;
+  std::uint16_t compression = COMPRESSION_NONE;
+  TIFFGetFieldDefaulted(tif.get(), TIFFTAG_COMPRESSION, &compression);
+  facts.layout = compression_name(compression);
+  if (TIFFIsTiled(tif.get())) {
+    std::uint32_t tw = 0, th = 0;
+    TIFFGetField(tif.get(), TIFFTAG_TILEWIDTH, &tw);
+    TIFFGetField(tif.get(), TIFFTAG_TILELENGTH, &th);
+    facts.layout += ", tiled " + std::to_string(tw) + "x" + std::to_string(th);
+  } else {
+    facts.layout += ", striped";
+  }
+
+  char* nodata_text = nullptr;
+  if (TIFFGetField(tif.get(), detail::kTagGdalNodata, &nodata_text) == 1) {
+    facts.nodata = parse_nodata(nodata_text);
+    if (!facts.nodata)
+      return dem_error(ErrorCode::kDataError, path,
+                       std::string("GDAL_NODATA tag '") + nodata_text + "' is not a number");
+  }
+
+  // --- Geotransform -----------------------------------------------------
+  const std::vector<double> scale = get_doubles(tif.get(), TIFFTAG_GEOPIXELSCALE);
+  const std::vector<double> ties = get_doubles(tif.get(), TIFFTAG_GEOTIEPOINTS);
+  const std::vector<double> matrix = get_doubles(tif.get(), TIFFTAG_GEOTRANSMATRIX);
+  GeoTransform& t = facts.georef.transform;
+  bool has_transform = false;
+  if (scale.size() >= 2 && ties.size() >= 6) {
+    // Tiepoint (I, J, K) -> (X, Y, Z); raster rows grow down, so y = Y - (j - J) * Sy.
+    t.pixel_width = scale[0];
+    t.pixel_height = -scale[1];
+    t.origin_x = ties[3] - ties[0] * scale[0];
+    t.origin_y = ties[4] + ties[1] * scale[1];
+    has_transform = true;
+  } else if (matrix.size() >= 16) {
+    // x = m0 i + m1 j + m3, y = m4 i + m5 j + m7 (GeoTIFF 1.1, B.6).
+    const double a = matrix[0], b = matrix[1], d = matrix[3];
+    const double e = matrix[4], f = matrix[5], h = matrix[7];
+    const double size = std::max(std::abs(a), std::abs(f));
+    if (std::abs(b) > 1e-12 * size || std::abs(e) > 1e-12 * size)
+      return dem_error(ErrorCode::kUnsupported, path,
+                       "rotated or sheared geotransform (ModelTransformation terms " + std::to_string(b) + ", " +
+                           std::to_string(e) + ") is not supported; warp it north-up first (e.g. gdalwarp)");
+    t = GeoTransform{d, a, h, f};
+    has_transform = true;
+  } else if (ties.size() >= 12) {
+    return dem_error(ErrorCode::kUnsupported, path,
+                     "georeferenced by " + std::to_string(ties.size() / 6) +
+                         " ground control points, not a geotransform; warp it first (e.g. gdalwarp)");
+  }
+  if (has_transform) {
+    if (!std::isfinite(t.origin_x) || !std::isfinite(t.origin_y) || !std::isfinite(t.pixel_width) ||
+        !std::isfinite(t.pixel_height) || t.pixel_height == 0.0)
+      return dem_error(ErrorCode::kDataError, path, "geotransform is degenerate (zero or non-finite cell size)");
+    if (t.pixel_width <= 0.0)
+      return dem_error(ErrorCode::kUnsupported, path,
+                       "east-west mirrored raster (negative pixel width) is not supported");
+  }
+
+  // --- GeoKeys ----------------------------------------------------------
+  GtifPtr gtif(GTIFNew(tif.get()));
+  if (!gtif) return dem_error(ErrorCode::kDataError, path, "GeoKeyDirectory is corrupt");
+  geocode_t model = 0, raster_type = 0, code = 0;
+  const bool has_model = GTIFKeyGet(gtif.get(), GTModelTypeGeoKey, &model, 0, 1) == 1;
+  if (GTIFKeyGet(gtif.get(), GTRasterTypeGeoKey, &raster_type, 0, 1) == 1 && raster_type == RasterPixelIsPoint &&
+      has_transform) {
+    t.origin_x -= 0.5 * t.pixel_width;
+    t.origin_y -= 0.5 * t.pixel_height;
+  }
+  std::string crs_problem;
+  int epsg = 0;
+  if (!has_model) {
+    crs_problem = "has no GTModelTypeGeoKey (no CRS)";
+  } else if (model == ModelTypeProjected) {
+    if (GTIFKeyGet(gtif.get(), ProjectedCSTypeGeoKey, &code, 0, 1) == 1 && code != KvUserDefined)
+      epsg = code;
+    else
+      crs_problem = "has a user-defined projected CRS without an EPSG code";
+  } else if (model == ModelTypeGeographic) {
+    if (GTIFKeyGet(gtif.get(), GeographicTypeGeoKey, &code, 0, 1) == 1 && code != KvUserDefined)
+      epsg = code;
+    else
+      crs_problem = "has a user-defined geographic CRS without an EPSG code";
+  } else {
+    crs_problem = "has model type " + std::to_string(model) + " (only projected and geographic are supported)";
+  }
+  if (epsg != 0) {
+    auto crs = geodesy::Crs::from_epsg(epsg);
+    if (!crs.ok()) {
+      if (!options.allow_missing_crs)
+        return dem_error(ErrorCode::kUnsupported, path,
+                         "CRS EPSG:" + std::to_string(epsg) + " is not supported (" + crs.error().message + ")");
+      epsg = 0;
+    }
+  }
+  if (!has_transform && !options.allow_missing_crs)
+    return dem_error(ErrorCode::kDataError, path,
+                     "has no georeferencing (no ModelPixelScale/ModelTiepoint or ModelTransformation tags); "
+                     "set allow_missing_crs to read it as a plain grid");
+  if (epsg == 0 && !crs_problem.empty() && !options.allow_missing_crs)
+    return dem_error(ErrorCode::kUnsupported, path, crs_problem + "; set allow_missing_crs to read it as a plain grid");
+  if (!has_transform) t = GeoTransform{};  // grid coordinates: x = col + 0.5, y = -(row + 0.5)
+  facts.georef.epsg = epsg;
+  return facts;
+}
+
+// Reads one sample of a tiled TIFF straight through libtiff into `raw`
+// (row-major, `bytes` per value). Used for tiled Float64 files only: OIIO
+// 2.4.7 decodes those as zeros (found with GDAL-written tiled Float64
+// GeoTIFFs, deflate or not; striped Float64 and every other type are fine).
+Status read_tiles_with_libtiff(const std::string& path, int channel, int width, int height, std::size_t bytes,
+                               std::vector<unsigned char>& raw) {
+  TiffMessages messages;
+  TiffPtr tif = detail::open_tiff(path, "r", messages);
+  if (!tif) return dem_error(ErrorCode::kDataError, path, "cannot reopen (" + messages.errors + ")");
+  std::uint32_t tw = 0, th = 0;
+  std::uint16_t planar = PLANARCONFIG_CONTIG, samples = 1;
+  TIFFGetField(tif.get(), TIFFTAG_TILEWIDTH, &tw);
+  TIFFGetField(tif.get(), TIFFTAG_TILELENGTH, &th);
+  TIFFGetFieldDefaulted(tif.get(), TIFFTAG_PLANARCONFIG, &planar);
+  TIFFGetFieldDefaulted(tif.get(), TIFFTAG_SAMPLESPERPIXEL, &samples);
+  if (tw == 0 || th == 0 || channel >= samples)
+    return dem_error(ErrorCode::kDataError, path, "inconsistent tile layout");
+  const bool separate = planar == PLANARCONFIG_SEPARATE;
+  const std::size_t stride = separate ? bytes : bytes * samples;  // bytes between pixels inside a tile
+  const std::size_t offset = separate ? 0 : bytes * static_cast<std::size_t>(channel);
+  std::vector<unsigned char> tile(static_cast<std::size_t>(tw) * th * stride);
+  for (std::uint32_t y = 0; y < static_cast<std::uint32_t>(height); y += th) {
+    for (std::uint32_t x = 0; x < static_cast<std::uint32_t>(width); x += tw) {
+      const ttile_t index = TIFFComputeTile(tif.get(), x, y, 0, separate ? static_cast<std::uint16_t>(channel) : 0);
+      if (TIFFReadEncodedTile(tif.get(), index, tile.data(), static_cast<tmsize_t>(tile.size())) < 0)
+        return dem_error(ErrorCode::kDataError, path, "cannot decode tile (" + messages.errors + ")");
+      const std::uint32_t rows = std::min(th, static_cast<std::uint32_t>(height) - y);
+      const std::uint32_t cols = std::min(tw, static_cast<std::uint32_t>(width) - x);
+      for (std::uint32_t r = 0; r < rows; ++r)
+        for (std::uint32_t c = 0; c < cols; ++c)
+          std::memcpy(raw.data() + ((static_cast<std::size_t>(y) + r) * width + x + c) * bytes,
+                      tile.data() + (static_cast<std::size_t>(r) * tw + c) * stride + offset, bytes);
+    }
+  }
+  return Status::Ok();
+}
+
+// Converts native samples to float elevations, replacing the nodata code by NaN.
+template <class T>
+void convert(const std::vector<unsigned char>& raw, Grid<float>& out, std::optional<double> nodata) {
+  const std::size_t n = out.size();
+  const T* src = reinterpret_cast<const T*>(raw.data());
+  float* dst = out.data();
+  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+  if constexpr (std::is_integral_v<T>) {
+    // An integer code only matches when it is an exact value of T.
+    const bool use = nodata && std::isfinite(*nodata) && std::floor(*nodata) == *nodata &&
+                     *nodata >= static_cast<double>(std::numeric_limits<T>::lowest()) &&
+                     *nodata <= static_cast<double>(std::numeric_limits<T>::max());
+    const T code = use ? static_cast<T>(*nodata) : T{};
+    for (std::size_t i = 0; i < n; ++i) dst[i] = (use && src[i] == code) ? kNaN : static_cast<float>(src[i]);
+  } else {
+    // Float files compare in the file's own precision (GDAL does the same).
+    const bool use = nodata && !std::isnan(*nodata);
+    const T code = use ? static_cast<T>(*nodata) : T{};
+    for (std::size_t i = 0; i < n; ++i) dst[i] = (use && src[i] == code) ? kNaN : static_cast<float>(src[i]);
+  }
+}
+
+}  // namespace
+
+Result<Dem> read_geotiff(const std::string& path, const ReadOptions& options) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) {
+    if (errno == ENOENT || errno == ENOTDIR) return dem_error(ErrorCode::kNotFound, path, "no such file");
+    return dem_error(ErrorCode::kIoError, path, std::string("cannot access: ") + std::strerror(errno));
+  }
+  if (S_ISDIR(st.st_mode)) return dem_error(ErrorCode::kDataError, path, "not a raster (it is a directory)");
+  if (options.band < 0)
+    return make_error(ErrorCode::kInvalidArgument,
+                      "dem '" + path + "': band " + std::to_string(options.band) + " is invalid (bands count from 1)",
+                      "band");
+
+  auto in = OIIO::ImageInput::open(path);
+  if (!in) return dem_error(ErrorCode::kDataError, path, "not a raster (" + OIIO::geterror() + ")");
+  if (std::string(in->format_name()) != "tiff")
+    return dem_error(ErrorCode::kDataError, path,
+                     std::string("not a TIFF (OpenImageIO reads it as ") + in->format_name() + ")");
+  const OIIO::ImageSpec& spec = in->spec();
+  const int bands = spec.nchannels;
+  if (options.band == 0 && bands != 1)
+    return make_error(ErrorCode::kInvalidArgument,
+                      "dem '" + path + "': the file has " + std::to_string(bands) +
+                          " bands; choose one with band = 1.." + std::to_string(bands),
+                      "band");
+  if (options.band > bands)
+    return make_error(
+        ErrorCode::kInvalidArgument,
+        "dem '" + path + "': band " + std::to_string(options.band) + " requested, file has " + std::to_string(bands),
+        "band");
+  const int channel = options.band == 0 ? 0 : options.band - 1;
+
+  const OIIO::TypeDesc type = spec.channelformat(channel);
+  std::string type_name;
+  if (type == OIIO::TypeDesc::UINT8)
+    type_name = "UInt8";
+  else if (type == OIIO::TypeDesc::INT16)
+    type_name = "Int16";
+  else if (type == OIIO::TypeDesc::UINT16)
+    type_name = "UInt16";
+  else if (type == OIIO::TypeDesc::INT32)
+    type_name = "Int32";
+  else if (type == OIIO::TypeDesc::FLOAT)
+    type_name = "Float32";
+  else if (type == OIIO::TypeDesc::DOUBLE)
+    type_name = "Float64";
+  else
+    return dem_error(ErrorCode::kUnsupported, path,
+                     std::string("pixel type ") + type.c_str() +
+                         " is not supported (UInt8, Int16, UInt16, Int32, Float32 and Float64 are)");
+
+  if (spec.width <= 0 || spec.height <= 0 || spec.depth > 1)
+    return dem_error(ErrorCode::kDataError, path, "has no 2-D pixel grid");
+  const std::uint64_t cells = static_cast<std::uint64_t>(spec.width) * static_cast<std::uint64_t>(spec.height);
+  if (cells > kMaxCells)
+    return dem_error(ErrorCode::kResourceExhausted, path,
+                     std::to_string(spec.width) + "x" + std::to_string(spec.height) + " cells exceed the limit of " +
+                         std::to_string(kMaxCells));
+
+  // Georeferencing after the cheap pixel-layout checks, before the expensive decode.
+  auto facts = read_tiff_facts(path, options);
+  if (!facts.ok()) return facts.error();
+
+  // Read the native type: asking OIIO for float would normalise integers to [0, 1].
+  std::vector<unsigned char> raw(cells * type.size());
+  if (type == OIIO::TypeDesc::DOUBLE && spec.tile_width > 0) {
+    in->close();
+    HORIZON_RETURN_IF_ERROR(read_tiles_with_libtiff(path, channel, spec.width, spec.height, type.size(), raw));
+  } else {
+    if (!in->read_image(0, 0, channel, channel + 1, type, raw.data()))
+      return dem_error(ErrorCode::kDataError, path, "cannot decode pixels (" + in->geterror() + ")");
+    in->close();
+  }
+
+  Dem dem;
+  dem.elevation = Grid<float>(spec.width, spec.height);
+  if (type == OIIO::TypeDesc::UINT8)
+    convert<std::uint8_t>(raw, dem.elevation, facts->nodata);
+  else if (type == OIIO::TypeDesc::INT16)
+    convert<std::int16_t>(raw, dem.elevation, facts->nodata);
+  else if (type == OIIO::TypeDesc::UINT16)
+    convert<std::uint16_t>(raw, dem.elevation, facts->nodata);
+  else if (type == OIIO::TypeDesc::INT32)
+    convert<std::int32_t>(raw, dem.elevation, facts->nodata);
+  else if (type == OIIO::TypeDesc::FLOAT)
+    convert<float>(raw, dem.elevation, facts->nodata);
+  else
+    convert<double>(raw, dem.elevation, facts->nodata);
+
+  dem.georef = facts->georef;
+  dem.nodata = facts->nodata;
+  dem.source = path;
+  dem.format = std::string(facts->bigtiff ? "BigTIFF " : "GeoTIFF ") + type_name + " (" + facts->layout + ")";
+  if (bands > 1) dem.format += ", band " + std::to_string(channel + 1) + " of " + std::to_string(bands);
+  return dem;
+}
+
+}  // namespace horizon::terrain

@@ -1,0 +1,102 @@
+// tiff_support.hpp — private glue between libtiff, libgeotiff and Horizon.
+//
+// * Registers the GeoTIFF tags (libgeotiff's XTIFF extender: ModelPixelScale
+//   33550, ModelTiepoint 33922, ModelTransformation 34264, GeoKeyDirectory
+//   34735, GeoDoubleParams 34736, GeoAsciiParams 34737) and GDAL's ASCII
+//   GDAL_NODATA tag (42113, see https://gdal.org/drivers/raster/gtiff.html)
+//   once per process, for every TIFF handle opened afterwards.
+// * Opens files with per-handle error/warning handlers (libtiff >= 4.5
+//   TIFFOpenExt), so messages land in the Error we return instead of stderr,
+//   and concurrent readers do not share a global handler.
+// * RAII owners for TIFF* and GTIF*, so every error path closes them.
+#pragma once
+
+#include <geotiffio.h>
+#include <tiffio.h>
+#include <xtiffio.h>
+
+#include <cstdarg>
+#include <cstdio>
+#include <memory>
+#include <mutex>
+#include <string>
+
+namespace horizon::terrain::detail {
+
+inline constexpr ttag_t kTagGdalNodata = 42113;
+
+inline TIFFExtendProc& previous_tag_extender() {
+  static TIFFExtendProc previous = nullptr;
+  return previous;
+}
+
+inline void horizon_tag_extender(TIFF* tif) {
+  static const TIFFFieldInfo kFields[] = {
+      {kTagGdalNodata, -1, -1, TIFF_ASCII, FIELD_CUSTOM, 1, 0, const_cast<char*>("GDAL_NODATA")},
+  };
+  TIFFMergeFieldInfo(tif, kFields, sizeof kFields / sizeof kFields[0]);
+  if (TIFFExtendProc previous = previous_tag_extender()) previous(tif);
+}
+
+// Idempotent and thread-safe; call before opening any TIFF.
+inline void register_tiff_tags() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    XTIFFInitialize();  // installs libgeotiff's extender (it chains any earlier one)
+    previous_tag_extender() = TIFFSetTagExtender(horizon_tag_extender);
+  });
+}
+
+struct TiffCloser {
+  void operator()(TIFF* tif) const {
+    if (tif) TIFFClose(tif);
+  }
+};
+using TiffPtr = std::unique_ptr<TIFF, TiffCloser>;
+
+struct GtifFreer {
+  void operator()(GTIF* gtif) const {
+    if (gtif) GTIFFree(gtif);
+  }
+};
+using GtifPtr = std::unique_ptr<GTIF, GtifFreer>;
+
+// Collects libtiff's messages for one handle. Must outlive the handle, as
+// libtiff keeps a pointer to it; the unique_ptr order in callers ensures that.
+struct TiffMessages {
+  std::string errors;
+  std::string warnings;
+
+  static int append(std::string& into, const char* module, const char* fmt, va_list ap) {
+    char buf[512];
+    std::vsnprintf(buf, sizeof buf, fmt, ap);
+    if (!into.empty()) into += "; ";
+    if (module && *module) {
+      into += module;
+      into += ": ";
+    }
+    into += buf;
+    return 1;  // handled: do not call the global stderr handler
+  }
+  static int on_error(TIFF*, void* self, const char* module, const char* fmt, va_list ap) {
+    return append(static_cast<TiffMessages*>(self)->errors, module, fmt, ap);
+  }
+  static int on_warning(TIFF*, void* self, const char* module, const char* fmt, va_list ap) {
+    return append(static_cast<TiffMessages*>(self)->warnings, module, fmt, ap);
+  }
+};
+
+// Opens `path` with libtiff mode `mode` ("r", "w", "w8"), GeoTIFF and GDAL
+// tags registered, messages routed to `messages`. Null on failure.
+inline TiffPtr open_tiff(const std::string& path, const char* mode, TiffMessages& messages) {
+  register_tiff_tags();
+  TIFFOpenOptions* opts = TIFFOpenOptionsAlloc();
+  if (!opts) return nullptr;
+  TIFFOpenOptionsSetErrorHandlerExtR(opts, &TiffMessages::on_error, &messages);
+  TIFFOpenOptionsSetWarningHandlerExtR(opts, &TiffMessages::on_warning, &messages);
+  TiffPtr tif(TIFFOpenExt(path.c_str(), mode, opts));
+  TIFFOpenOptionsFree(opts);
+  return tif;
+}
+
+}  // namespace horizon::terrain::detail

@@ -1,0 +1,108 @@
+// Option validation and the per-request viewing geometry.
+#include "horizon/visibility/view_frame.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "horizon/geodesy/crs.hpp"
+
+namespace horizon::visibility {
+namespace {
+
+Error bad_option(const char* field, const std::string& what) {
+  return make_error(ErrorCode::kInvalidArgument, std::string(field) + ": " + what, field);
+}
+
+std::string number(double v) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%g", v);
+  return buffer;
+}
+
+}  // namespace
+
+Status validate_options(const ViewshedOptions& o) {
+  if (!std::isfinite(o.target_height) || o.target_height < 0)
+    return bad_option("target_height", "must be a finite number >= 0 metres, got " + number(o.target_height));
+  if (std::isnan(o.max_distance) || o.max_distance <= 0)
+    return bad_option("max_distance", "must be > 0 metres (or infinite for no limit), got " + number(o.max_distance));
+  if (!std::isfinite(o.curvature_coefficient) || o.curvature_coefficient < 0 || o.curvature_coefficient > 2)
+    return bad_option("curvature_coefficient",
+                      "must be a finite number in [0, 2] (0.85714 = standard refraction, 0 = flat earth), got " +
+                          number(o.curvature_coefficient));
+  if (!std::isfinite(o.nodata_fill_height))
+    return bad_option("nodata_fill_height", "must be a finite number of metres, got " + number(o.nodata_fill_height));
+  if (!std::isfinite(o.radial.ray_spacing) || o.radial.ray_spacing <= 0 || o.radial.ray_spacing > 4)
+    return bad_option("ray_spacing", "must be in (0, 4] cells, got " + number(o.radial.ray_spacing));
+  return Status::Ok();
+}
+
+double ViewFrame::distance(double col, double row) const {
+  return std::hypot((col - observer_col) * metres_per_col, (row - observer_row) * metres_per_row);
+}
+
+bool ViewFrame::in_range(int col, int row) const {
+  if (!std::isfinite(max_distance)) return true;
+  const double dx = (col - observer_col) * metres_per_col;
+  const double dy = (row - observer_row) * metres_per_row;
+  return dx * dx + dy * dy <= max_distance * max_distance;
+}
+
+Result<ViewFrame> make_view_frame(const terrain::Dem& dem, const geodesy::GridPoint& observer,
+                                  const ViewshedOptions& options) {
+  HORIZON_RETURN_IF_ERROR(validate_options(options));
+  if (dem.width() < 2 || dem.height() < 2)
+    return make_error(ErrorCode::kDataError,
+                      "dem '" + dem.source + "': a viewshed needs at least 2x2 cells, the DEM has " +
+                          std::to_string(dem.width()) + "x" + std::to_string(dem.height()),
+                      "dem");
+  if (!std::isfinite(observer.elevation) || !std::isfinite(observer.col) || !std::isfinite(observer.row))
+    return make_error(ErrorCode::kInvalidArgument, "observer: position or eye elevation is not a finite number",
+                      "observer");
+
+  ViewFrame f;
+  f.observer_col = observer.col;
+  f.observer_row = observer.row;
+  f.eye = observer.elevation;
+  f.dem_width = dem.width();
+  f.dem_height = dem.height();
+  f.curvature = options.curvature_coefficient / (2.0 * geodesy::kEarthRadiusMetres);
+  f.max_distance = options.max_distance;
+
+  const auto& t = dem.georef.transform;
+  geodesy::GroundScale scale;  // metres per CRS unit; 1 when the DEM has no CRS
+  if (dem.georef.epsg != 0) {
+    auto crs = geodesy::Crs::from_epsg(dem.georef.epsg);
+    if (!crs.ok()) return crs.error();
+    scale = crs->ground_scale({observer.x, observer.y});
+  }
+  f.metres_per_col = std::abs(t.pixel_width) * scale.metres_per_x;
+  f.metres_per_row = std::abs(t.pixel_height) * scale.metres_per_y;
+  if (!(f.metres_per_col > 0) || !(f.metres_per_row > 0) || !std::isfinite(f.metres_per_col) ||
+      !std::isfinite(f.metres_per_row))
+    return make_error(ErrorCode::kDataError, "dem '" + dem.source + "': cell size is not a positive finite length",
+                      "dem");
+
+  // Bounding box of the max-distance circle, clipped to the DEM; always holds
+  // the cell nearest the observer.
+  int c0 = 0, c1 = dem.width(), r0 = 0, r1 = dem.height();
+  if (std::isfinite(f.max_distance)) {
+    const double reach_c = f.max_distance / f.metres_per_col;
+    const double reach_r = f.max_distance / f.metres_per_row;
+    c0 = static_cast<int>(std::clamp(std::ceil(f.observer_col - reach_c), 0.0, double(dem.width())));
+    c1 = static_cast<int>(std::clamp(std::floor(f.observer_col + reach_c) + 1, 0.0, double(dem.width())));
+    r0 = static_cast<int>(std::clamp(std::ceil(f.observer_row - reach_r), 0.0, double(dem.height())));
+    r1 = static_cast<int>(std::clamp(std::floor(f.observer_row + reach_r) + 1, 0.0, double(dem.height())));
+    const int oc = std::clamp(static_cast<int>(std::lround(f.observer_col)), 0, dem.width() - 1);
+    const int orow = std::clamp(static_cast<int>(std::lround(f.observer_row)), 0, dem.height() - 1);
+    c0 = std::min(c0, oc);
+    c1 = std::max(c1, oc + 1);
+    r0 = std::min(r0, orow);
+    r1 = std::max(r1, orow + 1);
+  }
+  f.window = {c0, r0, c1, r1};
+  return f;
+}
+
+}  // namespace horizon::visibility

@@ -1,0 +1,106 @@
+// Viewshed driver: validation, frame, algorithm dispatch, derived rasters.
+#include "horizon/visibility/viewshed.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "horizon/visibility/r3.hpp"
+#include "horizon/visibility/radial_sweep.hpp"
+
+namespace horizon::visibility {
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+terrain::Grid<float> crop(const terrain::Grid<float>& z, const terrain::Window& w) {
+  terrain::Grid<float> out(w.width(), w.height());
+  for (int r = w.row0; r < w.row1; ++r) std::copy_n(z.row(r) + w.col0, w.width(), out.row(r - w.row0));
+  return out;
+}
+
+bool has_voids(const terrain::Grid<float>& z) {
+  return std::any_of(z.values().begin(), z.values().end(), [](float v) { return std::isnan(v); });
+}
+
+}  // namespace
+
+Result<ViewshedResult> compute_viewshed(const terrain::Dem& dem, const geodesy::GridPoint& observer,
+                                        const ViewshedOptions& options, const RunControl* control) {
+  auto frame = make_view_frame(dem, observer, options);
+  if (!frame.ok()) return frame.error();
+
+  // NodataPolicy::kFill works on a filled copy; transparent voids stay NaN,
+  // which every algorithm skips (a NaN slope never raises a horizon).
+  const terrain::Grid<float>* elevation = &dem.elevation;
+  terrain::Grid<float> filled;
+  if (options.nodata == NodataPolicy::kFill && has_voids(dem.elevation)) {
+    filled = dem.elevation;
+    const float fill = static_cast<float>(options.nodata_fill_height);
+    for (float& v : filled.values())
+      if (std::isnan(v)) v = fill;
+    elevation = &filled;
+  }
+
+  ViewshedResult result;
+  result.frame = *frame;
+  result.target_height = options.target_height;
+  result.stats.dem_cells = dem.elevation.size();
+  result.stats.window_cells = frame->window.cell_count();
+
+  const auto start = std::chrono::steady_clock::now();
+  Status status;
+  switch (options.algorithm) {
+    case Algorithm::kRadial:
+      status = radial_ohf(*elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats);
+      break;
+    case Algorithm::kR3:
+      status = r3_ohf(*elevation, *frame, options.threads, control, result.ohf, result.stats);
+      break;
+  }
+  if (!status.ok()) return status.error();
+  result.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.terrain = crop(*elevation, frame->window);
+  return result;
+}
+
+terrain::Grid<float> min_target_height(const ViewshedResult& result) {
+  terrain::Grid<float> out(result.ohf.width(), result.ohf.height(), kNaN);
+  const auto ohf = result.ohf.values();
+  const auto z = result.terrain.values();
+  auto dst = out.values();
+  for (std::size_t i = 0; i < ohf.size(); ++i)
+    if (!std::isnan(ohf[i]) && !std::isnan(z[i])) dst[i] = std::max(0.0f, ohf[i] - z[i]);
+  return out;
+}
+
+terrain::Grid<std::uint8_t> visibility_mask(const ViewshedResult& result, double target_height) {
+  // Derived from min_target_height() so the two rasters can never disagree.
+  const terrain::Grid<float> mth = min_target_height(result);
+  terrain::Grid<std::uint8_t> out(mth.width(), mth.height(), kNoAnswer);
+  const float th = static_cast<float>(target_height);
+  const auto src = mth.values();
+  auto dst = out.values();
+  for (std::size_t i = 0; i < src.size(); ++i)
+    if (!std::isnan(src[i])) dst[i] = th >= src[i] ? kVisible : kHidden;
+  return out;
+}
+
+terrain::Grid<float> ohf_raster(const ViewshedResult& result) {
+  terrain::Grid<float> out(result.ohf.width(), result.ohf.height(), kNaN);
+  const auto ohf = result.ohf.values();
+  const auto z = result.terrain.values();
+  auto dst = out.values();
+  for (std::size_t i = 0; i < ohf.size(); ++i)
+    if (!std::isnan(ohf[i]) && !std::isnan(z[i])) dst[i] = std::max(ohf[i], z[i]);
+  return out;
+}
+
+terrain::Georeference window_georef(const terrain::Dem& dem, const ViewshedResult& result) {
+  terrain::Georeference g = dem.georef;
+  g.transform = dem.georef.transform.shifted(result.frame.window.col0, result.frame.window.row0);
+  return g;
+}
+
+}  // namespace horizon::visibility

@@ -1,0 +1,125 @@
+// Viewshed benchmarks (Google Benchmark), reporting cells/s.
+//
+//   build/tests/bench/bench_viewshed                       # synthetic terrain, fixed seed
+//   HORIZON_BENCH_DEM=path.tif build/tests/bench/bench_viewshed --benchmark_filter=Dem
+//
+// The synthetic terrain is a fixed-seed sum of hills so runs are comparable
+// across machines; the Dem benchmarks time the algorithm alone (no I/O) on a
+// real file with the observer at its centre, 2 m up. Results and the machine
+// they ran on go in docs/benchmarks.md.
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+#include <map>
+#include <memory>
+#include <random>
+
+#include "horizon/geodesy/observer.hpp"
+#include "horizon/terrain/dem_reader.hpp"
+#include "horizon/visibility/r3.hpp"
+#include "horizon/visibility/radial_sweep.hpp"
+#include "horizon/visibility/viewshed.hpp"
+
+using namespace horizon;
+
+namespace {
+
+terrain::Dem synthetic(int size) {
+  terrain::Dem dem;
+  dem.elevation = terrain::Grid<float>(size, size);
+  std::mt19937 rng(42);
+  std::uniform_real_distribution<float> u(0, 1);
+  struct Hill { float x, y, a, r; };
+  std::vector<Hill> hills(60);
+  for (auto& h : hills) h = {u(rng) * size, u(rng) * size, (u(rng) - 0.3f) * 800.0f, (0.02f + 0.2f * u(rng)) * size};
+  for (int r = 0; r < size; ++r)
+    for (int c = 0; c < size; ++c) {
+      float z = 1000;
+      for (const auto& h : hills) z += h.a * std::exp(-((c - h.x) * (c - h.x) + (r - h.y) * (r - h.y)) / (h.r * h.r));
+      dem.elevation.at(c, r) = z;
+    }
+  dem.georef.transform = {0, 30, 0, -30};
+  dem.source = "synthetic";
+  return dem;
+}
+
+geodesy::GridPoint centre_eye(const terrain::Dem& dem) {
+  geodesy::GridPoint p;
+  p.col = dem.width() / 2;
+  p.row = dem.height() / 2;
+  p.ground = dem.elevation.at(static_cast<int>(p.col), static_cast<int>(p.row));
+  p.elevation = p.ground + 2.0;
+  return p;
+}
+
+void run_radial(benchmark::State& state, const terrain::Dem& dem, double spacing, double max_distance) {
+  visibility::ViewshedOptions o;
+  o.radial.ray_spacing = spacing;
+  o.max_distance = max_distance;
+  auto frame = visibility::make_view_frame(dem, centre_eye(dem), o);
+  if (!frame.ok()) {
+    state.SkipWithError(frame.error().message.c_str());
+    return;
+  }
+  terrain::Grid<float> ohf;
+  visibility::WorkStats stats;
+  for (auto _ : state) {
+    stats = {};
+    auto status = visibility::radial_ohf(dem.elevation, *frame, o.radial, 0, nullptr, ohf, stats);
+    benchmark::DoNotOptimize(ohf.data());
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * stats.cells_evaluated));
+  state.counters["cells"] = static_cast<double>(stats.cells_evaluated);
+  state.counters["samples/cell"] = double(stats.terrain_samples) / double(std::max<uint64_t>(1, stats.cells_evaluated));
+}
+
+void BM_RadialSynthetic(benchmark::State& state) {
+  static std::map<int, std::unique_ptr<terrain::Dem>> cache;
+  const int size = static_cast<int>(state.range(0));
+  auto& dem = cache[size];
+  if (!dem) dem = std::make_unique<terrain::Dem>(synthetic(size));
+  run_radial(state, *dem, state.range(1) / 100.0, std::numeric_limits<double>::infinity());
+}
+BENCHMARK(BM_RadialSynthetic)->ArgsProduct({{1024, 2048, 3500}, {100, 50, 25}})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_R3Synthetic(benchmark::State& state) {
+  const auto dem = synthetic(static_cast<int>(state.range(0)));
+  visibility::ViewshedOptions o;
+  auto frame = visibility::make_view_frame(dem, centre_eye(dem), o);
+  terrain::Grid<float> ohf;
+  visibility::WorkStats stats;
+  for (auto _ : state) {
+    auto status = visibility::r3_ohf(dem.elevation, *frame, 0, nullptr, ohf, stats);
+    benchmark::DoNotOptimize(ohf.data());
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * stats.cells_evaluated));
+}
+BENCHMARK(BM_R3Synthetic)->Arg(512)->Arg(1024)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// A real DEM from $HORIZON_BENCH_DEM: whole DEM, and max distance = 10 % of its width.
+void BM_RadialDem(benchmark::State& state) {
+  static std::unique_ptr<terrain::Dem> dem;
+  const char* path = std::getenv("HORIZON_BENCH_DEM");
+  if (!path) {
+    state.SkipWithError("set HORIZON_BENCH_DEM to a DEM file");
+    return;
+  }
+  if (!dem) {
+    auto read = terrain::read_dem(path);
+    if (!read.ok()) {
+      state.SkipWithError(read.error().message.c_str());
+      return;
+    }
+    dem = std::make_unique<terrain::Dem>(std::move(read).value());
+  }
+  const double width_m = dem->width() * std::abs(dem->georef.transform.pixel_width);
+  run_radial(state, *dem, state.range(0) / 100.0,
+             state.range(1) ? 0.1 * width_m : std::numeric_limits<double>::infinity());
+}
+BENCHMARK(BM_RadialDem)->ArgsProduct({{100, 50, 25}, {0, 1}})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,86 @@
+#include "test_support.hpp"
+
+#include <sys/wait.h>
+
+#include <array>
+#include <cmath>
+#include <vector>
+#include <atomic>
+#include <cstdio>
+#include <random>
+#include <unistd.h>
+
+namespace horizon::testing {
+
+terrain::Dem make_dem(int width, int height, const std::function<double(int, int)>& height_fn, double cell_size,
+                      int epsg) {
+  terrain::Dem dem;
+  dem.elevation = terrain::Grid<float>(width, height);
+  for (int r = 0; r < height; ++r)
+    for (int c = 0; c < width; ++c) dem.elevation.at(c, r) = static_cast<float>(height_fn(c, r));
+  dem.georef.transform = {500000.0, cell_size, 5000000.0, -cell_size};
+  dem.georef.epsg = epsg;
+  dem.source = "synthetic";
+  dem.format = "synthetic";
+  return dem;
+}
+
+terrain::Dem make_random_terrain(int width, int height, unsigned seed, double relief, double cell_size) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> ux(0, width), uy(0, height), amp(-0.5, 1.0), radius(2.0, 0.25 * width);
+  struct Hill {
+    double x, y, a, r;
+  };
+  std::vector<Hill> hills(40);
+  for (Hill& h : hills) h = {ux(rng), uy(rng), amp(rng) * relief, radius(rng)};
+  std::uniform_real_distribution<double> noise(0.0, 0.02 * relief);
+  return make_dem(
+      width, height,
+      [&](int c, int r) {
+        double z = 0.5 * relief;
+        for (const Hill& h : hills) {
+          const double d2 = (c - h.x) * (c - h.x) + (r - h.y) * (r - h.y);
+          z += h.a * std::exp(-d2 / (h.r * h.r));
+        }
+        return z + noise(rng);
+      },
+      cell_size, /*epsg=*/0);
+}
+
+TempDir::TempDir() {
+  static std::atomic<int> counter{0};
+  std::random_device rd;
+  path_ = std::filesystem::temp_directory_path() /
+          ("horizon-test-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + "-" +
+           std::to_string(rd()));
+  std::filesystem::create_directories(path_);
+}
+
+TempDir::~TempDir() {
+  std::error_code ec;
+  std::filesystem::remove_all(path_, ec);
+}
+
+std::string bundled_dem(const std::string& name) { return std::string(HORIZON_DATA_DIR) + "/" + name; }
+
+std::string shared_dem_dir() {
+  std::error_code ec;
+  const std::filesystem::path dir = HORIZON_SHARED_DEM_DIR;
+  if (std::filesystem::is_directory(dir, ec)) return std::filesystem::canonical(dir, ec).string();
+  return {};
+}
+
+CommandResult run_command(const std::string& command) {
+  CommandResult result;
+  const std::string full = command + " 2>&1";
+  FILE* pipe = ::popen(full.c_str(), "r");
+  if (!pipe) return result;
+  std::array<char, 4096> buffer{};
+  std::size_t n = 0;
+  while ((n = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0) result.output.append(buffer.data(), n);
+  const int status = ::pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return result;
+}
+
+}  // namespace horizon::testing

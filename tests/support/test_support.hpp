@@ -1,0 +1,51 @@
+// Shared helpers for Horizon's tests: synthetic DEMs, temporary directories,
+// locating bundled and shared data.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <string>
+
+#include "horizon/terrain/dem.hpp"
+
+namespace horizon::testing {
+
+// A DEM of width x height cells whose elevation at cell (col, row) is
+// height(col, row). Projected metres (EPSG:32633, UTM 33N) with square cells
+// of `cell_size` metres, origin at (500000, 5000000) so it is georeferenced.
+terrain::Dem make_dem(int width, int height, const std::function<double(int, int)>& height_fn,
+                      double cell_size = 10.0, int epsg = 32633);
+
+// Rough synthetic terrain for property tests: a fixed-seed sum of Gaussian
+// hills and pits (heights in [0, ~relief] metres) over value noise. No CRS
+// (epsg 0): grid units are plain metres, so distances are exactly cells x size.
+terrain::Dem make_random_terrain(int width, int height, unsigned seed, double relief = 200.0,
+                                 double cell_size = 30.0);
+
+// A fresh empty directory under the system temp dir, removed on destruction.
+class TempDir {
+ public:
+  TempDir();
+  ~TempDir();
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+  std::string file(const std::string& name) const { return (path_ / name).string(); }
+
+ private:
+  std::filesystem::path path_;
+};
+
+// Path of a DEM bundled in data/dem (always present).
+std::string bundled_dem(const std::string& name);
+// Directory of ../shared/data/dem, or empty when it does not exist (tests then GTEST_SKIP()).
+std::string shared_dem_dir();
+
+// Runs a shell command, returns its exit status and captures stdout+stderr.
+struct CommandResult {
+  int exit_code = -1;
+  std::string output;
+};
+CommandResult run_command(const std::string& command);
+
+}  // namespace horizon::testing

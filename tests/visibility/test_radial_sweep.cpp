@@ -1,0 +1,229 @@
+// Radial sweep (fast OHF): analytic cases within tolerance, agreement with R3,
+// and the properties that must hold whatever the terrain.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "horizon/visibility/agreement.hpp"
+#include "horizon/visibility/viewshed.hpp"
+#include "test_support.hpp"
+#include "visibility_test_util.hpp"
+
+namespace horizon {
+namespace {
+
+using testing::eye_at;
+using testing::flat_earth;
+using testing::grid_dem;
+using testing::ohf_at;
+using visibility::Algorithm;
+
+TEST(RadialSweep, FlatPlaneIsAllVisible) {
+  const auto dem = grid_dem(101, 77, [](int, int) { return -430.0; });  // Dead Sea shore
+  for (double col : {50.0, 0.0, 100.0, 33.5, 12.25}) {
+    auto vs = visibility::compute_viewshed(dem, eye_at(dem, col, 40.5, 1.7), flat_earth(Algorithm::kRadial));
+    ASSERT_TRUE(vs.ok()) << vs.error().message;
+    const auto mask = visibility::visibility_mask(*vs, 0.0);
+    for (std::uint8_t v : mask.values()) ASSERT_EQ(v, visibility::kVisible) << "observer col " << col;
+  }
+}
+
+// The analytic wall and ridge of test_r3.cpp: every ray samples the wall top
+// exactly, so only the angular blend of 1/distance errs (second order).
+TEST(RadialSweep, WallShadowMatchesTheAnalyticLine) {
+  const auto dem = grid_dem(30, 21, [](int c, int) { return c == 10 ? 10.0 : 0.0; });
+  auto vs = visibility::compute_viewshed(dem, eye_at(dem, 5, 10, 2.0), flat_earth(Algorithm::kRadial));
+  ASSERT_TRUE(vs.ok());
+  for (int row = 0; row < 21; ++row)
+    for (int col = 11; col < 30; ++col)
+      EXPECT_NEAR(ohf_at(*vs, col, row), 2.0 + 8.0 * (col - 5) / 5.0, 0.05) << col << "," << row;
+}
+
+TEST(RadialSweep, RidgeMatchesTheAnalyticLine) {
+  const auto dem = grid_dem(40, 25, [](int c, int) { return 50.0 - 2.0 * std::abs(c - 20); });
+  auto vs = visibility::compute_viewshed(dem, eye_at(dem, 12, 12, 1.0), flat_earth(Algorithm::kRadial));
+  ASSERT_TRUE(vs.ok());
+  const auto mask = visibility::visibility_mask(*vs, 0.0);
+  for (int row = 0; row < 25; ++row) {
+    for (int col = 21; col < 40; ++col) {
+      EXPECT_NEAR(ohf_at(*vs, col, row), 35.0 + 15.0 * (col - 12) / 8.0, 0.05) << col << "," << row;
+      EXPECT_EQ(mask.at(col, row), visibility::kHidden);
+    }
+    for (int col = 0; col <= 20; ++col) EXPECT_EQ(mask.at(col, row), visibility::kVisible) << col << "," << row;
+  }
+}
+
+TEST(RadialSweep, PyramidPeakIsAllVisible) {
+  const auto peak = grid_dem(65, 65, [](int c, int r) { return 900.0 - 7.0 * std::max(std::abs(c - 32), std::abs(r - 32)); });
+  auto vs = visibility::compute_viewshed(peak, eye_at(peak, 32, 32, 0.5), flat_earth(Algorithm::kRadial));
+  ASSERT_TRUE(vs.ok());
+  const auto mask = visibility::visibility_mask(*vs, 0.0);
+  for (std::uint8_t v : mask.values()) ASSERT_EQ(v, visibility::kVisible);
+}
+
+struct Case {
+  unsigned seed;
+  double col, row, height;
+};
+
+class RadialVsR3 : public ::testing::TestWithParam<Case> {};
+
+// On rough synthetic terrain the fast sweep stays within the bar
+// against the exact reference: IoU >= 99 %, missed visible <= 0.5 %.
+TEST_P(RadialVsR3, MeetsTheAccuracyBar) {
+  const Case c = GetParam();
+  const auto dem = testing::make_random_terrain(181, 143, c.seed);
+  const auto eye = eye_at(dem, c.col, c.row, c.height);
+  visibility::ViewshedOptions o;
+  o.algorithm = Algorithm::kR3;
+  auto exact = visibility::compute_viewshed(dem, eye, o);
+  o.algorithm = Algorithm::kRadial;
+  auto fast = visibility::compute_viewshed(dem, eye, o);
+  ASSERT_TRUE(exact.ok() && fast.ok());
+  const auto a = visibility::compare_viewsheds(*fast, *exact, 0.0);
+  EXPECT_GT(a.cells_compared, 20000u);
+  EXPECT_GE(a.iou, 0.99) << "seed " << c.seed;
+  EXPECT_LE(a.missed_rate, 0.005) << "seed " << c.seed;
+  EXPECT_LT(a.ohf_rmse, 2.0);
+}
+
+INSTANTIATE_TEST_SUITE_P(Terrains, RadialVsR3,
+                         ::testing::Values(Case{1, 90, 71, 2.0}, Case{2, 10.5, 130.25, 10.0}, Case{3, 180, 0, 2.0},
+                                           Case{4, 47.3, 88.8, 50.0}, Case{5, 120, 20, 0.0}));
+
+TEST(RadialSweep, RaisingTheObserverNeverHidesACell) {
+  const auto dem = testing::make_random_terrain(150, 120, 11);
+  terrain::Grid<std::uint8_t> previous;
+  for (double h : {0.0, 1.0, 2.0, 5.0, 20.0, 100.0}) {
+    auto vs = visibility::compute_viewshed(dem, eye_at(dem, 60.4, 70.6, h), visibility::ViewshedOptions{});
+    ASSERT_TRUE(vs.ok());
+    auto mask = visibility::visibility_mask(*vs, 0.0);
+    if (!previous.empty()) {
+      int lost = 0;
+      for (std::size_t i = 0; i < mask.size(); ++i)
+        lost += previous.values()[i] == visibility::kVisible && mask.values()[i] == visibility::kHidden;
+      EXPECT_EQ(lost, 0) << "raising the eye to " << h << " m hid cells";
+    }
+    previous = std::move(mask);
+  }
+}
+
+TEST(RadialSweep, RaisingTheTargetNeverHidesACell) {
+  const auto dem = testing::make_random_terrain(150, 120, 12);
+  auto vs = visibility::compute_viewshed(dem, eye_at(dem, 75, 60, 2.0), visibility::ViewshedOptions{});
+  ASSERT_TRUE(vs.ok());
+  const auto mth = visibility::min_target_height(*vs);
+  const auto low = visibility::visibility_mask(*vs, 0.0), high = visibility::visibility_mask(*vs, 10.0);
+  for (std::size_t i = 0; i < low.size(); ++i) {
+    if (low.values()[i] == visibility::kVisible) {
+      EXPECT_EQ(high.values()[i], visibility::kVisible);
+    }
+    // The minimum visible height is never negative and decides the mask.
+    if (!std::isnan(mth.values()[i])) {
+      EXPECT_GE(mth.values()[i], 0.0f);
+      EXPECT_EQ(high.values()[i] == visibility::kVisible, mth.values()[i] <= 10.0f);
+    }
+  }
+}
+
+TEST(RadialSweep, ThreadCountDoesNotChangeTheAnswer) {
+  const auto dem = testing::make_random_terrain(300, 200, 5);
+  visibility::ViewshedOptions o;
+  o.threads = 1;
+  auto one = visibility::compute_viewshed(dem, eye_at(dem, 100.5, 80.5, 2.0), o);
+  o.threads = 4;
+  auto four = visibility::compute_viewshed(dem, eye_at(dem, 100.5, 80.5, 2.0), o);
+  ASSERT_TRUE(one.ok() && four.ok());
+  for (std::size_t i = 0; i < one->ohf.size(); ++i) {
+    const float a = one->ohf.values()[i], b = four->ohf.values()[i];
+    if (std::isnan(a)) {
+      EXPECT_TRUE(std::isnan(b)) << i;
+    } else {
+      EXPECT_EQ(a, b) << i;
+    }
+  }
+}
+
+TEST(RadialSweep, MaxDistanceAnswersExactlyTheDisc) {
+  const auto dem = testing::make_random_terrain(200, 160, 9);
+  visibility::ViewshedOptions o;
+  o.max_distance = 1500.0;  // 50 cells of 30 m
+  auto vs = visibility::compute_viewshed(dem, eye_at(dem, 70.5, 90.25, 2.0), o);
+  ASSERT_TRUE(vs.ok());
+  std::uint64_t inside = 0;
+  const auto& w = vs->frame.window;
+  for (int row = w.row0; row < w.row1; ++row)
+    for (int col = w.col0; col < w.col1; ++col) {
+      const bool in = std::hypot((col - 70.5) * 30.0, (row - 90.25) * 30.0) <= 1500.0;
+      inside += in;
+      EXPECT_EQ(in, !std::isnan(ohf_at(*vs, col, row))) << col << "," << row;
+    }
+  EXPECT_EQ(vs->stats.cells_evaluated, inside);
+  // Work stays proportional to the disc, not the DEM.
+  EXPECT_LT(vs->stats.terrain_samples, 12 * inside);  // ~2 samples x ~4.5 ray steps per cell at spacing 0.5
+  EXPECT_LT(vs->stats.window_cells, dem.elevation.size() / 2);
+}
+
+TEST(RadialSweep, FinerRaySpacingApproachesR3) {
+  const auto dem = testing::make_random_terrain(161, 161, 21);
+  const auto eye = eye_at(dem, 80, 80, 2.0);
+  visibility::ViewshedOptions o;
+  o.algorithm = Algorithm::kR3;
+  auto exact = visibility::compute_viewshed(dem, eye, o);
+  ASSERT_TRUE(exact.ok());
+  o.algorithm = Algorithm::kRadial;
+  o.radial.ray_spacing = 2.0;
+  auto coarse = visibility::compute_viewshed(dem, eye, o);
+  o.radial.ray_spacing = 0.25;
+  auto fine = visibility::compute_viewshed(dem, eye, o);
+  ASSERT_TRUE(coarse.ok() && fine.ok());
+  const auto ac = visibility::compare_viewsheds(*coarse, *exact, 0.0);
+  const auto af = visibility::compare_viewsheds(*fine, *exact, 0.0);
+  EXPECT_LT(af.ohf_rmse, ac.ohf_rmse);
+  EXPECT_GE(af.iou, ac.iou);
+  EXPECT_GT(fine->stats.terrain_samples, 4 * coarse->stats.terrain_samples);  // 8x the rays
+}
+
+TEST(RadialSweep, MinBlendNeverMissesMoreThanLinear) {
+  const auto dem = testing::make_random_terrain(161, 161, 22);
+  const auto eye = eye_at(dem, 40, 120, 2.0);
+  visibility::ViewshedOptions o;
+  o.algorithm = Algorithm::kR3;
+  auto exact = visibility::compute_viewshed(dem, eye, o);
+  o.algorithm = Algorithm::kRadial;
+  auto linear = visibility::compute_viewshed(dem, eye, o);
+  o.radial.blend = visibility::RayBlend::kMin;
+  auto low = visibility::compute_viewshed(dem, eye, o);
+  ASSERT_TRUE(exact.ok() && linear.ok() && low.ok());
+  EXPECT_LE(visibility::compare_viewsheds(*low, *exact, 0.0).missed_visible,
+            visibility::compare_viewsheds(*linear, *exact, 0.0).missed_visible);
+}
+
+TEST(RadialSweep, RejectsBadKnobs) {
+  const auto dem = grid_dem(10, 10, [](int, int) { return 0.0; });
+  visibility::ViewshedOptions o;
+  o.radial.ray_spacing = 0.0;
+  auto vs = visibility::compute_viewshed(dem, eye_at(dem, 5, 5, 2), o);
+  ASSERT_FALSE(vs.ok());
+  EXPECT_EQ(vs.error().field, "ray_spacing");
+  o = {};
+  o.max_distance = -5;
+  vs = visibility::compute_viewshed(dem, eye_at(dem, 5, 5, 2), o);
+  ASSERT_FALSE(vs.ok());
+  EXPECT_EQ(vs.error().field, "max_distance");
+  EXPECT_NE(vs.error().message.find("-5"), std::string::npos);
+  o = {};
+  o.target_height = std::nan("");
+  vs = visibility::compute_viewshed(dem, eye_at(dem, 5, 5, 2), o);
+  ASSERT_FALSE(vs.ok());
+  EXPECT_EQ(vs.error().field, "target_height");
+  o = {};
+  o.curvature_coefficient = std::numeric_limits<double>::infinity();
+  vs = visibility::compute_viewshed(dem, eye_at(dem, 5, 5, 2), o);
+  ASSERT_FALSE(vs.ok());
+  EXPECT_EQ(vs.error().field, "curvature_coefficient");
+}
+
+}  // namespace
+}  // namespace horizon
