@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# Installs every Debian 12 package that Horizon's build, tests and demo need.
+# Idempotent: when all of them are already installed it touches nothing (no
+# apt-get at all). Packages come from Debian's own archive only. Uses sudo
+# when not run as root.
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+
+packages=(
+  # build
+  cmake ninja-build g++ pkg-config
+  # engine libraries
+  libboost-dev nlohmann-json3-dev libgeographiclib-dev
+  libopenimageio-dev
+  openimageio-tools  # OpenImageIO's CMake package refuses to load without its tools (/usr/bin/iconvert)
+  libgeotiff-dev libtiff-dev
+  # GPU path (EGL, headless Mesa)
+  libegl-dev libegl-mesa0 libgl1-mesa-dri libgles-dev libopengl-dev
+  # daemon
+  libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
+  # tests and benchmarks; gdal-bin gives gdalinfo (georeferencing checks) and gdal_viewshed (the speed peer)
+  libgtest-dev libbenchmark-dev gdal-bin python3
+)
+
+missing=()
+for package in "${packages[@]}"; do
+  status="$(dpkg-query -W -f='${db:Status-Status}' "$package" 2>/dev/null || true)"
+  [[ "$status" == "installed" ]] || missing+=("$package")
+done
+
+if ((${#missing[@]} == 0)); then
+  echo "setup: all ${#packages[@]} packages are installed"
+  exit 0
+fi
+
+sudo=()
+if [[ "$(id -u)" -ne 0 ]]; then
+  if ! command -v sudo >/dev/null 2>&1; then
+    echo "setup: need root or sudo to install: ${missing[*]}" >&2
+    exit 1
+  fi
+  sudo=(sudo)
+fi
+
+echo "setup: installing ${missing[*]}"
+"${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get update
+"${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends "${missing[@]}"
