@@ -26,7 +26,7 @@ constexpr FlagSpec kFlags[] = {
     {"--curvature", "", "C", "Curvature/refraction coefficient as GDAL's (default 0.85714; 0 disables)"},
     {"--nodata", "", "POLICY", "Voids: 'transparent' (default, never block) or 'fill:H' (terrain at H metres)"},
     {"--algorithm", "", "ALG", "'fast' (radial occlusion height field, default) or 'r3' (exact, slow)"},
-    {"--ray-spacing", "", "S", "fast: ray spacing in cells, (0, 4]; smaller is slower and closer to r3"},
+    {"--ray-spacing", "", "S", "fast: ray spacing in cells, (0, 4], default 0.5; smaller is slower, closer to r3"},
     {"--threads", "", "N", "Worker threads (default 0 = all cores)"},
     {"--output", "", "KIND", "Raster written: 'visible' (default), 'ohf' or 'min-target-height'"},
     {"--out", "-o", "OUT.tif", "GeoTIFF to write (required)"},

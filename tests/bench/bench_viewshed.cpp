@@ -49,6 +49,8 @@ geodesy::GridPoint centre_eye(const terrain::Dem& dem) {
   geodesy::GridPoint p;
   p.col = dem.width() / 2;
   p.row = dem.height() / 2;
+  p.x = dem.georef.transform.x_at(p.col);  // the metric scale is taken here
+  p.y = dem.georef.transform.y_at(p.row);
   p.ground = dem.elevation.at(static_cast<int>(p.col), static_cast<int>(p.row));
   p.elevation = p.ground + 2.0;
   return p;

@@ -33,7 +33,7 @@ double r3_horizon(const terrain::Grid<float>& z, const ViewFrame& f, double tc, 
 Status r3_ohf(const terrain::Grid<float>& z, const ViewFrame& f, unsigned threads, const RunControl* control,
               terrain::Grid<float>& ohf, WorkStats& stats) {
   const terrain::Window& win = f.window;
-  ohf = terrain::Grid<float>(win.width(), win.height(), std::numeric_limits<float>::quiet_NaN());
+  reset_output(ohf, win);
   std::atomic<std::uint64_t> evaluated{0}, samples{0};
   std::atomic<bool> stop{false};
   std::atomic<int> rows_done{0};

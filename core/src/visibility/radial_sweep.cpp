@@ -320,7 +320,7 @@ Status radial_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const Radia
     return make_error(ErrorCode::kResourceExhausted,
                       "dem: the radial sweep handles up to 2^31 cells; this DEM has " + std::to_string(z.size()),
                       "dem");
-  ohf = terrain::Grid<float>(win.width(), win.height(), std::numeric_limits<float>::quiet_NaN());
+  reset_output(ohf, win);
   const SweepConstants c{static_cast<float>(f.eye), f.curvature, f.max_distance,
                          options.blend};
   const std::ptrdiff_t pitch = z.width();

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "horizon/geodesy/crs.hpp"
@@ -47,6 +48,14 @@ bool ViewFrame::in_range(int col, int row) const {
   const double dx = (col - observer_col) * metres_per_col;
   const double dy = (row - observer_row) * metres_per_row;
   return dx * dx + dy * dy <= max_distance * max_distance;
+}
+
+void reset_output(terrain::Grid<float>& ohf, const terrain::Window& window) {
+  if (ohf.width() == window.width() && ohf.height() == window.height()) {
+    std::fill(ohf.values().begin(), ohf.values().end(), std::numeric_limits<float>::quiet_NaN());
+    return;
+  }
+  ohf = terrain::Grid<float>(window.width(), window.height(), std::numeric_limits<float>::quiet_NaN());
 }
 
 Result<ViewFrame> make_view_frame(const terrain::Dem& dem, const geodesy::GridPoint& observer,
