@@ -20,6 +20,18 @@ terrain::Grid<float> crop(const terrain::Grid<float>& z, const terrain::Window& 
   return out;
 }
 
+// A window-sized raster holding f(ohf, z) where the result has an answer, NaN elsewhere.
+template <class F>
+terrain::Grid<float> per_answered_cell(const ViewshedResult& result, F&& f) {
+  terrain::Grid<float> out(result.ohf.width(), result.ohf.height(), kNaN);
+  const auto ohf = result.ohf.values();
+  const auto z = result.terrain.values();
+  auto dst = out.values();
+  for (std::size_t i = 0; i < ohf.size(); ++i)
+    if (!std::isnan(ohf[i]) && !std::isnan(z[i])) dst[i] = f(ohf[i], z[i]);
+  return out;
+}
+
 bool has_voids(const terrain::Grid<float>& z) {
   return std::any_of(z.values().begin(), z.values().end(), [](float v) { return std::isnan(v); });
 }
@@ -66,13 +78,7 @@ Result<ViewshedResult> compute_viewshed(const terrain::Dem& dem, const geodesy::
 }
 
 terrain::Grid<float> min_target_height(const ViewshedResult& result) {
-  terrain::Grid<float> out(result.ohf.width(), result.ohf.height(), kNaN);
-  const auto ohf = result.ohf.values();
-  const auto z = result.terrain.values();
-  auto dst = out.values();
-  for (std::size_t i = 0; i < ohf.size(); ++i)
-    if (!std::isnan(ohf[i]) && !std::isnan(z[i])) dst[i] = std::max(0.0f, ohf[i] - z[i]);
-  return out;
+  return per_answered_cell(result, [](float ohf, float z) { return std::max(0.0f, ohf - z); });
 }
 
 terrain::Grid<std::uint8_t> visibility_mask(const ViewshedResult& result, double target_height) {
@@ -88,13 +94,7 @@ terrain::Grid<std::uint8_t> visibility_mask(const ViewshedResult& result, double
 }
 
 terrain::Grid<float> ohf_raster(const ViewshedResult& result) {
-  terrain::Grid<float> out(result.ohf.width(), result.ohf.height(), kNaN);
-  const auto ohf = result.ohf.values();
-  const auto z = result.terrain.values();
-  auto dst = out.values();
-  for (std::size_t i = 0; i < ohf.size(); ++i)
-    if (!std::isnan(ohf[i]) && !std::isnan(z[i])) dst[i] = std::max(ohf[i], z[i]);
-  return out;
+  return per_answered_cell(result, [](float ohf, float z) { return std::max(ohf, z); });
 }
 
 terrain::Georeference window_georef(const terrain::Dem& dem, const ViewshedResult& result) {
