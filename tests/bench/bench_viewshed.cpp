@@ -69,7 +69,11 @@ void run_radial(benchmark::State& state, const terrain::Dem& dem, double spacing
   visibility::WorkStats stats;
   for (auto _ : state) {
     stats = {};
-    auto status = visibility::radial_ohf(dem.elevation, *frame, o.radial, 0, nullptr, ohf, stats);
+    const Status status = visibility::radial_ohf(dem.elevation, *frame, o.radial, 0, nullptr, ohf, stats);
+    if (!status.ok()) {
+      state.SkipWithError(status.error().message.c_str());
+      return;
+    }
     benchmark::DoNotOptimize(ohf.data());
   }
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * stats.cells_evaluated));
@@ -90,10 +94,18 @@ void BM_R3Synthetic(benchmark::State& state) {
   const auto dem = synthetic(static_cast<int>(state.range(0)));
   visibility::ViewshedOptions o;
   auto frame = visibility::make_view_frame(dem, centre_eye(dem), o);
+  if (!frame.ok()) {
+    state.SkipWithError(frame.error().message.c_str());
+    return;
+  }
   terrain::Grid<float> ohf;
   visibility::WorkStats stats;
   for (auto _ : state) {
-    auto status = visibility::r3_ohf(dem.elevation, *frame, 0, nullptr, ohf, stats);
+    const Status status = visibility::r3_ohf(dem.elevation, *frame, 0, nullptr, ohf, stats);
+    if (!status.ok()) {
+      state.SkipWithError(status.error().message.c_str());
+      return;
+    }
     benchmark::DoNotOptimize(ohf.data());
   }
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * stats.cells_evaluated));

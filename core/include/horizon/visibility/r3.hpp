@@ -29,7 +29,8 @@ namespace horizon::visibility {
 
 // Fills `ohf` (sized frame.window, cell (0,0) = window corner) with the exact
 // OHF of every in-range cell; NaN for cells out of range or on a void (when
-// voids are transparent). `elevation` already has voids filled or NaN per
+// voids are transparent). `ohf`'s storage is reused when it already has the
+// window's size (see reset_output()). `elevation` already has voids filled or NaN per
 // policy.
 Status r3_ohf(const terrain::Grid<float>& elevation, const ViewFrame& frame, unsigned threads,
               const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats);

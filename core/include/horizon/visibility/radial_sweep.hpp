@@ -30,7 +30,7 @@
 
 namespace horizon::visibility {
 
-// Same contract as r3_ohf(): fills `ohf` (sized frame.window, storage reused when it already has that size) with the OHF of
+// Same contract as r3_ohf(): fills `ohf` (sized frame.window) with the OHF of
 // every in-range cell, NaN out of range or on a transparent void.
 Status radial_ohf(const terrain::Grid<float>& elevation, const ViewFrame& frame, const RadialOptions& options,
                   unsigned threads, const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats);
