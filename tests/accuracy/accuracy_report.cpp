@@ -7,6 +7,7 @@
 // Markdown table row: visible-set IoU, missed-visible and extra-visible rates,
 // OHF RMSE / max in metres, both run times. With --check it exits 1 when any
 // row misses the bar of issue #2 (IoU >= 99.0 %, missed <= 0.5 %).
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -23,6 +24,17 @@ using namespace horizon;
 
 namespace {
 
+// Parses a finite number or explains what was wrong with the flag's value.
+bool parse_number(const char* flag, const char* text, double& out) {
+  char* end = nullptr;
+  out = text ? std::strtod(text, &end) : 0.0;
+  if (!text || end == text || *end != '\0' || !std::isfinite(out)) {
+    std::fprintf(stderr, "accuracy_report: %s: expected a number, got '%s'\n", flag, text ? text : "");
+    return false;
+  }
+  return true;
+}
+
 int usage() {
   std::fprintf(stderr, "usage: accuracy_report [--height M] [--max-distance M] [--threads N] [--ray-spacing S] [--check] DEM...\n");
   return 2;
@@ -38,22 +50,16 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&]() -> const char* { return i + 1 < argc ? argv[++i] : nullptr; };
+    double number = 0;
     if (a == "--height") {
-      const char* v = value();
-      if (!v) return usage();
-      height = std::atof(v);
+      if (!parse_number("--height", value(), height)) return usage();
     } else if (a == "--max-distance") {
-      const char* v = value();
-      if (!v) return usage();
-      options.max_distance = std::atof(v);
+      if (!parse_number("--max-distance", value(), options.max_distance)) return usage();
     } else if (a == "--threads") {
-      const char* v = value();
-      if (!v) return usage();
-      options.threads = static_cast<unsigned>(std::atoi(v));
+      if (!parse_number("--threads", value(), number) || number < 0) return usage();
+      options.threads = static_cast<unsigned>(number);
     } else if (a == "--ray-spacing") {
-      const char* v = value();
-      if (!v) return usage();
-      options.radial.ray_spacing = std::atof(v);
+      if (!parse_number("--ray-spacing", value(), options.radial.ray_spacing)) return usage();
     } else if (a == "--check") {
       check = true;
     } else if (!a.empty() && a[0] == '-') {
