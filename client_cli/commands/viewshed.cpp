@@ -25,7 +25,9 @@ constexpr FlagSpec kFlags[] = {
     {"--max-distance", "", "M", "Ground distance limit, metres (default: the whole DEM)"},
     {"--curvature", "", "C", "Curvature/refraction coefficient as GDAL's (default 0.85714; 0 disables)"},
     {"--nodata", "", "POLICY", "Voids: 'transparent' (default, never block) or 'fill:H' (terrain at H metres)"},
-    {"--algorithm", "", "ALG", "'fast' (radial occlusion height field, default) or 'r3' (exact, slow)"},
+    {"--algorithm", "", "ALG",
+     "'fast' (radial occlusion height field, default), 'exact' (R3's answers, faster), 'conservative' (never hides "
+     "what R3 sees) or 'r3' (the exact reference, slow)"},
     {"--ray-spacing", "", "S", "fast: ray spacing in cells, (0, 4], default 0.5; smaller is slower, closer to r3"},
     {"--threads", "", "N", "Worker threads (default 0 = all cores)"},
     {"--output", "", "KIND", "Raster written: 'visible' (default), 'ohf' or 'min-target-height'"},
@@ -35,7 +37,7 @@ constexpr FlagSpec kFlags[] = {
     {"--json", "", "", "Print the summary as a JSON document"},
 };
 
-constexpr std::string_view kAlgorithms[] = {"fast", "r3"};
+constexpr std::string_view kAlgorithms[] = {"fast", "exact", "conservative", "r3"};
 constexpr std::string_view kOutputs[] = {"visible", "ohf", "min-target-height"};
 
 enum class OutputKind { kVisible, kOhf, kMinTargetHeight };
@@ -86,7 +88,7 @@ Request parse_request(const Args& args) {
   o.curvature_coefficient = args.non_negative("--curvature").value_or(o.curvature_coefficient);
   if (auto policy = args.text("--nodata")) o.nodata = parse_nodata(*policy, o.nodata_fill_height);
   if (auto algorithm = args.choice("--algorithm", kAlgorithms)) r.algorithm_name = *algorithm;
-  o.algorithm = r.algorithm_name == "r3" ? visibility::Algorithm::kR3 : visibility::Algorithm::kRadial;
+  o.algorithm = *visibility::parse_algorithm(r.algorithm_name);
   if (auto spacing = args.non_negative("--ray-spacing")) o.radial.ray_spacing = *spacing;
   o.threads = args.non_negative_integer("--threads").value_or(0);
   if (auto output = args.choice("--output", kOutputs)) r.output_name = *output;
@@ -221,7 +223,7 @@ int run_viewshed(const Args& args) {
             << "  algorithm:  " << r.algorithm_name
             << (r.options.algorithm == visibility::Algorithm::kRadial
                     ? " (radial occlusion height field, ray spacing " + fixed(r.options.radial.ray_spacing, 2) + ")"
-                    : std::string(" (exact R3)"))
+                    : std::string(""))
             << '\n'
             << "  compute:    " << fixed(stats.seconds, 3) << " s (" << fixed(total_seconds, 3) << " s in all)\n"
             << "  wrote:      " << r.out_path << " (" << r.output_name << ")\n";

@@ -68,6 +68,8 @@ Result<ViewshedResult> compute_viewshed(const terrain::Dem& dem, const geodesy::
       status = radial_ohf(*elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats);
       break;
     case Algorithm::kR3:
+    case Algorithm::kExact:         // until its own sweep lands: R3 is exact (and so conservative)
+    case Algorithm::kConservative:
       status = r3_ohf(*elevation, *frame, options.threads, control, result.ohf, result.stats);
       break;
   }

@@ -6,14 +6,20 @@
 #pragma once
 
 #include <limits>
+#include <optional>
+#include <string_view>
 
 #include "horizon/common/error.hpp"
 
 namespace horizon::visibility {
 
+// The algorithm, named by the accuracy it promises (names as the CLI, the API
+// and `horizon bench` spell them: algorithm_name() / parse_algorithm()).
 enum class Algorithm {
-  kRadial,  // default: perspective-modulated radial max propagation (patent 7,027,046), O(cells)
-  kR3,      // exact reference: every target's segment tested at every grid-line crossing, O(cells * distance)
+  kRadial,        // "fast" (default): perspective-modulated radial max propagation (patent 7,027,046), O(cells)
+  kR3,            // "r3": the exact reference, every target's segment tested at every grid-line crossing
+  kExact,         // "exact": R3's answers, computed faster than R3
+  kConservative,  // "conservative": never reports hidden what R3 sees (0 missed-visible); may over-report visible
 };
 
 enum class NodataPolicy {
@@ -51,6 +57,10 @@ struct ViewshedOptions {
   RadialOptions radial;
   unsigned threads = 0;  // worker threads; 0 = all hardware threads
 };
+
+// "fast", "r3", "exact", "conservative".
+std::string_view algorithm_name(Algorithm algorithm);
+std::optional<Algorithm> parse_algorithm(std::string_view name);
 
 // Checks every field: finite, non-negative distances/heights, knob ranges.
 // The error's field names the option ("max_distance").

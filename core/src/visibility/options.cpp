@@ -1,0 +1,69 @@
+// Option names and validation.
+#include "horizon/visibility/options.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+namespace horizon::visibility {
+namespace {
+
+Error bad_option(const char* field, const std::string& what) {
+  return make_error(ErrorCode::kInvalidArgument, std::string(field) + ": " + what, field);
+}
+
+std::string number(double v) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%g", v);
+  return buffer;
+}
+
+}  // namespace
+
+Status validate_options(const ViewshedOptions& o) {
+  if (!std::isfinite(o.target_height) || o.target_height < 0)
+    return bad_option("target_height", "must be a finite number >= 0 metres, got " + number(o.target_height));
+  if (std::isnan(o.max_distance) || o.max_distance <= 0)
+    return bad_option("max_distance", "must be > 0 metres (or infinite for no limit), got " + number(o.max_distance));
+  if (!std::isfinite(o.curvature_coefficient) || o.curvature_coefficient < 0 || o.curvature_coefficient > 2)
+    return bad_option("curvature_coefficient",
+                      "must be a finite number in [0, 2] (0.85714 = standard refraction, 0 = flat earth), got " +
+                          number(o.curvature_coefficient));
+  if (!std::isfinite(o.nodata_fill_height))
+    return bad_option("nodata_fill_height", "must be a finite number of metres, got " + number(o.nodata_fill_height));
+  if (!std::isfinite(o.radial.ray_spacing) || o.radial.ray_spacing <= 0 || o.radial.ray_spacing > 4)
+    return bad_option("ray_spacing", "must be in (0, 4] cells, got " + number(o.radial.ray_spacing));
+  switch (o.algorithm) {
+    case Algorithm::kRadial:
+    case Algorithm::kR3:
+    case Algorithm::kExact:
+    case Algorithm::kConservative:
+      return Status::Ok();
+  }
+  return bad_option("algorithm", "unknown algorithm value " + number(static_cast<int>(o.algorithm)));
+}
+
+namespace {
+struct NamedAlgorithm {
+  Algorithm algorithm;
+  std::string_view name;
+};
+constexpr NamedAlgorithm kNames[] = {{Algorithm::kRadial, "fast"},
+                                     {Algorithm::kR3, "r3"},
+                                     {Algorithm::kExact, "exact"},
+                                     {Algorithm::kConservative, "conservative"}};
+}  // namespace
+
+std::string_view algorithm_name(Algorithm algorithm) {
+  for (const auto& n : kNames)
+    if (n.algorithm == algorithm) return n.name;
+  return "unknown";
+}
+
+std::optional<Algorithm> parse_algorithm(std::string_view name) {
+  for (const auto& n : kNames)
+    if (n.name == name) return n.algorithm;
+  return std::nullopt;
+}
+
+}  // namespace horizon::visibility
