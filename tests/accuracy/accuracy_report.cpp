@@ -36,7 +36,7 @@ bool parse_number(const char* flag, const char* text, double& out) {
 }
 
 int usage() {
-  std::fprintf(stderr, "usage: accuracy_report [--height M] [--max-distance M] [--threads N] [--ray-spacing S] [--check] DEM...\n");
+  std::fprintf(stderr, "usage: accuracy_report [--algorithm NAME] [--blend B] [--height M] [--max-distance M] [--threads N] [--ray-spacing S] [--check] DEM...\n");
   return 2;
 }
 
@@ -46,6 +46,7 @@ int main(int argc, char** argv) {
   double height = 2.0;
   visibility::ViewshedOptions options;
   bool check = false;
+  visibility::Algorithm tested = visibility::Algorithm::kRadial;
   std::vector<std::string> dems;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -60,6 +61,25 @@ int main(int argc, char** argv) {
       options.threads = static_cast<unsigned>(number);
     } else if (a == "--ray-spacing") {
       if (!parse_number("--ray-spacing", value(), options.radial.ray_spacing)) return usage();
+    } else if (a == "--algorithm") {
+      const char* v = value();
+      const auto parsed = visibility::parse_algorithm(v ? v : "");
+      if (!parsed) {
+        std::fprintf(stderr, "accuracy_report: --algorithm: expected fast, exact, conservative or r3, got '%s'\n",
+                     v ? v : "");
+        return usage();
+      }
+      tested = *parsed;
+    } else if (a == "--blend") {
+      const char* v = value();
+      const std::string b = v ? v : "";
+      if (b == "linear") options.radial.blend = visibility::RayBlend::kLinear;
+      else if (b == "min") options.radial.blend = visibility::RayBlend::kMin;
+      else if (b == "resample") options.radial.blend = visibility::RayBlend::kResample;
+      else {
+        std::fprintf(stderr, "accuracy_report: --blend: expected linear, min or resample, got '%s'\n", b.c_str());
+        return usage();
+      }
     } else if (a == "--check") {
       check = true;
     } else if (!a.empty() && a[0] == '-') {
@@ -93,7 +113,7 @@ int main(int argc, char** argv) {
       }
       options.algorithm = visibility::Algorithm::kR3;
       auto exact = visibility::compute_viewshed(*dem, *eye, options);
-      options.algorithm = visibility::Algorithm::kRadial;
+      options.algorithm = tested;
       auto fast = visibility::compute_viewshed(*dem, *eye, options);
       if (!exact.ok() || !fast.ok()) {
         std::fprintf(stderr, "accuracy_report: %s\n",

@@ -192,6 +192,7 @@ TEST(RadialSweep, MinBlendNeverMissesMoreThanLinear) {
   o.algorithm = Algorithm::kR3;
   auto exact = visibility::compute_viewshed(dem, eye, o);
   o.algorithm = Algorithm::kRadial;
+  o.radial.blend = visibility::RayBlend::kLinear;
   auto linear = visibility::compute_viewshed(dem, eye, o);
   o.radial.blend = visibility::RayBlend::kMin;
   auto low = visibility::compute_viewshed(dem, eye, o);

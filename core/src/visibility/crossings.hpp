@@ -5,6 +5,9 @@
 // y = integer strictly between the endpoints. On a column line the terrain is
 // the linear interpolation between the two cell centres above and below the
 // crossing; on a row line, between the two left and right of it.
+//
+// R3 (r3.cpp) and the exact sweep (exact.cpp) both take their samples through
+// this file, so the same crossing always gives the same double.
 #pragma once
 
 #include <algorithm>
@@ -12,42 +15,73 @@
 #include <limits>
 
 #include "horizon/terrain/grid.hpp"
+#include "horizon/visibility/view_frame.hpp"
 
 namespace horizon::visibility::detail {
 
-// Calls visit(t, col, row, terrain) for every crossing, where t in (0, 1) is
-// the fraction of the segment. Column crossings come first, in order of t,
-// then row crossings, in order of t. terrain is NaN where a void is involved.
-// Positions are clamped to the grid (they leave it only within the outer
-// half-cell margin an endpoint may sit in).
+enum class Axis { kColumns, kRows };  // crossings with column lines x = c, or with row lines y = r
+
+// Visits, for one family of grid lines, the crossings strictly between the
+// segment's endpoints whose line index lies in [line_lo, line_hi]:
+// visit(t, col, row, terrain), t in (0, 1) the fraction of the segment, in
+// order of t. terrain is NaN where a void is involved. Positions along the
+// line are clamped to the grid (they leave it only within the outer half-cell
+// margin an endpoint may sit in).
+template <class Visit>
+void for_each_crossing_on(Axis axis, const terrain::Grid<float>& z, double c0, double r0, double c1, double r1,
+                          int line_lo, int line_hi, Visit&& visit) {
+  const bool columns = axis == Axis::kColumns;
+  const double a0 = columns ? c0 : r0, a1 = columns ? c1 : r1;
+  const double b0 = columns ? r0 : c0, b1 = columns ? r1 : c1;
+  const int line_count = columns ? z.width() : z.height();
+  const int pos_count = columns ? z.height() : z.width();
+  const double da = a1 - a0, db = b1 - b0;
+  if (da == 0) return;
+  const int step = da > 0 ? 1 : -1;
+  int first = da > 0 ? static_cast<int>(std::floor(a0)) + 1 : static_cast<int>(std::ceil(a0)) - 1;
+  int last = da > 0 ? static_cast<int>(std::ceil(a1)) - 1 : static_cast<int>(std::floor(a1)) + 1;
+  if (step > 0) {
+    first = std::max(first, line_lo);
+    last = std::min(last, line_hi);
+  } else {
+    first = std::min(first, line_hi);
+    last = std::max(last, line_lo);
+  }
+  for (int line = first; step > 0 ? line <= last : line >= last; line += step) {
+    const double t = (line - a0) / da;
+    const double pos = std::clamp(b0 + t * db, 0.0, double(pos_count - 1));
+    const int p0 = std::min(static_cast<int>(pos), pos_count - 2);
+    double terrain = std::numeric_limits<double>::quiet_NaN();
+    if (line >= 0 && line < line_count) {
+      const double f = pos - p0;
+      terrain = columns ? z.at(line, p0) + f * (double(z.at(line, p0 + 1)) - z.at(line, p0))
+                        : z.at(p0, line) + f * (double(z.at(p0 + 1, line)) - z.at(p0, line));
+    }
+    if (columns)
+      visit(t, double(line), pos, terrain);
+    else
+      visit(t, pos, double(line), terrain);
+  }
+}
+
+// Every crossing: column crossings first, in order of t, then row crossings.
 template <class Visit>
 void for_each_crossing(const terrain::Grid<float>& z, double c0, double r0, double c1, double r1, Visit&& visit) {
-  const int w = z.width(), h = z.height();
-  // Walk the integers strictly between a0 and a1 along one axis; `sample`
-  // reads the grid given the integer line and the continuous cross position.
-  auto walk = [&](double a0, double a1, double b0, double b1, int line_count, int pos_count, auto&& sample,
-                  bool along_columns) {
-    const double da = a1 - a0, db = b1 - b0;
-    if (da == 0) return;
-    const int step = da > 0 ? 1 : -1;
-    const int first = da > 0 ? static_cast<int>(std::floor(a0)) + 1 : static_cast<int>(std::ceil(a0)) - 1;
-    const int last = da > 0 ? static_cast<int>(std::ceil(a1)) - 1 : static_cast<int>(std::floor(a1)) + 1;
-    for (int line = first; step > 0 ? line <= last : line >= last; line += step) {
-      const double t = (line - a0) / da;
-      const double pos = std::clamp(b0 + t * db, 0.0, double(pos_count - 1));
-      const int p0 = std::min(static_cast<int>(pos), pos_count - 2);
-      const double terrain = (line < 0 || line >= line_count) ? std::numeric_limits<double>::quiet_NaN()
-                                                               : sample(line, p0, pos - p0);
-      if (along_columns)
-        visit(t, double(line), pos, terrain);
-      else
-        visit(t, pos, double(line), terrain);
-    }
-  };
-  walk(c0, c1, r0, r1, w, h,
-       [&](int c, int p0, double f) { return z.at(c, p0) + f * (double(z.at(c, p0 + 1)) - z.at(c, p0)); }, true);
-  walk(r0, r1, c0, c1, h, w,
-       [&](int r, int p0, double f) { return z.at(p0, r) + f * (double(z.at(p0 + 1, r)) - z.at(p0, r)); }, false);
+  constexpr int kAll = std::numeric_limits<int>::max();
+  for_each_crossing_on(Axis::kColumns, z, c0, r0, c1, r1, -kAll, kAll, visit);
+  for_each_crossing_on(Axis::kRows, z, c0, r0, c1, r1, -kAll, kAll, visit);
+}
+
+// R3's slope of a sample at fraction t of a sight line `total` metres long:
+// (terrain - curvature d^2 - eye) / d with d = t * total.
+inline double r3_slope(const ViewFrame& f, double total, double t, double terrain) {
+  const double d = t * total;
+  return (terrain - f.curvature * d * d - f.eye) / d;
+}
+
+// R3's OHF from the horizon slope of a target `d` metres away.
+inline double r3_ohf_value(const ViewFrame& f, double d, double horizon) {
+  return f.eye + d * horizon + f.curvature * d * d;
 }
 
 }  // namespace horizon::visibility::detail

@@ -1,5 +1,6 @@
 // One explained sight line, by R3's crossing rule (see r3.hpp and crossings.hpp).
 #include "horizon/visibility/line_of_sight.hpp"
+#include "horizon/visibility/viewshed.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -50,7 +51,10 @@ Result<LosResult> line_of_sight(const terrain::Dem& dem, const geodesy::GridPoin
   for (const ProfileSample& s : out.profile) {
     if (std::isnan(s.terrain)) continue;  // voids never block
     out.clearance = std::min(out.clearance, s.sight_line - s.terrain);
-    if (s.terrain > s.sight_line && !out.first_block) out.first_block = s;
+    // Blocking is judged for the target raised by kTieTolerance, as the
+    // viewshed does (viewshed.hpp), so an exact graze never decides.
+    const double lift = out.distance > 0 ? kTieTolerance * s.distance / out.distance : 0.0;
+    if (s.terrain > s.sight_line + lift && !out.first_block) out.first_block = s;
   }
   out.visible = !out.first_block.has_value();
   return out;

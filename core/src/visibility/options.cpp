@@ -33,6 +33,16 @@ Status validate_options(const ViewshedOptions& o) {
     return bad_option("nodata_fill_height", "must be a finite number of metres, got " + number(o.nodata_fill_height));
   if (!std::isfinite(o.radial.ray_spacing) || o.radial.ray_spacing <= 0 || o.radial.ray_spacing > 4)
     return bad_option("ray_spacing", "must be in (0, 4] cells, got " + number(o.radial.ray_spacing));
+  if (o.radial.thinning_levels < 0 || o.radial.thinning_levels > 6)
+    return bad_option("thinning_levels", "must be an integer in [0, 6], got " + number(o.radial.thinning_levels));
+  switch (o.radial.blend) {
+    case RayBlend::kLinear:
+    case RayBlend::kMin:
+    case RayBlend::kResample:
+      break;
+    default:
+      return bad_option("blend", "unknown ray blend value " + number(static_cast<int>(o.radial.blend)));
+  }
   switch (o.algorithm) {
     case Algorithm::kRadial:
     case Algorithm::kR3:

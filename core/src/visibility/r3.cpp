@@ -23,8 +23,7 @@ double r3_horizon(const terrain::Grid<float>& z, const ViewFrame& f, double tc, 
   if (total == 0) return horizon;
   detail::for_each_crossing(z, f.observer_col, f.observer_row, tc, tr,
                             [&](double t, double, double, double terrain) {
-                              const double d = t * total;
-                              const double slope = (terrain - f.curvature * d * d - f.eye) / d;
+                              const double slope = detail::r3_slope(f, total, t, terrain);
                               if (slope > horizon) horizon = slope;  // NaN (void) never wins
                             });
   return horizon;
@@ -50,7 +49,7 @@ Status r3_ohf(const terrain::Grid<float>& z, const ViewFrame& f, unsigned thread
       if (!f.in_range(col, row) || std::isnan(z.at(col, row))) continue;
       const double horizon = r3_horizon(z, f, col, row);
       const double d = f.distance(col, row);
-      const double value = horizon == kNoHorizon ? kNoHorizon : f.eye + d * horizon + f.curvature * d * d;
+      const double value = horizon == kNoHorizon ? kNoHorizon : detail::r3_ohf_value(f, d, horizon);
       ohf.at(col - win.col0, static_cast<int>(i)) = static_cast<float>(value);
       ++n;
       s += static_cast<std::uint64_t>(std::abs(std::floor(col) - std::floor(f.observer_col)) +

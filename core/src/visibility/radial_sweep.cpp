@@ -6,8 +6,15 @@
 // maximum of slopes along radial lines; multiplying the maximum back by the
 // distance gives the occlusion height field. Here the radial lines are exact
 // rays marched grid line by grid line, sampling the terrain exactly where R3
-// does (see r3.hpp), so the only approximation is the angular blend between
-// the two rays that bracket a cell centre.
+// does (see r3.hpp). Each ray also records *where* its maximum lies. A cell
+// centre lies between two rays; by default (RayBlend::kResample) it re-samples
+// its own sight line on the grid lines where those two rays found their
+// maxima, plus the line just before it, and takes the highest: every value is
+// one of R3's samples of the cell's sight line, so the only error is a
+// maximum that neither bracketing ray saw, and it errs towards "visible".
+// RadialBound::kLowerBound takes those samples through R3's own arithmetic,
+// which makes the result a strict lower bound of R3's OHF (Algorithm::
+// kConservative, and the pruning bound of Algorithm::kExact).
 //
 // Geometry of one sector. Sectors are described in (u, v) coordinates: u runs
 // along the sector's major axis away from the eye (rows for north/south,
@@ -19,7 +26,8 @@
 // along a grid line, i.e. R3's samples. A cell (i, j) takes its horizon from
 // the rays' state *before* their crossings in (k_{i-1}, k_i]: the exact segment
 // to a cell centre crosses no v line in its last unit step, so this is the
-// state that segment would have, up to the angular blend.
+// state that segment would have (the blends kLinear / kMin interpolate the
+// two rays' horizons by angle instead of re-sampling).
 //
 // Horizons are kept per unit step rather than per metre: a ray sample at step
 // k contributes sigma = (z - eye - curvature d^2) / k. Along one ray that is the
@@ -39,6 +47,7 @@
 #include <string>
 #include <vector>
 
+#include "crossings.hpp"
 #include "horizon/common/parallel.hpp"
 
 namespace horizon::visibility {
@@ -48,6 +57,15 @@ namespace {
 // rays never produces NaN from -inf arithmetic.
 constexpr float kNoHorizon = -1.0e30f;
 constexpr int kRaysPerTask = 192;
+// RadialOptions::thinning_levels: rays may be thinned near the eye, where
+// they crowd together: at step k only every 2^L-th ray marches, L =
+// floor(log2(k_far / k)) capped at the option, so the spacing between
+// marching rays stays within (ray_spacing / 2, ray_spacing] cells there.
+// Going outward, a ray that starts marching re-samples its path where its
+// neighbours found their horizons (see spawn_rays). kRaysPerTask is a
+// multiple of 2^kMaxThinning.
+constexpr int kMaxThinning = 6;
+static_assert(kRaysPerTask % (1 << kMaxThinning) == 0);
 
 // One sector, in (u, v) terms, addressing the elevation and output grids.
 struct Sector {
@@ -66,13 +84,17 @@ struct Sector {
   double eye_v = 0.0;
   double metres_u = 1.0, metres_v = 1.0;
   bool include_diagonal = true;  // north/south own |dv| == k, east/west do not
+  bool rows = true;              // u runs along rows (north/south: lines are rows, v = column)
 };
 
 struct SweepConstants {
-  float eye = 0.0f;
+  double eye = 0.0;
   double curvature = 0.0;
   double max_distance = 0.0;
   RayBlend blend = RayBlend::kLinear;
+  bool precise = false;  // re-sample through R3's arithmetic (RadialBound::kLowerBound)
+  const terrain::Grid<float>* grid = nullptr;  // for R3's arithmetic
+  const ViewFrame* frame = nullptr;
 };
 
 // Per-sector ray set and the nested per-line ranges of rays and cells.
@@ -84,14 +106,25 @@ struct SectorPlan {
   std::vector<float> curv_k;        // curvature * (ground metres per unit step along ray r)^2
   std::vector<int> cell_lo, cell_hi;  // per line: target cells j in [lo, hi], empty if lo > hi
   std::vector<int> ray_lo, ray_hi;    // per line: rays to update (nested: shrinking outward)
+  double k0 = 1.0, level_far = 0.0;   // first step; the far step that thinning levels are measured from
+  int max_level = 0;                  // RadialOptions::thinning_levels
+  std::vector<float> inv_step;        // per line: 1 / step
+  std::vector<float> inv_dv;          // per v index c: 1 / (c - eye_v), 0 where c == eye_v
 };
 
 inline double step_of(const Sector& s, int n) { return s.k0 + n; }
 
-SectorPlan plan_sector(const Sector& s, const SweepConstants& c, double ray_spacing) {
+// Floor of a / b for b > 0.
+inline int floor_div(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+
+SectorPlan plan_sector(const Sector& s, const SweepConstants& c, double ray_spacing, int thinning_levels) {
   SectorPlan p;
   const double k_far = step_of(s, s.lines - 1);
-  p.ray_half = std::max(1, static_cast<int>(std::ceil(k_far / ray_spacing)));
+  // A multiple of 2^levels / 2, so that every task's first and last ray
+  // survive thinning (tasks start kRaysPerTask apart from -ray_half).
+  p.max_level = std::clamp(thinning_levels, 0, kMaxThinning);
+  const int quantum = std::max(1, (1 << p.max_level) / 2);
+  p.ray_half = quantum * std::max(1, static_cast<int>(std::ceil(k_far / ray_spacing / quantum)));
   p.ray_step = 1.0 / p.ray_half;
   const int rays = 2 * p.ray_half + 1;
   p.slope.resize(rays);
@@ -105,6 +138,12 @@ SectorPlan plan_sector(const Sector& s, const SweepConstants& c, double ray_spac
     p.curv_k[r + p.ray_half] = static_cast<float>(c.curvature * metres_per_k * metres_per_k);
   }
 
+  p.k0 = s.k0;
+  p.level_far = k_far;
+  p.inv_step.resize(s.lines);
+  for (int n = 0; n < s.lines; ++n) p.inv_step[n] = static_cast<float>(1.0 / step_of(s, n));
+  p.inv_dv.resize(s.v_count);
+  for (int cv = 0; cv < s.v_count; ++cv) p.inv_dv[cv] = cv == s.eye_v ? 0.0f : static_cast<float>(1.0 / (cv - s.eye_v));
   p.cell_lo.assign(s.lines, 0);
   p.cell_hi.assign(s.lines, -1);
   p.ray_lo.assign(s.lines, 0);
@@ -165,29 +204,34 @@ struct LineStep {
   int j_max, zv;
 };
 
-// Crossing of a v grid line strictly inside (k_start, k) for rays [0, count).
+// Crossing of a v grid line strictly inside (k_start, k) for rays [0, count);
+// rays that cross none get cross_v = -1 and a slope that never wins
+// (kNoHorizon, or NaN where the clamped position reads a void). Every value is
+// computed for every ray and selected at the end: branch-free, so it
+// vectorises (with -fno-trapping-math, see CMakeLists.txt, for floor/ceil).
 inline void step_cross(const LineStep& ls, int count, const float* __restrict slope,
                        const float* __restrict inv_slope, const float* __restrict curv_k,
                        const float* __restrict prev, const float* __restrict cur, float* __restrict cross_slope,
                        int* __restrict cross_v) {
+  const float eye_v = ls.eye_v, k_start = ls.k_start, kf = ls.kf, v_max = ls.v_max, kp = ls.kp, eye = ls.eye;
+  const int zv = ls.zv;
   for (int i = 0; i < count; ++i) {
     const float m = slope[i];
-    const float v_start = ls.eye_v + m * ls.k_start, v_end = ls.eye_v + m * ls.kf;
+    const float v_start = eye_v + m * k_start, v_end = eye_v + m * kf;
     const float up = std::floor(v_start) + 1.0f, down = std::ceil(v_start) - 1.0f;
     const float cv = m > 0.0f ? up : down;
     // Integer masks rather than && / ||, which would become branches.
     const int crosses = (int(m > 0.0f) & int(up < v_end)) | (int(m < 0.0f) & int(down > v_end));
-    const int valid = crosses & int(cv >= 0.0f) & int(cv <= ls.v_max);
-    const float cv_safe = valid ? cv : 0.0f;
-    const int jc = static_cast<int>(cv_safe);
-    const float kc_any = (cv_safe - ls.eye_v) * inv_slope[i];  // computed for every ray, then selected
-    const float kc = valid ? kc_any : 1.0f;
-    const float tc = kc - ls.kp;
-    const float pa = prev[jc * ls.zv], pb = cur[jc * ls.zv];
+    const int valid = crosses & int(cv >= 0.0f) & int(cv <= v_max);
+    const float cv_clamped = std::min(std::max(cv, 0.0f), v_max);  // a readable line even when not valid
+    const int jc = static_cast<int>(cv_clamped);
+    const float kc = std::max((cv_clamped - eye_v) * inv_slope[i], 1.0e-6f);
+    const float tc = kc - kp;
+    const float pa = prev[jc * zv], pb = cur[jc * zv];
     const float z_cross = pa + tc * (pb - pa);
-    const float s_cross = (z_cross - ls.eye) / kc - curv_k[i] * kc;
-    cross_slope[i] = valid ? s_cross : kNoHorizon;
-    cross_v[i] = valid ? jc : -1;
+    const float s_cross = (z_cross - eye) / kc - curv_k[i] * kc;
+    cross_slope[i] = std::min(s_cross, valid ? 3.0e38f : kNoHorizon);
+    cross_v[i] = (jc + 1) * valid - 1;
   }
 }
 
@@ -195,7 +239,8 @@ inline void step_cross(const LineStep& ls, int count, const float* __restrict sl
 // running maxima. NaN slopes (voids) never win: `x > best ? x : best` keeps
 // best when x is NaN (and compiles to maxps).
 inline void step_line(const LineStep& ls, int count, const float* __restrict slope, const float* __restrict curv_k,
-                      const float* __restrict cur, const float* __restrict cross_slope, float* __restrict h) {
+                      const float* __restrict cur, const float* __restrict cross_slope,
+                      const int* __restrict cross_v, float* __restrict h, int* __restrict arg, int n) {
   const float inv_kf = 1.0f / ls.kf;
   for (int i = 0; i < count; ++i) {
     const float v = std::min(std::max(ls.eye_v + slope[i] * ls.kf, 0.0f), ls.v_max);
@@ -204,10 +249,106 @@ inline void step_line(const LineStep& ls, int count, const float* __restrict slo
     const float a = cur[j0 * ls.zv], b = cur[(j0 + 1) * ls.zv];
     const float s_line = (a + t * (b - a) - ls.eye) * inv_kf - curv_k[i] * ls.kf;
     float best = h[i];
+    int where = arg[i];
+    where = cross_slope[i] > best ? -2 - cross_v[i] : where;
     best = cross_slope[i] > best ? cross_slope[i] : best;
+    where = s_line > best ? n : where;
     best = s_line > best ? s_line : best;
     h[i] = best;
+    arg[i] = where;
   }
+}
+
+// Re-sampling a cell's own sight line (RayBlend::kResample). The cell at
+// step k, v = j has sight line v = eye_v + m k' (m = (j - eye_v) / k). Where a
+// bracketing ray found its horizon (on the u line at step n', or on the v line
+// c) the cell's sight line crosses the same grid line close by; its R3 sample
+// there, and at the last line before the cell, are taken. Every value is one
+// of R3's samples of that sight line, so the maximum never exceeds R3's
+// horizon: the result errs only towards "visible", and only when the sight
+// line's own maximum lies where neither bracketing ray had its maximum.
+struct CellLine {
+  const Sector* s;
+  const float* inv_step;  // 1 / (k0 + n) per line step n
+  const float* inv_dv;    // 1 / (c - eye_v) per v index c (0 where c == eye_v)
+  float eye, eye_v, v_max, k0, k;
+  float curvature, mu2, mv2;  // curvature per metre^2; metres per unit step along u and v, squared
+  int j_max, zv, line0, dir, line_count;
+  std::ptrdiff_t z_line;
+};
+
+struct CellRay {
+  float m, inv_m, curv_k;  // the cell's slope dv/dk, its inverse (0 when m == 0), curvature per unit step
+  int own_v = -1;          // the cell's own v line, which its sight line reaches only at the cell itself
+};
+
+inline CellRay cell_ray(const CellLine& L, int j) {
+  const float dj = static_cast<float>(j) - L.eye_v;
+  const float m = dj / L.k;
+  return {m, L.k * L.inv_dv[j], L.curvature * (L.mu2 + m * m * L.mv2), j};
+}
+
+// Sample on the u line at step n (the cell's line has a larger step).
+inline float sample_u(const CellLine& L, const CellRay& c, int n) {
+  const float kn = L.k0 + static_cast<float>(n);
+  const float v = std::min(std::max(L.eye_v + c.m * kn, 0.0f), L.v_max);
+  const int j0 = std::min(static_cast<int>(v), L.j_max);
+  const float t = v - static_cast<float>(j0);
+  const float* zl = L.s->z + (L.line0 + L.dir * n) * L.z_line;
+  const float a = zl[j0 * L.zv], b = zl[(j0 + 1) * L.zv];
+  return (a + t * (b - a) - L.eye) * L.inv_step[n] - c.curv_k * kn;
+}
+
+// Sample on the v line `vline`, if the sight line crosses it before the cell.
+inline float sample_v(const CellLine& L, const CellRay& c, int vline) {
+  if (c.inv_m == 0.0f || vline == c.own_v) return kNoHorizon;
+  const float kc = (static_cast<float>(vline) - L.eye_v) * c.inv_m;
+  if (!(kc > 0.0f && kc < L.k)) return kNoHorizon;
+  // Between the lines at steps k0 + n1 and k0 + n1 + 1 (n1 = -1: the line at or behind the eye).
+  const float x = kc - L.k0;
+  const int n1 = static_cast<int>(std::floor(x));
+  const float t = x - static_cast<float>(n1);
+  const int la = std::clamp(L.line0 + L.dir * n1, 0, L.line_count - 1);
+  const int lb = std::clamp(L.line0 + L.dir * (n1 + 1), 0, L.line_count - 1);
+  const float a = L.s->z[la * L.z_line + vline * L.zv], b = L.s->z[lb * L.z_line + vline * L.zv];
+  return (a + t * (b - a) - L.eye) * (c.m * L.inv_dv[vline]) - c.curv_k * kc;
+}
+
+inline float sample_at(const CellLine& L, const CellRay& c, int where) {
+  if (where >= 0) return sample_u(L, c, where);
+  if (where <= -2) return sample_v(L, c, -2 - where);
+  return kNoHorizon;
+}
+
+// The same re-sampling for RadialBound::kLowerBound, through R3's own
+// crossing arithmetic (crossings.hpp): each candidate is R3's sample of the
+// cell's sight line on that grid line, bit for bit, so the maximum never
+// exceeds R3's horizon and the OHF made from it (by R3's formula) never
+// exceeds R3's. Returns the horizon slope per metre, -inf when no candidate.
+double resample_r3(const Sector& s, const SweepConstants& c, int line, int j, int n, int a0, int a1) {
+  const ViewFrame& f = *c.frame;
+  const double tc = s.rows ? j : line, tr = s.rows ? line : j;
+  const double total = f.distance(tc, tr);
+  const detail::Axis u_axis = s.rows ? detail::Axis::kRows : detail::Axis::kColumns;
+  const detail::Axis v_axis = s.rows ? detail::Axis::kColumns : detail::Axis::kRows;
+  double best = -std::numeric_limits<double>::infinity();
+  auto take = [&](double t, double, double, double terrain) {
+    const double slope = detail::r3_slope(f, total, t, terrain);
+    if (slope > best) best = slope;  // NaN (void) never wins
+  };
+  auto sample = [&](detail::Axis axis, int index) {
+    detail::for_each_crossing_on(axis, *c.grid, f.observer_col, f.observer_row, tc, tr, index, index, take);
+  };
+  auto sample_code = [&](int where) {
+    if (where >= 0)
+      sample(u_axis, s.line0 + s.dir * where);
+    else if (where <= -2)
+      sample(v_axis, -2 - where);
+  };
+  if (n > 0) sample(u_axis, s.line0 + s.dir * (n - 1));
+  if (a0 != n - 1) sample_code(a0);
+  if (a1 != a0 && a1 != n - 1) sample_code(a1);
+  return best;
 }
 
 // Per-task scratch: one entry per ray of the task.
@@ -215,7 +356,69 @@ struct RayScratch {
   std::vector<float> horizon;     // running max slope up to the last line marched
   std::vector<float> cross_slope; // slope at the v-line crossing inside the current step, kNoHorizon if none
   std::vector<int> cross_v;       // the v-line crossed in the current step, -1 if none
+  std::vector<int> arg;           // where the horizon was found: line step n >= 0, or -2 - v for v-line v
+  std::vector<float> slope, inv_slope, curv_k;  // the marching rays' constants (copied from the plan)
 };
+
+int level_of(const SectorPlan& p, int n) {
+  if (p.max_level == 0 || p.level_far <= 0) return 0;
+  const double ratio = p.level_far / (p.k0 + n);
+  if (ratio < 2.0) return 0;
+  return std::min(p.max_level, static_cast<int>(std::floor(std::log2(ratio))));
+}
+
+// The marching rays' constants at `stride` (every stride-th ray from ra).
+void load_rays(RayScratch& s, const SectorPlan& p, int ra, int stride) {
+  const int count = static_cast<int>(s.horizon.size());
+  s.cross_slope.assign(count, kNoHorizon);
+  s.cross_v.assign(count, -1);
+  s.slope.resize(count);
+  s.inv_slope.resize(count);
+  s.curv_k.resize(count);
+  for (int i = 0; i < count; ++i) {
+    const int q = ra + i * stride + p.ray_half;
+    s.slope[i] = p.slope[q];
+    s.inv_slope[i] = p.inv_slope[q];
+    s.curv_k[i] = p.curv_k[q];
+  }
+}
+
+// Halves the spacing of the marching rays of a task: ray i becomes 2i and a
+// new ray 2i + 1 starts between i and i + 1. It has not marched the terrain
+// behind it, so it re-samples its own path where its two neighbours found
+// their horizons (as a cell does, see sample_at) and keeps the higher sample:
+// a real sample of its path, from which its own march continues. `L` is the
+// line before the one about to be marched (L.k = its step).
+void spawn_rays(RayScratch& s, const SectorPlan& p, int ra, int new_stride, const CellLine& L) {
+  const int old_count = static_cast<int>(s.horizon.size());
+  const int count = 2 * old_count - 1;
+  std::vector<float>& h = s.horizon;
+  std::vector<int>& arg = s.arg;
+  h.resize(count);
+  arg.resize(count);
+  for (int i = old_count - 1; i >= 0; --i) {
+    h[2 * i] = h[i];
+    arg[2 * i] = arg[i];
+  }
+  load_rays(s, p, ra, new_stride);
+  for (int i = 1; i < count; i += 2) {
+    const CellRay ray{s.slope[i], s.inv_slope[i], s.curv_k[i]};
+    // A void sample (NaN) is no horizon, as everywhere else.
+    const float sa = sample_at(L, ray, arg[i - 1]);
+    const float sb = arg[i + 1] == arg[i - 1] ? kNoHorizon : sample_at(L, ray, arg[i + 1]);
+    const float a = sa > kNoHorizon ? sa : kNoHorizon, b = sb > kNoHorizon ? sb : kNoHorizon;
+    h[i] = a >= b ? a : b;
+    arg[i] = a >= b ? arg[i - 1] : arg[i + 1];
+  }
+}
+
+// The level a task marches at on line n: level_of(), or 0 for a task whose
+// width is not a multiple of that level's stride (a narrow last task).
+int task_level(const SectorPlan& p, int n, int ra, int rb) {
+  const int level = level_of(p, n);
+  return (rb - ra) % (1 << level) == 0 ? level : 0;
+}
+
 
 // Marches rays [ra, rb] (inclusive, plan indices) of one sector through every
 // line and writes the cells whose bracketing pair (r, r + 1) has r in [ra, rb).
@@ -226,18 +429,20 @@ __attribute__((target_clones("avx2", "default")))
 #endif
 void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, int ra, int rb, RayScratch& scratch,
                 const RunControl* control, std::atomic<bool>& stop, std::uint64_t& steps, std::uint64_t& evaluated) {
-  const int count = rb - ra + 1;
-  scratch.horizon.assign(count, kNoHorizon);
-  scratch.cross_slope.assign(count, kNoHorizon);
-  scratch.cross_v.assign(count, -1);
-  const int base = ra + p.ray_half;  // plan index of ray ra
-  const float* slope = p.slope.data() + base;
-  const float* inv_slope = p.inv_slope.data() + base;
-  const float* curv_k = p.curv_k.data() + base;
+  int level = task_level(p, 0, ra, rb);
+  int stride = 1 << level;
+  scratch.horizon.assign((rb - ra) / stride + 1, kNoHorizon);
+  scratch.arg.assign(scratch.horizon.size(), -1);
+  load_rays(scratch, p, ra, stride);
+  int count = static_cast<int>(scratch.horizon.size());
   float* h = scratch.horizon.data();
   float* cross_slope = scratch.cross_slope.data();
   int* cross_v = scratch.cross_v.data();
-  const float eye = c.eye;
+  int* arg = scratch.arg.data();
+  const float* slope = scratch.slope.data();
+  const float* inv_slope = scratch.inv_slope.data();
+  const float* curv_k = scratch.curv_k.data();
+  const float eye = static_cast<float>(c.eye);
   const float eye_v = static_cast<float>(s.eye_v);
   const float v_max = static_cast<float>(s.v_count - 1);
   const int j_max = s.v_count - 2;
@@ -252,7 +457,25 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
     const int line = s.line0 + s.dir * n;
     const double k = step_of(s, n);
     const float* cur = s.z + line * s.z_line;
-    const int lo = std::max(p.ray_lo[n], ra), hi = std::min(p.ray_hi[n], rb);
+    for (const int target = task_level(p, n, ra, rb); level > target;) {
+      stride = 1 << --level;
+      const CellLine before{&s, p.inv_step.data(), p.inv_dv.data(), eye, eye_v, v_max, static_cast<float>(s.k0),
+                            static_cast<float>(k - 1.0), static_cast<float>(c.curvature),
+                            static_cast<float>(s.metres_u * s.metres_u), static_cast<float>(s.metres_v * s.metres_v),
+                            j_max, zv, s.line0, s.dir, s.line_count, s.z_line};
+      spawn_rays(scratch, p, ra, stride, before);
+      count = static_cast<int>(scratch.horizon.size());
+      h = scratch.horizon.data();
+      arg = scratch.arg.data();
+      cross_slope = scratch.cross_slope.data();
+      cross_v = scratch.cross_v.data();
+      slope = scratch.slope.data();
+      inv_slope = scratch.inv_slope.data();
+      curv_k = scratch.curv_k.data();
+    }
+    // The rays this line needs, as indices of the marching rays.
+    const int lo = std::max(0, floor_div(p.ray_lo[n] - ra, stride));
+    const int hi = std::min(count - 1, -floor_div(ra - p.ray_hi[n], stride));
     const float kf = static_cast<float>(k);
     const float kp = static_cast<float>(k - 1.0);  // step of the previous line (< 0 on a first line closer than 1)
 
@@ -261,7 +484,7 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
     const LineStep ls{eye, eye_v, v_max, kf, kp, std::max(kp, 0.0f), j_max, zv};
     if (lo <= hi) {
       const int prev_line = std::clamp(line - s.dir, 0, s.line_count - 1);
-      const int o = lo - ra;
+      const int o = lo;
       step_cross(ls, hi - lo + 1, slope + o, inv_slope + o, curv_k + o, s.z + prev_line * s.z_line, cur,
                  cross_slope + o, cross_v + o);
     }
@@ -276,6 +499,10 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
       const int j_first = std::max(p.cell_lo[n], static_cast<int>(std::floor(s.eye_v + k * ra * p.ray_step)));
       const int j_last = std::min(p.cell_hi[n], static_cast<int>(std::ceil(s.eye_v + k * rb * p.ray_step)));
       const double du2 = (k * s.metres_u) * (k * s.metres_u);
+      const CellLine cl{&s, p.inv_step.data(), p.inv_dv.data(), eye, eye_v, v_max, static_cast<float>(s.k0),
+                        kf, static_cast<float>(c.curvature), static_cast<float>(s.metres_u * s.metres_u),
+                        static_cast<float>(s.metres_v * s.metres_v), j_max, zv, s.line0, s.dir, s.line_count,
+                        s.z_line};
       for (int j = j_first; j <= j_last; ++j) {
         // Rays are evenly spaced: ray r has slope r / ray_half, so the cell's
         // own slope m sits at ray coordinate rho = m * ray_half.
@@ -288,25 +515,52 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
         const float zc = cur[j * zv];
         if (std::isnan(zc)) continue;  // void target: no answer (stays NaN)
         ++evaluated;
-        const int i0 = r - ra;
-        const float f = std::clamp(static_cast<float>(rho - r), 0.0f, 1.0f);
-        float h0 = h[i0], h1 = h[i0 + 1];
-        if (cross_v[i0] != j && cross_slope[i0] > h0) h0 = cross_slope[i0];
-        if (cross_v[i0 + 1] != j && cross_slope[i0 + 1] > h1) h1 = cross_slope[i0 + 1];
-        const float hz = c.blend == RayBlend::kMin ? std::min(h0, h1) : h0 + f * (h1 - h0);
+        const int i0 = (r - ra) >> level;  // the bracketing rays are i0 and i0 + 1
+        double hz;
+        if (c.blend == RayBlend::kResample) {
+          // A ray's v-line crossing inside this step outranks its stored horizon when higher.
+          const int a0 = cross_slope[i0] > h[i0] ? -2 - cross_v[i0] : arg[i0];
+          const int a1 = cross_slope[i0 + 1] > h[i0 + 1] ? -2 - cross_v[i0 + 1] : arg[i0 + 1];
+          if (c.precise) {
+            // R3's own OHF formula on R3's samples: never above R3's value.
+            const double horizon = resample_r3(s, c, line, j, n, a0, a1);
+            const double d = c.frame->distance(s.rows ? j : line, s.rows ? line : j);
+            float* cell = s.out + (line - s.out_line0) * s.o_line + (j - s.out_v0) * s.o_v;
+            *cell = horizon == -std::numeric_limits<double>::infinity()
+                        ? -std::numeric_limits<float>::infinity()
+                        : static_cast<float>(detail::r3_ohf_value(*c.frame, d, horizon));
+            continue;
+          } else {
+            // `x > best ? x : best`: a void (NaN) sample never wins.
+            const CellRay cr = cell_ray(cl, j);
+            float best = kNoHorizon;
+            auto take = [&best](float x) { best = x > best ? x : best; };
+            if (n > 0) take(sample_u(cl, cr, n - 1));
+            if (a0 != n - 1) take(sample_at(cl, cr, a0));
+            if (a1 != a0 && a1 != n - 1) take(sample_at(cl, cr, a1));
+            hz = best;
+          }
+        } else {
+          float h0 = h[i0], h1 = h[i0 + 1];
+          if (cross_v[i0] != j && cross_slope[i0] > h0) h0 = cross_slope[i0];
+          if (cross_v[i0 + 1] != j && cross_slope[i0 + 1] > h1) h1 = cross_slope[i0 + 1];
+          const float f = std::clamp(static_cast<float>((rho - (ra + i0 * stride)) / stride), 0.0f, 1.0f);
+          hz = c.blend == RayBlend::kMin ? std::min(h0, h1) : h0 + f * (h1 - h0);
+        }
         float* out = s.out + (line - s.out_line0) * s.o_line + (j - s.out_v0) * s.o_v;
         // OHF = eye + d * (slope per metre) + curvature d^2, and d * slope = k * sigma.
-        if (hz <= 0.5f * kNoHorizon)
+        if (!(hz > 0.5 * kNoHorizon)) {
           *out = -std::numeric_limits<float>::infinity();
-        else
+        } else {
           *out = static_cast<float>(c.eye + k * hz + c.curvature * d2);
+        }
       }
     }
 
     // 3. Fold the step's crossings and line n's own one into the maxima.
     if (lo > hi) continue;
-    const int o = lo - ra;
-    step_line(ls, hi - lo + 1, slope + o, curv_k + o, cur, cross_slope + o, h + o);
+    const int o = lo;
+    step_line(ls, hi - lo + 1, slope + o, curv_k + o, cur, cross_slope + o, cross_v + o, h + o, arg + o, n);
     steps += static_cast<std::uint64_t>(hi - lo + 1);
   }
 }
@@ -314,15 +568,17 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
 }  // namespace
 
 Status radial_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const RadialOptions& options,
-                  unsigned threads, const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats) {
+                  unsigned threads, const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats,
+                  RadialBound bound) {
   const terrain::Window& win = f.window;
   if (z.size() >= (std::size_t{1} << 31))
     return make_error(ErrorCode::kResourceExhausted,
                       "dem: the radial sweep handles up to 2^31 cells; this DEM has " + std::to_string(z.size()),
                       "dem");
   reset_output(ohf, win);
-  const SweepConstants c{static_cast<float>(f.eye), f.curvature, f.max_distance,
-                         options.blend};
+  const bool lower_bound = bound == RadialBound::kLowerBound;
+  const SweepConstants c{f.eye, f.curvature, f.max_distance, lower_bound ? RayBlend::kResample : options.blend,
+                         lower_bound, &z, &f};
   const std::ptrdiff_t pitch = z.width();
 
   // The four sectors. North/south step rows (v = column, contiguous); east/west
@@ -347,6 +603,7 @@ Status radial_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const Radia
     s.metres_u = rows ? f.metres_per_row : f.metres_per_col;
     s.metres_v = rows ? f.metres_per_col : f.metres_per_row;
     s.include_diagonal = rows;
+    s.rows = rows;
     s.dir = dir;
     const int u0 = rows ? win.row0 : win.col0, u1 = rows ? win.row1 : win.col1;  // window along u
     if (dir > 0) {
@@ -371,7 +628,7 @@ Status radial_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const Radia
   };
   std::vector<Task> tasks;
   for (std::size_t si = 0; si < sectors.size(); ++si) {
-    plans.push_back(plan_sector(sectors[si], c, options.ray_spacing));
+    plans.push_back(plan_sector(sectors[si], c, options.ray_spacing, options.thinning_levels));
     const int half = plans.back().ray_half;
     for (int ra = -half; ra < half; ra += kRaysPerTask)
       tasks.push_back({static_cast<int>(si), ra, std::min(ra + kRaysPerTask, half)});

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 
+#include "horizon/visibility/exact.hpp"
 #include "horizon/visibility/r3.hpp"
 #include "horizon/visibility/radial_sweep.hpp"
 
@@ -67,9 +68,14 @@ Result<ViewshedResult> compute_viewshed(const terrain::Dem& dem, const geodesy::
     case Algorithm::kRadial:
       status = radial_ohf(*elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats);
       break;
-    case Algorithm::kR3:
-    case Algorithm::kExact:         // until its own sweep lands: R3 is exact (and so conservative)
     case Algorithm::kConservative:
+      status = radial_ohf(*elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats,
+                          RadialBound::kLowerBound);
+      break;
+    case Algorithm::kExact:
+      status = exact_ohf(*elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats);
+      break;
+    case Algorithm::kR3:
       status = r3_ohf(*elevation, *frame, options.threads, control, result.ohf, result.stats);
       break;
   }
@@ -80,7 +86,10 @@ Result<ViewshedResult> compute_viewshed(const terrain::Dem& dem, const geodesy::
 }
 
 terrain::Grid<float> min_target_height(const ViewshedResult& result) {
-  return per_answered_cell(result, [](float ohf, float z) { return std::max(0.0f, ohf - z); });
+  return per_answered_cell(result, [](float ohf, float z) {
+    const float above = ohf - z;
+    return above > kTieTolerance ? above : 0.0f;
+  });
 }
 
 terrain::Grid<std::uint8_t> visibility_mask(const ViewshedResult& result, double target_height) {

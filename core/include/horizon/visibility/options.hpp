@@ -32,14 +32,20 @@ enum class NodataPolicy {
 enum class RayBlend {
   kLinear,  // interpolate by angle (default; balanced errors)
   kMin,     // take the lower horizon (errs towards "visible")
+  kResample,  // re-sample the cell's own sight line where the bracketing rays found their horizons
 };
 
 struct RadialOptions {
   // Lateral spacing of the rays, in cells, at the far edge of each sweep
   // sector (they are closer everywhere else). Smaller is slower and closer to
   // R3. (0, 4].
-  double ray_spacing = 0.5;
-  RayBlend blend = RayBlend::kLinear;
+  double ray_spacing = 1.0;
+  RayBlend blend = RayBlend::kResample;
+  // Thin the rays near the eye by up to this many halvings (0 = every ray
+  // marches the whole way). Fewer ray steps, at some accuracy: a ray that
+  // joins mid-way has only its neighbours' horizons for the path behind it.
+  // [0, 6].
+  int thinning_levels = 0;
 };
 
 struct ViewshedOptions {

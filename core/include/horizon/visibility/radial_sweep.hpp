@@ -12,12 +12,17 @@
 // grid line at a time along the sector's major axis and takes, at every grid
 // row and column crossing, exactly the terrain sample R3 takes, so along a ray
 // the running maximum is R3's horizon exactly. A cell centre lies between two
-// neighbouring rays; its horizon is blended from theirs at the step that
-// reaches the cell's row (RayBlend). Error therefore comes only from that
-// angular blend, and shrinks with ray_spacing.
+// neighbouring rays; its horizon comes from theirs at the step that reaches
+// the cell's line (RayBlend). The default, kResample, takes the cell's own
+// sight line's R3 samples where the two rays found their maxima (each ray
+// records where), so every value is a real sample: the result can only err
+// towards "visible", when the cell's maximum lies where neither ray's did.
+// kLinear / kMin blend the rays' horizons by angle instead.
 //
-// Work: ~2x the cells of the max-distance window at ray_spacing 1 (rays are
-// denser near the eye), no allocation per cell, O(rays) scratch per sector.
+// Work: ~2 ray steps per cell of the max-distance window at ray_spacing 1
+// (rays are denser near the eye; RadialOptions::thinning_levels trades that
+// for accuracy), plus up to 3 re-samples per cell; no allocation per cell,
+// O(rays) scratch per sector.
 // Sectors split into ray chunks run in parallel.
 #pragma once
 
@@ -30,9 +35,15 @@
 
 namespace horizon::visibility {
 
+enum class RadialBound {
+  kNone,        // the options' blend, in float: fastest
+  kLowerBound,  // RayBlend::kResample in double, OHF rounded down: never above R3's OHF (no missed-visible)
+};
+
 // Same contract as r3_ohf(): fills `ohf` (sized frame.window) with the OHF of
 // every in-range cell, NaN out of range or on a transparent void.
 Status radial_ohf(const terrain::Grid<float>& elevation, const ViewFrame& frame, const RadialOptions& options,
-                  unsigned threads, const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats);
+                  unsigned threads, const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats,
+                  RadialBound bound = RadialBound::kNone);
 
 }  // namespace horizon::visibility

@@ -9,8 +9,12 @@
 // The result is the occlusion height field (OHF) over the max-distance window;
 // every output raster is derived from it by one of the functions below, so the
 // viewshed, the OHF and the minimum visible target height can never disagree:
-//   min_target_height = max(0, OHF - z)          (float32, metres)
+//   min_target_height = OHF - z, or 0 when that is at most kTieTolerance  (float32, metres)
 //   visible           = target_height >= min_target_height
+// The tolerance settles ties: where the sight line grazes the terrain exactly
+// (a flat sea, a plane) OHF == z in exact arithmetic, and which way float
+// rounding falls must not decide visibility. 1 mm is about one float32 unit
+// in the last place of an elevation near 8 km, far below any DEM's accuracy.
 #pragma once
 
 #include <cstdint>
@@ -36,6 +40,9 @@ struct ViewshedResult {
 // Validates the options, builds the frame and runs the chosen algorithm.
 Result<ViewshedResult> compute_viewshed(const terrain::Dem& dem, const geodesy::GridPoint& observer,
                                         const ViewshedOptions& options, const RunControl* control = nullptr);
+
+// Metres: an occlusion height at most this far above the ground counts as the ground itself.
+inline constexpr float kTieTolerance = 1.0e-3f;
 
 // Output rasters, all window-sized.
 inline constexpr std::uint8_t kVisible = 1, kHidden = 0, kNoAnswer = 255;

@@ -1,0 +1,37 @@
+// horizon/visibility/exact.hpp — R3's answers, fast (Algorithm::kExact).
+//
+// The exact OHF of every target, bit-identical to r3_ohf(), at a fraction of
+// its cost. Brute-force R3 walks every target's whole sight line. This walk
+// skips the stretches that provably cannot hold the maximum:
+//
+//  1. A lower bound per target: the radial sweep with RadialBound::kLowerBound
+//     (re-sampled R3 samples of each cell's own sight line), usually equal to
+//     the exact horizon or just below it.
+//  2. A max-pyramid of the terrain (tiles of 8, 64 and 512 cells). A stretch
+//     of a sight line is bounded by the highest vertex of the tiles around
+//     it; its samples' slopes cannot exceed (zmax - eye) / d - curvature d
+//     over its distance range. A stretch whose bound is below the best slope
+//     known (the lower bound, then the samples found) is skipped whole;
+//     otherwise it is split 8 ways, down to stretches of 8 cells whose
+//     crossings are taken exactly as R3 takes them (crossings.hpp).
+//
+// The stretch holding R3's maximum is never skipped (its bound is at least
+// that maximum, which is at least the lower bound), so the maximum found is
+// R3's, computed by the same arithmetic. Cost: O(cells * log) when the lower
+// bound is tight; never more than R3's samples plus the pyramid lookups.
+#pragma once
+
+#include "horizon/common/control.hpp"
+#include "horizon/common/error.hpp"
+#include "horizon/terrain/grid.hpp"
+#include "horizon/visibility/options.hpp"
+#include "horizon/visibility/view_frame.hpp"
+#include "horizon/visibility/work_stats.hpp"
+
+namespace horizon::visibility {
+
+// Same contract and same values as r3_ohf(). `radial` tunes step 1 only.
+Status exact_ohf(const terrain::Grid<float>& elevation, const ViewFrame& frame, const RadialOptions& radial,
+                 unsigned threads, const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats);
+
+}  // namespace horizon::visibility

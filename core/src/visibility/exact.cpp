@@ -1,0 +1,193 @@
+// Exact sweep: R3's maxima, found by pruning stretches of each sight line
+// with a terrain max-pyramid below a lower bound (see exact.hpp).
+#include "horizon/visibility/exact.hpp"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "crossings.hpp"
+#include "horizon/common/parallel.hpp"
+#include "horizon/visibility/radial_sweep.hpp"
+
+namespace horizon::visibility {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr int kLevels = 3;
+constexpr std::array<int, kLevels> kTile = {8, 64, 512};  // cells per tile side = stretch length per level
+
+// Tile maxima of the window's terrain (voids ignored; -inf for an all-void tile).
+class MaxPyramid {
+ public:
+  MaxPyramid(const terrain::Grid<float>& z, const terrain::Window& w) : window_(w) {
+    for (int l = 0; l < kLevels; ++l) {
+      cols_[l] = (w.width() + kTile[l] - 1) / kTile[l];
+      rows_[l] = (w.height() + kTile[l] - 1) / kTile[l];
+      max_[l].assign(static_cast<std::size_t>(cols_[l]) * rows_[l], -std::numeric_limits<float>::infinity());
+    }
+    for (int r = w.row0; r < w.row1; ++r) {
+      float* dst = &max_[0][static_cast<std::size_t>((r - w.row0) / kTile[0]) * cols_[0]];
+      const float* src = z.row(r);
+      for (int c = w.col0; c < w.col1; ++c) {
+        const float v = src[c];
+        float& m = dst[(c - w.col0) / kTile[0]];
+        if (v > m) m = v;  // NaN never wins
+      }
+    }
+    for (int l = 1; l < kLevels; ++l) {
+      const int ratio = kTile[l] / kTile[l - 1];
+      for (int j = 0; j < rows_[l - 1]; ++j)
+        for (int i = 0; i < cols_[l - 1]; ++i) {
+          float& m = max_[l][static_cast<std::size_t>(j / ratio) * cols_[l] + i / ratio];
+          m = std::max(m, max_[l - 1][static_cast<std::size_t>(j) * cols_[l - 1] + i]);
+        }
+    }
+  }
+
+  // Highest terrain over DEM cells [c_lo, c_hi] x [r_lo, r_hi] (clamped to the window), using level l.
+  float box_max(int l, int c_lo, int c_hi, int r_lo, int r_hi) const {
+    c_lo = std::max(c_lo, window_.col0) - window_.col0;
+    r_lo = std::max(r_lo, window_.row0) - window_.row0;
+    c_hi = std::min(c_hi, window_.col1 - 1) - window_.col0;
+    r_hi = std::min(r_hi, window_.row1 - 1) - window_.row0;
+    float m = -std::numeric_limits<float>::infinity();
+    for (int j = r_lo / kTile[l]; j <= r_hi / kTile[l]; ++j)
+      for (int i = c_lo / kTile[l]; i <= c_hi / kTile[l]; ++i)
+        m = std::max(m, max_[l][static_cast<std::size_t>(j) * cols_[l] + i]);
+    return m;
+  }
+
+ private:
+  terrain::Window window_;
+  std::array<int, kLevels> cols_{}, rows_{};
+  std::array<std::vector<float>, kLevels> max_;
+};
+
+// One target's sight line and the search state.
+struct SightLine {
+  const terrain::Grid<float>* z;
+  const ViewFrame* f;
+  const MaxPyramid* pyramid;
+  double c0, r0, c1, r1;  // eye and target, grid coordinates
+  double total;           // metres
+  double major;           // |extent| along the major axis, cells
+  double floor_slope;     // prune below this (the lower bound, minus a safety margin)
+  double best = -kInf;    // highest exact sample slope found
+  std::uint64_t samples = 0;
+
+  double col_at(double t) const { return c0 + t * (c1 - c0); }
+  double row_at(double t) const { return r0 + t * (r1 - r0); }
+
+  // Search [ta, tb] as stretches of about kTile[l] cells along the major axis.
+  void split(int l, double ta, double tb) {
+    const int pieces = std::max(1, static_cast<int>(std::ceil((tb - ta) * major / kTile[l])));
+    const double step = (tb - ta) / pieces;
+    for (int i = pieces - 1; i >= 0; --i) search(l, ta + i * step, i + 1 == pieces ? tb : ta + (i + 1) * step);
+  }
+
+  // The whole sight line, from the coarsest level shorter than it.
+  void search_all() {
+    int l = kLevels - 1;
+    while (l > 0 && kTile[l] >= major) --l;
+    split(l, 0.0, 1.0);
+  }
+
+  // Search the stretch t in [ta, tb] at level l.
+  void search(int l, double ta, double tb) {
+    // Every crossing assigned to this stretch lies within one cell of it along the major axis.
+    const double pad = 1.0 / major;
+    const double lo = std::max(0.0, ta - pad), hi = std::min(1.0, tb + pad);
+    const double ca = col_at(lo), cb = col_at(hi), ra = row_at(lo), rb = row_at(hi);
+    const int c_lo = static_cast<int>(std::floor(std::min(ca, cb))), c_hi = static_cast<int>(std::floor(std::max(ca, cb))) + 1;
+    const int r_lo = static_cast<int>(std::floor(std::min(ra, rb))), r_hi = static_cast<int>(std::floor(std::max(ra, rb))) + 1;
+    const double zmax = pyramid->box_max(l, c_lo, c_hi, r_lo, r_hi);
+    if (zmax == -kInf) return;  // all void
+    const double d_lo = lo * total, d_hi = hi * total;
+    // Highest slope zmax can make over [d_lo, d_hi]: g(d) = rise / d - curvature d
+    // falls with d when rise >= 0; otherwise it is concave, highest at
+    // sqrt(-rise / curvature) (or at d_hi without curvature).
+    const double rise = zmax - f->eye;
+    double bound;
+    if (rise >= 0) {
+      bound = d_lo > 0 ? rise / d_lo - f->curvature * d_lo : kInf;
+    } else {
+      const double peak = f->curvature > 0 ? std::sqrt(-rise / f->curvature) : kInf;
+      const double d = std::clamp(peak, std::max(d_lo, 1e-300), d_hi);
+      bound = rise / d - f->curvature * d;
+    }
+    bound += 1e-9 * (1.0 + std::abs(bound));  // outweighs the rounding of the samples' own arithmetic
+    if (bound < std::max(floor_slope, best)) return;
+    if (l > 0) {
+      split(l - 1, ta, tb);
+      return;
+    }
+    // Exact samples: the column and row lines this padded stretch spans (a
+    // crossing visited by two stretches is harmless: the maximum is idempotent).
+    auto take = [&](double t, double, double, double terrain) {
+      ++samples;
+      const double s = detail::r3_slope(*f, total, t, terrain);
+      if (s > best) best = s;  // NaN (void) never wins
+    };
+    detail::for_each_crossing_on(detail::Axis::kColumns, *z, c0, r0, c1, r1, c_lo, c_hi, take);
+    detail::for_each_crossing_on(detail::Axis::kRows, *z, c0, r0, c1, r1, r_lo, r_hi, take);
+  }
+};
+
+}  // namespace
+
+Status exact_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const RadialOptions& radial, unsigned threads,
+                 const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats) {
+  // 1. Lower bounds (into `ohf`, overwritten below cell by cell).
+  WorkStats radial_stats;
+  HORIZON_RETURN_IF_ERROR(radial_ohf(z, f, radial, threads, control, ohf, radial_stats, RadialBound::kLowerBound));
+  const MaxPyramid pyramid(z, f.window);
+  const terrain::Window& win = f.window;
+
+  std::atomic<std::uint64_t> evaluated{0}, samples{0};
+  std::atomic<bool> stop{false};
+  std::atomic<int> rows_done{0};
+  parallel_for(static_cast<std::size_t>(win.height()), threads, [&](std::size_t i) {
+    if (stop.load(std::memory_order_relaxed)) return;
+    if (!check_control(control).ok()) {
+      stop = true;
+      return;
+    }
+    const int row = win.row0 + static_cast<int>(i);
+    float* out = ohf.row(static_cast<int>(i));
+    std::uint64_t n = 0, s = 0;
+    for (int col = win.col0; col < win.col1; ++col) {
+      float& cell = out[col - win.col0];
+      if (std::isnan(cell)) continue;  // out of range or a void target: no answer, as in R3
+      const double d = f.distance(col, row);
+      ++n;
+      if (d == 0) {
+        cell = -std::numeric_limits<float>::infinity();
+        continue;
+      }
+      SightLine line{&z, &f, &pyramid, f.observer_col, f.observer_row, double(col), double(row), d,
+                     std::max(std::abs(col - f.observer_col), std::abs(row - f.observer_row)), -kInf};
+      if (std::isfinite(cell)) {
+        const double lower = (double(cell) - f.eye - f.curvature * d * d) / d;
+        line.floor_slope = lower - 1e-9 * (1.0 + std::abs(lower));
+      }
+      line.search_all();
+      s += line.samples;
+      cell = line.best == -kInf ? -std::numeric_limits<float>::infinity()
+                                : static_cast<float>(detail::r3_ohf_value(f, d, line.best));
+    }
+    evaluated += n;
+    samples += s;
+    report_progress(control, double(++rows_done) / win.height());
+  });
+  HORIZON_RETURN_IF_ERROR(check_control(control));
+  stats.cells_evaluated = evaluated;
+  stats.rays = radial_stats.rays;
+  stats.terrain_samples = radial_stats.terrain_samples + samples;
+  return Status::Ok();
+}
+
+}  // namespace horizon::visibility

@@ -1,0 +1,154 @@
+// The accuracy promises of the algorithm modes (options.hpp), checked against
+// brute-force R3 on synthetic terrain with voids and on the bundled real DEMs:
+//   exact         bit-identical OHF to R3 (so identical viewsheds at any target height);
+//   conservative  OHF never above R3's (so never a missed-visible cell);
+//   fast          re-sampled horizons err only towards visible, within float rounding.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <random>
+
+#include "horizon/terrain/dem_reader.hpp"
+#include "horizon/visibility/agreement.hpp"
+#include "horizon/visibility/viewshed.hpp"
+#include "observer_picks.hpp"
+#include "test_support.hpp"
+#include "visibility_test_util.hpp"
+
+namespace horizon {
+namespace {
+
+using testing::eye_at;
+using visibility::Algorithm;
+
+// Random hills with a sprinkling of voids, so void-adjacent samples are exercised.
+terrain::Dem holey_terrain(int size, unsigned seed) {
+  auto dem = testing::make_random_terrain(size, size, seed);
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> pick(0, size - 1);
+  for (int i = 0; i < size * size / 50; ++i) dem.elevation.at(pick(rng), pick(rng)) = std::nanf("");
+  return dem;
+}
+
+visibility::ViewshedResult run(const terrain::Dem& dem, const geodesy::GridPoint& eye, Algorithm algorithm,
+                               double max_distance = std::numeric_limits<double>::infinity(),
+                               double curvature = 0.85714) {
+  visibility::ViewshedOptions o;
+  o.algorithm = algorithm;
+  o.max_distance = max_distance;
+  o.curvature_coefficient = curvature;
+  auto vs = visibility::compute_viewshed(dem, eye, o);
+  EXPECT_TRUE(vs.ok()) << vs.error().message;
+  return std::move(vs).value();
+}
+
+// Bitwise equality of two OHF grids (NaN equal to NaN).
+::testing::AssertionResult same_ohf(const visibility::ViewshedResult& a, const visibility::ViewshedResult& b) {
+  if (a.frame.window != b.frame.window) return ::testing::AssertionFailure() << "windows differ";
+  for (int r = 0; r < a.ohf.height(); ++r)
+    for (int c = 0; c < a.ohf.width(); ++c) {
+      const float x = a.ohf.at(c, r), y = b.ohf.at(c, r);
+      if (std::memcmp(&x, &y, sizeof x) != 0 && !(std::isnan(x) && std::isnan(y)))
+        return ::testing::AssertionFailure() << "cell " << c << "," << r << ": " << x << " vs " << y;
+    }
+  return ::testing::AssertionSuccess();
+}
+
+// Cells where `a`'s OHF exceeds `b`'s (both answered).
+int cells_above(const visibility::ViewshedResult& a, const visibility::ViewshedResult& b) {
+  int n = 0;
+  for (std::size_t i = 0; i < a.ohf.size(); ++i) {
+    const float x = a.ohf.values()[i], y = b.ohf.values()[i];
+    if (!std::isnan(x) && !std::isnan(y) && x > y) ++n;
+  }
+  return n;
+}
+
+TEST(Modes, ExactIsBitIdenticalToR3OnSyntheticTerrainWithVoids) {
+  for (unsigned seed : {31u, 32u, 33u}) {
+    const auto dem = holey_terrain(121, seed);
+    for (auto [col, row] : {std::pair{60.0, 60.0}, {0.0, 0.0}, {119.5, 33.25}, {3.0, 110.0}}) {
+      const auto eye = eye_at(dem, col, row, 2.0);
+      if (!std::isfinite(eye.elevation)) continue;  // observer on a void
+      EXPECT_TRUE(same_ohf(run(dem, eye, Algorithm::kExact), run(dem, eye, Algorithm::kR3)))
+          << "seed " << seed << " eye " << col << "," << row;
+    }
+  }
+}
+
+TEST(Modes, ExactIsBitIdenticalToR3WithMaxDistanceAndFlatEarth) {
+  const auto dem = holey_terrain(151, 34);
+  const auto eye = eye_at(dem, 75, 70, 10.0);
+  EXPECT_TRUE(same_ohf(run(dem, eye, Algorithm::kExact, 400.0), run(dem, eye, Algorithm::kR3, 400.0)));
+  EXPECT_TRUE(same_ohf(run(dem, eye, Algorithm::kExact, 1e9, 0.0), run(dem, eye, Algorithm::kR3, 1e9, 0.0)));
+}
+
+TEST(Modes, ConservativeOhfNeverExceedsR3) {
+  for (unsigned seed : {41u, 42u}) {
+    const auto dem = holey_terrain(131, seed);
+    for (auto [col, row] : {std::pair{65.0, 65.0}, {2.0, 128.0}, {100.5, 20.5}}) {
+      const auto eye = eye_at(dem, col, row, 2.0);
+      if (!std::isfinite(eye.elevation)) continue;
+      const auto cons = run(dem, eye, Algorithm::kConservative);
+      const auto r3 = run(dem, eye, Algorithm::kR3);
+      EXPECT_EQ(cells_above(cons, r3), 0) << "seed " << seed;
+      EXPECT_EQ(visibility::compare_viewsheds(cons, r3, 0.0).missed_visible, 0u);
+      EXPECT_EQ(visibility::compare_viewsheds(cons, r3, 3.0).missed_visible, 0u);
+    }
+  }
+}
+
+// The bundled real DEMs, at the accuracy report's observers: exact agrees
+// 100 %, conservative misses nothing, and neither is trivially loose.
+class BundledModes : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(BundledModes, ExactMatchesAndConservativeNeverMisses) {
+  auto dem = terrain::read_dem(testing::bundled_dem(GetParam()));
+  ASSERT_TRUE(dem.ok()) << dem.error().message;
+  for (const auto& pick : accuracy::pick_observers(*dem)) {
+    geodesy::PointSpec spec;
+    spec.x = dem->georef.transform.x_at(pick.col);
+    spec.y = dem->georef.transform.y_at(pick.row);
+    spec.height = 2.0;
+    auto eye = geodesy::resolve_point(*dem, spec, "observer");
+    ASSERT_TRUE(eye.ok()) << eye.error().message;
+    const auto r3 = run(*dem, *eye, Algorithm::kR3);
+    EXPECT_TRUE(same_ohf(run(*dem, *eye, Algorithm::kExact), r3)) << pick.kind;
+    const auto cons = run(*dem, *eye, Algorithm::kConservative);
+    EXPECT_EQ(cells_above(cons, r3), 0) << pick.kind;
+    const auto a = visibility::compare_viewsheds(cons, r3, 0.0);
+    EXPECT_EQ(a.missed_visible, 0u) << pick.kind;
+    EXPECT_GE(a.iou, 0.97) << pick.kind;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(DataDem, BundledModes,
+                         ::testing::Values("everest_summit_voids_srtm3_300x300.tif", "olinda_coast_utm25s_111x111.tif",
+                                           "rainier_summit_srtm3_400x400.tif"));
+
+TEST(Modes, ThinningMarchesFewerRaySteps) {
+  const auto dem = testing::make_random_terrain(201, 201, 51);
+  const auto eye = eye_at(dem, 100, 100, 2.0);
+  visibility::ViewshedOptions o;
+  auto full = visibility::compute_viewshed(dem, eye, o);
+  o.radial.thinning_levels = 4;
+  auto thin = visibility::compute_viewshed(dem, eye, o);
+  ASSERT_TRUE(full.ok() && thin.ok());
+  EXPECT_LT(thin->stats.terrain_samples, full->stats.terrain_samples * 3 / 4);
+  EXPECT_EQ(thin->stats.cells_evaluated, full->stats.cells_evaluated);
+  o.radial.thinning_levels = 7;
+  auto bad = visibility::compute_viewshed(dem, eye, o);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.error().field, "thinning_levels");
+}
+
+TEST(Modes, AlgorithmNamesRoundTrip) {
+  for (Algorithm a : {Algorithm::kRadial, Algorithm::kR3, Algorithm::kExact, Algorithm::kConservative})
+    EXPECT_EQ(visibility::parse_algorithm(visibility::algorithm_name(a)), a);
+  EXPECT_EQ(visibility::algorithm_name(Algorithm::kRadial), "fast");
+  EXPECT_FALSE(visibility::parse_algorithm("fastest").has_value());
+}
+
+}  // namespace
+}  // namespace horizon
