@@ -18,7 +18,8 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kLevels = 3;
-constexpr std::array<int, kLevels> kTile = {8, 64, 512};  // cells per tile side = stretch length per level
+constexpr std::array<int, kLevels> kShift = {3, 6, 9};
+constexpr std::array<int, kLevels> kTile = {1 << kShift[0], 1 << kShift[1], 1 << kShift[2]};  // cells per tile side = stretch length
 
 // Tile maxima of the window's terrain (voids ignored; -inf for an all-void tile).
 class MaxPyramid {
@@ -50,14 +51,17 @@ class MaxPyramid {
 
   // Highest terrain over DEM cells [c_lo, c_hi] x [r_lo, r_hi] (clamped to the window), using level l.
   float box_max(int l, int c_lo, int c_hi, int r_lo, int r_hi) const {
-    c_lo = std::max(c_lo, window_.col0) - window_.col0;
-    r_lo = std::max(r_lo, window_.row0) - window_.row0;
-    c_hi = std::min(c_hi, window_.col1 - 1) - window_.col0;
-    r_hi = std::min(r_hi, window_.row1 - 1) - window_.row0;
+    const int shift = kShift[l];
+    const int i0 = (std::max(c_lo, window_.col0) - window_.col0) >> shift;
+    const int j0 = (std::max(r_lo, window_.row0) - window_.row0) >> shift;
+    const int i1 = (std::min(c_hi, window_.col1 - 1) - window_.col0) >> shift;
+    const int j1 = (std::min(r_hi, window_.row1 - 1) - window_.row0) >> shift;
+    const float* tiles = max_[l].data();
     float m = -std::numeric_limits<float>::infinity();
-    for (int j = r_lo / kTile[l]; j <= r_hi / kTile[l]; ++j)
-      for (int i = c_lo / kTile[l]; i <= c_hi / kTile[l]; ++i)
-        m = std::max(m, max_[l][static_cast<std::size_t>(j) * cols_[l] + i]);
+    for (int j = j0; j <= j1; ++j) {
+      const float* row = tiles + static_cast<std::size_t>(j) * cols_[l];
+      for (int i = i0; i <= i1; ++i) m = row[i] > m ? row[i] : m;
+    }
     return m;
   }
 
@@ -102,25 +106,24 @@ struct SightLine {
     const double pad = 1.0 / major;
     const double lo = std::max(0.0, ta - pad), hi = std::min(1.0, tb + pad);
     const double ca = col_at(lo), cb = col_at(hi), ra = row_at(lo), rb = row_at(hi);
-    const int c_lo = static_cast<int>(std::floor(std::min(ca, cb))), c_hi = static_cast<int>(std::floor(std::max(ca, cb))) + 1;
-    const int r_lo = static_cast<int>(std::floor(std::min(ra, rb))), r_hi = static_cast<int>(std::floor(std::max(ra, rb))) + 1;
+    // Grid coordinates are >= -0.5, so int(x + 1) - 1 is floor(x).
+    const int c_lo = static_cast<int>(std::min(ca, cb) + 1.0) - 1, c_hi = static_cast<int>(std::max(ca, cb) + 1.0);
+    const int r_lo = static_cast<int>(std::min(ra, rb) + 1.0) - 1, r_hi = static_cast<int>(std::max(ra, rb) + 1.0);
     const double zmax = pyramid->box_max(l, c_lo, c_hi, r_lo, r_hi);
-    if (zmax == -kInf) return;  // all void
-    const double d_lo = lo * total, d_hi = hi * total;
-    // Highest slope zmax can make over [d_lo, d_hi]: g(d) = rise / d - curvature d
-    // falls with d when rise >= 0; otherwise it is concave, highest at
-    // sqrt(-rise / curvature) (or at d_hi without curvature).
-    const double rise = zmax - f->eye;
-    double bound;
-    if (rise >= 0) {
-      bound = d_lo > 0 ? rise / d_lo - f->curvature * d_lo : kInf;
+    // A sample at distance d beats slope T only if its terrain reaches
+    // eye + T d + curvature d^2 (convex in d): prune when zmax stays below
+    // that height's minimum over [d_lo, d_hi]. The margin outweighs the
+    // rounding of the samples' own arithmetic.
+    const double T = std::max(floor_slope, best);
+    if (T == -kInf) {
+      if (zmax == -kInf) return;  // all void
     } else {
-      const double peak = f->curvature > 0 ? std::sqrt(-rise / f->curvature) : kInf;
-      const double d = std::clamp(peak, std::max(d_lo, 1e-300), d_hi);
-      bound = rise / d - f->curvature * d;
+      const double d_lo = lo * total, d_hi = hi * total;
+      const double curv = f->curvature;
+      double d = T >= 0 ? d_lo : (curv > 0 ? std::clamp(-T / (2 * curv), d_lo, d_hi) : d_hi);
+      const double needed = f->eye + T * d + curv * d * d;
+      if (zmax < needed - 1e-6 * (1.0 + std::abs(needed))) return;
     }
-    bound += 1e-9 * (1.0 + std::abs(bound));  // outweighs the rounding of the samples' own arithmetic
-    if (bound < std::max(floor_slope, best)) return;
     if (l > 0) {
       split(l - 1, ta, tb);
       return;
