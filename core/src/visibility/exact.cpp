@@ -128,15 +128,44 @@ struct SightLine {
       split(l - 1, ta, tb);
       return;
     }
-    // Exact samples: the column and row lines this padded stretch spans (a
-    // crossing visited by two stretches is harmless: the maximum is idempotent).
-    auto take = [&](double t, double, double, double terrain) {
-      ++samples;
+    // The column and row lines this padded stretch spans (a crossing visited
+    // by two stretches is harmless: the maximum is idempotent). Each crossing
+    // is screened first with cheap arithmetic (a reciprocal for R3's
+    // division, the height test above); only one that may reach the bound,
+    // or reads a void, is taken exactly as R3 takes it.
+    screen(detail::Axis::kColumns, c_lo, c_hi);
+    screen(detail::Axis::kRows, r_lo, r_hi);
+  }
+
+  void screen(detail::Axis axis, int line_lo, int line_hi) {
+    const bool columns = axis == detail::Axis::kColumns;
+    const double a0 = columns ? c0 : r0, a1 = columns ? c1 : r1;
+    const double b0 = columns ? r0 : c0, b1 = columns ? r1 : c1;
+    const double da = a1 - a0, db = b1 - b0;
+    if (da == 0) return;
+    const int line_count = columns ? z->width() : z->height(), pos_count = columns ? z->height() : z->width();
+    // R3's crossings are the lines strictly between a0 and a1.
+    const int first = std::max(line_lo, static_cast<int>(std::floor(std::min(a0, a1))) + 1);
+    const int last = std::min(line_hi, static_cast<int>(std::ceil(std::max(a0, a1))) - 1);
+    const double inv_da = 1.0 / da;
+    auto exact = [&](double t, double, double, double terrain) {
       const double s = detail::r3_slope(*f, total, t, terrain);
       if (s > best) best = s;  // NaN (void) never wins
     };
-    detail::for_each_crossing_on(detail::Axis::kColumns, *z, c0, r0, c1, r1, c_lo, c_hi, take);
-    detail::for_each_crossing_on(detail::Axis::kRows, *z, c0, r0, c1, r1, r_lo, r_hi, take);
+    for (int line = std::max(first, 0); line <= std::min(last, line_count - 1); ++line) {
+      ++samples;
+      const double t = (line - a0) * inv_da;
+      const double pos = std::clamp(b0 + t * db, 0.0, double(pos_count - 1));
+      const int p0 = std::min(static_cast<int>(pos), pos_count - 2);
+      const double za = columns ? z->at(line, p0) : z->at(p0, line);
+      const double zb = columns ? z->at(line, p0 + 1) : z->at(p0 + 1, line);
+      const double terrain = za + (pos - p0) * (zb - za);
+      const double T = std::max(floor_slope, best);
+      const double d = t * total;
+      const double needed = f->eye + T * d + f->curvature * d * d;
+      if (std::isnan(terrain) || !(terrain < needed - 1e-6 * (1.0 + std::abs(needed))))
+        detail::for_each_crossing_on(axis, *z, c0, r0, c1, r1, line, line, exact);
+    }
   }
 };
 
