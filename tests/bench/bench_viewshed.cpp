@@ -15,6 +15,7 @@
 #include <map>
 #include <memory>
 #include <random>
+#include <string>
 
 #include "horizon/geodesy/observer.hpp"
 #include "horizon/terrain/dem_reader.hpp"
@@ -112,27 +113,61 @@ void BM_R3Synthetic(benchmark::State& state) {
 }
 BENCHMARK(BM_R3Synthetic)->Arg(512)->Arg(1024)->Unit(benchmark::kMillisecond)->UseRealTime();
 
-// A real DEM from $HORIZON_BENCH_DEM: whole DEM, and max distance = 10 % of its width.
-void BM_RadialDem(benchmark::State& state) {
+// The DEM named by $HORIZON_BENCH_DEM, read once; null (and the state
+// skipped with the reason) when it is unset or unreadable.
+const terrain::Dem* bench_dem(benchmark::State& state) {
   static std::unique_ptr<terrain::Dem> dem;
   const char* path = std::getenv("HORIZON_BENCH_DEM");
   if (!path) {
     state.SkipWithError("set HORIZON_BENCH_DEM to a DEM file");
-    return;
+    return nullptr;
   }
   if (!dem) {
     auto read = terrain::read_dem(path);
     if (!read.ok()) {
       state.SkipWithError(read.error().message.c_str());
-      return;
+      return nullptr;
     }
     dem = std::make_unique<terrain::Dem>(std::move(read).value());
   }
+  return dem.get();
+}
+
+// A real DEM from $HORIZON_BENCH_DEM: whole DEM, and max distance = 10 % of its width.
+void BM_RadialDem(benchmark::State& state) {
+  const terrain::Dem* dem = bench_dem(state);
+  if (!dem) return;
   const double width_m = dem->width() * std::abs(dem->georef.transform.pixel_width);
   run_radial(state, *dem, state.range(0) / 100.0,
              state.range(1) ? 0.1 * width_m : std::numeric_limits<double>::infinity());
 }
 BENCHMARK(BM_RadialDem)->ArgsProduct({{100, 50, 25}, {0, 1}})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// Each algorithm mode through compute_viewshed on $HORIZON_BENCH_DEM, whole
+// DEM: 0 fast, 1 conservative, 2 exact, 3 r3 (the last two are slow: run them
+// with --benchmark_min_time small, or filter them out).
+void BM_AlgorithmDem(benchmark::State& state) {
+  const terrain::Dem* dem = bench_dem(state);
+  if (!dem) return;
+  constexpr visibility::Algorithm kAlgorithms[] = {visibility::Algorithm::kRadial, visibility::Algorithm::kConservative,
+                                                   visibility::Algorithm::kExact, visibility::Algorithm::kR3};
+  visibility::ViewshedOptions o;
+  o.algorithm = kAlgorithms[state.range(0)];
+  state.SetLabel(std::string(visibility::algorithm_name(o.algorithm)));
+  visibility::WorkStats stats;
+  for (auto _ : state) {
+    auto result = visibility::compute_viewshed(*dem, centre_eye(*dem), o);
+    if (!result.ok()) {
+      state.SkipWithError(result.error().message.c_str());
+      return;
+    }
+    stats = result->stats;
+    benchmark::DoNotOptimize(result->ohf.data());
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * stats.cells_evaluated));
+  state.counters["samples/cell"] = double(stats.terrain_samples) / double(std::max<uint64_t>(1, stats.cells_evaluated));
+}
+BENCHMARK(BM_AlgorithmDem)->DenseRange(0, 3)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 
