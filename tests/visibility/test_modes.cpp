@@ -23,8 +23,8 @@ using testing::eye_at;
 using visibility::Algorithm;
 
 // Random hills with a sprinkling of voids, so void-adjacent samples are exercised.
-terrain::Dem holey_terrain(int size, unsigned seed) {
-  auto dem = testing::make_random_terrain(size, size, seed);
+terrain::Dem holey_terrain(int size, unsigned seed, double cell_size = 30.0, double relief = 200.0) {
+  auto dem = testing::make_random_terrain(size, size, seed, relief, cell_size);
   std::mt19937 rng(seed);
   std::uniform_int_distribution<int> pick(0, size - 1);
   for (int i = 0; i < size * size / 50; ++i) dem.elevation.at(pick(rng), pick(rng)) = std::nanf("");
@@ -73,6 +73,20 @@ TEST(Modes, ExactIsBitIdenticalToR3OnSyntheticTerrainWithVoids) {
       if (!std::isfinite(eye.elevation)) continue;  // observer on a void
       EXPECT_TRUE(same_ohf(run(dem, eye, Algorithm::kExact), run(dem, eye, Algorithm::kR3)))
           << "seed " << seed << " eye " << col << "," << row;
+    }
+  }
+}
+
+// Regression: at continental scale (1-degree cells, OHF in the millions of
+// metres from curvature) and at 2 m cells, the float rounding of the lower
+// bound exceeded the pruning margin and the exact sweep pruned R3's maximum.
+TEST(Modes, ExactSurvivesTheFloatRoundingOfItsBoundAtEveryScale) {
+  for (auto [cell, relief] : {std::pair{111000.0, 6000.0}, std::pair{2.0, 60.0}}) {
+    const auto dem = holey_terrain(91, 35, cell, relief);
+    for (auto [col, row] : {std::pair{45.0, 45.0}, {3.0, 60.0}}) {
+      const auto eye = eye_at(dem, col, row, 2.0);
+      if (!std::isfinite(eye.elevation)) continue;
+      EXPECT_TRUE(same_ohf(run(dem, eye, Algorithm::kExact), run(dem, eye, Algorithm::kR3))) << "cell " << cell;
     }
   }
 }

@@ -203,7 +203,10 @@ Status exact_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const Radial
       SightLine line{&z, &f, &pyramid, f.observer_col, f.observer_row, double(col), double(row), d,
                      std::max(std::abs(col - f.observer_col), std::abs(row - f.observer_row)), -kInf};
       if (std::isfinite(cell)) {
-        const double lower = (double(cell) - f.eye - f.curvature * d * d) / d;
+        // The bound arrives rounded to float, possibly upwards by half a unit
+        // in the last place: step below that before turning it into a slope.
+        const double slack = 2.0 * std::numeric_limits<float>::epsilon() * std::abs(double(cell)) + 1e-6;
+        const double lower = (double(cell) - slack - f.eye - f.curvature * d * d) / d;
         line.floor_slope = lower - 1e-9 * (1.0 + std::abs(lower));
       }
       line.search_all();
