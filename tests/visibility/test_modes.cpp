@@ -5,9 +5,12 @@
 //   fast          re-sampled horizons err only towards visible, within float rounding.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <mutex>
 #include <random>
+#include <vector>
 
 #include "horizon/terrain/dem_reader.hpp"
 #include "horizon/visibility/agreement.hpp"
@@ -197,6 +200,40 @@ TEST(Modes, FloatAndDoubleAgreeWithinTheStatedTolerance) {
     }
     EXPECT_LE(worst, 0.0) << "cell " << k.cell << " m, base " << k.base << " m";
   }
+}
+
+}  // namespace
+}  // namespace horizon
+
+namespace horizon {
+namespace {
+
+TEST(Modes, ExactReportsProgressOnceThroughAndHonoursCancel) {
+  const auto dem = testing::make_random_terrain(101, 101, 71);
+  const auto eye = eye_at(dem, 50, 50, 2.0);
+  visibility::ViewshedOptions o;
+  o.algorithm = Algorithm::kExact;
+  std::mutex m;
+  std::vector<double> seen;
+  RunControl control;
+  control.progress = [&](double x) {
+    std::lock_guard lock(m);
+    seen.push_back(x);
+  };
+  ASSERT_TRUE(visibility::compute_viewshed(dem, eye, o, &control).ok());
+  ASSERT_FALSE(seen.empty());
+  EXPECT_DOUBLE_EQ(*std::max_element(seen.begin(), seen.end()), 1.0);
+  // The bound's share comes first: nothing at or above 5 % is reported before the bound is done.
+  const auto first_late = std::find_if(seen.begin(), seen.end(), [](double x) { return x > 0.05; });
+  EXPECT_TRUE(std::all_of(first_late, seen.end(), [](double x) { return x > 0.05; }));
+
+  CancelToken cancel;
+  cancel.cancel();
+  RunControl stopped;
+  stopped.cancel = &cancel;
+  auto vs = visibility::compute_viewshed(dem, eye, o, &stopped);
+  ASSERT_FALSE(vs.ok());
+  EXPECT_EQ(vs.error().code, ErrorCode::kCancelled);
 }
 
 }  // namespace

@@ -174,8 +174,17 @@ struct SightLine {
 Status exact_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const RadialOptions& radial, unsigned threads,
                  const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats) {
   // 1. Lower bounds (into `ohf`, overwritten below cell by cell).
+  // Progress: the bound is a few percent of the work; report it as the first 5 %.
+  constexpr double kBoundShare = 0.05;
+  RunControl bound_control;
+  if (control) {
+    bound_control.cancel = control->cancel;
+    bound_control.deadline = control->deadline;
+    if (control->progress) bound_control.progress = [control](double x) { control->progress(kBoundShare * x); };
+  }
   WorkStats radial_stats;
-  HORIZON_RETURN_IF_ERROR(radial_ohf(z, f, radial, threads, control, ohf, radial_stats, RadialBound::kLowerBound));
+  HORIZON_RETURN_IF_ERROR(radial_ohf(z, f, radial, threads, control ? &bound_control : nullptr, ohf, radial_stats,
+                                     RadialBound::kLowerBound));
   const MaxPyramid pyramid(z, f.window);
   const terrain::Window& win = f.window;
 
@@ -216,7 +225,7 @@ Status exact_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const Radial
     }
     evaluated += n;
     samples += s;
-    report_progress(control, double(++rows_done) / win.height());
+    report_progress(control, kBoundShare + (1.0 - kBoundShare) * double(++rows_done) / win.height());
   });
   HORIZON_RETURN_IF_ERROR(check_control(control));
   stats.cells_evaluated = evaluated;
