@@ -112,6 +112,9 @@ TEST(Modes, ConservativeOhfNeverExceedsR3) {
       EXPECT_EQ(cells_above(cons, r3), 0) << "seed " << seed;
       EXPECT_EQ(visibility::compare_viewsheds(cons, r3, 0.0).missed_visible, 0u);
       EXPECT_EQ(visibility::compare_viewsheds(cons, r3, 3.0).missed_visible, 0u);
+      // A max-distance window starts away from the DEM's corner (window-based indices inside).
+      EXPECT_EQ(cells_above(run(dem, eye, Algorithm::kConservative, 1500.0), run(dem, eye, Algorithm::kR3, 1500.0)),
+                0);
     }
   }
 }
@@ -234,6 +237,40 @@ TEST(Modes, ExactReportsProgressOnceThroughAndHonoursCancel) {
   auto vs = visibility::compute_viewshed(dem, eye, o, &stopped);
   ASSERT_FALSE(vs.ok());
   EXPECT_EQ(vs.error().code, ErrorCode::kCancelled);
+}
+
+}  // namespace
+}  // namespace horizon
+
+namespace horizon {
+namespace {
+
+// A window read hands the engine a crop of the file around the max-distance
+// window; every algorithm must give the same bytes as on the whole file.
+TEST(Modes, ResultsDoNotDependOnTerrainOutsideTheWindow) {
+  const auto dem = holey_terrain(161, 81);
+  const auto eye = eye_at(dem, 70, 90, 3.0);
+  const double max_distance = 40 * 30.0;  // 40 cells
+  terrain::Dem crop = dem;
+  const int c0 = 70 - 43, r0 = 90 - 43, size = 87;  // window (81 x 81) plus a 3-cell margin
+  crop.elevation = terrain::Grid<float>(size, size);
+  for (int r = 0; r < size; ++r)
+    for (int c = 0; c < size; ++c) crop.elevation.at(c, r) = dem.elevation.at(c0 + c, r0 + r);
+  crop.georef.transform = dem.georef.transform.shifted(c0, r0);
+  auto crop_eye = eye;
+  crop_eye.col -= c0;
+  crop_eye.row -= r0;
+  for (Algorithm a : {Algorithm::kRadial, Algorithm::kConservative, Algorithm::kExact, Algorithm::kR3}) {
+    const auto whole = run(dem, eye, a, max_distance);
+    const auto part = run(crop, crop_eye, a, max_distance);
+    ASSERT_EQ(whole.ohf.width(), part.ohf.width());
+    ASSERT_EQ(whole.ohf.height(), part.ohf.height());
+    for (std::size_t i = 0; i < whole.ohf.size(); ++i) {
+      const float x = whole.ohf.values()[i], y = part.ohf.values()[i];
+      ASSERT_TRUE(std::memcmp(&x, &y, sizeof x) == 0 || (std::isnan(x) && std::isnan(y)))
+          << visibility::algorithm_name(a) << " cell " << i << ": " << x << " vs " << y;
+    }
+  }
 }
 
 }  // namespace

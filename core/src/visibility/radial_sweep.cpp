@@ -72,7 +72,11 @@ struct Sector {
   // Elevation: value at (line i, v index j) = z[i * z_line + j * z_v].
   const float* z = nullptr;
   std::ptrdiff_t z_line = 0, z_v = 0;
-  int v_count = 0;            // positions along v in the DEM
+  // v is counted from the window's first v line (v_offset in the DEM), so the
+  // float arithmetic is the same whatever surrounds the window: a result
+  // never depends on how much of the file around it was read.
+  int v_offset = 0;
+  int v_count = 0;            // positions along v in the DEM from v_offset on
   // Output (window-relative): ohf[(i - out_line0) * o_line + (j - out_v0) * o_v].
   float* out = nullptr;
   std::ptrdiff_t o_line = 0, o_v = 0;
@@ -200,7 +204,7 @@ SectorPlan plan_sector(const Sector& s, const SweepConstants& c, double ray_spac
 // arrays so the compiler can prove they do not alias and vectorise them
 // (gathers for the terrain reads, maxps for the running maximum).
 struct LineStep {
-  float eye, eye_v, v_max, kf, kp, k_start;
+  float eye, eye_v, v_min, v_max, kf, kp, k_start;  // v_min / v_max: the window's first and last v line
   int j_max, zv;
 };
 
@@ -213,7 +217,8 @@ inline void step_cross(const LineStep& ls, int count, const float* __restrict sl
                        const float* __restrict inv_slope, const float* __restrict curv_k,
                        const float* __restrict prev, const float* __restrict cur, float* __restrict cross_slope,
                        int* __restrict cross_v) {
-  const float eye_v = ls.eye_v, k_start = ls.k_start, kf = ls.kf, v_max = ls.v_max, kp = ls.kp, eye = ls.eye;
+  const float eye_v = ls.eye_v, k_start = ls.k_start, kf = ls.kf, v_min = ls.v_min, v_max = ls.v_max, kp = ls.kp,
+              eye = ls.eye;
   const int zv = ls.zv;
   for (int i = 0; i < count; ++i) {
     const float m = slope[i];
@@ -222,8 +227,8 @@ inline void step_cross(const LineStep& ls, int count, const float* __restrict sl
     const float cv = m > 0.0f ? up : down;
     // Integer masks rather than && / ||, which would become branches.
     const int crosses = (int(m > 0.0f) & int(up < v_end)) | (int(m < 0.0f) & int(down > v_end));
-    const int valid = crosses & int(cv >= 0.0f) & int(cv <= v_max);
-    const float cv_clamped = std::min(std::max(cv, 0.0f), v_max);  // a readable line even when not valid
+    const int valid = crosses & int(cv >= v_min) & int(cv <= v_max);
+    const float cv_clamped = std::min(std::max(cv, v_min), v_max);  // a readable line even when not valid
     const int jc = static_cast<int>(cv_clamped);
     const float kc = std::max((cv_clamped - eye_v) * inv_slope[i], 1.0e-6f);
     const float tc = kc - kp;
@@ -243,7 +248,7 @@ inline void step_line(const LineStep& ls, int count, const float* __restrict slo
                       const int* __restrict cross_v, float* __restrict h, int* __restrict arg, int n) {
   const float inv_kf = 1.0f / ls.kf;
   for (int i = 0; i < count; ++i) {
-    const float v = std::min(std::max(ls.eye_v + slope[i] * ls.kf, 0.0f), ls.v_max);
+    const float v = std::min(std::max(ls.eye_v + slope[i] * ls.kf, ls.v_min), ls.v_max);
     const int j0 = std::min(static_cast<int>(v), ls.j_max);
     const float t = v - static_cast<float>(j0);
     const float a = cur[j0 * ls.zv], b = cur[(j0 + 1) * ls.zv];
@@ -271,7 +276,7 @@ struct CellLine {
   const Sector* s;
   const float* inv_step;  // 1 / (k0 + n) per line step n
   const float* inv_dv;    // 1 / (c - eye_v) per v index c (0 where c == eye_v)
-  float eye, eye_v, v_max, k0, k;
+  float eye, eye_v, v_min, v_max, k0, k;
   float curvature, mu2, mv2;  // curvature per metre^2; metres per unit step along u and v, squared
   int j_max, zv, line0, dir, line_count;
   std::ptrdiff_t z_line;
@@ -291,7 +296,7 @@ inline CellRay cell_ray(const CellLine& L, int j) {
 // Sample on the u line at step n (the cell's line has a larger step).
 inline float sample_u(const CellLine& L, const CellRay& c, int n) {
   const float kn = L.k0 + static_cast<float>(n);
-  const float v = std::min(std::max(L.eye_v + c.m * kn, 0.0f), L.v_max);
+  const float v = std::min(std::max(L.eye_v + c.m * kn, L.v_min), L.v_max);
   const int j0 = std::min(static_cast<int>(v), L.j_max);
   const float t = v - static_cast<float>(j0);
   const float* zl = L.s->z + (L.line0 + L.dir * n) * L.z_line;
@@ -327,7 +332,8 @@ inline float sample_at(const CellLine& L, const CellRay& c, int where) {
 // exceeds R3's. Returns the horizon slope per metre, -inf when no candidate.
 double resample_r3(const Sector& s, const SweepConstants& c, int line, int j, int n, int a0, int a1) {
   const ViewFrame& f = *c.frame;
-  const double tc = s.rows ? j : line, tr = s.rows ? line : j;
+  const int jd = j + s.v_offset;  // DEM index
+  const double tc = s.rows ? jd : line, tr = s.rows ? line : jd;
   const double total = f.distance(tc, tr);
   const detail::Axis u_axis = s.rows ? detail::Axis::kRows : detail::Axis::kColumns;
   const detail::Axis v_axis = s.rows ? detail::Axis::kColumns : detail::Axis::kRows;
@@ -343,7 +349,7 @@ double resample_r3(const Sector& s, const SweepConstants& c, int line, int j, in
     if (where >= 0)
       sample(u_axis, s.line0 + s.dir * where);
     else if (where <= -2)
-      sample(v_axis, -2 - where);
+      sample(v_axis, -2 - where + s.v_offset);  // codes carry window-based v
   };
   if (n > 0) sample(u_axis, s.line0 + s.dir * (n - 1));
   if (a0 != n - 1) sample_code(a0);
@@ -444,8 +450,11 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
   const float* curv_k = scratch.curv_k.data();
   const float eye = static_cast<float>(c.eye);
   const float eye_v = static_cast<float>(s.eye_v);
-  const float v_max = static_cast<float>(s.v_count - 1);
-  const int j_max = s.v_count - 2;
+  // Rays read the terrain inside the window only (R3's sight lines never
+  // leave it), so a result does not depend on how much of the file around
+  // the window was read.
+  const float v_min = static_cast<float>(s.win_v0), v_max = static_cast<float>(s.win_v1 - 1);
+  const int j_max = std::max(0, std::min(std::max(s.win_v0, s.win_v1 - 2), s.v_count - 2));
   const double max_d2 = c.max_distance * c.max_distance;
   const int zv = static_cast<int>(s.z_v);  // offsets within a line fit in 32 bits (checked by the driver)
 
@@ -459,7 +468,7 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
     const float* cur = s.z + line * s.z_line;
     for (const int target = task_level(p, n, ra, rb); level > target;) {
       stride = 1 << --level;
-      const CellLine before{&s, p.inv_step.data(), p.inv_dv.data(), eye, eye_v, v_max, static_cast<float>(s.k0),
+      const CellLine before{&s, p.inv_step.data(), p.inv_dv.data(), eye, eye_v, v_min, v_max, static_cast<float>(s.k0),
                             static_cast<float>(k - 1.0), static_cast<float>(c.curvature),
                             static_cast<float>(s.metres_u * s.metres_u), static_cast<float>(s.metres_v * s.metres_v),
                             j_max, zv, s.line0, s.dir, s.line_count, s.z_line};
@@ -481,7 +490,7 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
 
     // 1. Each active ray's crossing of a v grid line strictly inside
     //    (max(kp, 0), k), if any (|m| <= 1: at most one).
-    const LineStep ls{eye, eye_v, v_max, kf, kp, std::max(kp, 0.0f), j_max, zv};
+    const LineStep ls{eye, eye_v, v_min, v_max, kf, kp, std::max(kp, 0.0f), j_max, zv};
     if (lo <= hi) {
       const int prev_line = std::clamp(line - s.dir, 0, s.line_count - 1);
       const int o = lo;
@@ -499,7 +508,7 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
       const int j_first = std::max(p.cell_lo[n], static_cast<int>(std::floor(s.eye_v + k * ra * p.ray_step)));
       const int j_last = std::min(p.cell_hi[n], static_cast<int>(std::ceil(s.eye_v + k * rb * p.ray_step)));
       const double du2 = (k * s.metres_u) * (k * s.metres_u);
-      const CellLine cl{&s, p.inv_step.data(), p.inv_dv.data(), eye, eye_v, v_max, static_cast<float>(s.k0),
+      const CellLine cl{&s, p.inv_step.data(), p.inv_dv.data(), eye, eye_v, v_min, v_max, static_cast<float>(s.k0),
                         kf, static_cast<float>(c.curvature), static_cast<float>(s.metres_u * s.metres_u),
                         static_cast<float>(s.metres_v * s.metres_v), j_max, zv, s.line0, s.dir, s.line_count,
                         s.z_line};
@@ -524,7 +533,8 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
           if (c.precise) {
             // R3's own OHF formula on R3's samples: never above R3's value.
             const double horizon = resample_r3(s, c, line, j, n, a0, a1);
-            const double d = c.frame->distance(s.rows ? j : line, s.rows ? line : j);
+            const int jd = j + s.v_offset;
+            const double d = c.frame->distance(s.rows ? jd : line, s.rows ? line : jd);
             float* cell = s.out + (line - s.out_line0) * s.o_line + (j - s.out_v0) * s.o_v;
             *cell = horizon == -std::numeric_limits<double>::infinity()
                         ? -std::numeric_limits<float>::infinity()
@@ -615,6 +625,14 @@ Status radial_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const Radia
       s.lines = s.line0 - u0 + 1;
       s.k0 = eye_u - s.line0;
     }
+    // Re-base v on the window (see Sector::v_offset).
+    s.v_offset = s.win_v0;
+    s.z += s.v_offset * s.z_v;
+    s.eye_v -= s.v_offset;
+    s.win_v1 -= s.v_offset;
+    s.win_v0 = 0;
+    s.out_v0 -= s.v_offset;
+    s.v_count -= s.v_offset;
     if (s.lines > 0) sectors.push_back(s);
   };
   add(true, -1);   // north
