@@ -203,8 +203,19 @@ SectorPlan plan_sector(const Sector& s, const SweepConstants& c, double ray_spac
 // The two per-line ray loops, as free functions over restrict-qualified
 // arrays so the compiler can prove they do not alias and vectorise them
 // (gathers for the terrain reads, maxps for the running maximum).
+// Height of the terrain sample a + t (b - a) relative to the eye, in float32
+// without losing the eye-relative bits at high altitude: the eye is split
+// into eye_hi (its float rounding) + eye_lo, and a - eye_hi is exact for
+// terrain near the eye (Sterbenz), so the result is the same whether the
+// scene sits at 0 m or at 8 km (a plain a + t (b - a) - eye rounds to
+// 0.5 mm there, which a crossing close to the eye amplifies to decimetres).
+inline float eye_relative(float a, float b, float t, float eye_hi, float eye_lo) {
+  return ((a - eye_hi) - eye_lo) + t * (b - a);
+}
+
 struct LineStep {
-  float eye, eye_v, v_min, v_max, kf, kp, k_start;  // v_min / v_max: the window's first and last v line
+  float eye, eye_lo, eye_v;      // the eye's height as eye_hi + eye_lo (see eye_relative), its v position
+  float v_min, v_max, kf, kp, k_start;  // v_min / v_max: the window's first and last v line
   int j_max, zv;
 };
 
@@ -218,7 +229,7 @@ inline void step_cross(const LineStep& ls, int count, const float* __restrict sl
                        const float* __restrict prev, const float* __restrict cur, float* __restrict cross_slope,
                        int* __restrict cross_v) {
   const float eye_v = ls.eye_v, k_start = ls.k_start, kf = ls.kf, v_min = ls.v_min, v_max = ls.v_max, kp = ls.kp,
-              eye = ls.eye;
+              eye = ls.eye, eye_lo = ls.eye_lo;
   const int zv = ls.zv;
   for (int i = 0; i < count; ++i) {
     const float m = slope[i];
@@ -233,8 +244,7 @@ inline void step_cross(const LineStep& ls, int count, const float* __restrict sl
     const float kc = std::max((cv_clamped - eye_v) * inv_slope[i], 1.0e-6f);
     const float tc = kc - kp;
     const float pa = prev[jc * zv], pb = cur[jc * zv];
-    const float z_cross = pa + tc * (pb - pa);
-    const float s_cross = (z_cross - eye) / kc - curv_k[i] * kc;
+    const float s_cross = eye_relative(pa, pb, tc, eye, eye_lo) / kc - curv_k[i] * kc;
     cross_slope[i] = std::min(s_cross, valid ? 3.0e38f : kNoHorizon);
     cross_v[i] = (jc + 1) * valid - 1;
   }
@@ -252,7 +262,7 @@ inline void step_line(const LineStep& ls, int count, const float* __restrict slo
     const int j0 = std::min(static_cast<int>(v), ls.j_max);
     const float t = v - static_cast<float>(j0);
     const float a = cur[j0 * ls.zv], b = cur[(j0 + 1) * ls.zv];
-    const float s_line = (a + t * (b - a) - ls.eye) * inv_kf - curv_k[i] * ls.kf;
+    const float s_line = eye_relative(a, b, t, ls.eye, ls.eye_lo) * inv_kf - curv_k[i] * ls.kf;
     float best = h[i];
     int where = arg[i];
     where = cross_slope[i] > best ? -2 - cross_v[i] : where;
@@ -276,7 +286,7 @@ struct CellLine {
   const Sector* s;
   const float* inv_step;  // 1 / (k0 + n) per line step n
   const float* inv_dv;    // 1 / (c - eye_v) per v index c (0 where c == eye_v)
-  float eye, eye_v, v_min, v_max, k0, k;
+  float eye, eye_lo, eye_v, v_min, v_max, k0, k;  // eye = eye_hi + eye_lo (see eye_relative)
   float curvature, mu2, mv2;  // curvature per metre^2; metres per unit step along u and v, squared
   int j_max, zv, line0, dir, line_count;
   std::ptrdiff_t z_line;
@@ -301,7 +311,7 @@ inline float sample_u(const CellLine& L, const CellRay& c, int n) {
   const float t = v - static_cast<float>(j0);
   const float* zl = L.s->z + (L.line0 + L.dir * n) * L.z_line;
   const float a = zl[j0 * L.zv], b = zl[(j0 + 1) * L.zv];
-  return (a + t * (b - a) - L.eye) * L.inv_step[n] - c.curv_k * kn;
+  return eye_relative(a, b, t, L.eye, L.eye_lo) * L.inv_step[n] - c.curv_k * kn;
 }
 
 // Sample on the v line `vline`, if the sight line crosses it before the cell.
@@ -316,7 +326,7 @@ inline float sample_v(const CellLine& L, const CellRay& c, int vline) {
   const int la = std::clamp(L.line0 + L.dir * n1, 0, L.line_count - 1);
   const int lb = std::clamp(L.line0 + L.dir * (n1 + 1), 0, L.line_count - 1);
   const float a = L.s->z[la * L.z_line + vline * L.zv], b = L.s->z[lb * L.z_line + vline * L.zv];
-  return (a + t * (b - a) - L.eye) * (c.m * L.inv_dv[vline]) - c.curv_k * kc;
+  return eye_relative(a, b, t, L.eye, L.eye_lo) * (c.m * L.inv_dv[vline]) - c.curv_k * kc;
 }
 
 inline float sample_at(const CellLine& L, const CellRay& c, int where) {
@@ -449,6 +459,7 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
   const float* inv_slope = scratch.inv_slope.data();
   const float* curv_k = scratch.curv_k.data();
   const float eye = static_cast<float>(c.eye);
+  const float eye_lo = static_cast<float>(c.eye - static_cast<double>(eye));
   const float eye_v = static_cast<float>(s.eye_v);
   // Rays read the terrain inside the window only (R3's sight lines never
   // leave it), so a result does not depend on how much of the file around
@@ -468,7 +479,7 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
     const float* cur = s.z + line * s.z_line;
     for (const int target = task_level(p, n, ra, rb); level > target;) {
       stride = 1 << --level;
-      const CellLine before{&s, p.inv_step.data(), p.inv_dv.data(), eye, eye_v, v_min, v_max, static_cast<float>(s.k0),
+      const CellLine before{&s, p.inv_step.data(), p.inv_dv.data(), eye, eye_lo, eye_v, v_min, v_max, static_cast<float>(s.k0),
                             static_cast<float>(k - 1.0), static_cast<float>(c.curvature),
                             static_cast<float>(s.metres_u * s.metres_u), static_cast<float>(s.metres_v * s.metres_v),
                             j_max, zv, s.line0, s.dir, s.line_count, s.z_line};
@@ -490,7 +501,7 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
 
     // 1. Each active ray's crossing of a v grid line strictly inside
     //    (max(kp, 0), k), if any (|m| <= 1: at most one).
-    const LineStep ls{eye, eye_v, v_min, v_max, kf, kp, std::max(kp, 0.0f), j_max, zv};
+    const LineStep ls{eye, eye_lo, eye_v, v_min, v_max, kf, kp, std::max(kp, 0.0f), j_max, zv};
     if (lo <= hi) {
       const int prev_line = std::clamp(line - s.dir, 0, s.line_count - 1);
       const int o = lo;
@@ -508,7 +519,7 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
       const int j_first = std::max(p.cell_lo[n], static_cast<int>(std::floor(s.eye_v + k * ra * p.ray_step)));
       const int j_last = std::min(p.cell_hi[n], static_cast<int>(std::ceil(s.eye_v + k * rb * p.ray_step)));
       const double du2 = (k * s.metres_u) * (k * s.metres_u);
-      const CellLine cl{&s, p.inv_step.data(), p.inv_dv.data(), eye, eye_v, v_min, v_max, static_cast<float>(s.k0),
+      const CellLine cl{&s, p.inv_step.data(), p.inv_dv.data(), eye, eye_lo, eye_v, v_min, v_max, static_cast<float>(s.k0),
                         kf, static_cast<float>(c.curvature), static_cast<float>(s.metres_u * s.metres_u),
                         static_cast<float>(s.metres_v * s.metres_v), j_max, zv, s.line0, s.dir, s.line_count,
                         s.z_line};
