@@ -1,0 +1,128 @@
+// horizon/visibility/cull.hpp — occlusion culling of object boxes from one
+// viewpoint (a simulator's "which of these 10 000 boxes can this camera see?").
+//
+//   auto eye = geodesy::resolve_point(dem, {.x = .., .y = .., .height = 2}, "observer");
+//   std::vector<visibility::BoxSpec> boxes = ...;        // dataset CRS (or WGS84) rectangles + z range
+//   auto culled = visibility::cull_boxes(dem, *eye, boxes, {.conservative = true});
+//   for (auto& b : culled->boxes) ... b.visible, b.ohf_min
+//
+// Rule. A box is the set of points (x, y, z) with (x, y) in its footprint and
+// z in [z_min, z_max] (absolute metres). A point is visible when z reaches the
+// occlusion height field (OHF) above it, so the box is visible iff
+//   z_max >= min over the footprint of OHF    (ties within kTieTolerance count as visible),
+// and that minimum, `ohf_min`, says by how much it is hidden (ohf_min - z_max).
+//
+// Footprints between cell centres. The OHF is known at cell centres (integer
+// grid coordinates). Between them it is taken as a blend (bilinear, like the
+// terrain) of the surrounding centres, which is never below their minimum. So
+// a footprint spanning continuous grid columns [c0, c1] covers the centres
+// floor(c0) .. ceil(c1) (likewise rows): every centre that brackets a point of
+// it. This errs only towards "visible". A footprint touching a cell with no
+// answer (a transparent void) gets ohf_min = -inf and is visible.
+//
+// Work. Only the window the boxes need is computed: the OHF's max distance is
+// that of the farthest covered cell centre, so a scene of nearby objects on a
+// huge DEM costs a small viewshed. A MinPyramid of that OHF then answers each
+// box in O(1)-O(log) cells whatever its footprint (see min_pyramid.hpp).
+//
+// Accuracy. With `conservative`, the OHF comes from Algorithm::kConservative,
+// which never reports hidden a point R3 sees, so no box R3 sees is reported
+// hidden. Otherwise the OHF comes from options.algorithm and inherits its error
+// (the fast radial sweep may miss a visible box whose only visible part is
+// within its small angular-blend error; docs/accuracy.md quantifies it).
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "horizon/common/control.hpp"
+#include "horizon/common/error.hpp"
+#include "horizon/geodesy/observer.hpp"
+#include "horizon/terrain/dem.hpp"
+#include "horizon/visibility/min_pyramid.hpp"
+#include "horizon/visibility/options.hpp"
+#include "horizon/visibility/viewshed.hpp"
+
+namespace horizon::visibility {
+
+// One object box as a caller gives it.
+struct BoxSpec {
+  geodesy::PointFrame frame = geodesy::PointFrame::kDatasetCrs;  // of the rectangle
+  // Dataset CRS x/y, or longitude/latitude in degrees for kWgs84 (then the
+  // corners and edge midpoints are converted and their bounding rectangle in
+  // the dataset CRS is used). x_min <= x_max, y_min <= y_max; equal = a line or point.
+  double x_min = 0.0, y_min = 0.0, x_max = 0.0, y_max = 0.0;
+  double z_min = 0.0, z_max = 0.0;  // absolute metres, z_min <= z_max
+};
+
+// A box in grid terms: the DEM cell centres its footprint covers (half-open).
+struct BoxFootprint {
+  terrain::Window cells;
+  double z_min = 0.0, z_max = 0.0;
+};
+
+struct BoxVisibility {
+  bool visible = true;
+  float ohf_min = 0.0f;  // absolute metres; -inf when nothing is known to hide some point of it
+};
+
+struct CullOptions {
+  // OHF algorithm and knobs. max_distance and target_height are ignored: the
+  // distance comes from the boxes, and boxes carry their own heights.
+  ViewshedOptions viewshed;
+  // Use Algorithm::kConservative whatever viewshed.algorithm says.
+  bool conservative = false;
+};
+
+struct CullResult {
+  std::vector<BoxVisibility> boxes;  // one per input box, same order
+  std::size_t visible_count = 0;
+  Algorithm algorithm = Algorithm::kRadial;  // the one that computed the OHF
+  terrain::Window window;                    // the DEM cells the OHF covered
+  WorkStats stats;                           // of the OHF computation
+  std::uint64_t pyramid_cells_read = 0;      // cost of all box tests
+};
+
+// Checks and converts boxes (finite numbers, min <= max, frame conversion,
+// footprint inside the DEM's outer extent). Errors name the box and field:
+// kInvalidArgument "boxes[3].z_max", kOutOfRange "boxes[7]",
+// kUnsupported for WGS84 boxes on a DEM without a CRS.
+Result<std::vector<BoxFootprint>> resolve_boxes(const terrain::Dem& dem, std::span<const BoxSpec> boxes);
+
+// Ground metres from the eye to the farthest cell centre any footprint covers:
+// the max distance a viewshed needs to answer these boxes.
+double cull_reach(const ViewFrame& frame, std::span<const BoxFootprint> footprints);
+
+// Tests footprints against an OHF already computed (pyramid built over
+// result.ohf). Footprint cells outside result's window count as "no answer"
+// (-inf, visible). `out` must have one element per footprint. Returns the
+// number visible; adds pyramid reads to *cells_read when given.
+std::size_t cull_footprints(const ViewshedResult& result, const MinPyramid& pyramid,
+                            std::span<const BoxFootprint> footprints, std::span<BoxVisibility> out,
+                            std::uint64_t* cells_read = nullptr);
+
+// A request resolved but not yet computed: what it will cost is known
+// (frame.window is the window the OHF will cover), so a server can check its
+// limits and memory before any work.
+struct CullPlan {
+  std::vector<BoxFootprint> footprints;
+  ViewshedOptions viewshed;  // algorithm chosen, max_distance = the boxes' reach
+  ViewFrame frame;           // of that viewshed
+};
+
+// Resolves the boxes and plans the OHF. An empty `boxes` is kInvalidArgument ("boxes").
+Result<CullPlan> plan_cull(const terrain::Dem& dem, const geodesy::GridPoint& observer,
+                           std::span<const BoxSpec> boxes, const CullOptions& options);
+
+// Computes the planned OHF, builds the pyramid and tests every box. Honours
+// `control` (cancel, deadline) inside the OHF computation.
+Result<CullResult> run_cull(const terrain::Dem& dem, const geodesy::GridPoint& observer, const CullPlan& plan,
+                            const RunControl* control = nullptr);
+
+// plan_cull + run_cull.
+Result<CullResult> cull_boxes(const terrain::Dem& dem, const geodesy::GridPoint& observer,
+                              std::span<const BoxSpec> boxes, const CullOptions& options,
+                              const RunControl* control = nullptr);
+
+}  // namespace horizon::visibility

@@ -1,0 +1,218 @@
+// Occlusion culling of object boxes against the occlusion height field.
+// The OHF as the culling surface is the method of US patent 7,027,046
+// ("Method, system, and computer program product for visibility culling of
+// terrain"); the per-box test reads a hierarchical minimum of it (Greene et
+// al., "Hierarchical Z-Buffer Visibility", 1993), see min_pyramid.hpp.
+#include "horizon/visibility/cull.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cassert>
+#include <cmath>
+#include <limits>
+#include <optional>
+#include <string>
+#include <utility>
+
+#include "horizon/geodesy/crs.hpp"
+
+namespace horizon::visibility {
+namespace {
+
+constexpr float kMinusInf = -std::numeric_limits<float>::infinity();
+
+std::string box_field(std::size_t i, const char* field) {
+  std::string name = "boxes[" + std::to_string(i) + "]";
+  if (field && *field) name += std::string(".") + field;
+  return name;
+}
+
+Status check_finite(std::size_t i, const BoxSpec& b) {
+  const std::array<std::pair<const char*, double>, 6> values{
+      {{"x_min", b.x_min}, {"y_min", b.y_min}, {"x_max", b.x_max}, {"y_max", b.y_max}, {"z_min", b.z_min},
+       {"z_max", b.z_max}}};
+  for (const auto& [name, v] : values)
+    if (!std::isfinite(v))
+      return make_error(ErrorCode::kInvalidArgument, box_field(i, name) + ": not a finite number",
+                        box_field(i, name));
+  if (b.x_max < b.x_min)
+    return make_error(ErrorCode::kInvalidArgument, box_field(i, "x_max") + ": less than x_min", box_field(i, "x_max"));
+  if (b.y_max < b.y_min)
+    return make_error(ErrorCode::kInvalidArgument, box_field(i, "y_max") + ": less than y_min", box_field(i, "y_max"));
+  if (b.z_max < b.z_min)
+    return make_error(ErrorCode::kInvalidArgument, box_field(i, "z_max") + ": less than z_min", box_field(i, "z_max"));
+  return Status::Ok();
+}
+
+struct Rect {
+  double x_min, y_min, x_max, y_max;
+};
+
+// Bounding rectangle in the dataset CRS of a WGS84 rectangle: its corners and
+// edge midpoints converted (exact for geographic CRSs; within centimetres for
+// object-sized boxes in a projected one).
+Result<Rect> to_dataset_crs(const geodesy::Crs& crs, const BoxSpec& b, std::size_t i) {
+  const double xm = (b.x_min + b.x_max) / 2, ym = (b.y_min + b.y_max) / 2;
+  const std::array<geodesy::LonLat, 8> points{{{b.x_min, b.y_min},
+                                              {b.x_max, b.y_min},
+                                              {b.x_min, b.y_max},
+                                              {b.x_max, b.y_max},
+                                              {xm, b.y_min},
+                                              {xm, b.y_max},
+                                              {b.x_min, ym},
+                                              {b.x_max, ym}}};
+  std::optional<Rect> r;
+  for (const geodesy::LonLat& p : points) {
+    auto xy = crs.from_lonlat(p);
+    if (!xy.ok())
+      return make_error(ErrorCode::kOutOfRange, box_field(i, "") + ": " + xy.error().message, box_field(i, ""));
+    if (!r) r = Rect{xy->x, xy->y, xy->x, xy->y};
+    r->x_min = std::min(r->x_min, xy->x);
+    r->x_max = std::max(r->x_max, xy->x);
+    r->y_min = std::min(r->y_min, xy->y);
+    r->y_max = std::max(r->y_max, xy->y);
+  }
+  return *r;
+}
+
+}  // namespace
+
+Result<std::vector<BoxFootprint>> resolve_boxes(const terrain::Dem& dem, std::span<const BoxSpec> boxes) {
+  std::optional<geodesy::Crs> crs;
+  const auto& t = dem.georef.transform;
+  const double w = dem.width(), h = dem.height();
+  std::vector<BoxFootprint> out;
+  out.reserve(boxes.size());
+  for (std::size_t i = 0; i < boxes.size(); ++i) {
+    const BoxSpec& b = boxes[i];
+    HORIZON_RETURN_IF_ERROR(check_finite(i, b));
+    Rect r{b.x_min, b.y_min, b.x_max, b.y_max};
+    if (b.frame == geodesy::PointFrame::kWgs84) {
+      if (!crs) {
+        if (dem.georef.epsg == 0)
+          return make_error(ErrorCode::kUnsupported,
+                            box_field(i, "frame") + ": WGS84 boxes need a dataset with a CRS; '" + dem.source +
+                                "' has none",
+                            box_field(i, "frame"));
+        auto c = geodesy::Crs::from_epsg(dem.georef.epsg);
+        if (!c.ok()) return c.error();
+        crs = *c;
+      }
+      for (const auto& [name, lat] : {std::pair{"y_min", b.y_min}, std::pair{"y_max", b.y_max}})
+        if (std::abs(lat) > 90.0)
+          return make_error(ErrorCode::kInvalidArgument, box_field(i, name) + ": latitude beyond +-90 degrees",
+                            box_field(i, name));
+      auto converted = to_dataset_crs(*crs, b, i);
+      if (!converted.ok()) return converted.error();
+      r = *converted;
+    }
+    // Continuous grid coordinates of the footprint (rows grow south, so y_max
+    // gives the smaller row when pixel_height < 0).
+    const double ca = t.col_at(r.x_min), cb = t.col_at(r.x_max);
+    const double ra = t.row_at(r.y_min), rb = t.row_at(r.y_max);
+    const double c0 = std::min(ca, cb), c1 = std::max(ca, cb);
+    const double r0 = std::min(ra, rb), r1 = std::max(ra, rb);
+    // Inside the raster's outer extent: grid coordinates [-0.5, size - 0.5].
+    if (c0 < -0.5 || r0 < -0.5 || c1 > w - 0.5 || r1 > h - 0.5)
+      return make_error(ErrorCode::kOutOfRange,
+                        box_field(i, "") + ": footprint lies (partly) outside the dataset '" + dem.source + "'",
+                        box_field(i, ""));
+    BoxFootprint f;
+    f.cells.col0 = std::max(0, static_cast<int>(std::floor(c0)));
+    f.cells.row0 = std::max(0, static_cast<int>(std::floor(r0)));
+    f.cells.col1 = std::min(dem.width(), static_cast<int>(std::ceil(c1)) + 1);
+    f.cells.row1 = std::min(dem.height(), static_cast<int>(std::ceil(r1)) + 1);
+    f.z_min = b.z_min;
+    f.z_max = b.z_max;
+    out.push_back(f);
+  }
+  return out;
+}
+
+double cull_reach(const ViewFrame& frame, std::span<const BoxFootprint> footprints) {
+  double reach = 0.0;
+  for (const BoxFootprint& f : footprints) {
+    // The farthest covered centre is one of the window's corner centres.
+    const int cols[2] = {f.cells.col0, f.cells.col1 - 1};
+    const int rows[2] = {f.cells.row0, f.cells.row1 - 1};
+    for (int c : cols)
+      for (int r : rows) reach = std::max(reach, frame.distance(c, r));
+  }
+  return reach;
+}
+
+std::size_t cull_footprints(const ViewshedResult& result, const MinPyramid& pyramid,
+                            std::span<const BoxFootprint> footprints, std::span<BoxVisibility> out,
+                            std::uint64_t* cells_read) {
+  assert(out.size() == footprints.size());
+  const terrain::Window& win = result.frame.window;
+  std::uint64_t reads = 0;
+  std::size_t visible = 0;
+  for (std::size_t i = 0; i < footprints.size(); ++i) {
+    const BoxFootprint& f = footprints[i];
+    const terrain::Window local{f.cells.col0 - win.col0, f.cells.row0 - win.row0, f.cells.col1 - win.col0,
+                                f.cells.row1 - win.row0};
+    float ohf_min = kMinusInf;
+    // Wholly inside the computed window: the pyramid answers. Otherwise part
+    // of the footprint has no answer, which never hides it.
+    if (local.col0 >= 0 && local.row0 >= 0 && local.col1 <= pyramid.width() && local.row1 <= pyramid.height() &&
+        !local.empty())
+      ohf_min = pyramid.min_in(local, &reads);
+    const bool is_visible = f.z_max >= static_cast<double>(ohf_min) - kTieTolerance;
+    out[i] = {is_visible, ohf_min};
+    visible += is_visible;
+  }
+  if (cells_read) *cells_read += reads;
+  return visible;
+}
+
+Result<CullPlan> plan_cull(const terrain::Dem& dem, const geodesy::GridPoint& observer,
+                           std::span<const BoxSpec> boxes, const CullOptions& options) {
+  if (boxes.empty()) return make_error(ErrorCode::kInvalidArgument, "boxes: at least one box is needed", "boxes");
+  auto footprints = resolve_boxes(dem, boxes);
+  if (!footprints.ok()) return footprints.error();
+
+  CullPlan plan;
+  plan.footprints = std::move(*footprints);
+  ViewshedOptions& vs = plan.viewshed;
+  vs = options.viewshed;
+  vs.target_height = 0.0;
+  vs.max_distance = std::numeric_limits<double>::infinity();
+  if (options.conservative) vs.algorithm = Algorithm::kConservative;
+  // The frame over the whole DEM gives the metric cell sizes at the eye; the
+  // reach of the boxes then bounds the window actually computed.
+  auto whole = make_view_frame(dem, observer, vs);
+  if (!whole.ok()) return whole.error();
+  const double reach = cull_reach(*whole, plan.footprints);
+  // A hair beyond the farthest centre so that rounding never drops it, and
+  // never zero (a box on the eye's own cell).
+  vs.max_distance = std::max(reach * (1.0 + 1e-9) + 1e-6, std::min(whole->metres_per_col, whole->metres_per_row));
+  auto frame = make_view_frame(dem, observer, vs);
+  if (!frame.ok()) return frame.error();
+  plan.frame = *frame;
+  return plan;
+}
+
+Result<CullResult> run_cull(const terrain::Dem& dem, const geodesy::GridPoint& observer, const CullPlan& plan,
+                            const RunControl* control) {
+  auto ohf = compute_viewshed(dem, observer, plan.viewshed, control);
+  if (!ohf.ok()) return ohf.error();
+
+  CullResult result;
+  result.algorithm = plan.viewshed.algorithm;
+  result.window = ohf->frame.window;
+  result.stats = ohf->stats;
+  const MinPyramid pyramid(ohf->ohf);
+  result.boxes.resize(plan.footprints.size());
+  result.visible_count = cull_footprints(*ohf, pyramid, plan.footprints, result.boxes, &result.pyramid_cells_read);
+  return result;
+}
+
+Result<CullResult> cull_boxes(const terrain::Dem& dem, const geodesy::GridPoint& observer,
+                              std::span<const BoxSpec> boxes, const CullOptions& options, const RunControl* control) {
+  auto plan = plan_cull(dem, observer, boxes, options);
+  if (!plan.ok()) return plan.error();
+  return run_cull(dem, observer, *plan, control);
+}
+
+}  // namespace horizon::visibility
