@@ -10,12 +10,15 @@
 // Anything else is "not a raster", with the formats we do read in the message.
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <array>
 #include <cctype>
 #include <cerrno>
+#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <string>
+#include <utility>
 
 #include "horizon/terrain/dem_reader.hpp"
 
@@ -34,9 +37,10 @@ bool has_extension(const std::string& path, const char* ext) {
   return true;
 }
 
-}  // namespace
+enum class Format { kGeoTiff, kTerrainRgb, kHgt };
 
-Result<Dem> read_dem(const std::string& path, const ReadOptions& options) {
+// Checks the path and the band, then sniffs the format (see the top of the file).
+Result<Format> sniff(const std::string& path, const ReadOptions& options) {
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0) {
     if (errno == ENOENT || errno == ENOTDIR) return dem_error(ErrorCode::kNotFound, path, "no such file");
@@ -64,23 +68,101 @@ Result<Dem> read_dem(const std::string& path, const ReadOptions& options) {
   static constexpr unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
   const bool png = got == 8 && std::memcmp(magic.data(), kPng, 8) == 0;
 
-  if (tiff) return read_geotiff(path, options);
+  if (tiff) return Format::kGeoTiff;
   if (png) {
     if (options.band > 1)
       return make_error(ErrorCode::kInvalidArgument,
                         "dem '" + path + "': a terrain-RGB tile encodes one height band; band " +
                             std::to_string(options.band) + " does not exist",
                         "band");
-    return read_terrain_rgb(path, options);
+    return Format::kTerrainRgb;
   }
   if (has_extension(path, ".hgt")) {
     if (options.band > 1)
       return make_error(ErrorCode::kInvalidArgument,
                         "dem '" + path + "': band " + std::to_string(options.band) + " requested, file has 1", "band");
-    return read_hgt(path);
+    return Format::kHgt;
   }
   return dem_error(ErrorCode::kDataError, path,
                    "not a raster Horizon reads (supported: GeoTIFF/BigTIFF, SRTM .hgt, terrain-RGB PNG)");
+}
+
+// A format without internal blocks: read whole, then keep the window.
+Result<Dem> read_whole(const std::string& path, Format format, const ReadOptions& options, ReadStats* stats) {
+  const auto start = std::chrono::steady_clock::now();
+  auto dem = format == Format::kHgt ? read_hgt(path) : read_terrain_rgb(path, options);
+  if (!dem.ok()) return dem.error();
+  const int width = dem->width(), height = dem->height();
+  Window window{0, 0, width, height};
+  if (options.window) {
+    auto clipped = clip_read_window(*options.window, width, height, path);
+    if (!clipped.ok()) return clipped.error();
+    window = *clipped;
+    if (!(window == Window{0, 0, width, height})) {
+      Grid<float> cropped(window.width(), window.height());
+      for (int r = window.row0; r < window.row1; ++r)
+        std::copy_n(dem->elevation.row(r) + window.col0, window.width(), cropped.row(r - window.row0));
+      dem->elevation = std::move(cropped);
+      dem->georef.transform = dem->georef.transform.shifted(window.col0, window.row0);
+    }
+  }
+  if (stats) {
+    *stats = ReadStats{};
+    stats->file_width = width;
+    stats->file_height = height;
+    stats->window = window;
+    stats->block_width = width;
+    stats->block_height = height;
+    stats->blocks_total = 1;
+    stats->blocks_read = 1;
+    stats->cells_decoded = static_cast<std::uint64_t>(width) * static_cast<std::uint64_t>(height);
+    stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+  return dem;
+}
+
+}  // namespace
+
+Result<Window> clip_read_window(const Window& window, int width, int height, const std::string& path) {
+  const Window clipped{std::max(window.col0, 0), std::max(window.row0, 0), std::min(window.col1, width),
+                       std::min(window.row1, height)};
+  if (clipped.empty())
+    return make_error(ErrorCode::kOutOfRange,
+                      "dem '" + path + "': window cols [" + std::to_string(window.col0) + ", " +
+                          std::to_string(window.col1) + ") rows [" + std::to_string(window.row0) + ", " +
+                          std::to_string(window.row1) + ") has no cell inside the " + std::to_string(width) + "x" +
+                          std::to_string(height) + " raster",
+                      "window");
+  return clipped;
+}
+
+Result<Dem> read_dem(const std::string& path, const ReadOptions& options, ReadStats* stats) {
+  auto format = sniff(path, options);
+  if (!format.ok()) return format.error();
+  if (*format == Format::kGeoTiff) return read_geotiff(path, options, stats);
+  return read_whole(path, *format, options, stats);
+}
+
+Result<DemHeader> read_dem_header(const std::string& path, const ReadOptions& options) {
+  auto format = sniff(path, options);
+  if (!format.ok()) return format.error();
+  if (*format == Format::kGeoTiff) return read_geotiff_header(path, options);
+  ReadOptions whole = options;
+  whole.window.reset();
+  ReadStats stats;
+  auto dem = read_whole(path, *format, whole, &stats);
+  if (!dem.ok()) return dem.error();
+  DemHeader h;
+  h.width = dem->width();
+  h.height = dem->height();
+  h.georef = dem->georef;
+  h.nodata = dem->nodata;
+  h.source = dem->source;
+  h.format = dem->format;
+  h.block_width = stats.block_width;
+  h.block_height = stats.block_height;
+  h.blocks_total = stats.blocks_total;
+  return h;
 }
 
 }  // namespace horizon::terrain

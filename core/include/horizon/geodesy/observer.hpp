@@ -8,8 +8,11 @@
 // and the terrain under it is not a void (kDataError, for height above ground).
 #pragma once
 
+#include <string>
+
 #include "horizon/common/error.hpp"
 #include "horizon/terrain/dem.hpp"
+#include "horizon/terrain/grid.hpp"
 
 namespace horizon::geodesy {
 
@@ -33,5 +36,26 @@ struct GridPoint {
 
 // `what` names the point in messages ("observer", "target", "from", "to").
 Result<GridPoint> resolve_point(const terrain::Dem& dem, const PointSpec& spec, const char* what);
+
+// resolve_point() in two halves, for callers that read only part of a file:
+// locate_point() does checks 1-3 against a raster's georeference and size
+// alone (a header; no pixels; ground and elevation are left NaN), and
+// place_on_ground() does check 4 and sets ground/elevation from `dem`'s
+// elevations, where `point.col/row` are already in `dem`'s grid (shift a
+// located point by a window's integer corner: the shift is exact in floating
+// point, so a window read gives bit-identical geometry to a full read).
+// `source` is the file named in messages.
+Result<GridPoint> locate_point(const terrain::Georeference& georef, int width, int height, const PointSpec& spec,
+                               const char* what, const std::string& source);
+Result<GridPoint> place_on_ground(const terrain::Dem& dem, GridPoint point, const PointSpec& spec, const char* what);
+
+// The cells whose centres may lie within `radius_metres` of a located point
+// (the bounding box of that ground disc, metric cell sizes taken at the point
+// as visibility::make_view_frame takes them), grown by `margin` cells and
+// clipped to width x height; always holds the cell nearest the point. With an
+// infinite radius: the whole raster. Used to read only what a bounded viewshed
+// needs.
+terrain::Window cells_within(const terrain::Georeference& georef, int width, int height, const GridPoint& point,
+                             double radius_metres, int margin);
 
 }  // namespace horizon::geodesy

@@ -16,13 +16,27 @@
 // Every failure is an Error naming the file: missing, not a raster, more than
 // one band without a band choice, unsupported pixel type, rotated transform,
 // CRS not supported by horizon::geodesy::Crs, ...
+//
+// Windows and work. read_dem_header() answers size, georeference, nodata and
+// layout without decoding any pixel (a GeoTIFF's directory only: milliseconds
+// whatever the file's size). ReadOptions::window reads only a rectangle of
+// cells: for a tiled or striped GeoTIFF only the tiles (strips) that intersect
+// it are decoded, so a small viewshed of a large tiled file reads a small part
+// of it. The returned Dem is the window itself, with its georeference shifted
+// to the window's corner, so everything downstream works on it unchanged (an
+// output's georeference comes out right, a point resolves to the same place).
+// Formats without internal blocks (SRTM .hgt, terrain-RGB tiles; both small)
+// are read whole and cropped, and count as one block. ReadStats says what was
+// decoded, so "skip what a scene doesn't need" is a number.
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <string>
 
 #include "horizon/common/error.hpp"
 #include "horizon/terrain/dem.hpp"
+#include "horizon/terrain/grid.hpp"
 
 namespace horizon::terrain {
 
@@ -38,13 +52,51 @@ struct ReadOptions {
   std::optional<TileId> tile;
   // Set true to accept a raster without a supported CRS (grid maths only).
   bool allow_missing_crs = false;
+  // Cells to read, in the file's grid (half-open). Clipped to the raster; an
+  // empty intersection is kOutOfRange. Absent: the whole raster.
+  std::optional<Window> window;
 };
 
-// Reads any supported format.
-Result<Dem> read_dem(const std::string& path, const ReadOptions& options = {});
+// What a read decoded. A "block" is the file's unit of storage and decoding:
+// a tile of a tiled TIFF, a strip of a striped one, the whole file otherwise.
+struct ReadStats {
+  int file_width = 0, file_height = 0;  // the raster's size in cells
+  Window window;                        // the cells returned, in the file's grid
+  bool tiled = false;                   // blocks are tiles (else strips, or the whole file)
+  int block_width = 0, block_height = 0;  // cells per block (a strip: the width x rows per strip)
+  std::uint64_t blocks_total = 0;       // blocks of the band read
+  std::uint64_t blocks_read = 0;        // blocks decoded (0 for a header read)
+  std::uint64_t cells_decoded = 0;      // cells in the blocks decoded (whole blocks count)
+  double seconds = 0.0;                 // wall time of the read
+};
+
+// A raster's facts without its pixels.
+struct DemHeader {
+  int width = 0, height = 0;
+  Georeference georef;
+  std::optional<double> nodata;
+  std::string source;  // the path
+  std::string format;  // as Dem::format
+  bool tiled = false;
+  int block_width = 0, block_height = 0;
+  std::uint64_t blocks_total = 0;
+};
+
+// Reads any supported format. `stats`, when given, receives what was decoded.
+Result<Dem> read_dem(const std::string& path, const ReadOptions& options = {}, ReadStats* stats = nullptr);
+
+// Size, georeference, nodata and layout; no pixel is decoded for a GeoTIFF
+// (the other formats are small and read whole). Same checks and errors as
+// read_dem() except those that need pixels. ReadOptions::window is ignored.
+Result<DemHeader> read_dem_header(const std::string& path, const ReadOptions& options = {});
+
+// `window` clipped to a width x height raster; kOutOfRange (naming `path`)
+// when nothing of it is inside. For readers.
+Result<Window> clip_read_window(const Window& window, int width, int height, const std::string& path);
 
 // Format-specific entry points (read_dem dispatches to these).
-Result<Dem> read_geotiff(const std::string& path, const ReadOptions& options);
+Result<Dem> read_geotiff(const std::string& path, const ReadOptions& options, ReadStats* stats = nullptr);
+Result<DemHeader> read_geotiff_header(const std::string& path, const ReadOptions& options);
 Result<Dem> read_hgt(const std::string& path);
 Result<Dem> read_terrain_rgb(const std::string& path, const ReadOptions& options);
 
