@@ -18,8 +18,13 @@ packages=(
   libegl-dev libegl-mesa0 libgl1-mesa-dri libgles-dev libopengl-dev
   # daemon
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
+  prometheus-cpp-dev  # horizond's /metrics (core + pull)
+  # the daemon's integration tests: an independent Python client, and the deploy YAML check
+  python3-grpcio python3-protobuf python3-yaml
   # tests and benchmarks; gdal-bin gives gdalinfo (georeferencing checks) and gdal_viewshed (the speed peer)
   libgtest-dev libbenchmark-dev gdal-bin python3
+  # horizon bench: GRASS r.viewshed (the exact peer) and the chart's font (OpenImageIO render_text, DejaVu Sans)
+  grass-core fonts-dejavu-core
 )
 
 missing=()

@@ -34,6 +34,10 @@ struct Command {
 const Command& info_command();
 const Command& viewshed_command();
 const Command& los_command();
+const Command& bench_command();   // horizon_evaluation
+const Command& stress_command();  // horizon_evaluation
+const Command& cull_command();
+const Command& datasets_command();  // --server only
 
 // Prints "horizon: error: <message>" to stderr and returns kExitFailure.
 int report_error(const Error& error);

@@ -7,6 +7,7 @@
 #include "commands/command.hpp"
 #include "inputs.hpp"
 #include "output.hpp"
+#include "remote/remote.hpp"
 
 namespace horizon::cli {
 namespace {
@@ -14,6 +15,8 @@ namespace {
 constexpr FlagSpec kFlags[] = {
     {"--band", "", "N", "Band to read, 1-based (required when the file has several)"},
     {"--json", "", "", "Print a JSON document instead of text"},
+    remote::kServerFlag,
+    remote::kDeadlineFlag,
 };
 
 struct Extent {
@@ -61,6 +64,7 @@ int run_info(const Args& args) {
   const bool json = args.has("--json");
   // Checked before reading so a malformed --band is a usage error, not a read.
   (void)args.positive_integer("--band");
+  if (args.has("--server")) return remote::run_info(args, path, json);  // DEM is a dataset name
 
   auto dem = load_dem(path, args, /*allow_missing_crs=*/true);
   if (!dem.ok()) return report_error(dem.error());

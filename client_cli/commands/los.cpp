@@ -7,6 +7,7 @@
 #include "horizon/visibility/options.hpp"
 #include "inputs.hpp"
 #include "output.hpp"
+#include "remote/remote.hpp"
 
 namespace horizon::cli {
 namespace {
@@ -23,6 +24,8 @@ constexpr FlagSpec kFlags[] = {
     {"--curvature", "", "C", "Curvature/refraction coefficient as GDAL's (default 0.85714; 0 disables)"},
     {"--band", "", "N", "DEM band to read, 1-based (required when the file has several)"},
     {"--json", "", "", "Print a JSON document, with the full terrain profile"},
+    remote::kServerFlag,
+    remote::kDeadlineFlag,
 };
 
 int run_los(const Args& args) {
@@ -41,6 +44,7 @@ int run_los(const Args& args) {
     throw_if_invalid_option(visibility::validate_options(check));
   }
   (void)args.positive_integer("--band");
+  if (args.has("--server")) return remote::run_los(args, path, from, to, options, json);  // DEM is a dataset name
 
   auto dem = load_dem(path, args);
   if (!dem.ok()) return report_error(dem.error());

@@ -4,6 +4,7 @@
 #include <string_view>
 
 #include "commands/command.hpp"
+#include "horizon/terrain/dem_reader.hpp"
 #include "horizon/terrain/geotiff_writer.hpp"
 #include "horizon/terrain/preview.hpp"
 #include "horizon/visibility/viewshed.hpp"
@@ -11,6 +12,7 @@
 #include "interrupt.hpp"
 #include "output.hpp"
 #include "progress.hpp"
+#include "remote/remote.hpp"
 
 namespace horizon::cli {
 namespace {
@@ -35,6 +37,10 @@ constexpr FlagSpec kFlags[] = {
     {"--png", "", "PREVIEW.png", "Also write a hillshade preview with the viewshed tinted over it"},
     {"--band", "", "N", "DEM band to read, 1-based (required when the file has several)"},
     {"--json", "", "", "Print the summary as a JSON document"},
+    remote::kServerFlag,
+    remote::kDeadlineFlag,
+    {"--full-read", "", "",
+     "Read the whole DEM even with --max-distance (by default only the tiles within reach are read)"},
 };
 
 constexpr std::string_view kAlgorithms[] = {"fast", "exact", "conservative", "r3"};
@@ -52,6 +58,7 @@ struct Request {
   std::string algorithm_name = "fast";
   std::string output_name = "visible";
   bool json = false;
+  bool full_read = false;
 };
 
 visibility::NodataPolicy parse_nodata(const std::string& text, double& fill_height) {
@@ -70,6 +77,7 @@ Request parse_request(const Args& args) {
   Request r;
   r.dem_path = single_operand(args, "DEM");
   r.json = args.has("--json");
+  r.full_read = args.has("--full-read");
 
   r.observer = point_from_flags(args, {"--observer", "--lat", "--lon"});
   if (args.has("--height") && args.has("--altitude"))
@@ -135,18 +143,66 @@ Status write_preview(const std::string& path, const visibility::ViewshedResult& 
   return terrain::write_viewshed_preview(path, result.terrain, mask, preview);
 }
 
+// The DEM cells a request needs, the observer resolved on them, and what the read cost.
+struct Loaded {
+  terrain::Dem dem;           // the whole file, or with --max-distance only the window around the observer
+  geodesy::GridPoint observer;
+  terrain::ReadStats read;
+};
+
+// With a finite --max-distance only the cells within reach of the observer
+// (plus a 2-cell margin) are read: the header places the observer, then only
+// the tiles or strips under that window are decoded. The observer's grid
+// position is shifted by the window's integer corner, which is exact, so the
+// result is bit-identical to a whole-file read.
+Result<Loaded> load_for_viewshed(const Request& r, const Args& args) {
+  terrain::ReadOptions read_options;
+  read_options.band = args.positive_integer("--band").value_or(0);
+  Loaded loaded;
+  if (std::isfinite(r.options.max_distance) && !r.full_read) {
+    auto header = terrain::read_dem_header(r.dem_path, read_options);
+    if (!header.ok()) return header.error();
+    auto located =
+        geodesy::locate_point(header->georef, header->width, header->height, r.observer, "observer", r.dem_path);
+    if (!located.ok()) return located.error();
+    const terrain::Window window = geodesy::cells_within(header->georef, header->width, header->height, *located,
+                                                         r.options.max_distance, /*margin=*/2);
+    read_options.window = window;
+    auto dem = terrain::read_dem(r.dem_path, read_options, &loaded.read);
+    if (!dem.ok()) return dem.error();
+    located->col -= loaded.read.window.col0;
+    located->row -= loaded.read.window.row0;
+    auto observer = geodesy::place_on_ground(*dem, *located, r.observer, "observer");
+    if (!observer.ok()) return observer.error();
+    loaded.dem = std::move(dem).value();
+    loaded.observer = *observer;
+    return loaded;
+  }
+  auto dem = terrain::read_dem(r.dem_path, read_options, &loaded.read);
+  if (!dem.ok()) return dem.error();
+  auto observer = geodesy::resolve_point(*dem, r.observer, "observer");
+  if (!observer.ok()) return observer.error();
+  loaded.dem = std::move(dem).value();
+  loaded.observer = *observer;
+  return loaded;
+}
+
 int run_viewshed(const Args& args) {
   const Request r = parse_request(args);
   if (auto s = check_output_path(r.out_path, "-o", r.dem_path, {".tif", ".tiff"}); !s.ok())
     return report_error(s.error());
   if (r.png_path)
     if (auto s = check_output_path(*r.png_path, "--png", r.dem_path, {".png"}); !s.ok()) return report_error(s.error());
+  if (args.has("--server"))  // DEM is a dataset name; the daemon computes
+    return remote::run_viewshed(args, {r.dem_path, r.out_path, r.png_path, r.observer, r.options, r.output_name,
+                                       r.algorithm_name, r.json});
 
   const auto started = std::chrono::steady_clock::now();
-  auto dem = load_dem(r.dem_path, args);
-  if (!dem.ok()) return report_error(dem.error());
-  auto observer = geodesy::resolve_point(*dem, r.observer, "observer");
-  if (!observer.ok()) return report_error(observer.error());
+  auto loaded = load_for_viewshed(r, args);
+  if (!loaded.ok()) return report_error(loaded.error());
+  const terrain::Dem* const dem = &loaded->dem;
+  const geodesy::GridPoint* const observer = &loaded->observer;
+  const terrain::ReadStats& read = loaded->read;
 
   InterruptScope interrupt;  // Ctrl-C cancels the computation; nothing is written
   RunControl control;
@@ -170,10 +226,14 @@ int run_viewshed(const Args& args) {
   }
   const std::uint64_t evaluated = visible + hidden;
   const visibility::ViewFrame& f = result->frame;
+  // The engine saw the window read; report in the file's grid.
+  visibility::WorkStats stats = result->stats;
+  stats.dem_cells = static_cast<std::uint64_t>(read.file_width) * static_cast<std::uint64_t>(read.file_height);
+  const terrain::Window window{f.window.col0 + read.window.col0, f.window.row0 + read.window.row0,
+                               f.window.col1 + read.window.col0, f.window.row1 + read.window.row0};
   const double area_km2 = static_cast<double>(visible) * f.metres_per_col * f.metres_per_row / 1e6;
   const double percent = evaluated ? 100.0 * static_cast<double>(visible) / static_cast<double>(evaluated) : 0.0;
   const auto observer_lonlat = lonlat_of(*dem, observer->x, observer->y);
-  const visibility::WorkStats& stats = result->stats;
 
   if (r.json) {
     Json j;
@@ -182,7 +242,10 @@ int run_viewshed(const Args& args) {
     j["output_kind"] = r.output_name;
     j["png"] = r.png_path ? Json(*r.png_path) : Json(nullptr);
     j["algorithm"] = r.algorithm_name;
-    j["observer"] = to_json(*observer, observer_lonlat);
+    geodesy::GridPoint observer_in_file = *observer;  // grid position in the file, not the window read
+    observer_in_file.col += read.window.col0;
+    observer_in_file.row += read.window.row0;
+    j["observer"] = to_json(observer_in_file, observer_lonlat);
     j["options"] = {
         {"height", r.observer.height},
         {"height_mode", r.observer.height_mode == geodesy::HeightMode::kAbsolute ? "absolute" : "above_ground"},
@@ -192,7 +255,7 @@ int run_viewshed(const Args& args) {
         {"nodata", args.text("--nodata").value_or("transparent")},
         {"ray_spacing", r.options.radial.ray_spacing},
         {"threads", r.options.threads}};
-    j["window"] = to_json(f.window);
+    j["window"] = to_json(window);
     j["cell_size_m"] = {{"x", f.metres_per_col}, {"y", f.metres_per_row}};
     j["visible_cells"] = visible;
     j["hidden_cells"] = hidden;
@@ -200,6 +263,13 @@ int run_viewshed(const Args& args) {
     j["visible_area_km2"] = area_km2;
     j["visible_percent"] = percent;
     j["stats"] = to_json(stats);
+    j["read"] = {{"window", to_json(read.window)},
+                 {"block", read.tiled ? "tile" : "strip"},
+                 {"block_size", {read.block_width, read.block_height}},
+                 {"blocks_read", read.blocks_read},
+                 {"blocks_total", read.blocks_total},
+                 {"cells_decoded", read.cells_decoded},
+                 {"seconds", read.seconds}};
     j["total_seconds"] = total_seconds;
     print_json(j);
     return kExitOk;
@@ -220,6 +290,10 @@ int run_viewshed(const Args& args) {
             << "  evaluated:  " << with_separators(stats.cells_evaluated) << " cells of "
             << with_separators(stats.dem_cells) << " in the DEM (window " << f.window.width() << "x"
             << f.window.height() << ")\n"
+            << "  read:       " << read.blocks_read << " of " << read.blocks_total << (read.tiled ? " tiles" : " strips")
+            << " (" << read.block_width << "x" << read.block_height << "), cells " << read.window.col0 << ".."
+            << read.window.col1 << " x " << read.window.row0 << ".." << read.window.row1 << ", "
+            << fixed(read.seconds, 3) << " s\n"
             << "  algorithm:  " << r.algorithm_name
             << (r.options.algorithm == visibility::Algorithm::kRadial
                     ? " (radial occlusion height field, ray spacing " + fixed(r.options.radial.ray_spacing, 2) + ")"

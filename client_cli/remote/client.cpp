@@ -1,0 +1,110 @@
+#include "remote/client.hpp"
+
+#include <chrono>
+#include <cstdio>
+
+#include <grpcpp/create_channel.h>
+#include <grpcpp/security/credentials.h>
+#include <grpcpp/support/channel_arguments.h>
+
+#include "google/rpc/error_details.pb.h"
+#include "google/rpc/status.pb.h"
+#include "commands/command.hpp"
+
+namespace horizon::cli::remote {
+
+Client::Client(const Args& args) {
+  address_ = args.text("--server").value_or("");
+  if (address_.empty() || address_.find(':') == std::string::npos)
+    throw UsageError("--server: expected HOST:PORT, got '" + address_ + "'");
+  if (auto d = args.non_negative("--deadline")) {
+    if (*d <= 0) throw UsageError("--deadline: expected a positive number of seconds, got '" + *args.text("--deadline") + "'");
+    deadline_seconds_ = *d;
+  }
+  grpc::ChannelArguments channel_args;
+  channel_args.SetMaxReceiveMessageSize(256 << 20);  // big LineOfSight profiles and CullBoxes answers
+  channel_args.SetMaxSendMessageSize(256 << 20);
+  auto channel = grpc::CreateCustomChannel(address_, grpc::InsecureChannelCredentials(), channel_args);
+  datasets_ = v1::DatasetService::NewStub(channel);
+  visibility_ = v1::VisibilityService::NewStub(channel);
+}
+
+std::unique_ptr<grpc::ClientContext> Client::context() const {
+  auto context = std::make_unique<grpc::ClientContext>();
+  context->set_deadline(std::chrono::system_clock::now() +
+                        std::chrono::duration_cast<std::chrono::system_clock::duration>(
+                            std::chrono::duration<double>(deadline_seconds_)));
+  return context;
+}
+
+int report_status(const grpc::Status& status, const std::string& address) {
+  std::string field;
+  google::rpc::Status details;
+  if (!status.error_details().empty() && details.ParseFromString(status.error_details())) {
+    for (const auto& any : details.details()) {
+      google::rpc::BadRequest bad;
+      if (any.UnpackTo(&bad) && bad.field_violations_size() > 0) field = bad.field_violations(0).field();
+      google::rpc::QuotaFailure quota;
+      if (any.UnpackTo(&quota) && quota.violations_size() > 0) field = quota.violations(0).subject();
+    }
+  }
+  static const char* kNames[] = {"OK",        "CANCELLED",         "UNKNOWN",  "INVALID_ARGUMENT", "DEADLINE_EXCEEDED",
+                                 "NOT_FOUND", "ALREADY_EXISTS",    "PERMISSION_DENIED", "RESOURCE_EXHAUSTED",
+                                 "FAILED_PRECONDITION", "ABORTED", "OUT_OF_RANGE", "UNIMPLEMENTED", "INTERNAL",
+                                 "UNAVAILABLE", "DATA_LOSS", "UNAUTHENTICATED"};
+  const int code = static_cast<int>(status.error_code());
+  const char* name = code >= 0 && code <= 16 ? kNames[code] : "UNKNOWN";
+  std::fprintf(stderr, "horizon: error: %s (%s from %s%s%s)\n", status.error_message().c_str(), name, address.c_str(),
+               field.empty() ? "" : ", field ", field.c_str());
+  return status.error_code() == grpc::StatusCode::INVALID_ARGUMENT ? kExitUsage : kExitFailure;
+}
+
+geodesy::GridPoint to_grid_point(const v1::ResolvedPoint& p) {
+  geodesy::GridPoint g;
+  g.col = p.col();
+  g.row = p.row();
+  g.x = p.x();
+  g.y = p.y();
+  g.ground = p.ground();
+  g.elevation = p.elevation();
+  return g;
+}
+
+std::optional<geodesy::LonLat> to_lonlat(const v1::ResolvedPoint& p) {
+  if (!p.has_lon() || !p.has_lat()) return std::nullopt;
+  return geodesy::LonLat{p.lon(), p.lat()};
+}
+
+visibility::WorkStats to_stats(const v1::WorkStats& s) {
+  visibility::WorkStats w;
+  w.dem_cells = s.dem_cells();
+  w.window_cells = s.window_cells();
+  w.cells_evaluated = s.cells_evaluated();
+  w.terrain_samples = s.terrain_samples();
+  w.rays = s.rays();
+  w.seconds = s.seconds();
+  return w;
+}
+
+v1::Point to_proto_point(const geodesy::PointSpec& spec) {
+  v1::Point p;
+  p.set_frame(spec.frame == geodesy::PointFrame::kWgs84 ? v1::FRAME_WGS84 : v1::FRAME_DATASET_CRS);
+  p.set_x(spec.x);
+  p.set_y(spec.y);
+  p.set_height(spec.height);
+  p.set_height_mode(spec.height_mode == geodesy::HeightMode::kAbsolute ? v1::HEIGHT_MODE_ABSOLUTE
+                                                                        : v1::HEIGHT_MODE_ABOVE_GROUND);
+  return p;
+}
+
+v1::Algorithm to_proto_algorithm(visibility::Algorithm algorithm) {
+  switch (algorithm) {
+    case visibility::Algorithm::kRadial: return v1::ALGORITHM_FAST;
+    case visibility::Algorithm::kExact: return v1::ALGORITHM_EXACT;
+    case visibility::Algorithm::kConservative: return v1::ALGORITHM_CONSERVATIVE;
+    case visibility::Algorithm::kR3: return v1::ALGORITHM_R3;
+  }
+  return v1::ALGORITHM_UNSPECIFIED;
+}
+
+}  // namespace horizon::cli::remote

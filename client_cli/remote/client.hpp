@@ -1,0 +1,55 @@
+// client.hpp — the gRPC side of --server: a channel to the daemon, call
+// contexts with the command's deadline, and the daemon's errors reported the
+// way embedded mode reports the engine's.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+
+#include <grpcpp/client_context.h>
+#include <grpcpp/support/status.h>
+
+#include "args.hpp"
+#include "horizon/geodesy/crs.hpp"
+#include "horizon/geodesy/observer.hpp"
+#include "horizon/v1/datasets.grpc.pb.h"
+#include "horizon/v1/visibility.grpc.pb.h"
+#include "horizon/visibility/options.hpp"
+#include "horizon/visibility/work_stats.hpp"
+
+namespace horizon::cli::remote {
+
+class Client {
+ public:
+  // Reads --server and --deadline (UsageError when malformed).
+  explicit Client(const Args& args);
+
+  const std::string& address() const { return address_; }
+  // A context carrying the deadline.
+  std::unique_ptr<grpc::ClientContext> context() const;
+
+  v1::DatasetService::Stub& datasets() { return *datasets_; }
+  v1::VisibilityService::Stub& visibility() { return *visibility_; }
+
+ private:
+  std::string address_;
+  double deadline_seconds_ = 60.0;
+  std::unique_ptr<v1::DatasetService::Stub> datasets_;
+  std::unique_ptr<v1::VisibilityService::Stub> visibility_;
+};
+
+// Prints "horizon: error: <message> (<CODE> from HOST:PORT[, field F])" and
+// returns the exit status: 2 for INVALID_ARGUMENT (a request the daemon found
+// malformed is a usage error), 1 otherwise.
+int report_status(const grpc::Status& status, const std::string& address);
+
+// The daemon's answer in engine terms, so the embedded printers can be reused.
+geodesy::GridPoint to_grid_point(const v1::ResolvedPoint& p);
+std::optional<geodesy::LonLat> to_lonlat(const v1::ResolvedPoint& p);
+visibility::WorkStats to_stats(const v1::WorkStats& s);
+
+v1::Point to_proto_point(const geodesy::PointSpec& spec);
+v1::Algorithm to_proto_algorithm(visibility::Algorithm algorithm);
+
+}  // namespace horizon::cli::remote

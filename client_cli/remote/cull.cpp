@@ -1,0 +1,65 @@
+// `horizon cull DATASET --server HOST:PORT ...`: one CullBoxes call, reported
+// as embedded mode reports its own culling.
+#include <chrono>
+
+#include "commands/command.hpp"
+#include "commands/cull.hpp"
+#include "remote/client.hpp"
+#include "remote/remote.hpp"
+
+namespace horizon::cli::remote {
+
+int run_cull(const Args& args, const std::string& dataset, const geodesy::PointSpec& observer,
+             const std::vector<visibility::BoxSpec>& boxes, const visibility::CullOptions& options, bool json) {
+  Client client(args);
+  const auto started = std::chrono::steady_clock::now();
+  v1::GetDatasetRequest get;
+  get.set_name(dataset);
+  v1::Dataset d;
+  if (auto s = client.datasets().GetDataset(client.context().get(), get, &d); !s.ok())
+    return report_status(s, client.address());
+
+  v1::CullBoxesRequest request;
+  request.set_dataset(dataset);
+  *request.mutable_observer() = to_proto_point(observer);
+  request.set_conservative(options.conservative);
+  request.set_algorithm(to_proto_algorithm(options.viewshed.algorithm));
+  request.set_curvature(options.viewshed.curvature_coefficient);
+  request.mutable_boxes()->Reserve(static_cast<int>(boxes.size()));
+  for (const visibility::BoxSpec& b : boxes) {
+    v1::Box* out = request.add_boxes();
+    out->set_frame(b.frame == geodesy::PointFrame::kWgs84 ? v1::FRAME_WGS84 : v1::FRAME_DATASET_CRS);
+    out->set_x_min(b.x_min);
+    out->set_y_min(b.y_min);
+    out->set_x_max(b.x_max);
+    out->set_y_max(b.y_max);
+    out->set_z_min(b.z_min);
+    out->set_z_max(b.z_max);
+  }
+  v1::CullBoxesResponse response;
+  if (auto s = client.visibility().CullBoxes(client.context().get(), request, &response); !s.ok())
+    return report_status(s, client.address());
+
+  CullReport report;
+  report.dem = dataset;
+  report.boxes_path = args.text("--boxes").value_or("");
+  report.where = "on " + client.address();
+  report.observer = to_grid_point(response.observer());
+  report.observer_lonlat = to_lonlat(response.observer());
+  report.geographic = d.geographic();
+  report.conservative = options.conservative;
+  visibility::CullResult& r = report.result;
+  r.algorithm = visibility::parse_algorithm(response.algorithm()).value_or(visibility::Algorithm::kRadial);
+  r.window = {response.window().col0(), response.window().row0(), response.window().col1(), response.window().row1()};
+  r.stats = to_stats(response.stats());
+  r.pyramid_cells_read = response.pyramid_cells_read();
+  r.visible_count = response.visible_count();
+  r.boxes.reserve(boxes.size());
+  for (const v1::BoxVisibility& b : response.boxes())
+    r.boxes.push_back({b.visible(), static_cast<float>(b.ohf_min())});
+  report.total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  print_cull(report, boxes, json);
+  return kExitOk;
+}
+
+}  // namespace horizon::cli::remote

@@ -1,0 +1,48 @@
+// `horizon datasets --server HOST:PORT`: every dataset the daemon holds, page by page.
+#include <iostream>
+
+#include "commands/command.hpp"
+#include "output.hpp"
+#include "remote/client.hpp"
+#include "remote/remote.hpp"
+
+namespace horizon::cli::remote {
+
+int run_datasets(const Args& args, bool json) {
+  Client client(args);
+  const int page_size = args.positive_integer("--page-size").value_or(100);
+  std::vector<v1::Dataset> all;
+  v1::ListDatasetsRequest request;
+  request.set_page_size(page_size);
+  do {
+    v1::ListDatasetsResponse page;
+    if (auto s = client.datasets().ListDatasets(client.context().get(), request, &page); !s.ok())
+      return report_status(s, client.address());
+    for (const v1::Dataset& d : page.datasets()) all.push_back(d);
+    request.set_page_token(page.next_page_token());
+  } while (!request.page_token().empty());
+
+  if (json) {
+    Json list = Json::array();
+    for (const v1::Dataset& d : all)
+      list.push_back({{"name", d.name()},
+                      {"source", d.source()},
+                      {"width", d.width()},
+                      {"height", d.height()},
+                      {"epsg", d.epsg()},
+                      {"cell_size_m", {{"x", d.cell_size_x_m()}, {"y", d.cell_size_y_m()}}},
+                      {"elevation", d.has_elevation_min() ? Json{{"min", d.elevation_min()}, {"max", d.elevation_max()}}
+                                                          : Json(nullptr)},
+                      {"resident_bytes", d.resident_bytes()}});
+    print_json(Json{{"server", client.address()}, {"datasets", std::move(list)}});
+    return kExitOk;
+  }
+  std::cout << all.size() << " datasets on " << client.address() << '\n';
+  for (const v1::Dataset& d : all)
+    std::cout << "  " << d.name() << ": " << d.width() << " x " << d.height() << " cells, EPSG:" << d.epsg() << ", "
+              << fixed(d.cell_size_x_m(), 1) << " m cells, " << with_separators(d.resident_bytes())
+              << " bytes resident (" << d.source() << ")\n";
+  return kExitOk;
+}
+
+}  // namespace horizon::cli::remote

@@ -1,0 +1,47 @@
+// remote.hpp — `horizon ... --server HOST:PORT`: the same commands answered by
+// a horizond daemon. The DEM operand is then a dataset name. Each command
+// parses and checks its flags exactly as in embedded mode, then hands the
+// parsed request here; the output (files, text, JSON) is the same as
+// embedded mode's, and the GeoTIFF byte-identical for the same algorithm.
+// gRPC stays inside client_cli/remote/.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "args.hpp"
+#include "horizon/geodesy/observer.hpp"
+#include "horizon/visibility/cull.hpp"
+#include "horizon/visibility/line_of_sight.hpp"
+#include "horizon/visibility/options.hpp"
+
+namespace horizon::cli::remote {
+
+// The flags every remote-capable command adds to its table.
+inline constexpr FlagSpec kServerFlag{"--server", "", "HOST:PORT",
+                                      "Ask the horizond daemon there; the DEM operand is then a dataset name"};
+inline constexpr FlagSpec kDeadlineFlag{"--deadline", "", "S",
+                                        "With --server: seconds the daemon may take (default 60); the call fails after"};
+
+struct ViewshedInputs {
+  std::string dataset;
+  std::string out_path;
+  std::optional<std::string> png_path;
+  geodesy::PointSpec observer;
+  visibility::ViewshedOptions options;
+  std::string output_name;     // "visible", "ohf", "min-target-height"
+  std::string algorithm_name;  // as given
+  bool json = false;
+};
+
+int run_info(const Args& args, const std::string& dataset, bool json);
+int run_viewshed(const Args& args, const ViewshedInputs& inputs);
+int run_los(const Args& args, const std::string& dataset, const geodesy::PointSpec& from, const geodesy::PointSpec& to,
+            const visibility::LosOptions& options, bool json);
+// The boxes as read by `horizon cull`; prints the same report as embedded mode.
+int run_cull(const Args& args, const std::string& dataset, const geodesy::PointSpec& observer,
+             const std::vector<visibility::BoxSpec>& boxes, const visibility::CullOptions& options, bool json);
+int run_datasets(const Args& args, bool json);
+
+}  // namespace horizon::cli::remote

@@ -1,0 +1,137 @@
+// `horizon viewshed DATASET --server HOST:PORT ...`: the daemon computes, this
+// writes its GeoTIFF (and PNG) bytes and prints embedded mode's summary.
+#include <chrono>
+#include <cmath>
+#include <iostream>
+
+#include "commands/command.hpp"
+#include "output.hpp"
+#include "remote/client.hpp"
+#include "remote/files.hpp"
+#include "remote/remote.hpp"
+
+namespace horizon::cli::remote {
+
+int run_viewshed(const Args& args, const ViewshedInputs& in) {
+  Client client(args);
+  const auto started = std::chrono::steady_clock::now();
+
+  v1::GetDatasetRequest get;
+  get.set_name(in.dataset);
+  v1::Dataset dataset;
+  if (auto s = client.datasets().GetDataset(client.context().get(), get, &dataset); !s.ok())
+    return report_status(s, client.address());
+
+  v1::ViewshedRequest request;
+  request.set_dataset(in.dataset);
+  *request.mutable_observer() = to_proto_point(in.observer);
+  v1::ViewshedOptions& o = *request.mutable_options();
+  o.set_target_height(in.options.target_height);
+  if (std::isfinite(in.options.max_distance)) o.set_max_distance(in.options.max_distance);
+  o.set_curvature(in.options.curvature_coefficient);
+  o.set_nodata(in.options.nodata == visibility::NodataPolicy::kFill ? v1::NODATA_POLICY_FILL
+                                                                    : v1::NODATA_POLICY_TRANSPARENT);
+  o.set_nodata_fill_height(in.options.nodata_fill_height);
+  o.set_algorithm(to_proto_algorithm(in.options.algorithm));
+  o.set_ray_spacing(in.options.radial.ray_spacing);
+  request.set_raster(in.output_name == "ohf"                 ? v1::RASTER_KIND_OHF
+                     : in.output_name == "min-target-height" ? v1::RASTER_KIND_MIN_TARGET_HEIGHT
+                                                             : v1::RASTER_KIND_VISIBLE);
+  request.set_include_geotiff(true);
+  request.set_include_png(in.png_path.has_value());
+
+  auto context = client.context();
+  auto reader = client.visibility().ComputeViewshed(context.get(), request);
+  v1::ViewshedResponse message;
+  v1::ViewshedHeader header;
+  v1::ViewshedSummary summary;
+  std::string geotiff, png;
+  while (reader->Read(&message)) {
+    if (message.has_header()) header = message.header();
+    if (message.has_summary()) summary = message.summary();
+    if (message.has_file_chunk()) {
+      const v1::FileChunk& c = message.file_chunk();
+      std::string& file = c.kind() == v1::FileChunk::KIND_PNG ? png : geotiff;
+      if (c.offset() != file.size()) {
+        context->TryCancel();
+        reader->Finish();
+        return report_error(make_error(ErrorCode::kDataError, "the daemon sent file bytes out of order"));
+      }
+      file += c.data();
+    }
+  }
+  if (auto s = reader->Finish(); !s.ok()) return report_status(s, client.address());
+
+  if (auto s = write_file_atomic(in.out_path, geotiff); !s.ok()) return report_error(s.error());
+  if (in.png_path)
+    if (auto s = write_file_atomic(*in.png_path, png); !s.ok()) return report_error(s.error());
+  const double total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+
+  const geodesy::GridPoint observer = to_grid_point(header.observer());
+  const auto observer_lonlat = to_lonlat(header.observer());
+  const visibility::WorkStats stats = to_stats(summary.stats());
+  const terrain::Window window{header.window().col0(), header.window().row0(), header.window().col1(),
+                               header.window().row1()};
+  const std::uint64_t visible = summary.visible_cells(), hidden = summary.hidden_cells();
+  const std::uint64_t evaluated = summary.evaluated_cells();
+  const double area_km2 = summary.visible_area_km2();
+  const double percent = evaluated ? 100.0 * static_cast<double>(visible) / static_cast<double>(evaluated) : 0.0;
+
+  if (in.json) {
+    Json j;
+    j["dem"] = in.dataset;
+    j["output"] = in.out_path;
+    j["output_kind"] = in.output_name;
+    j["png"] = in.png_path ? Json(*in.png_path) : Json(nullptr);
+    j["algorithm"] = in.algorithm_name;
+    j["observer"] = to_json(observer, observer_lonlat);
+    j["options"] = {
+        {"height", in.observer.height},
+        {"height_mode", in.observer.height_mode == geodesy::HeightMode::kAbsolute ? "absolute" : "above_ground"},
+        {"target_height", in.options.target_height},
+        {"max_distance", finite_or_null(in.options.max_distance)},
+        {"curvature", in.options.curvature_coefficient},
+        {"nodata", args.text("--nodata").value_or("transparent")},
+        {"ray_spacing", in.options.radial.ray_spacing},
+        {"threads", in.options.threads}};
+    j["window"] = to_json(window);
+    j["cell_size_m"] = {{"x", header.cell_size_x_m()}, {"y", header.cell_size_y_m()}};
+    j["visible_cells"] = visible;
+    j["hidden_cells"] = hidden;
+    j["evaluated_cells"] = evaluated;
+    j["visible_area_km2"] = area_km2;
+    j["visible_percent"] = percent;
+    j["stats"] = to_json(stats);
+    j["server"] = {{"address", client.address()}, {"backend", header.backend()}};
+    j["total_seconds"] = total_seconds;
+    print_json(j);
+    return kExitOk;
+  }
+
+  const bool geographic = dataset.geographic();
+  std::cout << "Viewshed of " << in.dataset << " on " << client.address() << '\n'
+            << "  observer:   x " << coordinate(observer.x, geographic) << ", y " << coordinate(observer.y, geographic);
+  if (observer_lonlat && !geographic)
+    std::cout << " (lon " << fixed(observer_lonlat->lon, 6) << ", lat " << fixed(observer_lonlat->lat, 6) << ")";
+  std::cout << ", eye " << fixed(observer.elevation, 1) << " m ("
+            << (std::isnan(observer.ground) ? std::string("ground: no data")
+                                            : "ground " + fixed(observer.ground, 1) + " m")
+            << ")\n"
+            << "  visible:    " << with_separators(visible) << " cells, " << fixed(area_km2, 3) << " km² ("
+            << fixed(percent, 1) << " % of " << with_separators(evaluated) << " evaluated)\n"
+            << "  evaluated:  " << with_separators(stats.cells_evaluated) << " cells of "
+            << with_separators(stats.dem_cells) << " in the DEM (window " << window.width() << "x" << window.height()
+            << ")\n"
+            << "  algorithm:  " << in.algorithm_name
+            << (in.options.algorithm == visibility::Algorithm::kRadial
+                    ? " (radial occlusion height field, ray spacing " + fixed(in.options.radial.ray_spacing, 2) + ")"
+                    : std::string(""))
+            << '\n'
+            << "  compute:    " << fixed(stats.seconds, 3) << " s on the daemon (" << fixed(total_seconds, 3)
+            << " s in all)\n"
+            << "  wrote:      " << in.out_path << " (" << in.output_name << ")\n";
+  if (in.png_path) std::cout << "  preview:    " << *in.png_path << '\n';
+  return kExitOk;
+}
+
+}  // namespace horizon::cli::remote

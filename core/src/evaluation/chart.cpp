@@ -1,0 +1,217 @@
+// chart.cpp — the runtime-against-error PNG (bench.hpp, write_chart), drawn
+// with OpenImageIO's ImageBufAlgo (render_box, render_line, render_text with
+// the DejaVu Sans font of Debian's fonts-dejavu-core, which
+// scripts/setup.sh installs). If no font can be found the chart is still
+// drawn, without its words, and the write reports no error: the CSV and the
+// Markdown table carry the numbers.
+//
+// Axes: x = time per group (seconds, log10, whole decades), y = 1 - IoU in
+// percent (log10 from 0.001 % to 100 %); results with no error sit on a
+// separate "0" line under the log range. One colour per algorithm, a legend,
+// the Pareto front joined by a black staircase (time ascending), default
+// settings ringed.
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "horizon/evaluation/bench.hpp"
+
+namespace horizon::evaluation {
+namespace {
+
+constexpr int kWidth = 1000, kHeight = 640;
+constexpr int kLeft = 90, kRight = 200, kTop = 56, kBottom = 64;  // plot margins (legend on the right)
+constexpr double kErrorFloorLog = -3.0;                           // 0.001 %
+constexpr double kErrorCeilLog = 2.0;                             // 100 %
+constexpr const char* kFont = "DejaVuSans";
+
+using Colour = std::vector<float>;
+
+Colour colour_of(const std::string& algorithm) {
+  static const std::map<std::string, Colour> known = {
+      {"fast", {0.12f, 0.47f, 0.71f}}, {"exact", {0.17f, 0.63f, 0.17f}}, {"conservative", {1.0f, 0.5f, 0.05f}},
+      {"r3", {0.3f, 0.3f, 0.3f}},      {"gdal", {0.84f, 0.15f, 0.16f}},  {"grass", {0.58f, 0.4f, 0.74f}},
+  };
+  if (auto it = known.find(algorithm); it != known.end()) return it->second;
+  const float h = float(std::hash<std::string>{}(algorithm) % 7) / 7.0f;
+  return {0.3f + 0.6f * h, 0.6f - 0.4f * h, 0.5f};
+}
+
+std::string decade_label_time(int e) {
+  static const char* kUnits[] = {"1 us",   "10 us", "100 us", "1 ms",  "10 ms",
+                                 "100 ms", "1 s",   "10 s",   "100 s", "1000 s"};
+  if (e >= -6 && e <= 3) return kUnits[e + 6];
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "1e%d s", e);
+  return buf;
+}
+
+std::string decade_label_error(int e) {
+  char buf[32];
+  if (e >= 0)
+    std::snprintf(buf, sizeof buf, "%.0f%%", std::pow(10.0, e));
+  else
+    std::snprintf(buf, sizeof buf, "%.*f%%", -e, std::pow(10.0, e));
+  return buf;
+}
+
+struct Canvas {
+  OIIO::ImageBuf buf{OIIO::ImageSpec(kWidth, kHeight, 3, OIIO::TypeDesc::UINT8)};
+  bool text_ok = true;
+
+  void line(int x0, int y0, int x1, int y1, const Colour& c) {
+    OIIO::ImageBufAlgo::render_line(buf, x0, y0, x1, y1, c);
+  }
+  void thick_line(int x0, int y0, int x1, int y1, const Colour& c) {
+    for (int d = -1; d <= 1; ++d) {
+      line(x0, y0 + d, x1, y1 + d, c);
+      line(x0 + d, y0, x1 + d, y1, c);
+    }
+  }
+  void box(int x0, int y0, int x1, int y1, const Colour& c, bool fill) {
+    OIIO::ImageBufAlgo::render_box(buf, x0, y0, x1, y1, c, fill);
+  }
+  // Text with its top-left corner at (x, y_top); align: 0 left, 1 centre, 2 right.
+  void text(int x, int y_top, const std::string& s, int size, int align = 0, const Colour& c = {0, 0, 0}) {
+    if (!text_ok) return;
+    const OIIO::ROI r = OIIO::ImageBufAlgo::text_size(s, size, kFont);
+    if (!r.defined()) {
+      text_ok = false;
+      return;
+    }
+    const int w = r.width();
+    const int x0 = align == 0 ? x : align == 1 ? x - w / 2 : x - w;
+    // render_text's y is the baseline; r.ybegin is negative (ascent).
+    if (!OIIO::ImageBufAlgo::render_text(buf, x0, y_top - r.ybegin, s, size, kFont, c)) text_ok = false;
+  }
+};
+
+}  // namespace
+
+Status write_chart(const std::string& path, const std::vector<Aggregate>& group, const std::string& title) {
+  if (group.empty()) return make_error(ErrorCode::kInvalidArgument, "chart: nothing to draw", "chart");
+  Canvas cv;
+  OIIO::ImageBufAlgo::fill(cv.buf, {1.0f, 1.0f, 1.0f});
+  const int px0 = kLeft, px1 = kWidth - kRight, py0 = kTop, py1 = kHeight - kBottom;
+  const int zero_line = py1 - 18;         // y of "0 error"
+  const int log_bottom = zero_line - 22;  // y of the log range's floor
+
+  double t_min = std::numeric_limits<double>::infinity(), t_max = 0;
+  for (const Aggregate& a : group) {
+    const double t = std::max(a.seconds, 1e-6);
+    t_min = std::min(t_min, t);
+    t_max = std::max(t_max, t);
+  }
+  const int e0 = static_cast<int>(std::floor(std::log10(t_min))),
+            e1 = std::max(e0 + 1, int(std::ceil(std::log10(t_max))));
+  auto x_of = [&](double seconds) {
+    const double l = std::log10(std::max(seconds, 1e-6));
+    return px0 + static_cast<int>(std::lround((l - e0) / (e1 - e0) * (px1 - px0)));
+  };
+  auto y_of = [&](double error) {
+    const double pct = 100.0 * error;
+    if (!(pct > 0)) return zero_line;
+    const double l = std::clamp(std::log10(pct), kErrorFloorLog, kErrorCeilLog);
+    return log_bottom -
+           static_cast<int>(std::lround((l - kErrorFloorLog) / (kErrorCeilLog - kErrorFloorLog) * (log_bottom - py0)));
+  };
+
+  // Grid, ticks and labels.
+  const Colour grid{0.88f, 0.88f, 0.88f}, black{0, 0, 0};
+  for (int e = e0; e <= e1; ++e) {
+    const int x = x_of(std::pow(10.0, e));
+    cv.line(x, py0, x, py1, grid);
+    cv.line(x, py1, x, py1 + 6, black);
+    cv.text(x, py1 + 9, decade_label_time(e), 13, 1);
+    if (e < e1)
+      for (int m = 2; m <= 9; ++m) {
+        const int xm = x_of(m * std::pow(10.0, e));
+        cv.line(xm, py1, xm, py1 + 3, black);
+      }
+  }
+  for (int e = static_cast<int>(kErrorFloorLog); e <= static_cast<int>(kErrorCeilLog); ++e) {
+    const int y = y_of(std::pow(10.0, e) / 100.0);
+    cv.line(px0, y, px1, y, grid);
+    cv.line(px0 - 6, y, px0, y, black);
+    cv.text(px0 - 9, y - 7, decade_label_error(e), 13, 2);
+  }
+  cv.line(px0, zero_line, px1, zero_line, {0.75f, 0.85f, 0.75f});
+  cv.line(px0 - 6, zero_line, px0, zero_line, black);
+  cv.text(px0 - 9, zero_line - 7, "0 (exact)", 13, 2);
+  cv.box(px0, py0, px1, py1, black, false);
+  cv.text((px0 + px1) / 2, py1 + 30, "time, summed over the observers (log scale)", 15, 1);
+  cv.text(8, py0 - 22, "error: 1 - IoU against R3 (log scale)", 13);
+  cv.text((px0 + px1) / 2, 8, title, 17, 1);
+  cv.text(px1 + 16, py1 - 46, "time: Horizon compute;", 11);
+  cv.text(px1 + 16, py1 - 32, "gdal whole process;", 11);
+  cv.text(px1 + 16, py1 - 18, "grass r.viewshed module", 11);
+
+  // The front: a staircase through the front's points by time.
+  std::vector<const Aggregate*> front;
+  for (const Aggregate& a : group)
+    if (a.on_front) front.push_back(&a);
+  std::sort(front.begin(), front.end(), [](const Aggregate* a, const Aggregate* b) { return a->seconds < b->seconds; });
+  for (std::size_t i = 0; i + 1 < front.size(); ++i) {
+    const int xa = x_of(front[i]->seconds), ya = y_of(front[i]->error());
+    const int xb = x_of(front[i + 1]->seconds), yb = y_of(front[i + 1]->error());
+    cv.thick_line(xa, ya, xb, ya, black);
+    cv.thick_line(xb, ya, xb, yb, black);
+  }
+
+  // Points, coloured by algorithm; default settings ringed; front points outlined.
+  std::vector<std::string> algorithms;
+  for (const Aggregate& a : group) {
+    if (std::find(algorithms.begin(), algorithms.end(), a.algorithm) == algorithms.end())
+      algorithms.push_back(a.algorithm);
+    const int x = x_of(a.seconds), y = y_of(a.error());
+    const Colour c = colour_of(a.algorithm);
+    cv.box(x - 5, y - 5, x + 5, y + 5, c, true);
+    if (a.on_front) cv.box(x - 6, y - 6, x + 6, y + 6, black, false);
+    if (a.is_default) cv.box(x - 9, y - 9, x + 9, y + 9, c, false);
+  }
+  // Front points named (the setting, or the peer), right of the point.
+  int label_index = 0;
+  for (const Aggregate* a : front) {
+    // Alternately above and below the point, so neighbours on the front do not overprint.
+    const int dy = label_index++ % 2 ? 6 : -16;
+    const std::string name = a->is_peer || a->setting == "default" || a->setting == "reference"
+                                 ? a->algorithm
+                                 : a->algorithm + " " + a->setting;
+    cv.text(x_of(a->seconds) + 12, y_of(a->error()) + dy, name, 11, 0, {0.25f, 0.25f, 0.25f});
+  }
+
+  // Legend.
+  int ly = py0 + 6;
+  const int lx = px1 + 16;
+  for (const std::string& name : algorithms) {
+    cv.box(lx, ly + 2, lx + 12, ly + 14, colour_of(name), true);
+    cv.text(lx + 20, ly, name, 14);
+    ly += 22;
+  }
+  ly += 8;
+  cv.thick_line(lx, ly + 8, lx + 14, ly + 8, black);
+  cv.text(lx + 20, ly, "Pareto front", 13);
+  ly += 22;
+  cv.box(lx - 2, ly, lx + 14, ly + 16, {0.4f, 0.4f, 0.4f}, false);
+  cv.text(lx + 20, ly, "default setting", 13);
+
+  // Write atomically: temporary name, then rename.
+  const std::string tmp = path + ".tmp";
+  if (!cv.buf.write(tmp, OIIO::TypeUnknown, "png")) {
+    std::filesystem::remove(tmp);
+    return make_error(ErrorCode::kIoError, "cannot write chart '" + path + "': " + cv.buf.geterror(), path);
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) return make_error(ErrorCode::kIoError, "cannot write chart '" + path + "': " + ec.message(), path);
+  return Status::Ok();
+}
+
+}  // namespace horizon::evaluation

@@ -1,0 +1,83 @@
+#include "call_scope.hpp"
+
+#include "grpc_status.hpp"
+
+namespace horizon::server {
+
+CallScope::CallScope(ServerEnv& env, grpc::CallbackServerContext* context, std::string_view method)
+    : env_(env), started_(std::chrono::steady_clock::now()) {
+  record_.method = method;
+  env_.metrics.request_started();
+  control_.cancel = &token_;
+  // The client's deadline, as a steady-clock time; none (gRPC's "infinite") -> the default.
+  const auto system_now = std::chrono::system_clock::now();
+  const auto deadline = context->deadline();
+  if (deadline < system_now + std::chrono::hours(24 * 365))
+    control_.deadline = started_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(deadline - system_now);
+  else
+    control_.deadline = started_ + env.config.default_deadline;
+}
+
+CallScope::~CallScope() {
+  if (!finished_) finish(grpc::Status(grpc::StatusCode::INTERNAL, "call ended without a status"));
+}
+
+std::optional<grpc::Status> CallScope::admit() {
+  if (!env_.datasets.loaded())
+    return grpc::Status(grpc::StatusCode::UNAVAILABLE, "horizond is loading its datasets; retry shortly");
+  const std::uint32_t before = env_.pending.fetch_add(1);
+  admitted_ = true;
+  if (before >= env_.config.limits.max_pending)
+    return to_grpc_status(make_error(ErrorCode::kResourceExhausted,
+                                     "horizond has " + std::to_string(before) + " requests in flight (limits.max_pending = " +
+                                         std::to_string(env_.config.limits.max_pending) + "); retry later",
+                                     "limits.max_pending"));
+  datasets_ = env_.datasets.snapshot();
+  return std::nullopt;
+}
+
+Result<std::shared_ptr<const Dataset>> CallScope::dataset(const std::string& name) {
+  record_.dataset = name;
+  if (name.empty()) return make_error(ErrorCode::kInvalidArgument, "dataset: a dataset name is required", "dataset");
+  if (!datasets_) datasets_ = env_.datasets.snapshot();
+  const auto it = datasets_->find(name);
+  if (it == datasets_->end())
+    return make_error(ErrorCode::kNotFound, "dataset '" + name + "' is not held by this daemon", name);
+  return it->second;
+}
+
+Status CallScope::reserve(std::uint64_t bytes, const std::string& what) {
+  Reservation more;
+  if (!env_.memory.try_reserve(bytes, more))
+    return make_error(ErrorCode::kResourceExhausted,
+                      what + " needs about " + std::to_string((bytes + (1 << 20) - 1) >> 20) +
+                          " MiB of working memory, more than memory_budget_mb leaves free now (" +
+                          std::to_string(env_.memory.reserved() >> 20) + " MiB held); retry later or ask less",
+                      "memory_budget_mb");
+  memory_ = std::move(more);  // one reservation per call
+  env_.metrics.set_memory_reserved(env_.memory.reserved());
+  return Status::Ok();
+}
+
+grpc::Status CallScope::status_of(const Error& error) const {
+  if (error.code == ErrorCode::kCancelled && control_.deadline && std::chrono::steady_clock::now() >= *control_.deadline)
+    return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED, "the request's deadline passed before it finished");
+  return to_grpc_status(error);
+}
+
+void CallScope::finish(const grpc::Status& status) {
+  if (finished_) return;
+  finished_ = true;
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
+  record_.duration_ms = seconds * 1000.0;
+  record_.status = grpc_code_name(status.error_code());
+  record_.message = status.error_message();
+  record_.server_fault = is_server_fault(status.error_code());
+  log_request(record_);
+  env_.metrics.request_finished(record_.method, record_.status, seconds, record_.cells, record_.boxes);
+  if (admitted_) env_.pending.fetch_sub(1);
+  memory_.release();
+  env_.metrics.set_memory_reserved(env_.memory.reserved());
+}
+
+}  // namespace horizon::server

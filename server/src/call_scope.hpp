@@ -1,0 +1,66 @@
+// call_scope.hpp — one RPC's bookkeeping, from admission to its log line.
+//
+// Every handler owns a CallScope. It admits the call (UNAVAILABLE while the
+// datasets load, RESOURCE_EXHAUSTED past limits.max_pending), looks the
+// dataset up (NOT_FOUND), gives the engine a RunControl (the call's cancel
+// token, set by the reactor's OnCancel, and its deadline: the client's, or
+// the configured default), reserves working memory, and on finish() writes
+// the request's log line and metrics exactly once.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include <grpcpp/server_context.h>
+#include <grpcpp/support/status.h>
+
+#include "horizon/common/control.hpp"
+#include "horizon/common/error.hpp"
+#include "request_log.hpp"
+#include "server_env.hpp"
+
+namespace horizon::server {
+
+class CallScope {
+ public:
+  CallScope(ServerEnv& env, grpc::CallbackServerContext* context, std::string_view method);
+  ~CallScope();
+  CallScope(const CallScope&) = delete;
+  CallScope& operator=(const CallScope&) = delete;
+
+  // Ok, or the status to finish with at once.
+  std::optional<grpc::Status> admit();
+  // The dataset by name: kInvalidArgument for an empty name, kNotFound for an unknown one.
+  Result<std::shared_ptr<const Dataset>> dataset(const std::string& name);
+  // Reserves `bytes` of working memory for the rest of the call (kResourceExhausted when it
+  // does not fit). Once per call.
+  Status reserve(std::uint64_t bytes, const std::string& what);
+
+  const RunControl* control() const { return &control_; }
+  void cancel() { token_.cancel(); }
+  RequestRecord& record() { return record_; }
+  ServerEnv& env() { return env_; }
+
+  // An engine error as the status to send. A cancellation after the deadline
+  // reads DEADLINE_EXCEEDED: gRPC cancels a call whose deadline passed.
+  grpc::Status status_of(const Error& error) const;
+  // Logs and counts the call. Once; later calls do nothing.
+  void finish(const grpc::Status& status);
+
+ private:
+  ServerEnv& env_;
+  const std::chrono::steady_clock::time_point started_;
+  CancelToken token_;
+  RunControl control_;
+  RequestRecord record_;
+  Reservation memory_;
+  bool admitted_ = false;
+  bool finished_ = false;
+  std::shared_ptr<const DatasetSet> datasets_;  // held for the whole call (a reload never pulls a dataset away)
+};
+
+}  // namespace horizon::server

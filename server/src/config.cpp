@@ -1,0 +1,236 @@
+// Configuration parsing (nlohmann-json kept to this file).
+#include "config.hpp"
+
+#include <unistd.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+namespace horizon::server {
+namespace {
+
+using Json = nlohmann::json;
+namespace fs = std::filesystem;
+
+Error config_error(const std::string& source, const std::string& key, const std::string& what) {
+  return make_error(ErrorCode::kInvalidArgument, "config '" + source + "': " + key + ": " + what, key);
+}
+
+Status check_keys(const Json& object, const std::string& source, const std::string& prefix,
+                  const std::set<std::string>& allowed) {
+  for (const auto& [key, value] : object.items()) {
+    (void)value;
+    if (!allowed.contains(key)) {
+      std::string list;
+      for (const std::string& k : allowed) list += (list.empty() ? "" : ", ") + k;
+      return config_error(source, prefix + key, "unknown key (expected one of: " + list + ")");
+    }
+  }
+  return Status::Ok();
+}
+
+Result<std::string> get_string(const Json& object, const std::string& source, const std::string& key,
+                               const std::string& path, bool allow_empty) {
+  const Json& v = object.at(key);
+  if (!v.is_string()) return config_error(source, path, "expected a string, got " + v.dump());
+  std::string s = v.get<std::string>();
+  if (!allow_empty && s.empty()) return config_error(source, path, "must not be empty");
+  return s;
+}
+
+// A whole number in [lo, hi].
+Result<std::uint64_t> get_count(const Json& object, const std::string& source, const std::string& key,
+                                const std::string& path, std::uint64_t lo, std::uint64_t hi) {
+  const Json& v = object.at(key);
+  if (!v.is_number_integer() || (v.is_number_integer() && !v.is_number_unsigned() && v.get<std::int64_t>() < 0))
+    return config_error(source, path, "expected a whole number >= " + std::to_string(lo) + ", got " + v.dump());
+  const std::uint64_t n = v.get<std::uint64_t>();
+  if (n < lo || n > hi)
+    return config_error(source, path,
+                        "must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " + v.dump());
+  return n;
+}
+
+Status check_address(const std::string& source, const std::string& key, const std::string& address) {
+  const auto colon = address.rfind(':');
+  if (colon == std::string::npos || colon == 0 || colon + 1 == address.size())
+    return config_error(source, key, "expected host:port, got '" + address + "'");
+  const std::string port = address.substr(colon + 1);
+  if (port.find_first_not_of("0123456789") != std::string::npos || port.size() > 5 || std::stoi(port) > 65535)
+    return config_error(source, key, "port must be a number in [0, 65535], got '" + address + "'");
+  return Status::Ok();
+}
+
+Status parse_datasets(const Json& j, const std::string& source, Config& config) {
+  if (!j.is_object()) return config_error(source, "datasets", "expected an object of name -> file");
+  for (const auto& [name, value] : j.items()) {
+    const std::string key = "datasets." + name;
+    if (name.empty() || name.size() > 128 || name.find_first_of("/\\ \t\n") != std::string::npos)
+      return config_error(source, key, "a dataset name is 1-128 characters without '/', '\\' or spaces");
+    DatasetConfig d;
+    d.name = name;
+    if (value.is_string()) {
+      d.file = value.get<std::string>();
+    } else if (value.is_object()) {
+      HORIZON_RETURN_IF_ERROR(check_keys(value, source, key + ".", {"file", "band"}));
+      if (!value.contains("file")) return config_error(source, key + ".file", "missing");
+      auto file = get_string(value, source, "file", key + ".file", false);
+      if (!file.ok()) return file.error();
+      d.file = *file;
+      if (value.contains("band")) {
+        auto band = get_count(value, source, "band", key + ".band", 1, 65535);
+        if (!band.ok()) return band.error();
+        d.band = static_cast<int>(*band);
+      }
+    } else {
+      return config_error(source, key, "expected a file name or {\"file\": ..., \"band\": N}, got " + value.dump());
+    }
+    if (d.file.empty()) return config_error(source, key, "file name must not be empty");
+    config.datasets.push_back(std::move(d));
+  }
+  // nlohmann::json objects iterate in key order, so the list is sorted by name.
+  return Status::Ok();
+}
+
+Status parse_limits(const Json& j, const std::string& source, Limits& limits) {
+  if (!j.is_object()) return config_error(source, "limits", "expected an object");
+  HORIZON_RETURN_IF_ERROR(check_keys(j, source, "limits.", {"max_cells", "max_boxes", "max_lines", "max_pending"}));
+  if (j.contains("max_cells")) {
+    auto v = get_count(j, source, "max_cells", "limits.max_cells", 1, 2'000'000'000);
+    if (!v.ok()) return v.error();
+    limits.max_cells = *v;
+  }
+  if (j.contains("max_boxes")) {
+    auto v = get_count(j, source, "max_boxes", "limits.max_boxes", 1, 1'000'000);
+    if (!v.ok()) return v.error();
+    limits.max_boxes = static_cast<std::uint32_t>(*v);
+  }
+  if (j.contains("max_lines")) {
+    auto v = get_count(j, source, "max_lines", "limits.max_lines", 1, 1'000'000);
+    if (!v.ok()) return v.error();
+    limits.max_lines = static_cast<std::uint32_t>(*v);
+  }
+  if (j.contains("max_pending")) {
+    auto v = get_count(j, source, "max_pending", "limits.max_pending", 1, 100'000);
+    if (!v.ok()) return v.error();
+    limits.max_pending = static_cast<std::uint32_t>(*v);
+  }
+  return Status::Ok();
+}
+
+fs::path default_scratch_dir() {
+  if (const char* tmp = std::getenv("TMPDIR"); tmp && *tmp) return tmp;
+  return "/tmp";
+}
+
+}  // namespace
+
+Result<Config> parse_config(const std::string& text, const std::string& source, const fs::path& base_dir,
+                            const ConfigOverrides& overrides) {
+  Json j;
+  try {
+    j = Json::parse(text);
+  } catch (const Json::parse_error& e) {
+    return make_error(ErrorCode::kInvalidArgument, "config '" + source + "': not valid JSON: " + e.what(), "");
+  }
+  if (!j.is_object()) return config_error(source, "(document)", "expected a JSON object");
+  if (!overrides.listen.empty()) j["listen"] = overrides.listen;
+  if (!overrides.metrics_listen.empty()) j["metrics_listen"] = overrides.metrics_listen;
+  if (!overrides.data_root.empty()) j["data_root"] = fs::absolute(overrides.data_root).string();
+  HORIZON_RETURN_IF_ERROR(check_keys(j, source, "",
+                                     {"listen", "metrics_listen", "data_root", "datasets", "memory_budget_mb",
+                                      "worker_threads", "engine_threads", "limits", "default_deadline_ms",
+                                      "shutdown_grace_ms", "scratch_dir"}));
+  Config c;
+  c.source = source;
+  for (const char* required : {"listen", "data_root", "datasets", "memory_budget_mb"})
+    if (!j.contains(required)) return config_error(source, required, "missing (required)");
+
+  auto listen = get_string(j, source, "listen", "listen", false);
+  if (!listen.ok()) return listen.error();
+  c.listen = *listen;
+  HORIZON_RETURN_IF_ERROR(check_address(source, "listen", c.listen));
+  if (j.contains("metrics_listen")) {
+    auto m = get_string(j, source, "metrics_listen", "metrics_listen", true);
+    if (!m.ok()) return m.error();
+    c.metrics_listen = *m;
+    if (!c.metrics_listen.empty()) HORIZON_RETURN_IF_ERROR(check_address(source, "metrics_listen", c.metrics_listen));
+  }
+
+  auto root = get_string(j, source, "data_root", "data_root", false);
+  if (!root.ok()) return root.error();
+  c.data_root = base_dir / *root;
+  std::error_code ec;
+  if (!fs::is_directory(c.data_root, ec))
+    return config_error(source, "data_root", "'" + c.data_root.string() + "' is not a directory");
+  c.data_root = fs::canonical(c.data_root, ec);
+
+  HORIZON_RETURN_IF_ERROR(parse_datasets(j.at("datasets"), source, c));
+
+  auto budget = get_count(j, source, "memory_budget_mb", "memory_budget_mb", 64, 16u << 20);
+  if (!budget.ok()) return budget.error();
+  c.memory_budget_bytes = *budget << 20;
+  if (j.contains("worker_threads")) {
+    auto v = get_count(j, source, "worker_threads", "worker_threads", 0, 1024);
+    if (!v.ok()) return v.error();
+    c.worker_threads = static_cast<unsigned>(*v);
+  }
+  if (j.contains("engine_threads")) {
+    auto v = get_count(j, source, "engine_threads", "engine_threads", 0, 1024);
+    if (!v.ok()) return v.error();
+    c.engine_threads = static_cast<unsigned>(*v);
+  }
+  if (j.contains("limits")) HORIZON_RETURN_IF_ERROR(parse_limits(j.at("limits"), source, c.limits));
+  if (j.contains("default_deadline_ms")) {
+    auto v = get_count(j, source, "default_deadline_ms", "default_deadline_ms", 1, 3'600'000);
+    if (!v.ok()) return v.error();
+    c.default_deadline = std::chrono::milliseconds(*v);
+  }
+  if (j.contains("shutdown_grace_ms")) {
+    auto v = get_count(j, source, "shutdown_grace_ms", "shutdown_grace_ms", 0, 600'000);
+    if (!v.ok()) return v.error();
+    c.shutdown_grace = std::chrono::milliseconds(*v);
+  }
+  c.scratch_dir = default_scratch_dir();
+  if (j.contains("scratch_dir")) {
+    auto v = get_string(j, source, "scratch_dir", "scratch_dir", false);
+    if (!v.ok()) return v.error();
+    c.scratch_dir = base_dir / *v;
+  }
+  if (!fs::is_directory(c.scratch_dir, ec) || ::access(c.scratch_dir.c_str(), W_OK) != 0)
+    return config_error(source, "scratch_dir", "'" + c.scratch_dir.string() + "' is not a writable directory");
+  return c;
+}
+
+Result<Config> load_config(const std::string& path, const ConfigOverrides& overrides) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return make_error(ErrorCode::kNotFound, "config '" + path + "': cannot be opened", "config");
+  std::ostringstream text;
+  text << in.rdbuf();
+  const fs::path base = fs::absolute(path).parent_path();
+  return parse_config(text.str(), path, base, overrides);
+}
+
+Result<fs::path> resolve_dataset_file(const Config& config, const DatasetConfig& dataset) {
+  const std::string key = "datasets." + dataset.name;
+  const fs::path joined = config.data_root / dataset.file;
+  std::error_code ec;
+  const fs::path resolved = fs::weakly_canonical(joined, ec);
+  if (ec) return config_error(config.source, key, "cannot resolve '" + joined.string() + "': " + ec.message());
+  // Inside the root: the resolved path starts with the (canonical) root.
+  const auto rel = resolved.lexically_relative(config.data_root);
+  if (rel.empty() || *rel.begin() == "..")
+    return config_error(config.source, key,
+                        "'" + dataset.file + "' resolves to '" + resolved.string() + "', outside data_root '" +
+                            config.data_root.string() + "'");
+  if (!fs::is_regular_file(resolved, ec))
+    return make_error(ErrorCode::kNotFound,
+                      "config '" + config.source + "': " + key + ": no such file '" + resolved.string() + "'", key);
+  return resolved;
+}
+
+}  // namespace horizon::server

@@ -1,0 +1,85 @@
+// config.hpp — horizond's configuration: a JSON file, read once at start and
+// again on SIGHUP (datasets only).
+//
+//   {
+//     "listen": "0.0.0.0:50051",            gRPC address (host:port; port 0 = any free port)
+//     "metrics_listen": "0.0.0.0:9464",     Prometheus /metrics address; "" or absent = off
+//     "data_root": "/srv/horizon/dem",      every dataset file resolves inside it
+//     "datasets": {                         name -> file (relative to data_root), or
+//       "rainier": "rainier.tif",           name -> {"file": "x.tif", "band": 2}
+//       "multi": {"file": "bands.tif", "band": 2}
+//     },
+//     "memory_budget_mb": 2048,             resident datasets + the working memory of requests in flight
+//     "worker_threads": 2,                  computations run concurrently (Asio pool); 0 = all cores
+//     "engine_threads": 1,                  threads one computation may use; 0 = all cores
+//     "limits": {"max_cells": 25000000,     cells in one viewshed or culling window
+//                "max_boxes": 100000,       boxes in one CullBoxes call
+//                "max_lines": 10000,        sight lines in one LineOfSight call
+//                "max_pending": 64},        requests admitted at once (computing, queued or streaming)
+//     "default_deadline_ms": 30000,         for requests that carry no deadline
+//     "shutdown_grace_ms": 10000,           SIGTERM/SIGINT: time in-flight requests get to finish
+//     "scratch_dir": "/tmp"                 where GeoTIFF/PNG bytes are encoded (default: $TMPDIR or /tmp)
+//   }
+//
+// Every key is checked; an unknown key, a wrong type or a value out of range
+// is an Error whose message and field name the key ("limits.max_cells",
+// "datasets.rainier"). Relative data_root and scratch_dir resolve against the
+// config file's directory.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "horizon/common/error.hpp"
+
+namespace horizon::server {
+
+struct DatasetConfig {
+  std::string name;  // the key
+  std::string file;  // as written, relative to data_root
+  int band = 0;      // 1-based; 0 = the file's only band
+};
+
+struct Limits {
+  std::uint64_t max_cells = 25'000'000;
+  std::uint32_t max_boxes = 100'000;
+  std::uint32_t max_lines = 10'000;
+  std::uint32_t max_pending = 64;
+};
+
+struct Config {
+  std::string source;  // path of the file, for messages
+  std::string listen = "127.0.0.1:50051";
+  std::string metrics_listen;
+  std::filesystem::path data_root;
+  std::vector<DatasetConfig> datasets;  // in name order
+  std::uint64_t memory_budget_bytes = 2048ull << 20;
+  unsigned worker_threads = 2;
+  unsigned engine_threads = 1;
+  Limits limits;
+  std::chrono::milliseconds default_deadline{30'000};
+  std::chrono::milliseconds shutdown_grace{10'000};
+  std::filesystem::path scratch_dir;
+};
+
+// Command-line overrides applied before checking (empty: keep the file's value).
+// A deployment config can so be checked against a local copy of the DEM
+// volume (--data-root), or a test daemon put on an ephemeral port (--listen).
+struct ConfigOverrides {
+  std::string listen, metrics_listen, data_root;  // data_root: relative to the working directory
+};
+
+// Parses and checks a configuration document. `base_dir` resolves relative paths.
+Result<Config> parse_config(const std::string& text, const std::string& source, const std::filesystem::path& base_dir,
+                            const ConfigOverrides& overrides = {});
+// Reads and parses a file.
+Result<Config> load_config(const std::string& path, const ConfigOverrides& overrides = {});
+
+// The dataset's file, resolved (symlinks followed) and checked to lie inside
+// the data root. Errors name "datasets.<name>".
+Result<std::filesystem::path> resolve_dataset_file(const Config& config, const DatasetConfig& dataset);
+
+}  // namespace horizon::server

@@ -1,0 +1,86 @@
+// CullBoxes: one viewpoint, many object boxes, against the OHF of the window
+// they need (the culling logic itself is core's visibility/cull).
+#include <string>
+#include <vector>
+
+#include "call_scope.hpp"
+#include "horizon/visibility/cull.hpp"
+#include "translate.hpp"
+#include "visibility_service.hpp"
+
+namespace horizon::server {
+
+grpc::Status run_cull_boxes(CallScope& scope, const v1::CullBoxesRequest& request, v1::CullBoxesResponse& response) {
+  auto dataset = scope.dataset(request.dataset());
+  if (!dataset.ok()) return scope.status_of(dataset.error());
+  const Dataset& d = **dataset;
+  const ServerEnv& env = scope.env();
+  const int n = request.boxes_size();
+  scope.record().boxes = static_cast<std::uint64_t>(n);
+  if (n > 0 && static_cast<std::uint64_t>(n) > env.config.limits.max_boxes)
+    return scope.status_of(make_error(ErrorCode::kResourceExhausted,
+                                      "boxes: " + std::to_string(n) + " boxes, more than limits.max_boxes = " +
+                                          std::to_string(env.config.limits.max_boxes),
+                                      "boxes"));
+  if (!request.has_observer())
+    return scope.status_of(make_error(ErrorCode::kInvalidArgument, "observer: required", "observer"));
+  auto spec = to_point_spec(request.observer(), "observer");
+  if (!spec.ok()) return scope.status_of(spec.error());
+
+  visibility::CullOptions options;
+  auto algorithm = to_algorithm(request.algorithm(), "algorithm");
+  if (!algorithm.ok()) return scope.status_of(algorithm.error());
+  options.viewshed.algorithm = *algorithm;
+  auto curvature = to_curvature(request.has_curvature(), request.curvature());
+  if (!curvature.ok()) return scope.status_of(curvature.error());
+  options.viewshed.curvature_coefficient = *curvature;
+  options.viewshed.threads = env.config.engine_threads;
+  options.conservative = request.conservative();
+  scope.record().algorithm =
+      std::string(visibility::algorithm_name(options.conservative ? visibility::Algorithm::kConservative : *algorithm));
+
+  std::vector<visibility::BoxSpec> boxes(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    const v1::Box& in = request.boxes(i);
+    auto frame = to_frame(in.frame(), "boxes[" + std::to_string(i) + "].frame");
+    if (!frame.ok()) return scope.status_of(frame.error());
+    boxes[static_cast<std::size_t>(i)] = {*frame, in.x_min(), in.y_min(), in.x_max(), in.y_max(), in.z_min(), in.z_max()};
+  }
+
+  auto observer = geodesy::resolve_point(d.dem, *spec, "observer");
+  if (!observer.ok()) return scope.status_of(rename_field(observer.error(), ""));
+  auto plan = visibility::plan_cull(d.dem, *observer, boxes, options);
+  if (!plan.ok()) return scope.status_of(rename_field(plan.error(), ""));
+  const std::uint64_t cells = plan->frame.window.cell_count();
+  if (cells > env.config.limits.max_cells)
+    return scope.status_of(make_error(ErrorCode::kResourceExhausted,
+                                      "boxes: the farthest box needs a window of " + std::to_string(cells) +
+                                          " cells, more than limits.max_cells = " +
+                                          std::to_string(env.config.limits.max_cells),
+                                      "boxes"));
+  if (auto s = scope.reserve(cells * MemoryBudget::kCullBytesPerCell +
+                                 static_cast<std::uint64_t>(n) * MemoryBudget::kCullBytesPerBox,
+                             "this culling request");
+      !s.ok())
+    return scope.status_of(s.error());
+
+  auto result = visibility::run_cull(d.dem, *observer, *plan, scope.control());
+  if (!result.ok()) return scope.status_of(rename_field(result.error(), ""));
+  scope.record().cells = result->stats.cells_evaluated;
+
+  response.mutable_boxes()->Reserve(n);
+  for (const visibility::BoxVisibility& b : result->boxes) {
+    v1::BoxVisibility* out = response.add_boxes();
+    out->set_visible(b.visible);
+    out->set_ohf_min(b.ohf_min);
+  }
+  response.set_visible_count(static_cast<std::uint32_t>(result->visible_count));
+  fill_window(result->window, *response.mutable_window());
+  fill_stats(result->stats, *response.mutable_stats());
+  response.set_pyramid_cells_read(result->pyramid_cells_read);
+  response.set_algorithm(std::string(visibility::algorithm_name(result->algorithm)));
+  fill_point(*observer, d.dem, *response.mutable_observer());
+  return grpc::Status::OK;
+}
+
+}  // namespace horizon::server

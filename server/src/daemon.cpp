@@ -1,0 +1,144 @@
+#include "daemon.hpp"
+
+#include <chrono>
+#include <exception>
+
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/health_check_service_interface.h>
+#include <grpcpp/server.h>
+#include <grpcpp/server_builder.h>
+
+#include "dataset_service.hpp"
+#include "datasets.hpp"
+#include "memory_budget.hpp"
+#include "metrics.hpp"
+#include "request_log.hpp"
+#include "server_env.hpp"
+#include "visibility_service.hpp"
+#include "worker_pool.hpp"
+
+namespace horizon::server {
+namespace {
+
+constexpr const char* kServices[] = {"", "horizon.v1.DatasetService", "horizon.v1.VisibilityService"};
+
+// Largest request accepted: a full CullBoxes (about 70 bytes per box on the
+// wire) or LineOfSight call, with room to spare.
+int max_receive_bytes(const Limits& limits) {
+  const std::uint64_t need = 1'048'576 + 96ull * std::max<std::uint64_t>(limits.max_boxes, limits.max_lines);
+  return static_cast<int>(std::min<std::uint64_t>(need, 512ull << 20));
+}
+
+}  // namespace
+
+struct Daemon::Impl {
+  explicit Impl(Config c)
+      : config(std::move(c)),
+        memory(config.memory_budget_bytes),
+        datasets(memory),
+        pool(config.worker_threads),
+        env{config, datasets, pool, memory, metrics},
+        dataset_service(env),
+        visibility_service(env) {}
+
+  void set_serving(bool serving) {
+    if (!server) return;
+    auto* health = server->GetHealthCheckService();
+    for (const char* name : kServices) health->SetServingStatus(name, serving);
+  }
+
+  Config config;
+  MemoryBudget memory;
+  Metrics metrics;
+  DatasetRegistry datasets;
+  WorkerPool pool;
+  ServerEnv env;
+  DatasetService dataset_service;
+  VisibilityService visibility_service;
+  std::unique_ptr<grpc::Server> server;
+  bool stopped = false;
+};
+
+Daemon::Daemon(Config config) : impl_(std::make_unique<Impl>(std::move(config))) {}
+Daemon::~Daemon() { shutdown(); }
+
+Status Daemon::start() {
+  Impl& d = *impl_;
+  int metrics_port = 0;
+  if (!d.config.metrics_listen.empty()) {
+    try {
+      metrics_port = d.metrics.serve(d.config.metrics_listen);
+    } catch (const std::exception& e) {
+      return make_error(ErrorCode::kIoError,
+                        "metrics_listen '" + d.config.metrics_listen + "': cannot listen: " + e.what(), "metrics_listen");
+    }
+  }
+
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  grpc::ServerBuilder builder;
+  int port = 0;
+  builder.AddListeningPort(d.config.listen, grpc::InsecureServerCredentials(), &port);
+  builder.RegisterService(&d.dataset_service);
+  builder.RegisterService(&d.visibility_service);
+  builder.SetMaxReceiveMessageSize(max_receive_bytes(d.config.limits));
+  d.server = builder.BuildAndStart();
+  if (!d.server || port == 0)
+    return make_error(ErrorCode::kIoError, "listen '" + d.config.listen + "': cannot listen there", "listen");
+  d.set_serving(false);  // until the datasets are loaded
+
+  const std::string host = d.config.listen.substr(0, d.config.listen.rfind(':'));
+  log_event("info", "listening",
+            {{"grpc", host + ":" + std::to_string(port)},
+             {"grpc_port", std::to_string(port), true},
+             {"metrics_port", std::to_string(metrics_port), true},
+             {"workers", std::to_string(d.pool.threads()), true},
+             {"memory_budget_mb", std::to_string(d.config.memory_budget_bytes >> 20), true}});
+  return Status::Ok();
+}
+
+Status Daemon::load_datasets() {
+  Impl& d = *impl_;
+  const auto started = std::chrono::steady_clock::now();
+  HORIZON_RETURN_IF_ERROR(d.datasets.load(d.config));
+  const auto set = d.datasets.snapshot();
+  d.metrics.set_datasets(set->size(), d.datasets.resident_bytes());
+  d.metrics.set_memory_reserved(d.memory.reserved());
+  d.set_serving(true);
+  log_event("info", "datasets_loaded",
+            {{"datasets", std::to_string(set->size()), true},
+             {"resident_bytes", std::to_string(d.datasets.resident_bytes()), true},
+             {"seconds", std::to_string(std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count()), true}});
+  return Status::Ok();
+}
+
+Status Daemon::reload(const Config& config) {
+  Impl& d = *impl_;
+  HORIZON_RETURN_IF_ERROR(d.datasets.load(config));
+  const auto set = d.datasets.snapshot();
+  d.metrics.set_datasets(set->size(), d.datasets.resident_bytes());
+  d.metrics.set_memory_reserved(d.memory.reserved());
+  log_event("info", "datasets_reloaded",
+            {{"datasets", std::to_string(set->size()), true},
+             {"resident_bytes", std::to_string(d.datasets.resident_bytes()), true}});
+  return Status::Ok();
+}
+
+void Daemon::shutdown() {
+  Impl& d = *impl_;
+  if (d.stopped) return;
+  d.stopped = true;
+  if (d.server) {
+    d.set_serving(false);
+    log_event("info", "draining",
+              {{"in_flight", std::to_string(d.env.pending.load()), true},
+               {"grace_ms", std::to_string(d.config.shutdown_grace.count()), true}});
+    // Stops accepting; waits for calls in flight up to the deadline, then cancels them.
+    d.server->Shutdown(std::chrono::system_clock::now() + d.config.shutdown_grace);
+  }
+  d.pool.join();
+  if (d.server) d.server->Wait();
+  log_event("info", "stopped", {});
+}
+
+}  // namespace horizon::server

@@ -1,0 +1,37 @@
+// daemon.hpp — horizond's life cycle.
+//
+//   start()          gRPC server listening (health NOT_SERVING, reflection on),
+//                    metrics endpoint up; logs {"event":"listening",...} with the ports
+//   load_datasets()  reads the configured DEMs -> health SERVING
+//   reload(config)   SIGHUP: a new dataset set swapped in; calls in flight keep theirs
+//   shutdown()       SIGTERM/SIGINT: health NOT_SERVING, no new calls, calls in
+//                    flight get config.shutdown_grace to finish (then they are
+//                    cancelled, which the engine notices), workers joined
+// (gRPC's server builder stays inside daemon.cpp.)
+#pragma once
+
+#include <memory>
+
+#include "config.hpp"
+#include "horizon/common/error.hpp"
+
+namespace horizon::server {
+
+class Daemon {
+ public:
+  explicit Daemon(Config config);
+  ~Daemon();
+  Daemon(const Daemon&) = delete;
+  Daemon& operator=(const Daemon&) = delete;
+
+  Status start();
+  Status load_datasets();
+  Status reload(const Config& config);
+  void shutdown();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace horizon::server

@@ -1,0 +1,36 @@
+#include "memory_budget.hpp"
+
+namespace horizon::server {
+
+Reservation& Reservation::operator=(Reservation&& other) noexcept {
+  if (this != &other) {
+    release();
+    budget_ = other.budget_;
+    bytes_ = other.bytes_;
+    other.budget_ = nullptr;
+  }
+  return *this;
+}
+
+void Reservation::release() {
+  if (budget_) budget_->give_back(bytes_);
+  budget_ = nullptr;
+}
+
+bool MemoryBudget::try_reserve(std::uint64_t bytes, Reservation& out) {
+  const auto want = static_cast<std::int64_t>(bytes);
+  std::int64_t available = available_.load();
+  while (true) {
+    if (want > available) return false;
+    if (available_.compare_exchange_weak(available, available - want)) break;
+  }
+  out = Reservation(this, bytes);
+  return true;
+}
+
+std::uint64_t MemoryBudget::reserved() const {
+  const std::int64_t in_use = static_cast<std::int64_t>(total_) - static_cast<std::int64_t>(kBaseBytes) - available_.load();
+  return in_use > 0 ? static_cast<std::uint64_t>(in_use) : 0;
+}
+
+}  // namespace horizon::server

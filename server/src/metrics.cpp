@@ -1,0 +1,114 @@
+// Prometheus metrics through prometheus-cpp (core + pull/civetweb).
+#include "metrics.hpp"
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <mutex>
+
+#include <prometheus/collectable.h>
+#include <prometheus/counter.h>
+#include <prometheus/exposer.h>
+#include <prometheus/gauge.h>
+#include <prometheus/histogram.h>
+#include <prometheus/registry.h>
+
+namespace horizon::server {
+
+std::uint64_t process_resident_bytes() {
+  std::FILE* f = std::fopen("/proc/self/statm", "r");
+  if (!f) return 0;
+  unsigned long long size = 0, resident = 0;
+  const int n = std::fscanf(f, "%llu %llu", &size, &resident);
+  std::fclose(f);
+  if (n != 2) return 0;
+  return resident * static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
+}
+
+namespace {
+
+// Reads the RSS when scraped, so the figure is current.
+class ProcessCollector : public prometheus::Collectable {
+ public:
+  std::vector<prometheus::MetricFamily> Collect() const override {
+    prometheus::MetricFamily family;
+    family.name = "horizon_process_resident_bytes";
+    family.help = "Resident set size of the daemon, bytes";
+    family.type = prometheus::MetricType::Gauge;
+    prometheus::ClientMetric metric;
+    metric.gauge.value = static_cast<double>(process_resident_bytes());
+    family.metric.push_back(metric);
+    return {family};
+  }
+};
+
+}  // namespace
+
+struct Metrics::Impl {
+  std::shared_ptr<prometheus::Registry> registry = std::make_shared<prometheus::Registry>();
+  std::shared_ptr<ProcessCollector> process = std::make_shared<ProcessCollector>();
+  std::unique_ptr<prometheus::Exposer> exposer;
+
+  prometheus::Family<prometheus::Counter>& requests =
+      prometheus::BuildCounter().Name("horizon_requests_total").Help("Requests answered, by method and gRPC code").Register(*registry);
+  prometheus::Family<prometheus::Histogram>& durations =
+      prometheus::BuildHistogram().Name("horizon_request_duration_seconds").Help("Request latency, seconds, by method").Register(*registry);
+  prometheus::Family<prometheus::Counter>& cells =
+      prometheus::BuildCounter().Name("horizon_cells_evaluated_total").Help("Cells evaluated, by method").Register(*registry);
+  prometheus::Counter& boxes = prometheus::BuildCounter()
+                                   .Name("horizon_boxes_total")
+                                   .Help("Object boxes culled")
+                                   .Register(*registry)
+                                   .Add({});
+  prometheus::Gauge& in_flight = prometheus::BuildGauge()
+                                     .Name("horizon_requests_in_flight")
+                                     .Help("Requests admitted and not yet finished")
+                                     .Register(*registry)
+                                     .Add({});
+  prometheus::Gauge& resident = prometheus::BuildGauge()
+                                    .Name("horizon_dataset_resident_bytes")
+                                    .Help("Elevation bytes held resident")
+                                    .Register(*registry)
+                                    .Add({});
+  prometheus::Gauge& reserved = prometheus::BuildGauge()
+                                    .Name("horizon_memory_reserved_bytes")
+                                    .Help("Bytes reserved in the memory budget (datasets and requests)")
+                                    .Register(*registry)
+                                    .Add({});
+  prometheus::Gauge& datasets =
+      prometheus::BuildGauge().Name("horizon_datasets").Help("Datasets loaded").Register(*registry).Add({});
+};
+
+Metrics::Metrics() : impl_(std::make_unique<Impl>()) {}
+Metrics::~Metrics() = default;
+
+int Metrics::serve(const std::string& address) {
+  impl_->exposer = std::make_unique<prometheus::Exposer>(address);
+  impl_->exposer->RegisterCollectable(impl_->registry);
+  impl_->exposer->RegisterCollectable(impl_->process);
+  const auto ports = impl_->exposer->GetListeningPorts();
+  return ports.empty() ? 0 : ports.front();
+}
+
+void Metrics::request_started() { impl_->in_flight.Increment(); }
+
+void Metrics::request_finished(std::string_view method, std::string_view code, double seconds, std::uint64_t cells,
+                               std::uint64_t boxes) {
+  impl_->in_flight.Decrement();
+  const std::string m(method);
+  impl_->requests.Add({{"method", m}, {"code", std::string(code)}}).Increment();
+  static const prometheus::Histogram::BucketBoundaries kBuckets{0.001, 0.002, 0.005, 0.01, 0.02, 0.05, 0.1,
+                                                                0.2,   0.5,   1.0,   2.0,  5.0,  10.0, 60.0};
+  impl_->durations.Add({{"method", m}}, kBuckets).Observe(seconds);
+  if (cells) impl_->cells.Add({{"method", m}}).Increment(static_cast<double>(cells));
+  if (boxes) impl_->boxes.Increment(static_cast<double>(boxes));
+}
+
+void Metrics::set_datasets(std::size_t count, std::uint64_t resident_bytes) {
+  impl_->datasets.Set(static_cast<double>(count));
+  impl_->resident.Set(static_cast<double>(resident_bytes));
+}
+
+void Metrics::set_memory_reserved(std::uint64_t bytes) { impl_->reserved.Set(static_cast<double>(bytes)); }
+
+}  // namespace horizon::server

@@ -1,0 +1,69 @@
+#include "raster_files.hpp"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <fstream>
+#include <sstream>
+
+#include "horizon/terrain/geotiff_writer.hpp"
+#include "horizon/terrain/preview.hpp"
+
+namespace horizon::server {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path unique_name(const fs::path& dir, const char* extension) {
+  static std::atomic<std::uint64_t> counter{0};
+  return dir / ("horizond-" + std::to_string(::getpid()) + "-" + std::to_string(counter.fetch_add(1)) + extension);
+}
+
+// Runs `write(path)`, returns the file's bytes and removes it whatever happens.
+template <class Write>
+Result<std::string> encode(const fs::path& dir, const char* extension, Write&& write) {
+  const fs::path path = unique_name(dir, extension);
+  struct Remove {
+    const fs::path& p;
+    ~Remove() {
+      std::error_code ec;
+      fs::remove(p, ec);
+    }
+  } remove{path};
+  const Status written = write(path.string());
+  if (!written.ok()) return written.error();
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return make_error(ErrorCode::kIoError, "scratch file '" + path.string() + "' could not be read back");
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  return std::move(bytes).str();
+}
+
+}  // namespace
+
+Result<std::string> geotiff_bytes(const fs::path& scratch_dir, const terrain::Grid<float>& grid,
+                                  const terrain::Georeference& georef, std::optional<double> nodata) {
+  return encode(scratch_dir, ".tif",
+                [&](const std::string& p) { return terrain::write_geotiff(p, grid, georef, nodata); });
+}
+
+Result<std::string> geotiff_bytes(const fs::path& scratch_dir, const terrain::Grid<std::uint8_t>& grid,
+                                  const terrain::Georeference& georef, std::optional<double> nodata) {
+  return encode(scratch_dir, ".tif",
+                [&](const std::string& p) { return terrain::write_geotiff(p, grid, georef, nodata); });
+}
+
+Result<std::string> preview_png_bytes(const fs::path& scratch_dir, const visibility::ViewshedResult& result,
+                                      const terrain::Grid<std::uint8_t>& mask) {
+  const visibility::ViewFrame& f = result.frame;
+  terrain::PreviewOptions preview;
+  preview.metres_per_col = f.metres_per_col;
+  preview.metres_per_row = f.metres_per_row;
+  preview.observer_col = f.observer_col - f.window.col0;  // the preview covers the window only
+  preview.observer_row = f.observer_row - f.window.row0;
+  return encode(scratch_dir, ".png", [&](const std::string& p) {
+    return terrain::write_viewshed_preview(p, result.terrain, mask, preview);
+  });
+}
+
+}  // namespace horizon::server

@@ -1,0 +1,29 @@
+// raster_files.hpp — a viewshed's GeoTIFF and PNG as bytes, through the
+// engine's own writers, so the daemon's GeoTIFF is byte-identical to the one
+// `horizon viewshed -o` writes for the same inputs. The writers work on files:
+// each encoding goes to a unique name in the scratch directory, is read back
+// and removed.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include "horizon/common/error.hpp"
+#include "horizon/terrain/georef.hpp"
+#include "horizon/terrain/grid.hpp"
+#include "horizon/visibility/viewshed.hpp"
+
+namespace horizon::server {
+
+Result<std::string> geotiff_bytes(const std::filesystem::path& scratch_dir, const terrain::Grid<float>& grid,
+                                  const terrain::Georeference& georef, std::optional<double> nodata);
+Result<std::string> geotiff_bytes(const std::filesystem::path& scratch_dir, const terrain::Grid<std::uint8_t>& grid,
+                                  const terrain::Georeference& georef, std::optional<double> nodata);
+// The CLI's --png preview of a viewshed (hillshade, tint, observer marked).
+Result<std::string> preview_png_bytes(const std::filesystem::path& scratch_dir,
+                                      const visibility::ViewshedResult& result,
+                                      const terrain::Grid<std::uint8_t>& mask);
+
+}  // namespace horizon::server

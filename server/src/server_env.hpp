@@ -1,0 +1,26 @@
+// server_env.hpp — what every RPC handler reaches: the configuration, the
+// resident datasets, the worker pool, the memory budget and the metrics.
+// Owned by the Daemon; outlives every call.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+
+#include "config.hpp"
+#include "datasets.hpp"
+#include "memory_budget.hpp"
+#include "metrics.hpp"
+#include "worker_pool.hpp"
+
+namespace horizon::server {
+
+struct ServerEnv {
+  const Config& config;  // limits, threads and deadlines are fixed at start; SIGHUP reloads datasets only
+  DatasetRegistry& datasets;
+  WorkerPool& pool;
+  MemoryBudget& memory;
+  Metrics& metrics;
+  std::atomic<std::uint32_t> pending{0};  // admitted and not finished
+};
+
+}  // namespace horizon::server

@@ -1,0 +1,202 @@
+#include "translate.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "horizon/geodesy/crs.hpp"
+
+namespace horizon::server {
+namespace {
+
+Error invalid(const std::string& field, const std::string& what) {
+  return make_error(ErrorCode::kInvalidArgument, field + ": " + what, field);
+}
+
+}  // namespace
+
+Result<geodesy::PointFrame> to_frame(v1::Frame frame, const std::string& field) {
+  switch (frame) {
+    case v1::FRAME_UNSPECIFIED:
+    case v1::FRAME_DATASET_CRS: return geodesy::PointFrame::kDatasetCrs;
+    case v1::FRAME_WGS84: return geodesy::PointFrame::kWgs84;
+    default: return invalid(field, "unknown frame value " + std::to_string(static_cast<int>(frame)));
+  }
+}
+
+Result<geodesy::PointSpec> to_point_spec(const v1::Point& point, const std::string& field) {
+  geodesy::PointSpec spec;
+  auto frame = to_frame(point.frame(), field + ".frame");
+  if (!frame.ok()) return frame.error();
+  spec.frame = *frame;
+  spec.x = point.x();
+  spec.y = point.y();
+  spec.height = point.height();
+  switch (point.height_mode()) {
+    case v1::HEIGHT_MODE_UNSPECIFIED:
+    case v1::HEIGHT_MODE_ABOVE_GROUND:
+      spec.height_mode = geodesy::HeightMode::kAboveGround;
+      if (std::isfinite(spec.height) && spec.height < 0)
+        return invalid(field + ".height", "a height above ground must be >= 0 metres");
+      break;
+    case v1::HEIGHT_MODE_ABSOLUTE: spec.height_mode = geodesy::HeightMode::kAbsolute; break;
+    default:
+      return invalid(field + ".height_mode", "unknown value " + std::to_string(static_cast<int>(point.height_mode())));
+  }
+  return spec;
+}
+
+Result<visibility::Algorithm> to_algorithm(v1::Algorithm algorithm, const std::string& field) {
+  switch (algorithm) {
+    case v1::ALGORITHM_UNSPECIFIED:
+    case v1::ALGORITHM_FAST: return visibility::Algorithm::kRadial;
+    case v1::ALGORITHM_EXACT: return visibility::Algorithm::kExact;
+    case v1::ALGORITHM_CONSERVATIVE: return visibility::Algorithm::kConservative;
+    case v1::ALGORITHM_R3: return visibility::Algorithm::kR3;
+    default: return invalid(field, "unknown algorithm value " + std::to_string(static_cast<int>(algorithm)));
+  }
+}
+
+v1::Algorithm to_proto_algorithm(visibility::Algorithm algorithm) {
+  switch (algorithm) {
+    case visibility::Algorithm::kRadial: return v1::ALGORITHM_FAST;
+    case visibility::Algorithm::kExact: return v1::ALGORITHM_EXACT;
+    case visibility::Algorithm::kConservative: return v1::ALGORITHM_CONSERVATIVE;
+    case visibility::Algorithm::kR3: return v1::ALGORITHM_R3;
+  }
+  return v1::ALGORITHM_UNSPECIFIED;
+}
+
+Error rename_field(Error error, std::string_view options_prefix, std::string_view point_prefix) {
+  std::string& f = error.field;
+  if (f.empty()) return error;
+  if (f == "curvature_coefficient") {
+    f = std::string(options_prefix) + "curvature";
+  } else if (f == "target_height" || f == "max_distance" || f == "nodata_fill_height" || f == "ray_spacing" ||
+             f == "algorithm") {
+    f = std::string(options_prefix) + f;
+  } else if (f.starts_with("observer") || f.starts_with("from") || f.starts_with("to")) {
+    // WGS84 points are x = longitude, y = latitude in the API.
+    if (f.ends_with(".lon")) f.replace(f.size() - 3, 3, "x");
+    if (f.ends_with(".lat")) f.replace(f.size() - 3, 3, "y");
+    f = std::string(point_prefix) + f;
+  }
+  return error;
+}
+
+Result<visibility::ViewshedOptions> to_viewshed_options(const v1::ViewshedOptions& in, unsigned threads) {
+  visibility::ViewshedOptions o;
+  o.target_height = in.target_height();
+  if (in.has_max_distance()) o.max_distance = in.max_distance();
+  if (in.has_curvature()) o.curvature_coefficient = in.curvature();
+  switch (in.nodata()) {
+    case v1::NODATA_POLICY_UNSPECIFIED:
+    case v1::NODATA_POLICY_TRANSPARENT: o.nodata = visibility::NodataPolicy::kTransparent; break;
+    case v1::NODATA_POLICY_FILL: o.nodata = visibility::NodataPolicy::kFill; break;
+    default: return invalid("options.nodata", "unknown value " + std::to_string(static_cast<int>(in.nodata())));
+  }
+  o.nodata_fill_height = in.nodata_fill_height();
+  auto algorithm = to_algorithm(in.algorithm(), "options.algorithm");
+  if (!algorithm.ok()) return algorithm.error();
+  o.algorithm = *algorithm;
+  if (in.has_ray_spacing()) o.radial.ray_spacing = in.ray_spacing();
+  o.threads = threads;
+  if (auto s = visibility::validate_options(o); !s.ok()) return rename_field(s.error(), "options.");
+  return o;
+}
+
+Result<double> to_curvature(bool has, double value) {
+  visibility::ViewshedOptions check;
+  if (has) check.curvature_coefficient = value;
+  if (auto s = visibility::validate_options(check); !s.ok()) return rename_field(s.error(), "");
+  return check.curvature_coefficient;
+}
+
+void fill_transform(const terrain::GeoTransform& t, v1::GeoTransform& out) {
+  out.set_origin_x(t.origin_x);
+  out.set_pixel_width(t.pixel_width);
+  out.set_origin_y(t.origin_y);
+  out.set_pixel_height(t.pixel_height);
+}
+
+void fill_window(const terrain::Window& w, v1::Window& out) {
+  out.set_col0(w.col0);
+  out.set_row0(w.row0);
+  out.set_col1(w.col1);
+  out.set_row1(w.row1);
+}
+
+void fill_stats(const visibility::WorkStats& s, v1::WorkStats& out) {
+  out.set_dem_cells(s.dem_cells);
+  out.set_window_cells(s.window_cells);
+  out.set_cells_evaluated(s.cells_evaluated);
+  out.set_terrain_samples(s.terrain_samples);
+  out.set_rays(s.rays);
+  out.set_seconds(s.seconds);
+}
+
+void fill_sample(const visibility::ProfileSample& s, v1::ProfileSample& out) {
+  out.set_distance(s.distance);
+  out.set_col(s.col);
+  out.set_row(s.row);
+  out.set_x(s.x);
+  out.set_y(s.y);
+  out.set_terrain(s.terrain);
+  out.set_sight_line(s.sight_line);
+}
+
+void fill_point(const geodesy::GridPoint& p, const terrain::Dem& dem, v1::ResolvedPoint& out) {
+  out.set_x(p.x);
+  out.set_y(p.y);
+  if (dem.georef.epsg != 0) {
+    if (auto crs = geodesy::Crs::from_epsg(dem.georef.epsg); crs.ok()) {
+      if (auto ll = crs->to_lonlat({p.x, p.y}); ll.ok()) {
+        out.set_lon(ll->lon);
+        out.set_lat(ll->lat);
+      }
+    }
+  }
+  out.set_col(p.col);
+  out.set_row(p.row);
+  out.set_ground(p.ground);
+  out.set_elevation(p.elevation);
+}
+
+void fill_dataset(const Dataset& d, v1::Dataset& out) {
+  const terrain::Dem& dem = d.dem;
+  out.set_name(d.name);
+  out.set_source(d.file);
+  out.set_format(dem.format);
+  out.set_width(dem.width());
+  out.set_height(dem.height());
+  out.set_epsg(dem.georef.epsg);
+  out.set_crs_name(d.crs_name);
+  out.set_geographic(d.geographic);
+  const auto& t = dem.georef.transform;
+  fill_transform(t, *out.mutable_transform());
+  const double x0 = t.origin_x, x1 = t.origin_x + dem.width() * t.pixel_width;
+  const double y0 = t.origin_y, y1 = t.origin_y + dem.height() * t.pixel_height;
+  auto* e = out.mutable_extent();
+  e->set_x_min(std::min(x0, x1));
+  e->set_x_max(std::max(x0, x1));
+  e->set_y_min(std::min(y0, y1));
+  e->set_y_max(std::max(y0, y1));
+  if (d.lonlat) {
+    auto* ll = out.mutable_extent_lonlat();
+    ll->set_west(d.lonlat->west);
+    ll->set_south(d.lonlat->south);
+    ll->set_east(d.lonlat->east);
+    ll->set_north(d.lonlat->north);
+  }
+  out.set_cell_size_x_m(d.cell_size_x_m);
+  out.set_cell_size_y_m(d.cell_size_y_m);
+  if (dem.nodata) out.set_nodata(*dem.nodata);
+  if (d.stats.valid_cells) {
+    out.set_elevation_min(d.stats.min);
+    out.set_elevation_max(d.stats.max);
+  }
+  out.set_valid_cells(d.stats.valid_cells);
+  out.set_void_cells(d.stats.nodata_cells);
+  out.set_resident_bytes(d.resident_bytes);
+}
+
+}  // namespace horizon::server

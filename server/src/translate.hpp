@@ -1,0 +1,46 @@
+// translate.hpp — protobuf messages to and from the engine's plain structs.
+// Nothing here computes; every check of a request field that the engine does
+// not already make (enum values, required messages) happens here, with the
+// field's API path in the Error ("observer", "options.algorithm").
+#pragma once
+
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "datasets.hpp"
+#include "horizon/common/error.hpp"
+#include "horizon/geodesy/observer.hpp"
+#include "horizon/visibility/cull.hpp"
+#include "horizon/visibility/line_of_sight.hpp"
+#include "horizon/visibility/options.hpp"
+#include "horizon/visibility/viewshed.hpp"
+#include "horizon/v1/datasets.pb.h"
+#include "horizon/v1/visibility.pb.h"
+
+namespace horizon::server {
+
+// Point -> PointSpec; `field` is its API path ("observer", "lines[2].from").
+Result<geodesy::PointSpec> to_point_spec(const v1::Point& point, const std::string& field);
+Result<geodesy::PointFrame> to_frame(v1::Frame frame, const std::string& field);
+Result<visibility::Algorithm> to_algorithm(v1::Algorithm algorithm, const std::string& field);
+v1::Algorithm to_proto_algorithm(visibility::Algorithm algorithm);
+
+// Viewshed options (checked by the engine's validate_options, errors renamed to API paths).
+Result<visibility::ViewshedOptions> to_viewshed_options(const v1::ViewshedOptions& options, unsigned threads);
+// The curvature field shared by LineOfSight and CullBoxes ("curvature").
+Result<double> to_curvature(bool has, double value);
+
+// An engine error's field renamed to the API path: core names options by their
+// C++ members ("curvature_coefficient") and WGS84 coordinates "lon"/"lat";
+// `prefix` is prepended to point fields ("lines[3].").
+Error rename_field(Error error, std::string_view options_prefix, std::string_view point_prefix = {});
+
+void fill_dataset(const Dataset& d, v1::Dataset& out);
+void fill_point(const geodesy::GridPoint& p, const terrain::Dem& dem, v1::ResolvedPoint& out);
+void fill_transform(const terrain::GeoTransform& t, v1::GeoTransform& out);
+void fill_window(const terrain::Window& w, v1::Window& out);
+void fill_stats(const visibility::WorkStats& s, v1::WorkStats& out);
+void fill_sample(const visibility::ProfileSample& s, v1::ProfileSample& out);
+
+}  // namespace horizon::server

@@ -1,0 +1,53 @@
+// unary_call.hpp — a unary RPC whose work runs on the worker pool.
+//
+// The reactor is created on a gRPC thread, admits the call, and posts the
+// work to the Asio pool; the work fills the response and returns the status,
+// and the reactor finishes the call from the pool thread. OnCancel (client
+// cancelled, deadline passed, server shutting down past its grace) sets the
+// call's cancel token, which the engine polls. The reactor deletes itself in
+// OnDone, which gRPC calls only after Finish.
+#pragma once
+
+#include <functional>
+#include <string_view>
+#include <utility>
+
+#include <grpcpp/server_context.h>
+#include <grpcpp/support/server_callback.h>
+
+#include "call_scope.hpp"
+
+namespace horizon::server {
+
+class UnaryCall final : public grpc::ServerUnaryReactor {
+ public:
+  using Work = std::function<grpc::Status(CallScope&)>;
+
+  // Starts the call; returns the reactor to hand back to gRPC.
+  static grpc::ServerUnaryReactor* start(ServerEnv& env, grpc::CallbackServerContext* context,
+                                         std::string_view method, Work work) {
+    auto* call = new UnaryCall(env, context, method);
+    if (auto refused = call->scope_.admit()) {
+      call->finish(*refused);
+      return call;
+    }
+    env.pool.post([call, work = std::move(work)] { call->finish(work(call->scope_)); });
+    return call;
+  }
+
+  void OnCancel() override { scope_.cancel(); }
+  void OnDone() override { delete this; }
+
+ private:
+  UnaryCall(ServerEnv& env, grpc::CallbackServerContext* context, std::string_view method)
+      : scope_(env, context, method) {}
+
+  void finish(const grpc::Status& status) {
+    scope_.finish(status);
+    Finish(status);  // after this, `this` may be deleted at any time
+  }
+
+  CallScope scope_;
+};
+
+}  // namespace horizon::server

@@ -1,0 +1,247 @@
+#include "viewshed_call.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <mutex>
+#include <string>
+
+#include "call_scope.hpp"
+#include "horizon/geodesy/observer.hpp"
+#include "horizon/visibility/viewshed.hpp"
+#include "raster_files.hpp"
+#include "translate.hpp"
+
+namespace horizon::server {
+namespace {
+
+static_assert(std::endian::native == std::endian::little, "raster chunks are sent in host order, which must be little-endian");
+
+constexpr int kDefaultChunkBytes = 1 << 20;
+constexpr int kMinChunkBytes = 4 << 10;
+constexpr int kMaxChunkBytes = 3 << 20;
+
+class ViewshedCall final : public grpc::ServerWriteReactor<v1::ViewshedResponse> {
+ public:
+  ViewshedCall(ServerEnv& env, grpc::CallbackServerContext* context, const v1::ViewshedRequest& request)
+      : scope_(env, context, "ComputeViewshed"), request_(request) {}
+
+  void start() {
+    if (auto refused = scope_.admit()) return finish(*refused);
+    scope_.env().pool.post([this] {
+      const grpc::Status status = compute();
+      if (!status.ok()) return finish(status);
+      write_next();
+    });
+  }
+
+  void OnWriteDone(bool ok) override {
+    if (!ok) return finish(grpc::Status(grpc::StatusCode::CANCELLED, "the client went away mid-stream"));
+    write_next();
+  }
+  void OnCancel() override { scope_.cancel(); }
+  void OnDone() override { delete this; }
+
+ private:
+  grpc::Status compute();
+  void write_next();
+  void finish(const grpc::Status& status) {
+    {
+      std::lock_guard lock(mutex_);
+      if (finished_) return;
+      finished_ = true;
+    }
+    scope_.finish(status);
+    Finish(status);  // after this, `this` may be deleted at any time
+  }
+
+  CallScope scope_;
+  const v1::ViewshedRequest request_;  // a copy: the call's own lives only until Finish
+  std::mutex mutex_;
+  bool finished_ = false;
+
+  // Phase 2 state, written by compute() before the first write, then only by
+  // the write chain (one write in flight at a time).
+  enum class Stage { kHeader, kRaster, kGeotiff, kPng, kSummary, kDone };
+  Stage stage_ = Stage::kHeader;
+  v1::ViewshedHeader header_;
+  v1::ViewshedSummary summary_;
+  std::string raster_;  // raw little-endian rows, when asked for
+  std::string geotiff_, png_;
+  std::size_t row_bytes_ = 0;
+  std::size_t chunk_bytes_ = kDefaultChunkBytes;
+  std::size_t cursor_ = 0;  // rows sent (raster) or bytes sent (files)
+  v1::ViewshedResponse message_;
+};
+
+grpc::Status ViewshedCall::compute() {
+  const v1::ViewshedRequest& req = request_;
+  auto dataset = scope_.dataset(req.dataset());
+  if (!dataset.ok()) return scope_.status_of(dataset.error());
+  const Dataset& d = **dataset;
+  const ServerEnv& env = scope_.env();
+
+  if (!req.has_observer())
+    return scope_.status_of(make_error(ErrorCode::kInvalidArgument, "observer: required", "observer"));
+  auto spec = to_point_spec(req.observer(), "observer");
+  if (!spec.ok()) return scope_.status_of(spec.error());
+  auto options = to_viewshed_options(req.options(), env.config.engine_threads);
+  if (!options.ok()) return scope_.status_of(options.error());
+  scope_.record().algorithm = std::string(visibility::algorithm_name(options->algorithm));
+  v1::RasterKind kind = req.raster() == v1::RASTER_KIND_UNSPECIFIED ? v1::RASTER_KIND_VISIBLE : req.raster();
+  if (!v1::RasterKind_IsValid(kind))
+    return scope_.status_of(make_error(ErrorCode::kInvalidArgument, "raster: unknown value", "raster"));
+  if (req.max_chunk_bytes() < 0)
+    return scope_.status_of(make_error(ErrorCode::kInvalidArgument, "max_chunk_bytes: must be >= 0", "max_chunk_bytes"));
+  if (req.max_chunk_bytes() > 0) chunk_bytes_ = std::clamp(req.max_chunk_bytes(), kMinChunkBytes, kMaxChunkBytes);
+
+  auto observer = geodesy::resolve_point(d.dem, *spec, "observer");
+  if (!observer.ok()) return scope_.status_of(rename_field(observer.error(), "options."));
+
+  // Limits and memory before any work.
+  auto frame = visibility::make_view_frame(d.dem, *observer, *options);
+  if (!frame.ok()) return scope_.status_of(rename_field(frame.error(), "options."));
+  const std::uint64_t cells = frame->window.cell_count();
+  if (cells > env.config.limits.max_cells)
+    return scope_.status_of(make_error(
+        ErrorCode::kResourceExhausted,
+        "options.max_distance: the viewshed window has " + std::to_string(cells) + " cells, more than limits.max_cells = " +
+            std::to_string(env.config.limits.max_cells) + "; give a smaller max_distance",
+        "options.max_distance"));
+  std::uint64_t bytes = cells * MemoryBudget::kViewshedBytesPerCell;
+  if (options->nodata == visibility::NodataPolicy::kFill && d.stats.nodata_cells > 0)
+    bytes += d.dem.elevation.size() * sizeof(float);  // the engine fills a copy of the DEM
+  if (auto s = scope_.reserve(bytes, "this viewshed"); !s.ok()) return scope_.status_of(s.error());
+
+  auto result = visibility::compute_viewshed(d.dem, *observer, *options, scope_.control());
+  if (!result.ok()) return scope_.status_of(rename_field(result.error(), "options."));
+  scope_.record().cells = result->stats.cells_evaluated;
+
+  // The raster asked for, derived from the one OHF (as the CLI does).
+  const auto mask = visibility::visibility_mask(*result, options->target_height);
+  const terrain::Georeference georef = visibility::window_georef(d.dem, *result);
+  std::optional<double> nodata;
+  terrain::Grid<float> values;
+  if (kind == v1::RASTER_KIND_VISIBLE) {
+    nodata = double{visibility::kNoAnswer};
+  } else {
+    values = kind == v1::RASTER_KIND_OHF ? visibility::ohf_raster(*result) : visibility::min_target_height(*result);
+    nodata = d.dem.nodata;
+  }
+  const bool is_mask = kind == v1::RASTER_KIND_VISIBLE;
+  const int width = result->ohf.width(), height = result->ohf.height();
+  row_bytes_ = static_cast<std::size_t>(width) * (is_mask ? 1 : sizeof(float));
+  if (req.include_raster()) {
+    raster_.resize(row_bytes_ * static_cast<std::size_t>(height));
+    if (!raster_.empty()) std::memcpy(raster_.data(), is_mask ? static_cast<const void*>(mask.data()) : values.data(), raster_.size());
+  }
+  if (req.include_geotiff()) {
+    auto bytes_or = is_mask ? geotiff_bytes(env.config.scratch_dir, mask, georef, nodata)
+                            : geotiff_bytes(env.config.scratch_dir, values, georef, nodata);
+    if (!bytes_or.ok()) return scope_.status_of(bytes_or.error());
+    geotiff_ = std::move(*bytes_or);
+  }
+  if (req.include_png()) {
+    auto png = preview_png_bytes(env.config.scratch_dir, *result, mask);
+    if (!png.ok()) return scope_.status_of(png.error());
+    png_ = std::move(*png);
+  }
+  if (auto s = check_control(scope_.control()); !s.ok()) return scope_.status_of(s.error());
+
+  const visibility::ViewFrame& f = result->frame;
+  header_.set_width(width);
+  header_.set_height(height);
+  fill_window(f.window, *header_.mutable_window());
+  fill_transform(georef.transform, *header_.mutable_transform());
+  header_.set_epsg(georef.epsg);
+  header_.set_raster(kind);
+  header_.set_sample_type(is_mask ? v1::SAMPLE_TYPE_UINT8 : v1::SAMPLE_TYPE_FLOAT32);
+  if (nodata) header_.set_nodata(*nodata);
+  fill_point(*observer, d.dem, *header_.mutable_observer());
+  header_.set_cell_size_x_m(f.metres_per_col);
+  header_.set_cell_size_y_m(f.metres_per_row);
+  header_.set_algorithm(scope_.record().algorithm);
+  header_.set_backend("cpu");
+
+  std::uint64_t visible = 0, hidden = 0;
+  for (std::uint8_t v : mask.values()) {
+    visible += v == visibility::kVisible;
+    hidden += v == visibility::kHidden;
+  }
+  summary_.set_visible_cells(visible);
+  summary_.set_hidden_cells(hidden);
+  summary_.set_evaluated_cells(visible + hidden);
+  summary_.set_visible_area_km2(static_cast<double>(visible) * f.metres_per_col * f.metres_per_row / 1e6);
+  fill_stats(result->stats, *summary_.mutable_stats());
+  return grpc::Status::OK;
+}
+
+void ViewshedCall::write_next() {
+  message_.Clear();
+  const int rows_per_chunk = static_cast<int>(std::max<std::size_t>(1, chunk_bytes_ / std::max<std::size_t>(1, row_bytes_)));
+  while (true) {
+    switch (stage_) {
+      case Stage::kHeader:
+        *message_.mutable_header() = header_;
+        stage_ = Stage::kRaster;
+        cursor_ = 0;
+        return StartWrite(&message_);
+      case Stage::kRaster: {
+        const int height = header_.height();
+        if (raster_.empty() || static_cast<int>(cursor_) >= height) {
+          stage_ = Stage::kGeotiff;
+          cursor_ = 0;
+          raster_.clear();
+          raster_.shrink_to_fit();
+          continue;
+        }
+        const int row0 = static_cast<int>(cursor_);
+        const int rows = std::min(rows_per_chunk, height - row0);
+        auto* chunk = message_.mutable_raster_chunk();
+        chunk->set_row0(row0);
+        chunk->set_rows(rows);
+        chunk->set_data(raster_.data() + static_cast<std::size_t>(row0) * row_bytes_, static_cast<std::size_t>(rows) * row_bytes_);
+        cursor_ += static_cast<std::size_t>(rows);
+        return StartWrite(&message_);
+      }
+      case Stage::kGeotiff:
+      case Stage::kPng: {
+        std::string& file = stage_ == Stage::kGeotiff ? geotiff_ : png_;
+        if (cursor_ >= file.size()) {
+          file.clear();
+          file.shrink_to_fit();
+          stage_ = stage_ == Stage::kGeotiff ? Stage::kPng : Stage::kSummary;
+          cursor_ = 0;
+          continue;
+        }
+        const std::size_t n = std::min(chunk_bytes_, file.size() - cursor_);
+        auto* chunk = message_.mutable_file_chunk();
+        chunk->set_kind(stage_ == Stage::kGeotiff ? v1::FileChunk::KIND_GEOTIFF : v1::FileChunk::KIND_PNG);
+        chunk->set_offset(cursor_);
+        chunk->set_total_size(file.size());
+        chunk->set_data(file.data() + cursor_, n);
+        cursor_ += n;
+        return StartWrite(&message_);
+      }
+      case Stage::kSummary:
+        *message_.mutable_summary() = summary_;
+        stage_ = Stage::kDone;
+        return StartWrite(&message_);
+      case Stage::kDone:
+        return finish(grpc::Status::OK);
+    }
+  }
+}
+
+}  // namespace
+
+grpc::ServerWriteReactor<v1::ViewshedResponse>* start_viewshed_call(ServerEnv& env,
+                                                                    grpc::CallbackServerContext* context,
+                                                                    const v1::ViewshedRequest* request) {
+  auto* call = new ViewshedCall(env, context, *request);
+  call->start();
+  return call;
+}
+
+}  // namespace horizon::server

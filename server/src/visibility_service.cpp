@@ -1,0 +1,28 @@
+#include "visibility_service.hpp"
+
+#include "unary_call.hpp"
+#include "viewshed_call.hpp"
+
+namespace horizon::server {
+
+grpc::ServerWriteReactor<v1::ViewshedResponse>* VisibilityService::ComputeViewshed(
+    grpc::CallbackServerContext* context, const v1::ViewshedRequest* request) {
+  return start_viewshed_call(env_, context, request);
+}
+
+grpc::ServerUnaryReactor* VisibilityService::LineOfSight(grpc::CallbackServerContext* context,
+                                                         const v1::LineOfSightRequest* request,
+                                                         v1::LineOfSightResponse* response) {
+  // request and response stay valid until the call finishes.
+  return UnaryCall::start(env_, context, "LineOfSight",
+                          [request, response](CallScope& scope) { return run_line_of_sight(scope, *request, *response); });
+}
+
+grpc::ServerUnaryReactor* VisibilityService::CullBoxes(grpc::CallbackServerContext* context,
+                                                       const v1::CullBoxesRequest* request,
+                                                       v1::CullBoxesResponse* response) {
+  return UnaryCall::start(env_, context, "CullBoxes",
+                          [request, response](CallScope& scope) { return run_cull_boxes(scope, *request, *response); });
+}
+
+}  // namespace horizon::server

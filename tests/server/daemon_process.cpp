@@ -1,0 +1,135 @@
+#include "daemon_process.hpp"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include <grpcpp/create_channel.h>
+#include <grpcpp/security/credentials.h>
+#include <grpcpp/support/channel_arguments.h>
+
+#ifndef HORIZOND_PATH
+#error "HORIZOND_PATH must be defined by the build"
+#endif
+
+namespace horizon::testing {
+namespace {
+
+int number_after(const std::string& text, const std::string& key) {
+  const auto at = text.find("\"" + key + "\":");
+  if (at == std::string::npos) return 0;
+  return std::atoi(text.c_str() + at + key.size() + 3);
+}
+
+}  // namespace
+
+void write_file(const std::string& path, const std::string& text) {
+  std::ofstream out(path + ".new", std::ios::binary);
+  out << text;
+  out.close();
+  std::rename((path + ".new").c_str(), path.c_str());
+}
+
+DaemonProcess::DaemonProcess(const DaemonOptions& o) {
+  config_path_ = dir_.file("horizond.json");
+  log_path_ = dir_.file("horizond.log");
+  std::ostringstream config;
+  config << "{\"listen\": \"127.0.0.1:0\", \"metrics_listen\": \"127.0.0.1:0\",\n"
+         << " \"data_root\": \"" << o.data_root << "\",\n \"datasets\": {";
+  for (std::size_t i = 0; i < o.datasets.size(); ++i)
+    config << (i ? ", " : "") << "\"" << o.datasets[i].first << "\": \"" << o.datasets[i].second << "\"";
+  config << "},\n " << o.extra_json << " \"memory_budget_mb\": " << o.memory_budget_mb
+         << ", \"worker_threads\": " << o.worker_threads << ", \"scratch_dir\": \"" << dir_.path().string() << "\"}\n";
+  write_file(config_path_, config.str());
+
+  pid_ = ::fork();
+  if (pid_ == 0) {
+    const int fd = ::open(log_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    ::dup2(fd, 2);
+    ::close(fd);
+    ::execl(HORIZOND_PATH, "horizond", "--config", config_path_.c_str(), static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  if (!wait_for_log("\"event\":\"datasets_loaded\"", std::chrono::seconds(30))) {
+    error_ = "horizond did not come up; its log:\n" + log();
+    return;
+  }
+  const std::string text = log();
+  port_ = number_after(text, "grpc_port");
+  metrics_port_ = number_after(text, "metrics_port");
+}
+
+DaemonProcess::~DaemonProcess() {
+  if (pid_ > 0 && !exited_) {
+    if (signal(SIGTERM, std::chrono::seconds(20)) < 0) {
+      ::kill(pid_, SIGKILL);
+      ::waitpid(pid_, nullptr, 0);
+    }
+  }
+}
+
+std::string DaemonProcess::log() const {
+  std::ifstream in(log_path_, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+std::vector<std::string> DaemonProcess::request_lines() const {
+  std::vector<std::string> lines;
+  std::istringstream in(log());
+  for (std::string line; std::getline(in, line);)
+    if (line.find("\"event\":\"request\"") != std::string::npos) lines.push_back(line);
+  return lines;
+}
+
+std::shared_ptr<grpc::Channel> DaemonProcess::channel() const {
+  grpc::ChannelArguments args;
+  args.SetMaxReceiveMessageSize(64 << 20);
+  args.SetMaxSendMessageSize(64 << 20);
+  return grpc::CreateCustomChannel(address(), grpc::InsecureChannelCredentials(), args);
+}
+
+int DaemonProcess::signal(int sig, std::chrono::seconds wait) {
+  if (pid_ <= 0 || exited_) return -1;
+  ::kill(pid_, sig);
+  if (sig != SIGTERM && sig != SIGINT) return -1;
+  const auto until = std::chrono::steady_clock::now() + wait;
+  while (std::chrono::steady_clock::now() < until) {
+    int status = 0;
+    if (::waitpid(pid_, &status, WNOHANG) == pid_) {
+      exited_ = true;
+      return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return -1;
+}
+
+bool DaemonProcess::wait_for_log(const std::string& text, std::chrono::milliseconds timeout) const {
+  const auto until = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < until) {
+    if (log().find(text) != std::string::npos) return true;
+    int status = 0;
+    if (::waitpid(pid_, &status, WNOHANG) == pid_) {
+      exited_ = true;
+      return log().find(text) != std::string::npos;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return false;
+}
+
+std::uint64_t DaemonProcess::peak_rss_bytes() const {
+  std::ifstream in("/proc/" + std::to_string(pid_) + "/status");
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind("VmHWM:", 0) == 0) return std::stoull(line.substr(6)) * 1024;  // kB
+  return 0;
+}
+
+}  // namespace horizon::testing

@@ -1,0 +1,394 @@
+// The daemon through its gRPC API: every error of the error model with its
+// details, streamed rasters equal to the engine's, cancellation inside a
+// computation and mid-stream, deadlines, SIGHUP reload and SIGTERM drain.
+#include <gtest/gtest.h>
+
+#include <signal.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <optional>
+#include <sstream>
+#include <future>
+#include <thread>
+
+#include "daemon_process.hpp"
+#include "horizon/geodesy/observer.hpp"
+#include "horizon/terrain/dem_reader.hpp"
+#include "horizon/terrain/geotiff_writer.hpp"
+#include "horizon/visibility/viewshed.hpp"
+#include "rpc_helpers.hpp"
+
+namespace horizon::testing {
+namespace {
+
+// Rainier (EPSG:4326, 3" cells): a viewpoint near the summit.
+constexpr double kRainierLon = -121.7604, kRainierLat = 46.8529;
+// Ecuador (UTM 17S, 10 m cells, 383x415): a centre point; R3 over it all takes seconds.
+constexpr double kEcuadorX = 713877, kEcuadorY = 9558936;
+
+// "big": 2000x2000 synthetic cells (UTM 33N, 10 m), so that a computation
+// can outlast a deadline, a cancel, a reload and a shutdown; R3 over 1.5 km
+// of it (90 000 targets x 150 crossings... times 25) takes seconds.
+class ServerRpc : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    data_ = new TempDir();
+    namespace fs = std::filesystem;
+    for (const char* f : {"rainier_summit_srtm3_400x400.tif", "ecuador_andes_utm17s_10m_383x415.tif",
+                          "zion_canyon_srtm3_465x457.tif"})
+      fs::copy_file(bundled_dem(f), data_->path() / f);
+    const terrain::Dem big = make_dem(2000, 2000, [](int c, int r) {
+      return 500.0 + 200.0 * std::sin(c * 0.013) * std::cos(r * 0.017) + 30.0 * std::sin(c * 0.21 + r * 0.17);
+    });
+    ASSERT_TRUE(terrain::write_geotiff(data_->file("big.tif"), big.elevation, big.georef, std::nullopt).ok());
+  }
+  static void TearDownTestSuite() {
+    delete data_;
+    data_ = nullptr;
+  }
+  static TempDir* data_;
+
+  void SetUp() override {
+    DaemonOptions o;
+    o.data_root = data_->path().string();
+    o.datasets = {{"rainier", "rainier_summit_srtm3_400x400.tif"},
+                  {"ecuador", "ecuador_andes_utm17s_10m_383x415.tif"},
+                  {"big", "big.tif"}};
+    o.extra_json = R"("limits": {"max_boxes": 1000, "max_cells": 3000000, "max_lines": 50}, "engine_threads": 1,)";
+    daemon_ = std::make_unique<DaemonProcess>(o);
+    ASSERT_TRUE(daemon_->ready()) << daemon_->error();
+    datasets_ = v1::DatasetService::NewStub(daemon_->channel());
+    visibility_ = v1::VisibilityService::NewStub(daemon_->channel());
+  }
+
+  v1::ViewshedRequest rainier_viewshed(double max_distance) const {
+    v1::ViewshedRequest r;
+    r.set_dataset("rainier");
+    *r.mutable_observer() = point(kRainierLon, kRainierLat, 2.0, v1::FRAME_WGS84);
+    r.mutable_options()->set_max_distance(max_distance);
+    return r;
+  }
+  // A viewshed that computes for seconds: R3 over 2.2 million cells of "big".
+  v1::ViewshedRequest slow_viewshed(double max_distance = 7400) const {
+    v1::ViewshedRequest r;
+    r.set_dataset("big");
+    *r.mutable_observer() = point(500000 + 10000.5, 5000000 - 10000.5);  // the centre
+    r.mutable_options()->set_algorithm(v1::ALGORITHM_R3);
+    r.mutable_options()->set_max_distance(max_distance);
+    return r;
+  }
+  // Drains a stream; returns its status.
+  grpc::Status run_viewshed(const v1::ViewshedRequest& request, std::vector<v1::ViewshedResponse>* out = nullptr,
+                            std::chrono::milliseconds deadline = std::chrono::seconds(30)) {
+    auto context = context_with_deadline(deadline);
+    auto reader = visibility_->ComputeViewshed(context.get(), request);
+    v1::ViewshedResponse message;
+    while (reader->Read(&message))
+      if (out) out->push_back(message);
+    return reader->Finish();
+  }
+  // The request log line of the last call of `method`.
+  std::string last_log_line(const std::string& method) const {
+    const auto lines = daemon_->request_lines();
+    for (auto it = lines.rbegin(); it != lines.rend(); ++it)
+      if (it->find("\"method\":\"" + method + "\"") != std::string::npos) return *it;
+    return "";
+  }
+
+  std::unique_ptr<DaemonProcess> daemon_;
+  std::unique_ptr<v1::DatasetService::Stub> datasets_;
+  std::unique_ptr<v1::VisibilityService::Stub> visibility_;
+};
+
+TempDir* ServerRpc::data_ = nullptr;
+
+TEST_F(ServerRpc, StreamedRasterEqualsTheEngineAndIsGeoreferenced) {
+  v1::ViewshedRequest request = rainier_viewshed(5000);
+  request.set_raster(v1::RASTER_KIND_OHF);
+  request.set_include_raster(true);
+  request.set_max_chunk_bytes(4096);  // many chunks
+  std::vector<v1::ViewshedResponse> messages;
+  ASSERT_TRUE(run_viewshed(request, &messages).ok());
+  ASSERT_GE(messages.size(), 4u);
+  ASSERT_TRUE(messages.front().has_header());
+  ASSERT_TRUE(messages.back().has_summary());
+  const v1::ViewshedHeader& h = messages.front().header();
+  EXPECT_EQ(h.sample_type(), v1::SAMPLE_TYPE_FLOAT32);
+  EXPECT_EQ(h.epsg(), 4326);
+  EXPECT_EQ(h.algorithm(), "fast");
+  std::string raster;
+  int next_row = 0;
+  for (const auto& m : messages)
+    if (m.has_raster_chunk()) {
+      EXPECT_EQ(m.raster_chunk().row0(), next_row);
+      EXPECT_LE(m.raster_chunk().data().size(), 4096u);
+      next_row += m.raster_chunk().rows();
+      raster += m.raster_chunk().data();
+    }
+  EXPECT_EQ(next_row, h.height());
+
+  // The engine, in this process, on the same file.
+  auto dem = terrain::read_dem(bundled_dem("rainier_summit_srtm3_400x400.tif"));
+  ASSERT_TRUE(dem.ok());
+  geodesy::PointSpec spec{geodesy::PointFrame::kWgs84, kRainierLon, kRainierLat, 2.0, geodesy::HeightMode::kAboveGround};
+  auto eye = geodesy::resolve_point(*dem, spec, "observer");
+  ASSERT_TRUE(eye.ok());
+  visibility::ViewshedOptions options;
+  options.max_distance = 5000;
+  options.threads = 1;
+  auto result = visibility::compute_viewshed(*dem, *eye, options);
+  ASSERT_TRUE(result.ok());
+  const auto ohf = visibility::ohf_raster(*result);
+  ASSERT_EQ(h.width(), ohf.width());
+  ASSERT_EQ(h.height(), ohf.height());
+  ASSERT_EQ(raster.size(), ohf.size() * sizeof(float));
+  EXPECT_EQ(std::memcmp(raster.data(), ohf.data(), raster.size()), 0);
+  const auto georef = visibility::window_georef(*dem, *result);
+  EXPECT_DOUBLE_EQ(h.transform().origin_x(), georef.transform.origin_x);
+  EXPECT_DOUBLE_EQ(h.transform().origin_y(), georef.transform.origin_y);
+  EXPECT_EQ(h.window().col0(), result->frame.window.col0);
+  const auto mask = visibility::visibility_mask(*result, 0);
+  std::uint64_t visible = 0;
+  for (auto v : mask.values()) visible += v == visibility::kVisible;
+  EXPECT_EQ(messages.back().summary().visible_cells(), visible);
+  EXPECT_NE(last_log_line("ComputeViewshed").find("\"status\":\"OK\""), std::string::npos);
+}
+
+TEST_F(ServerRpc, InvalidArgumentNamesTheField) {
+  struct Case {
+    std::function<void(v1::ViewshedRequest&)> edit;
+    std::string field;
+  };
+  const std::vector<Case> cases = {
+      {[](auto& r) { r.mutable_observer()->set_height(-1); }, "observer.height"},
+      {[](auto& r) { r.mutable_options()->set_max_distance(-5); }, "options.max_distance"},
+      {[](auto& r) { r.mutable_options()->set_curvature(5); }, "options.curvature"},
+      {[](auto& r) { r.mutable_options()->set_ray_spacing(9); }, "options.ray_spacing"},
+      {[](auto& r) { r.mutable_options()->set_target_height(-2); }, "options.target_height"},
+      {[](auto& r) { r.mutable_options()->set_algorithm(static_cast<v1::Algorithm>(42)); }, "options.algorithm"},
+      {[](auto& r) { r.mutable_observer()->set_y(91); }, "observer.y"},
+      {[](auto& r) { r.clear_observer(); }, "observer"},
+      {[](auto& r) { r.set_dataset(""); }, "dataset"},
+  };
+  for (const Case& c : cases) {
+    v1::ViewshedRequest request = rainier_viewshed(3000);
+    c.edit(request);
+    const grpc::Status s = run_viewshed(request);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << c.field << ": " << s.error_message();
+    EXPECT_EQ(violated_field(s), c.field) << s.error_message();
+  }
+
+  v1::CullBoxesRequest cull;
+  cull.set_dataset("rainier");
+  *cull.mutable_observer() = point(kRainierLon, kRainierLat, 2, v1::FRAME_WGS84);
+  for (int i = 0; i < 2; ++i) {
+    v1::Box* b = cull.add_boxes();
+    b->set_frame(v1::FRAME_WGS84);
+    b->set_x_min(-121.75);
+    b->set_x_max(-121.74);
+    b->set_y_min(46.84);
+    b->set_y_max(46.845);
+    b->set_z_min(i ? 3000 : 10);
+    b->set_z_max(20);
+  }
+  v1::CullBoxesResponse cull_response;
+  grpc::Status s = visibility_->CullBoxes(context_with_deadline().get(), cull, &cull_response);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(violated_field(s), "boxes[1].z_max");
+
+  v1::LineOfSightRequest los;
+  los.set_dataset("rainier");
+  v1::LineOfSightResponse los_response;
+  s = visibility_->LineOfSight(context_with_deadline().get(), los, &los_response);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(violated_field(s), "lines");
+
+  v1::ListDatasetsRequest list;
+  list.set_page_token("not-a-token");
+  v1::ListDatasetsResponse list_response;
+  s = datasets_->ListDatasets(context_with_deadline().get(), list, &list_response);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(violated_field(s), "page_token");
+}
+
+TEST_F(ServerRpc, NotFoundOutOfRangeAndResourceExhausted) {
+  v1::GetDatasetRequest get;
+  get.set_name("atlantis");
+  v1::Dataset dataset;
+  grpc::Status s = datasets_->GetDataset(context_with_deadline().get(), get, &dataset);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::NOT_FOUND);
+  v1::ViewshedRequest unknown = rainier_viewshed(1000);
+  unknown.set_dataset("atlantis");
+  EXPECT_EQ(run_viewshed(unknown).error_code(), grpc::StatusCode::NOT_FOUND);
+
+  v1::ViewshedRequest outside = rainier_viewshed(1000);
+  outside.mutable_observer()->set_x(10.0);
+  s = run_viewshed(outside);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::OUT_OF_RANGE) << s.error_message();
+  EXPECT_EQ(violated_field(s), "observer");
+
+  v1::CullBoxesRequest cull;
+  cull.set_dataset("ecuador");
+  *cull.mutable_observer() = point(kEcuadorX, kEcuadorY);
+  v1::Box* far = cull.add_boxes();
+  far->set_x_min(kEcuadorX + 50000);
+  far->set_x_max(kEcuadorX + 50010);
+  far->set_y_min(kEcuadorY);
+  far->set_y_max(kEcuadorY + 10);
+  far->set_z_max(5000);
+  v1::CullBoxesResponse response;
+  s = visibility_->CullBoxes(context_with_deadline().get(), cull, &response);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::OUT_OF_RANGE);
+  EXPECT_EQ(violated_field(s), "boxes[0]");
+
+  // Past the configured limits: 1000 boxes, 100 000 cells, 50 lines.
+  cull.clear_boxes();
+  for (int i = 0; i < 1001; ++i) {
+    v1::Box* b = cull.add_boxes();
+    b->set_x_min(kEcuadorX);
+    b->set_x_max(kEcuadorX + 5);
+    b->set_y_min(kEcuadorY);
+    b->set_y_max(kEcuadorY + 5);
+    b->set_z_max(5000);
+  }
+  s = visibility_->CullBoxes(context_with_deadline().get(), cull, &response);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_EQ(violated_field(s), "boxes");
+  v1::ViewshedRequest whole = slow_viewshed();
+  whole.mutable_options()->clear_max_distance();  // all 4 million cells of "big"
+  s = run_viewshed(whole);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_EQ(violated_field(s), "options.max_distance");
+  v1::LineOfSightRequest los;
+  los.set_dataset("rainier");
+  for (int i = 0; i < 51; ++i) {
+    v1::SightLine* l = los.add_lines();
+    *l->mutable_from() = point(kRainierLon, kRainierLat, 2, v1::FRAME_WGS84);
+    *l->mutable_to() = point(kRainierLon + 0.01, kRainierLat, 2, v1::FRAME_WGS84);
+  }
+  v1::LineOfSightResponse los_response;
+  s = visibility_->LineOfSight(context_with_deadline().get(), los, &los_response);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  // Every error is logged as a warning with its code, none as an error.
+  EXPECT_EQ(daemon_->log().find("\"level\":\"error\""), std::string::npos) << daemon_->log();
+  EXPECT_NE(last_log_line("LineOfSight").find("RESOURCE_EXHAUSTED"), std::string::npos);
+}
+
+TEST_F(ServerRpc, LineOfSightBatchAnswersInOrder) {
+  v1::LineOfSightRequest los;
+  los.set_dataset("rainier");
+  for (int i = 0; i < 20; ++i) {
+    v1::SightLine* l = los.add_lines();
+    *l->mutable_from() = point(kRainierLon, kRainierLat, 2, v1::FRAME_WGS84);
+    *l->mutable_to() = point(kRainierLon + 0.003 * (i - 10), kRainierLat - 0.02, 2500, v1::FRAME_WGS84);
+    l->mutable_to()->set_height_mode(v1::HEIGHT_MODE_ABSOLUTE);  // some targets lie on voids
+  }
+  los.set_include_profile(true);
+  v1::LineOfSightResponse response;
+  const grpc::Status status = visibility_->LineOfSight(context_with_deadline().get(), los, &response);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_EQ(response.results_size(), 20);
+  for (int i = 0; i < 20; ++i) {
+    const auto& r = response.results(i);
+    EXPECT_NEAR(*(r.to().has_lon() ? std::optional(r.to().lon()) : std::nullopt), kRainierLon + 0.003 * (i - 10), 1e-9);
+    EXPECT_GT(r.profile_size(), 0);
+    EXPECT_EQ(r.visible(), !r.has_first_block());
+  }
+}
+
+TEST_F(ServerRpc, DeadlineAndCancellationStopTheComputation) {
+  // Deadline: the engine stops soon after it passes.
+  const auto started = std::chrono::steady_clock::now();
+  grpc::Status s = run_viewshed(slow_viewshed(), nullptr, std::chrono::milliseconds(150));
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
+  ASSERT_TRUE(daemon_->wait_for_log("\"status\":\"DEADLINE_EXCEEDED\""));
+  EXPECT_LT(std::chrono::steady_clock::now() - started, std::chrono::seconds(3));
+
+  // Client cancels while the daemon computes.
+  grpc::ClientContext context;
+  auto reader = visibility_->ComputeViewshed(&context, slow_viewshed());
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  context.TryCancel();
+  v1::ViewshedResponse message;
+  while (reader->Read(&message)) {
+  }
+  EXPECT_EQ(reader->Finish().error_code(), grpc::StatusCode::CANCELLED);
+  ASSERT_TRUE(daemon_->wait_for_log("\"status\":\"CANCELLED\"", std::chrono::seconds(3)))
+      << "the computation was not stopped: " << daemon_->log();
+  const std::string line = last_log_line("ComputeViewshed");
+  EXPECT_NE(line.find("\"algorithm\":\"r3\""), std::string::npos) << line;
+
+  // The daemon is fine afterwards.
+  EXPECT_TRUE(run_viewshed(rainier_viewshed(2000)).ok());
+}
+
+TEST_F(ServerRpc, ClientCancellingMidStreamEndsTheCall) {
+  // 2.2 million float cells in 4 KiB messages: far more than gRPC buffers unread.
+  v1::ViewshedRequest request = slow_viewshed();
+  request.mutable_options()->set_algorithm(v1::ALGORITHM_FAST);
+  request.set_raster(v1::RASTER_KIND_OHF);
+  request.set_include_raster(true);
+  request.set_include_geotiff(true);
+  request.set_max_chunk_bytes(4096);
+  grpc::ClientContext context;
+  auto reader = visibility_->ComputeViewshed(&context, request);
+  v1::ViewshedResponse message;
+  ASSERT_TRUE(reader->Read(&message));
+  ASSERT_TRUE(message.has_header());
+  ASSERT_TRUE(reader->Read(&message));
+  ASSERT_TRUE(message.has_raster_chunk());
+  context.TryCancel();
+  int after = 0;
+  while (reader->Read(&message)) ++after;
+  EXPECT_EQ(reader->Finish().error_code(), grpc::StatusCode::CANCELLED);
+  ASSERT_TRUE(daemon_->wait_for_log("\"status\":\"CANCELLED\"", std::chrono::seconds(5))) << daemon_->log();
+  EXPECT_NE(last_log_line("ComputeViewshed").find("CANCELLED"), std::string::npos);
+  EXPECT_TRUE(run_viewshed(rainier_viewshed(2000)).ok());
+}
+
+TEST_F(ServerRpc, SighupReloadsDatasetsWithoutDroppingACall) {
+  // A call in flight across the reload.
+  auto slow = std::async(std::launch::async, [&] {
+    return run_viewshed(slow_viewshed(3500)).error_code();  // about a second
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  std::string config;
+  {
+    std::ifstream in(daemon_->config_path());
+    std::ostringstream text;
+    text << in.rdbuf();
+    config = text.str();
+  }
+  const auto at = config.find("\"datasets\": {");
+  ASSERT_NE(at, std::string::npos);
+  config.insert(at + 13, "\"zion\": \"zion_canyon_srtm3_465x457.tif\", ");
+  write_file(daemon_->config_path(), config);
+  daemon_->signal(SIGHUP);
+  ASSERT_TRUE(daemon_->wait_for_log("datasets_reloaded")) << daemon_->log();
+  v1::GetDatasetRequest get;
+  get.set_name("zion");
+  v1::Dataset zion;
+  ASSERT_TRUE(datasets_->GetDataset(context_with_deadline().get(), get, &zion).ok());
+  EXPECT_EQ(zion.width(), 465);
+  EXPECT_EQ(slow.get(), grpc::StatusCode::OK);
+}
+
+TEST_F(ServerRpc, SigtermDrainsCallsInFlightThenExitsZero) {
+  auto slow = std::async(std::launch::async, [&] {
+    return run_viewshed(slow_viewshed(3500)).error_code();  // about a second
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(150));
+  EXPECT_EQ(daemon_->signal(SIGTERM), 0);
+  EXPECT_EQ(slow.get(), grpc::StatusCode::OK);
+  const std::string log = daemon_->log();
+  EXPECT_NE(log.find("\"event\":\"draining\""), std::string::npos);
+  EXPECT_NE(log.find("\"event\":\"stopped\""), std::string::npos);
+  EXPECT_EQ(log.find("\"level\":\"error\""), std::string::npos) << log;
+}
+
+}  // namespace
+}  // namespace horizon::testing
