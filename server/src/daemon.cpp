@@ -56,6 +56,7 @@ struct Daemon::Impl {
   DatasetService dataset_service;
   VisibilityService visibility_service;
   std::unique_ptr<grpc::Server> server;
+  int port = 0;
   bool stopped = false;
 };
 
@@ -85,6 +86,7 @@ Status Daemon::start() {
   d.server = builder.BuildAndStart();
   if (!d.server || port == 0)
     return make_error(ErrorCode::kIoError, "listen '" + d.config.listen + "': cannot listen there", "listen");
+  d.port = port;
   d.set_serving(false);  // until the datasets are loaded
 
   const std::string host = d.config.listen.substr(0, d.config.listen.rfind(':'));
@@ -123,6 +125,8 @@ Status Daemon::reload(const Config& config) {
              {"resident_bytes", std::to_string(d.datasets.resident_bytes()), true}});
   return Status::Ok();
 }
+
+int Daemon::port() const { return impl_->port; }
 
 void Daemon::shutdown() {
   Impl& d = *impl_;

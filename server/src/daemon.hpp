@@ -29,6 +29,10 @@ class Daemon {
   Status reload(const Config& config);
   void shutdown();
 
+  // The gRPC port actually bound (the configured one, or the one chosen for
+  // port 0); 0 before start().
+  int port() const;
+
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;

@@ -1,0 +1,133 @@
+// horizond's configuration (server/src/config.hpp): every key that can be
+// wrong is refused with an error whose field names it, and a good document
+// gives the values written (relative paths resolved against the file's
+// directory).
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+
+#include "config.hpp"
+
+namespace horizon::server {
+namespace {
+
+const std::filesystem::path kDataDir = HORIZON_DATA_DIR;
+
+// A valid document with `extra` spliced in as more top-level keys, or with a
+// key replaced when `extra` repeats it (nlohmann keeps the last duplicate).
+std::string document(const std::string& extra) {
+  return R"({"listen": "127.0.0.1:0", "data_root": ")" + kDataDir.string() +
+         R"(", "datasets": {"rainier": "rainier_summit_srtm3_400x400.tif"}, "memory_budget_mb": 256)" +
+         (extra.empty() ? "" : ", " + extra) + "}";
+}
+
+TEST(ServerConfig, GoodDocumentGivesItsValues) {
+  auto c = parse_config(document(R"("worker_threads": 3, "engine_threads": 2, "limits": {"max_boxes": 500},
+                                    "default_deadline_ms": 1500, "shutdown_grace_ms": 250,
+                                    "datasets": {"b": {"file": "olinda_coast_utm25s_111x111.tif", "band": 1},
+                                                 "a": "rainier_summit_srtm3_400x400.tif"})"),
+                        "test.json", "/");
+  ASSERT_TRUE(c.ok()) << c.error().message;
+  EXPECT_EQ(c->listen, "127.0.0.1:0");
+  EXPECT_EQ(c->memory_budget_bytes, 256ull << 20);
+  EXPECT_EQ(c->worker_threads, 3u);
+  EXPECT_EQ(c->engine_threads, 2u);
+  EXPECT_EQ(c->limits.max_boxes, 500u);
+  EXPECT_EQ(c->limits.max_cells, Limits{}.max_cells);
+  EXPECT_EQ(c->default_deadline.count(), 1500);
+  EXPECT_EQ(c->shutdown_grace.count(), 250);
+  ASSERT_EQ(c->datasets.size(), 2u);
+  EXPECT_EQ(c->datasets[0].name, "a");  // in name order
+  EXPECT_EQ(c->datasets[1].name, "b");
+  EXPECT_EQ(c->datasets[1].band, 1);
+  auto file = resolve_dataset_file(*c, c->datasets[1]);
+  ASSERT_TRUE(file.ok()) << file.error().message;
+  EXPECT_EQ(*file, std::filesystem::canonical(kDataDir / "olinda_coast_utm25s_111x111.tif"));
+}
+
+struct BadCase {
+  const char* what;
+  std::string text;
+  const char* field;
+};
+
+class BadConfig : public ::testing::TestWithParam<BadCase> {};
+
+TEST_P(BadConfig, IsRefusedNamingTheKey) {
+  const BadCase& b = GetParam();
+  auto c = parse_config(b.text, "bad.json", "/");
+  ASSERT_FALSE(c.ok()) << b.what;
+  EXPECT_EQ(c.error().code, ErrorCode::kInvalidArgument) << c.error().message;
+  EXPECT_EQ(c.error().field, b.field) << c.error().message;
+  EXPECT_NE(c.error().message.find("bad.json"), std::string::npos) << c.error().message;
+  if (*b.field) {
+    EXPECT_NE(c.error().message.find(b.field), std::string::npos) << c.error().message;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    EveryKey, BadConfig,
+    ::testing::Values(
+        BadCase{"not JSON", "{\"listen\": ", ""}, BadCase{"not an object", "[1, 2]", "(document)"},
+        BadCase{"unknown key", document(R"("listne": "x:1")"), "listne"},
+        BadCase{"missing listen",
+                R"({"data_root": "/", "datasets": {}, "memory_budget_mb": 256})", "listen"},
+        BadCase{"missing datasets",
+                R"({"listen": "a:1", "data_root": "/", "memory_budget_mb": 256})", "datasets"},
+        BadCase{"listen without port", document(R"("listen": "localhost")"), "listen"},
+        BadCase{"listen port too large", document(R"("listen": "localhost:70000")"), "listen"},
+        BadCase{"listen not a string", document(R"("listen": 50051)"), "listen"},
+        BadCase{"metrics_listen bad", document(R"("metrics_listen": "localhost:http")"), "metrics_listen"},
+        BadCase{"data_root missing dir", document(R"("data_root": "/no/such/dir")"), "data_root"},
+        BadCase{"datasets not an object", document(R"("datasets": ["a.tif"])"), "datasets"},
+        BadCase{"dataset name with slash", document(R"("datasets": {"a/b": "x.tif"})"), "datasets.a/b"},
+        BadCase{"dataset empty file", document(R"("datasets": {"a": ""})"), "datasets.a"},
+        BadCase{"dataset number", document(R"("datasets": {"a": 3})"), "datasets.a"},
+        BadCase{"dataset object without file", document(R"("datasets": {"a": {"band": 1}})"), "datasets.a.file"},
+        BadCase{"dataset band 0", document(R"("datasets": {"a": {"file": "x.tif", "band": 0}})"),
+                "datasets.a.band"},
+        BadCase{"dataset unknown key", document(R"("datasets": {"a": {"file": "x.tif", "bands": 2}})"),
+                "datasets.a.bands"},
+        BadCase{"budget too small", document(R"("memory_budget_mb": 10)"), "memory_budget_mb"},
+        BadCase{"budget negative", document(R"("memory_budget_mb": -1)"), "memory_budget_mb"},
+        BadCase{"budget fractional", document(R"("memory_budget_mb": 100.5)"), "memory_budget_mb"},
+        BadCase{"worker_threads string", document(R"("worker_threads": "2")"), "worker_threads"},
+        BadCase{"engine_threads huge", document(R"("engine_threads": 5000)"), "engine_threads"},
+        BadCase{"limits not an object", document(R"("limits": 5)"), "limits"},
+        BadCase{"limits unknown key", document(R"("limits": {"max_cell": 5})"), "limits.max_cell"},
+        BadCase{"max_cells 0", document(R"("limits": {"max_cells": 0})"), "limits.max_cells"},
+        BadCase{"max_boxes too many", document(R"("limits": {"max_boxes": 2000000})"), "limits.max_boxes"},
+        BadCase{"max_lines negative", document(R"("limits": {"max_lines": -5})"), "limits.max_lines"},
+        BadCase{"max_pending 0", document(R"("limits": {"max_pending": 0})"), "limits.max_pending"},
+        BadCase{"deadline 0", document(R"("default_deadline_ms": 0)"), "default_deadline_ms"},
+        BadCase{"grace too long", document(R"("shutdown_grace_ms": 700000)"), "shutdown_grace_ms"},
+        BadCase{"scratch_dir missing", document(R"("scratch_dir": "/no/such/dir")"), "scratch_dir"}));
+
+TEST(ServerConfig, DatasetOutsideTheDataRootIsRefused) {
+  auto c = parse_config(document(R"("datasets": {"escape": "../../CMakeLists.txt"})"), "c.json", "/");
+  ASSERT_TRUE(c.ok()) << c.error().message;  // files are resolved when datasets load
+  auto file = resolve_dataset_file(*c, c->datasets[0]);
+  ASSERT_FALSE(file.ok());
+  EXPECT_EQ(file.error().field, "datasets.escape");
+  EXPECT_NE(file.error().message.find("outside data_root"), std::string::npos) << file.error().message;
+}
+
+TEST(ServerConfig, MissingDatasetFileIsNotFound) {
+  auto c = parse_config(document(R"("datasets": {"gone": "no_such.tif"})"), "c.json", "/");
+  ASSERT_TRUE(c.ok()) << c.error().message;
+  auto file = resolve_dataset_file(*c, c->datasets[0]);
+  ASSERT_FALSE(file.ok());
+  EXPECT_EQ(file.error().code, ErrorCode::kNotFound);
+  EXPECT_EQ(file.error().field, "datasets.gone");
+}
+
+TEST(ServerConfig, MissingConfigFileIsNotFound) {
+  auto c = load_config("/no/such/horizond.json");
+  ASSERT_FALSE(c.ok());
+  EXPECT_EQ(c.error().code, ErrorCode::kNotFound);
+  EXPECT_NE(c.error().message.find("/no/such/horizond.json"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace horizon::server
