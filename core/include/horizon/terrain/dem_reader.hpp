@@ -55,6 +55,8 @@ struct ReadOptions {
   // Cells to read, in the file's grid (half-open). Clipped to the raster; an
   // empty intersection is kOutOfRange. Absent: the whole raster.
   std::optional<Window> window;
+  // Threads decoding a GeoTIFF's blocks (0 = all cores).
+  unsigned threads = 0;
 };
 
 // What a read decoded. A "block" is the file's unit of storage and decoding:
