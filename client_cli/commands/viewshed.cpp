@@ -4,6 +4,7 @@
 #include <string_view>
 
 #include "commands/command.hpp"
+#include "horizon/imageio/imageio.hpp"
 #include "horizon/terrain/dem_reader.hpp"
 #include "horizon/terrain/geotiff_writer.hpp"
 #include "horizon/terrain/preview.hpp"
@@ -191,8 +192,11 @@ int run_viewshed(const Args& args) {
   const Request r = parse_request(args);
   if (auto s = check_output_path(r.out_path, "-o", r.dem_path, {".tif", ".tiff"}); !s.ok())
     return report_error(s.error());
-  if (r.png_path)
+  if (r.png_path) {
     if (auto s = check_output_path(*r.png_path, "--png", r.dem_path, {".png"}); !s.ok()) return report_error(s.error());
+    // The preview needs the OpenImageIO plugin: find out now, before computing or writing anything.
+    if (auto plugin = imageio::plugin_path(); !plugin.ok()) return report_error(plugin.error());
+  }
   if (args.has("--server"))  // DEM is a dataset name; the daemon computes
     return remote::run_viewshed(args, {r.dem_path, r.out_path, r.png_path, r.observer, r.options, r.output_name,
                                        r.algorithm_name, r.json});

@@ -258,6 +258,34 @@ TEST(CliFailure, MissingOutputDirectoryWritesNothing) {
   EXPECT_TRUE(files_in(dir.path()).empty()) << "checked before computing: the GeoTIFF must not be written";
 }
 
+TEST(CliFailure, MissingImagePluginIsNamedAndNothingIsWritten) {
+  // The PNG preview goes through libhorizon_imageio.so (OpenImageIO), opened on
+  // first use; when it cannot be loaded the command says where it looked.
+  TempDir dir;
+  const std::string env = "HORIZON_IMAGEIO_PLUGIN=/nonexistent/libhorizon_imageio.so ";
+  auto with_env = [&env](const std::vector<std::string>& args) {
+    std::string command = env;
+    command += quote(HORIZON_CLI_PATH);
+    for (const std::string& a : args) {
+      command += ' ';
+      command += quote(a);
+    }
+    return run_command(command);
+  };
+  const auto r =
+      with_env(concat({"viewshed", bundled_dem(kRainier), "-o", dir.file("out.tif"), "--png", dir.file("p.png")}, kSummit));
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("libhorizon_imageio.so"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("/nonexistent/libhorizon_imageio.so (absent)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("HORIZON_IMAGEIO_PLUGIN"), std::string::npos) << r.output;
+  EXPECT_TRUE(files_in(dir.path()).empty()) << "checked before computing: nothing must be written";
+
+  // Without --png the plugin is never needed.
+  const auto ok = with_env(concat({"viewshed", bundled_dem(kRainier), "-o", dir.file("out.tif")}, kSummit));
+  EXPECT_EQ(ok.exit_code, 0) << ok.output;
+  EXPECT_TRUE(fs::exists(dir.file("out.tif")));
+}
+
 // ---------------------------------------------------------------- success
 
 TEST(CliInfo, JsonDescribesTheDem) {

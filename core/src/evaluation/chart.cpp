@@ -1,6 +1,6 @@
 // chart.cpp — the runtime-against-error PNG (bench.hpp, write_chart), drawn
-// with OpenImageIO's ImageBufAlgo (render_box, render_line, render_text with
-// the DejaVu Sans font of Debian's fonts-dejavu-core, which
+// on an imageio::Canvas (OpenImageIO's ImageBufAlgo: render_box, render_line,
+// render_text with the DejaVu Sans font of Debian's fonts-dejavu-core, which
 // scripts/setup.sh installs). If no font can be found the chart is still
 // drawn, without its words, and the write reports no error: the CSV and the
 // Markdown table carry the numbers.
@@ -10,9 +10,6 @@
 // separate "0" line under the log range. One colour per algorithm, a legend,
 // the Pareto front joined by a black staircase (time ascending), default
 // settings ringed.
-#include <OpenImageIO/imagebuf.h>
-#include <OpenImageIO/imagebufalgo.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -22,6 +19,7 @@
 #include <vector>
 
 #include "horizon/evaluation/bench.hpp"
+#include "horizon/imageio/imageio.hpp"
 
 namespace horizon::evaluation {
 namespace {
@@ -32,7 +30,7 @@ constexpr double kErrorFloorLog = -3.0;                           // 0.001 %
 constexpr double kErrorCeilLog = 2.0;                             // 100 %
 constexpr const char* kFont = "DejaVuSans";
 
-using Colour = std::vector<float>;
+using Colour = imageio::Colour;
 
 Colour colour_of(const std::string& algorithm) {
   static const std::map<std::string, Colour> known = {
@@ -63,33 +61,20 @@ std::string decade_label_error(int e) {
 }
 
 struct Canvas {
-  OIIO::ImageBuf buf{OIIO::ImageSpec(kWidth, kHeight, 3, OIIO::TypeDesc::UINT8)};
+  std::unique_ptr<imageio::Canvas> surface;
   bool text_ok = true;
 
-  void line(int x0, int y0, int x1, int y1, const Colour& c) {
-    OIIO::ImageBufAlgo::render_line(buf, x0, y0, x1, y1, c);
-  }
+  void line(int x0, int y0, int x1, int y1, const Colour& c) { surface->line(x0, y0, x1, y1, c); }
   void thick_line(int x0, int y0, int x1, int y1, const Colour& c) {
     for (int d = -1; d <= 1; ++d) {
       line(x0, y0 + d, x1, y1 + d, c);
       line(x0 + d, y0, x1 + d, y1, c);
     }
   }
-  void box(int x0, int y0, int x1, int y1, const Colour& c, bool fill) {
-    OIIO::ImageBufAlgo::render_box(buf, x0, y0, x1, y1, c, fill);
-  }
+  void box(int x0, int y0, int x1, int y1, const Colour& c, bool fill) { surface->box(x0, y0, x1, y1, c, fill); }
   // Text with its top-left corner at (x, y_top); align: 0 left, 1 centre, 2 right.
   void text(int x, int y_top, const std::string& s, int size, int align = 0, const Colour& c = {0, 0, 0}) {
-    if (!text_ok) return;
-    const OIIO::ROI r = OIIO::ImageBufAlgo::text_size(s, size, kFont);
-    if (!r.defined()) {
-      text_ok = false;
-      return;
-    }
-    const int w = r.width();
-    const int x0 = align == 0 ? x : align == 1 ? x - w / 2 : x - w;
-    // render_text's y is the baseline; r.ybegin is negative (ascent).
-    if (!OIIO::ImageBufAlgo::render_text(buf, x0, y_top - r.ybegin, s, size, kFont, c)) text_ok = false;
+    if (text_ok) text_ok = surface->text(x, y_top, s, size, kFont, align, c);
   }
 };
 
@@ -97,8 +82,9 @@ struct Canvas {
 
 Status write_chart(const std::string& path, const std::vector<Aggregate>& group, const std::string& title) {
   if (group.empty()) return make_error(ErrorCode::kInvalidArgument, "chart: nothing to draw", "chart");
-  Canvas cv;
-  OIIO::ImageBufAlgo::fill(cv.buf, {1.0f, 1.0f, 1.0f});
+  auto surface = imageio::make_canvas(kWidth, kHeight);
+  if (!surface.ok()) return surface.error();
+  Canvas cv{std::move(*surface)};
   const int px0 = kLeft, px1 = kWidth - kRight, py0 = kTop, py1 = kHeight - kBottom;
   const int zero_line = py1 - 18;         // y of "0 error"
   const int log_bottom = zero_line - 22;  // y of the log range's floor
@@ -204,9 +190,9 @@ Status write_chart(const std::string& path, const std::vector<Aggregate>& group,
 
   // Write atomically: temporary name, then rename.
   const std::string tmp = path + ".tmp";
-  if (!cv.buf.write(tmp, OIIO::TypeUnknown, "png")) {
+  if (Status written = cv.surface->write_png(tmp); !written.ok()) {
     std::filesystem::remove(tmp);
-    return make_error(ErrorCode::kIoError, "cannot write chart '" + path + "': " + cv.buf.geterror(), path);
+    return make_error(ErrorCode::kIoError, "cannot write chart '" + path + "': " + written.error().message, path);
   }
   std::error_code ec;
   std::filesystem::rename(tmp, path, ec);

@@ -17,10 +17,10 @@
 // drawn at output resolution so the marker stays visible: a yellow ring with a
 // dark outline and a yellow dot.
 //
-// PNG (ISO/IEC 15948) written through OpenImageIO; atomic via atomic_file.hpp.
+// PNG (ISO/IEC 15948) written through OpenImageIO (imageio.hpp, loaded on first
+// use); atomic via atomic_file.hpp.
 #include "horizon/terrain/preview.hpp"
 
-#include <OpenImageIO/imageio.h>
 
 #include <algorithm>
 #include <array>
@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "atomic_file.hpp"
+#include "horizon/imageio/imageio.hpp"
 
 namespace horizon::terrain {
 namespace {
@@ -159,19 +160,8 @@ Status write_viewshed_preview(const std::string& path, const Grid<float>& elevat
   }
 
   detail::AtomicFile file(path);
-  {
-    auto out = OIIO::ImageOutput::create("png");
-    if (!out)
-      return preview_error(ErrorCode::kInternal, path, "OpenImageIO has no PNG writer (" + OIIO::geterror() + ")");
-    OIIO::ImageSpec spec(out_w, out_h, 3, OIIO::TypeDesc::UINT8);
-    if (!out->open(file.temp_path(), spec))
-      return preview_error(ErrorCode::kIoError, path,
-                           "cannot create '" + file.temp_path() + "' (" + out->geterror() + ")");
-    if (!out->write_image(OIIO::TypeDesc::UINT8, rgb.data()))
-      return preview_error(ErrorCode::kIoError, path, "cannot write pixels (" + out->geterror() + ")");
-    if (!out->close())
-      return preview_error(ErrorCode::kIoError, path, "cannot finish the file (" + out->geterror() + ")");
-  }
+  if (Status written = imageio::write_png(file.temp_path(), out_w, out_h, 3, rgb.data()); !written.ok())
+    return preview_error(written.error().code, path, written.error().message);
   return file.commit("preview");
 }
 

@@ -15,7 +15,6 @@
 // RGBA tiles) has no height and becomes NaN.
 #include <sys/stat.h>
 
-#include <OpenImageIO/imageio.h>
 
 #include <cerrno>
 #include <charconv>
@@ -29,6 +28,7 @@
 #include <vector>
 
 #include "horizon/geodesy/crs.hpp"
+#include "horizon/imageio/imageio.hpp"
 #include "horizon/terrain/dem_reader.hpp"
 
 namespace horizon::terrain {
@@ -92,28 +92,22 @@ Result<Dem> read_terrain_rgb(const std::string& path, const ReadOptions& options
                           std::to_string(tile->y) + " does not exist (need 0 <= z <= 30 and 0 <= x, y < 2^z)",
                       "tile");
 
-  auto in = OIIO::ImageInput::open(path);
-  if (!in) return rgb_error(ErrorCode::kDataError, path, "not a raster (" + OIIO::geterror() + ")");
-  const OIIO::ImageSpec& spec = in->spec();
-  const std::string format_name = in->format_name();
-  if (spec.nchannels != 3 && spec.nchannels != 4)
-    return rgb_error(
-        ErrorCode::kDataError, path,
-        "a terrain-RGB tile has 3 or 4 channels (RGB[A]); this image has " + std::to_string(spec.nchannels));
-  if (spec.format != OIIO::TypeDesc::UINT8)
+  auto image = imageio::read_image8(path);
+  if (!image.ok()) {
+    if (image.error().code != ErrorCode::kDataError) return image.error();  // the plugin did not load
     return rgb_error(ErrorCode::kDataError, path,
-                     std::string("a terrain-RGB tile has 8-bit channels; this image has ") + spec.format.c_str());
-  if (spec.width <= 0 || spec.height <= 0 || spec.width > 65536 || spec.height > 65536)
-    return rgb_error(ErrorCode::kDataError, path, "has an implausible tile size");
-
-  const int channels = spec.nchannels;
-  std::vector<std::uint8_t> rgb(static_cast<std::size_t>(spec.width) * spec.height * channels);
-  if (!in->read_image(0, 0, 0, channels, OIIO::TypeDesc::UINT8, rgb.data()))
-    return rgb_error(ErrorCode::kDataError, path, "cannot decode pixels (" + in->geterror() + ")");
-  in->close();
+                     image.error().message.substr(image.error().message.find("': ") + 3));
+  }
+  const std::string& format_name = image->format;
+  const int width = image->width, height = image->height, channels = image->channels;
+  if (channels != 3 && channels != 4)
+    return rgb_error(ErrorCode::kDataError, path,
+                     "a terrain-RGB tile has 3 or 4 channels (RGB[A]); this image has " + std::to_string(channels));
+  if (width > 65536 || height > 65536) return rgb_error(ErrorCode::kDataError, path, "has an implausible tile size");
+  const std::vector<std::uint8_t>& rgb = image->pixels;
 
   Dem dem;
-  dem.elevation = Grid<float>(spec.width, spec.height);
+  dem.elevation = Grid<float>(width, height);
   float* dst = dem.elevation.data();
   for (std::size_t i = 0, n = dem.elevation.size(); i < n; ++i) {
     const std::uint8_t* p = rgb.data() + i * channels;
@@ -128,12 +122,12 @@ Result<Dem> read_terrain_rgb(const std::string& path, const ReadOptions& options
 
   const double half_world = std::numbers::pi * geodesy::kEarthRadiusMetres;
   const double tile_size = 2.0 * half_world / std::ldexp(1.0, tile->z);
-  dem.georef.transform = GeoTransform{-half_world + tile->x * tile_size, tile_size / spec.width,
-                                      half_world - tile->y * tile_size, -tile_size / spec.height};
+  dem.georef.transform = GeoTransform{-half_world + tile->x * tile_size, tile_size / width,
+                                      half_world - tile->y * tile_size, -tile_size / height};
   dem.georef.epsg = 3857;
   dem.source = path;
   dem.format = "Mapbox terrain-RGB " + format_name + " z" + std::to_string(tile->z) + "/x" + std::to_string(tile->x) +
-               "/y" + std::to_string(tile->y) + " (" + std::to_string(spec.width) + "x" + std::to_string(spec.height) +
+               "/y" + std::to_string(tile->y) + " (" + std::to_string(width) + "x" + std::to_string(height) +
                ")";
   return dem;
 }

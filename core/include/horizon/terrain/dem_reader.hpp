@@ -3,8 +3,9 @@
 // Formats (chosen by content/extension, not trusted blindly):
 //   * GeoTIFF / BigTIFF / COG: Int16, UInt16, Int32, Float32, Float64 (and
 //     UInt8, so the engine's own viewshed rasters read back); striped
-//     or tiled; any compression libtiff handles. Pixels come through
-//     OpenImageIO; georeferencing (ModelPixelScale + ModelTiepoint or
+//     or tiled; any compression libtiff handles. Pixels are decoded by
+//     libtiff (only the blocks a window needs, on several threads);
+//     georeferencing (ModelPixelScale + ModelTiepoint or
 //     ModelTransformation, GeoKeys) and GDAL_NODATA through libgeotiff.
 //   * SRTM .hgt: 1201x1201 (3") or 3601x3601 (1") big-endian int16; bounds
 //     from the file name (N27E086.hgt = 27..28 N, 86..87 E, samples on whole
