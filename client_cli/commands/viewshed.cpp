@@ -104,6 +104,8 @@ Request parse_request(const Args& args) {
   r.output = r.output_name == "ohf"                 ? OutputKind::kOhf
              : r.output_name == "min-target-height" ? OutputKind::kMinTargetHeight
                                                     : OutputKind::kVisible;
+  // Only the visible/hidden raster is written: exact may skip finding R3's OHF.
+  o.visibility_only = r.output == OutputKind::kVisible;
   (void)args.positive_integer("--band");
   // The engine owns the ranges (max distance > 0, curvature in [0, 2], ...);
   // asking it now makes a bad value a usage error that names the flag.

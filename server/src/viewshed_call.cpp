@@ -92,6 +92,8 @@ grpc::Status ViewshedCall::compute() {
   v1::RasterKind kind = req.raster() == v1::RASTER_KIND_UNSPECIFIED ? v1::RASTER_KIND_VISIBLE : req.raster();
   if (!v1::RasterKind_IsValid(kind))
     return scope_.status_of(make_error(ErrorCode::kInvalidArgument, "raster: unknown value", "raster"));
+  // Only the visible/hidden raster goes back: exact may skip finding R3's OHF.
+  options->visibility_only = kind == v1::RASTER_KIND_VISIBLE;
   if (req.max_chunk_bytes() < 0)
     return scope_.status_of(make_error(ErrorCode::kInvalidArgument, "max_chunk_bytes: must be >= 0", "max_chunk_bytes"));
   if (req.max_chunk_bytes() > 0) chunk_bytes_ = std::clamp(req.max_chunk_bytes(), kMinChunkBytes, kMaxChunkBytes);

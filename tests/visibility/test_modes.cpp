@@ -147,6 +147,64 @@ INSTANTIATE_TEST_SUITE_P(DataDem, BundledModes,
                          ::testing::Values("everest_summit_voids_srtm3_300x300.tif", "olinda_coast_utm25s_111x111.tif",
                                            "rainier_summit_srtm3_400x400.tif"));
 
+// ViewshedOptions::visibility_only: exact decides each cell as R3 does at the
+// requested target height, without finding R3's OHF, and samples less.
+::testing::AssertionResult same_mask(const visibility::ViewshedResult& a, const visibility::ViewshedResult& b,
+                                     double target_height) {
+  const auto ma = visibility::visibility_mask(a, target_height), mb = visibility::visibility_mask(b, target_height);
+  for (int r = 0; r < ma.height(); ++r)
+    for (int c = 0; c < ma.width(); ++c)
+      if (ma.at(c, r) != mb.at(c, r))
+        return ::testing::AssertionFailure() << "cell " << c << "," << r << ": " << int(ma.at(c, r)) << " vs "
+                                             << int(mb.at(c, r)) << " (R3 OHF " << b.ohf.at(c, r) << ")";
+  return ::testing::AssertionSuccess();
+}
+
+visibility::ViewshedResult run_decided(const terrain::Dem& dem, const geodesy::GridPoint& eye, double target_height,
+                                       double max_distance = std::numeric_limits<double>::infinity()) {
+  visibility::ViewshedOptions o;
+  o.algorithm = Algorithm::kExact;
+  o.visibility_only = true;
+  o.target_height = target_height;
+  o.max_distance = max_distance;
+  auto vs = visibility::compute_viewshed(dem, eye, o);
+  EXPECT_TRUE(vs.ok()) << vs.error().message;
+  return std::move(vs).value();
+}
+
+TEST(Modes, ExactVisibilityOnlyGivesR3sViewshedAtEveryTargetHeight) {
+  for (unsigned seed : {51u, 52u}) {
+    const auto dem = holey_terrain(141, seed);
+    for (auto [col, row] : {std::pair{70.0, 70.0}, {1.0, 139.0}, {100.5, 20.25}}) {
+      const auto eye = eye_at(dem, col, row, 2.0);
+      if (!std::isfinite(eye.elevation)) continue;
+      const auto r3 = run(dem, eye, Algorithm::kR3);
+      const auto full = run(dem, eye, Algorithm::kExact);
+      for (double target : {0.0, 0.0005, 3.0, 40.0}) {
+        const auto decided = run_decided(dem, eye, target);
+        EXPECT_TRUE(same_mask(decided, r3, target)) << "seed " << seed << " target " << target;
+        EXPECT_LT(decided.stats.terrain_samples, full.stats.terrain_samples) << "seed " << seed;
+      }
+      EXPECT_TRUE(same_mask(run_decided(dem, eye, 1.0, 1200.0), run(dem, eye, Algorithm::kR3, 1200.0), 1.0));
+    }
+  }
+}
+
+TEST_P(BundledModes, ExactVisibilityOnlyGivesR3sViewshed) {
+  auto dem = terrain::read_dem(testing::bundled_dem(GetParam()));
+  ASSERT_TRUE(dem.ok()) << dem.error().message;
+  for (const auto& pick : accuracy::pick_observers(*dem)) {
+    geodesy::PointSpec spec;
+    spec.x = dem->georef.transform.x_at(pick.col);
+    spec.y = dem->georef.transform.y_at(pick.row);
+    spec.height = 2.0;
+    auto eye = geodesy::resolve_point(*dem, spec, "observer");
+    ASSERT_TRUE(eye.ok()) << eye.error().message;
+    const auto r3 = run(*dem, *eye, Algorithm::kR3);
+    for (double target : {0.0, 10.0}) EXPECT_TRUE(same_mask(run_decided(*dem, *eye, target), r3, target)) << pick.kind;
+  }
+}
+
 TEST(Modes, ThinningMarchesFewerRaySteps) {
   const auto dem = testing::make_random_terrain(201, 201, 51);
   const auto eye = eye_at(dem, 100, 100, 2.0);

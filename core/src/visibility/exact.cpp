@@ -7,11 +7,13 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <vector>
 
 #include "crossings.hpp"
 #include "horizon/common/parallel.hpp"
 #include "horizon/visibility/radial_sweep.hpp"
+#include "horizon/visibility/viewshed.hpp"
 
 namespace horizon::visibility {
 namespace {
@@ -82,6 +84,21 @@ struct SightLine {
   double floor_slope;     // prune below this (the lower bound, minus a safety margin)
   double best = -kInf;    // highest exact sample slope found
   std::uint64_t samples = 0;
+  // Visibility only: a crossing above floor_slope is checked against the
+  // viewshed's rule at (target_ground, target_height); the first that hides
+  // the target ends the search (stop).
+  bool decide = false;
+  float target_ground = 0, target_height = 0;
+  bool stop = false;
+
+  // The viewshed's own rule (viewshed.cpp: min_target_height, visibility_mask)
+  // on the OHF value R3 would store for a maximum at slope s.
+  bool hides(double s) const { return hides_value(static_cast<float>(detail::r3_ohf_value(*f, total, s))); }
+  bool hides_value(float ohf) const {
+    const float above = ohf - target_ground;
+    const float needed = above > kTieTolerance ? above : 0.0f;
+    return !(target_height >= needed);
+  }
 
   double col_at(double t) const { return c0 + t * (c1 - c0); }
   double row_at(double t) const { return r0 + t * (r1 - r0); }
@@ -90,7 +107,7 @@ struct SightLine {
   void split(int l, double ta, double tb) {
     const int pieces = std::max(1, static_cast<int>(std::ceil((tb - ta) * major / kTile[l])));
     const double step = (tb - ta) / pieces;
-    for (int i = pieces - 1; i >= 0; --i) search(l, ta + i * step, i + 1 == pieces ? tb : ta + (i + 1) * step);
+    for (int i = pieces - 1; i >= 0 && !stop; --i) search(l, ta + i * step, i + 1 == pieces ? tb : ta + (i + 1) * step);
   }
 
   // The whole sight line, from the coarsest level shorter than it.
@@ -150,9 +167,11 @@ struct SightLine {
     const double inv_da = 1.0 / da;
     auto exact = [&](double t, double, double, double terrain) {
       const double s = detail::r3_slope(*f, total, t, terrain);
-      if (s > best) best = s;  // NaN (void) never wins
+      if (!(s > best)) return;  // NaN (void) never wins
+      best = s;
+      if (decide && s > floor_slope && hides(s)) stop = true;
     };
-    for (int line = std::max(first, 0); line <= std::min(last, line_count - 1); ++line) {
+    for (int line = std::max(first, 0); line <= std::min(last, line_count - 1) && !stop; ++line) {
       ++samples;
       const double t = (line - a0) * inv_da;
       const double pos = std::clamp(b0 + t * db, 0.0, double(pos_count - 1));
@@ -172,7 +191,8 @@ struct SightLine {
 }  // namespace
 
 Status exact_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const RadialOptions& radial, unsigned threads,
-                 const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats) {
+                 const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats,
+                 std::optional<double> visibility_only_at) {
   // 1. Lower bounds (into `ohf`, overwritten below cell by cell).
   // Progress: the bound is a few percent of the work; report it as the first 5 %.
   constexpr double kBoundShare = 0.05;
@@ -211,6 +231,29 @@ Status exact_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const Radial
       }
       SightLine line{&z, &f, &pyramid, f.observer_col, f.observer_row, double(col), double(row), d,
                      std::max(std::abs(col - f.observer_col), std::abs(row - f.observer_row)), -kInf};
+      if (visibility_only_at) {
+        line.decide = true;
+        line.target_ground = z.at(col, row);
+        line.target_height = static_cast<float>(*visibility_only_at);
+        // The bound hides the target: so does R3's maximum (at least the bound).
+        if (std::isfinite(cell) && line.hides_value(cell)) continue;
+        // Below this slope no crossing can hide the target: the highest OHF
+        // value that leaves it visible, stepped down past float rounding.
+        const double ceiling = double(line.target_ground) +
+                               std::max(double(kTieTolerance), double(line.target_height));
+        const double slack = 4.0 * std::numeric_limits<float>::epsilon() * std::abs(ceiling) + 1e-6;
+        const double slope = (ceiling - slack - f.eye - f.curvature * d * d) / d;
+        line.floor_slope = slope - 1e-9 * (1.0 + std::abs(slope));
+        line.search_all();
+        s += line.samples;
+        // Hidden: the value that hid it (R3's maximum or below, same answer);
+        // visible: the higher of the bound and the samples seen, both visible.
+        if (line.best != -kInf) {
+          const float found = static_cast<float>(detail::r3_ohf_value(f, d, line.best));
+          cell = std::isfinite(cell) ? std::max(cell, found) : found;
+        }
+        continue;
+      }
       if (std::isfinite(cell)) {
         // The bound arrives rounded to float, possibly upwards by half a unit
         // in the last place: step below that before turning it into a slope.

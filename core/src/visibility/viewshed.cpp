@@ -73,7 +73,8 @@ Result<ViewshedResult> compute_viewshed(const terrain::Dem& dem, const geodesy::
                           RadialBound::kLowerBound);
       break;
     case Algorithm::kExact:
-      status = exact_ohf(*elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats);
+      status = exact_ohf(*elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats,
+                         options.visibility_only ? std::optional<double>(options.target_height) : std::nullopt);
       break;
     case Algorithm::kR3:
       status = r3_ohf(*elevation, *frame, options.threads, control, result.ohf, result.stats);

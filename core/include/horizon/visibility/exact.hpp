@@ -21,6 +21,8 @@
 // bound is tight; never more than R3's samples plus the pyramid lookups.
 #pragma once
 
+#include <optional>
+
 #include "horizon/common/control.hpp"
 #include "horizon/common/error.hpp"
 #include "horizon/terrain/grid.hpp"
@@ -31,7 +33,17 @@
 namespace horizon::visibility {
 
 // Same contract and same values as r3_ohf(). `radial` tunes step 1 only.
+//
+// With `visibility_only_at` (a target height, ViewshedOptions::visibility_only)
+// only the visible/hidden answer is exact: a target the lower bound already
+// hides is not searched at all, and the search of the others prunes against
+// the sight line to the target itself (far tighter than the bound) and stops
+// at the first crossing that hides it. Each OHF value is then one that gives
+// R3's answer under the viewshed's rule (visibility_mask at that target
+// height): R3's own value, or a lower bound of it that hides or shows the
+// target as R3's does; min_target_height() of it is not R3's.
 Status exact_ohf(const terrain::Grid<float>& elevation, const ViewFrame& frame, const RadialOptions& radial,
-                 unsigned threads, const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats);
+                 unsigned threads, const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats,
+                 std::optional<double> visibility_only_at = std::nullopt);
 
 }  // namespace horizon::visibility

@@ -62,6 +62,12 @@ struct ViewshedOptions {
   Algorithm algorithm = Algorithm::kRadial;
   RadialOptions radial;
   unsigned threads = 0;  // worker threads; 0 = all hardware threads
+  // The caller needs the visible/hidden answer at target_height only (the
+  // viewshed raster), not the OHF or the minimum visible target height.
+  // "exact" then decides each cell as R3 does without finding R3's OHF
+  // (exact.hpp), several times faster; the OHF it leaves gives R3's
+  // visibility at target_height and nothing more. Other algorithms ignore it.
+  bool visibility_only = false;
 };
 
 // "fast", "r3", "exact", "conservative".
