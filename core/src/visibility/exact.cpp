@@ -94,11 +94,7 @@ struct SightLine {
   // The viewshed's own rule (viewshed.cpp: min_target_height, visibility_mask)
   // on the OHF value R3 would store for a maximum at slope s.
   bool hides(double s) const { return hides_value(static_cast<float>(detail::r3_ohf_value(*f, total, s))); }
-  bool hides_value(float ohf) const {
-    const float above = ohf - target_ground;
-    const float needed = above > kTieTolerance ? above : 0.0f;
-    return !(target_height >= needed);
-  }
+  bool hides_value(float ohf) const { return !(target_height >= min_target_height_at(ohf, target_ground)); }
 
   double col_at(double t) const { return c0 + t * (c1 - c0); }
   double row_at(double t) const { return r0 + t * (r1 - r0); }

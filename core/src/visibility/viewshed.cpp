@@ -87,21 +87,18 @@ Result<ViewshedResult> compute_viewshed(const terrain::Dem& dem, const geodesy::
 }
 
 terrain::Grid<float> min_target_height(const ViewshedResult& result) {
-  return per_answered_cell(result, [](float ohf, float z) {
-    const float above = ohf - z;
-    return above > kTieTolerance ? above : 0.0f;
-  });
+  return per_answered_cell(result, min_target_height_at);
 }
 
 terrain::Grid<std::uint8_t> visibility_mask(const ViewshedResult& result, double target_height) {
-  // Derived from min_target_height() so the two rasters can never disagree.
-  const terrain::Grid<float> mth = min_target_height(result);
-  terrain::Grid<std::uint8_t> out(mth.width(), mth.height(), kNoAnswer);
+  // The rule of min_target_height(), cell by cell, so the two rasters can never disagree.
+  terrain::Grid<std::uint8_t> out(result.ohf.width(), result.ohf.height(), kNoAnswer);
   const float th = static_cast<float>(target_height);
-  const auto src = mth.values();
+  const auto ohf = result.ohf.values();
+  const auto z = result.terrain.values();
   auto dst = out.values();
-  for (std::size_t i = 0; i < src.size(); ++i)
-    if (!std::isnan(src[i])) dst[i] = th >= src[i] ? kVisible : kHidden;
+  for (std::size_t i = 0; i < ohf.size(); ++i)
+    if (!std::isnan(ohf[i]) && !std::isnan(z[i])) dst[i] = th >= min_target_height_at(ohf[i], z[i]) ? kVisible : kHidden;
   return out;
 }
 

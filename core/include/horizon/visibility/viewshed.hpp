@@ -44,6 +44,15 @@ Result<ViewshedResult> compute_viewshed(const terrain::Dem& dem, const geodesy::
 // Metres: an occlusion height at most this far above the ground counts as the ground itself.
 inline constexpr float kTieTolerance = 1.0e-3f;
 
+// The rule every raster derives from the OHF: the height above the ground
+// `ground` a target needs to be seen under an OHF value `ohf` (float32
+// arithmetic, 0 within kTieTolerance). A target of height h is visible when
+// h >= min_target_height_at(ohf, ground).
+inline float min_target_height_at(float ohf, float ground) {
+  const float above = ohf - ground;
+  return above > kTieTolerance ? above : 0.0f;
+}
+
 // Output rasters, all window-sized.
 inline constexpr std::uint8_t kVisible = 1, kHidden = 0, kNoAnswer = 255;
 
