@@ -10,6 +10,8 @@
 #include <cstring>
 #include <mutex>
 #include <random>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "horizon/terrain/dem_reader.hpp"
@@ -123,23 +125,32 @@ TEST(Modes, ConservativeOhfNeverExceedsR3) {
 // 100 %, conservative misses nothing, and neither is trivially loose.
 class BundledModes : public ::testing::TestWithParam<const char*> {};
 
+// The accuracy report's observers on `dem`, 2 m above ground: (kind, eye).
+std::vector<std::pair<std::string, geodesy::GridPoint>> report_eyes(const terrain::Dem& dem) {
+  std::vector<std::pair<std::string, geodesy::GridPoint>> eyes;
+  for (const auto& pick : accuracy::pick_observers(dem)) {
+    geodesy::PointSpec spec;
+    spec.x = dem.georef.transform.x_at(pick.col);
+    spec.y = dem.georef.transform.y_at(pick.row);
+    spec.height = 2.0;
+    auto eye = geodesy::resolve_point(dem, spec, "observer");
+    EXPECT_TRUE(eye.ok()) << eye.error().message;
+    if (eye.ok()) eyes.emplace_back(pick.kind, *eye);
+  }
+  return eyes;
+}
+
 TEST_P(BundledModes, ExactMatchesAndConservativeNeverMisses) {
   auto dem = terrain::read_dem(testing::bundled_dem(GetParam()));
   ASSERT_TRUE(dem.ok()) << dem.error().message;
-  for (const auto& pick : accuracy::pick_observers(*dem)) {
-    geodesy::PointSpec spec;
-    spec.x = dem->georef.transform.x_at(pick.col);
-    spec.y = dem->georef.transform.y_at(pick.row);
-    spec.height = 2.0;
-    auto eye = geodesy::resolve_point(*dem, spec, "observer");
-    ASSERT_TRUE(eye.ok()) << eye.error().message;
-    const auto r3 = run(*dem, *eye, Algorithm::kR3);
-    EXPECT_TRUE(same_ohf(run(*dem, *eye, Algorithm::kExact), r3)) << pick.kind;
-    const auto cons = run(*dem, *eye, Algorithm::kConservative);
-    EXPECT_EQ(cells_above(cons, r3), 0) << pick.kind;
+  for (const auto& [kind, eye] : report_eyes(*dem)) {
+    const auto r3 = run(*dem, eye, Algorithm::kR3);
+    EXPECT_TRUE(same_ohf(run(*dem, eye, Algorithm::kExact), r3)) << kind;
+    const auto cons = run(*dem, eye, Algorithm::kConservative);
+    EXPECT_EQ(cells_above(cons, r3), 0) << kind;
     const auto a = visibility::compare_viewsheds(cons, r3, 0.0);
-    EXPECT_EQ(a.missed_visible, 0u) << pick.kind;
-    EXPECT_GE(a.iou, 0.97) << pick.kind;
+    EXPECT_EQ(a.missed_visible, 0u) << kind;
+    EXPECT_GE(a.iou, 0.97) << kind;
   }
 }
 
@@ -193,15 +204,9 @@ TEST(Modes, ExactVisibilityOnlyGivesR3sViewshedAtEveryTargetHeight) {
 TEST_P(BundledModes, ExactVisibilityOnlyGivesR3sViewshed) {
   auto dem = terrain::read_dem(testing::bundled_dem(GetParam()));
   ASSERT_TRUE(dem.ok()) << dem.error().message;
-  for (const auto& pick : accuracy::pick_observers(*dem)) {
-    geodesy::PointSpec spec;
-    spec.x = dem->georef.transform.x_at(pick.col);
-    spec.y = dem->georef.transform.y_at(pick.row);
-    spec.height = 2.0;
-    auto eye = geodesy::resolve_point(*dem, spec, "observer");
-    ASSERT_TRUE(eye.ok()) << eye.error().message;
-    const auto r3 = run(*dem, *eye, Algorithm::kR3);
-    for (double target : {0.0, 10.0}) EXPECT_TRUE(same_mask(run_decided(*dem, *eye, target), r3, target)) << pick.kind;
+  for (const auto& [kind, eye] : report_eyes(*dem)) {
+    const auto r3 = run(*dem, eye, Algorithm::kR3);
+    for (double target : {0.0, 10.0}) EXPECT_TRUE(same_mask(run_decided(*dem, eye, target), r3, target)) << kind;
   }
 }
 

@@ -553,16 +553,7 @@ Result<DemHeader> read_geotiff_header(const std::string& path, const ReadOptions
 }
 
 Result<Dem> read_geotiff(const std::string& path, const ReadOptions& options, ReadStats* stats) {
-  struct stat st {};
-  if (::stat(path.c_str(), &st) != 0) {
-    if (errno == ENOENT || errno == ENOTDIR) return dem_error(ErrorCode::kNotFound, path, "no such file");
-    return dem_error(ErrorCode::kIoError, path, std::string("cannot access: ") + std::strerror(errno));
-  }
-  if (S_ISDIR(st.st_mode)) return dem_error(ErrorCode::kDataError, path, "not a raster (it is a directory)");
-  if (options.band < 0)
-    return make_error(ErrorCode::kInvalidArgument,
-                      "dem '" + path + "': band " + std::to_string(options.band) + " is invalid (bands count from 1)",
-                      "band");
+  HORIZON_RETURN_IF_ERROR(check_path(path, options));
   const auto start = std::chrono::steady_clock::now();
   auto facts = read_tiff_facts(path, options);
   if (!facts.ok()) return facts.error();
