@@ -43,7 +43,7 @@ TEST(CliWindowRead, MaxDistanceReadsFewTilesAndWritesTheFullReadBytes) {
   const std::string dem = write_tiled_dem(dir);
   // Observer at cell (1003.3, 907.6); 1500 m = 150 cells: a 301-cell disc box, 4 to 9 tiles.
   const std::string common = dem + " --observer 510038.5,4990919 --height 5 --max-distance 1500 --json";
-  for (const std::string algorithm : {"r3", "exact", "conservative"}) {
+  for (const std::string algorithm : {"fast", "r3", "exact", "conservative"}) {
     for (const std::string output : {"visible", "ohf"}) {
       const std::string window_out = dir.file("w_" + algorithm + output + ".tif");
       const std::string full_out = dir.file("f_" + algorithm + output + ".tif");
