@@ -1,23 +1,24 @@
 // Deterministic observer positions of different character on a DEM, for
-// accuracy and benchmark runs: summit, ridge, valley and near an edge.
+// accuracy runs: summit, ridge, valley and near an edge. They are the first
+// four picks of `horizon bench` (evaluation::pick_observers), so the accuracy
+// report and the benchmark talk about the same observers.
 #pragma once
 
-#include <string>
 #include <vector>
 
+#include "horizon/evaluation/bench.hpp"
 #include "horizon/terrain/dem.hpp"
 
 namespace horizon::accuracy {
 
-struct ObserverPick {
-  std::string kind;  // "summit", "ridge", "valley", "edge"
-  int col = 0, row = 0;
-};
+using ObserverPick = evaluation::ObserverPick;  // kind ("summit", "ridge", "valley", "edge"), col, row
 
 // summit: the highest valid cell. ridge: among cells at the 85th elevation
 // percentile, the one nearest the DEM centre. valley: the same at the 10th
 // percentile. edge: the first valid cell of the middle row, 3 cells in from
 // the west edge (or further in, past voids).
-std::vector<ObserverPick> pick_observers(const terrain::Dem& dem);
+inline std::vector<ObserverPick> pick_observers(const terrain::Dem& dem) {
+  return evaluation::pick_observers(dem, 4);
+}
 
 }  // namespace horizon::accuracy
