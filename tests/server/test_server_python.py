@@ -120,7 +120,8 @@ def start_daemon(horizond, data_dir, tmp):
                    "datasets": {"rainier": "rainier_summit_srtm3_400x400.tif",
                                 "everest": "everest_summit_voids_srtm3_300x300.tif",
                                 "olinda": "olinda_coast_utm25s_111x111.tif"},
-                   "memory_budget_mb": 128, "worker_threads": 2, "scratch_dir": tmp}, f)
+                   "memory_budget_mb": 128, "worker_threads": 2, "scratch_dir": tmp,
+                   "limits": {"max_lines": 20}}, f)
     log_path = os.path.join(tmp, "horizond.log")
     log = open(log_path, "w")
     proc = subprocess.Popen([horizond, "--config", config], stderr=log)
@@ -250,6 +251,27 @@ def run_checks(listening, log_path):
     inverted = CullReq(dataset="rainier", observer=eye)
     inverted.boxes.add(frame=2, x_min=-121.75, x_max=-121.76, y_min=46.8, y_max=46.81, z_min=0, z_max=1)
     expect(cull, inverted, "INVALID_ARGUMENT", "boxes[0].x_max")
+    too_many = LosReq(dataset="rainier")
+    for i in range(21):  # limits.max_lines is 20 in this config
+        line = too_many.lines.add()
+        line.__getattribute__("from").CopyFrom(eye)
+        line.to.CopyFrom(Point(frame=2, x=-121.74, y=46.84, height=2))
+    expect(los, too_many, "RESOURCE_EXHAUSTED", None)
+    # A deadline that passes mid-computation: the client sees DEADLINE_EXCEEDED
+    # and the daemon stops the engine and logs the call with that status.
+    slow = VsReq(dataset="rainier", observer=eye)
+    slow.options.algorithm = 4  # ALGORITHM_R3 over the whole DEM: far longer than 20 ms
+    try:
+        list(viewshed(slow, timeout=0.02))
+        raise AssertionError("expected DEADLINE_EXCEEDED")
+    except grpc.RpcError as e:
+        assert e.code() == grpc.StatusCode.DEADLINE_EXCEEDED, e.code()
+    for _ in range(50):
+        if '"status":"DEADLINE_EXCEEDED"' in open(log_path).read():
+            break
+        time.sleep(0.1)
+    else:
+        raise AssertionError("the daemon did not log the deadline")
 
     # A client cancelling mid-stream.
     request = VsReq(dataset="rainier", observer=eye, include_raster=True, max_chunk_bytes=4096)
