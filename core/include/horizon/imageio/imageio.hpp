@@ -10,11 +10,11 @@
 // viewshed` that writes only a GeoTIFF, a `horizon los` or the daemon never
 // load it. GeoTIFF pixels are read and written with libtiff (terrain/).
 //
-// Where the module is looked for, in order:
-//   1. $HORIZON_IMAGEIO_PLUGIN, a path to the module itself;
-//   2. next to the running executable, then ../lib/horizon/ from it (the
-//      installed layout: bin/horizon, lib/horizon/libhorizon_imageio.so);
-//   3. the build tree it was built in.
+// Where the module is looked for: at $HORIZON_IMAGEIO_PLUGIN (a path to the
+// module itself) and nowhere else when that is set; otherwise, in order, next
+// to the running executable, in ../lib/horizon/ from it (the installed
+// layout: bin/horizon, lib/horizon/libhorizon_imageio.so), and in the build
+// tree it was built in.
 // When none loads, every function returns a kInternal error that names the
 // places tried and dlopen's reason; nothing else in Horizon is affected.
 //
