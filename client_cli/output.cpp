@@ -14,6 +14,18 @@ Json finite_or_null(double value) {
   return std::isfinite(value) ? Json(value) : Json(nullptr);
 }
 
+Json viewshed_options_json(const geodesy::PointSpec& observer, const visibility::ViewshedOptions& options,
+                           const std::string& nodata) {
+  return {{"height", observer.height},
+          {"height_mode", observer.height_mode == geodesy::HeightMode::kAbsolute ? "absolute" : "above_ground"},
+          {"target_height", options.target_height},
+          {"max_distance", finite_or_null(options.max_distance)},
+          {"curvature", options.curvature_coefficient},
+          {"nodata", nodata},
+          {"ray_spacing", options.radial.ray_spacing},
+          {"threads", options.threads}};
+}
+
 Json to_json(const terrain::GeoTransform& t) {
   return Json::array({t.origin_x, t.pixel_width, 0.0, t.origin_y, 0.0, t.pixel_height});
 }

@@ -17,6 +17,7 @@
 #include "horizon/terrain/georef.hpp"
 #include "horizon/terrain/grid.hpp"
 #include "horizon/visibility/line_of_sight.hpp"
+#include "horizon/visibility/options.hpp"
 #include "horizon/visibility/work_stats.hpp"
 
 namespace horizon::cli {
@@ -35,6 +36,10 @@ Json to_json(const visibility::WorkStats& stats);
 Json to_json(const visibility::ProfileSample& sample);
 // A resolved point: CRS x/y, lon/lat (when known), grid col/row, ground and point elevation.
 Json to_json(const geodesy::GridPoint& point, const std::optional<geodesy::LonLat>& lonlat);
+// A viewshed request's options as `horizon viewshed --json` echoes them
+// (`nodata` as given on the command line).
+Json viewshed_options_json(const geodesy::PointSpec& observer, const visibility::ViewshedOptions& options,
+                           const std::string& nodata);
 
 // "1234567" -> "1,234,567".
 std::string with_separators(std::uint64_t count);

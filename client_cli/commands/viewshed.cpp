@@ -137,13 +137,7 @@ Status write_output(const Request& r, const terrain::Dem& dem, const visibility:
 
 Status write_preview(const std::string& path, const visibility::ViewshedResult& result,
                      const terrain::Grid<std::uint8_t>& mask) {
-  const visibility::ViewFrame& f = result.frame;
-  terrain::PreviewOptions preview;
-  preview.metres_per_col = f.metres_per_col;
-  preview.metres_per_row = f.metres_per_row;
-  preview.observer_col = f.observer_col - f.window.col0;  // the preview covers the window only
-  preview.observer_row = f.observer_row - f.window.row0;
-  return terrain::write_viewshed_preview(path, result.terrain, mask, preview);
+  return terrain::write_viewshed_preview(path, result.terrain, mask, visibility::preview_options(result));
 }
 
 // The DEM cells a request needs, the observer resolved on them, and what the read cost.
@@ -252,15 +246,7 @@ int run_viewshed(const Args& args) {
     observer_in_file.col += read.window.col0;
     observer_in_file.row += read.window.row0;
     j["observer"] = to_json(observer_in_file, observer_lonlat);
-    j["options"] = {
-        {"height", r.observer.height},
-        {"height_mode", r.observer.height_mode == geodesy::HeightMode::kAbsolute ? "absolute" : "above_ground"},
-        {"target_height", r.options.target_height},
-        {"max_distance", finite_or_null(r.options.max_distance)},
-        {"curvature", r.options.curvature_coefficient},
-        {"nodata", args.text("--nodata").value_or("transparent")},
-        {"ray_spacing", r.options.radial.ray_spacing},
-        {"threads", r.options.threads}};
+    j["options"] = viewshed_options_json(r.observer, r.options, args.text("--nodata").value_or("transparent"));
     j["window"] = to_json(window);
     j["cell_size_m"] = {{"x", f.metres_per_col}, {"y", f.metres_per_row}};
     j["visible_cells"] = visible;

@@ -85,15 +85,7 @@ int run_viewshed(const Args& args, const ViewshedInputs& in) {
     j["png"] = in.png_path ? Json(*in.png_path) : Json(nullptr);
     j["algorithm"] = in.algorithm_name;
     j["observer"] = to_json(observer, observer_lonlat);
-    j["options"] = {
-        {"height", in.observer.height},
-        {"height_mode", in.observer.height_mode == geodesy::HeightMode::kAbsolute ? "absolute" : "above_ground"},
-        {"target_height", in.options.target_height},
-        {"max_distance", finite_or_null(in.options.max_distance)},
-        {"curvature", in.options.curvature_coefficient},
-        {"nodata", args.text("--nodata").value_or("transparent")},
-        {"ray_spacing", in.options.radial.ray_spacing},
-        {"threads", in.options.threads}};
+    j["options"] = viewshed_options_json(in.observer, in.options, args.text("--nodata").value_or("transparent"));
     j["window"] = to_json(window);
     j["cell_size_m"] = {{"x", header.cell_size_x_m()}, {"y", header.cell_size_y_m()}};
     j["visible_cells"] = visible;

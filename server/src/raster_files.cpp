@@ -55,12 +55,7 @@ Result<std::string> geotiff_bytes(const fs::path& scratch_dir, const terrain::Gr
 
 Result<std::string> preview_png_bytes(const fs::path& scratch_dir, const visibility::ViewshedResult& result,
                                       const terrain::Grid<std::uint8_t>& mask) {
-  const visibility::ViewFrame& f = result.frame;
-  terrain::PreviewOptions preview;
-  preview.metres_per_col = f.metres_per_col;
-  preview.metres_per_row = f.metres_per_row;
-  preview.observer_col = f.observer_col - f.window.col0;  // the preview covers the window only
-  preview.observer_row = f.observer_row - f.window.row0;
+  const terrain::PreviewOptions preview = visibility::preview_options(result);
   return encode(scratch_dir, ".png", [&](const std::string& p) {
     return terrain::write_viewshed_preview(p, result.terrain, mask, preview);
   });

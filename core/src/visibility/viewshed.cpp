@@ -112,4 +112,14 @@ terrain::Georeference window_georef(const terrain::Dem& dem, const ViewshedResul
   return g;
 }
 
+terrain::PreviewOptions preview_options(const ViewshedResult& result) {
+  const ViewFrame& f = result.frame;
+  terrain::PreviewOptions preview;
+  preview.metres_per_col = f.metres_per_col;
+  preview.metres_per_row = f.metres_per_row;
+  preview.observer_col = f.observer_col - f.window.col0;  // the preview covers the window only
+  preview.observer_row = f.observer_row - f.window.row0;
+  return preview;
+}
+
 }  // namespace horizon::visibility

@@ -23,6 +23,7 @@
 #include "horizon/common/error.hpp"
 #include "horizon/geodesy/observer.hpp"
 #include "horizon/terrain/dem.hpp"
+#include "horizon/terrain/preview.hpp"
 #include "horizon/visibility/options.hpp"
 #include "horizon/visibility/view_frame.hpp"
 #include "horizon/visibility/work_stats.hpp"
@@ -65,5 +66,10 @@ terrain::Grid<float> ohf_raster(const ViewshedResult& result);
 
 // Georeference of the window-sized outputs.
 terrain::Georeference window_georef(const terrain::Dem& dem, const ViewshedResult& result);
+
+// Preview settings for a picture of the result's window (metric cell sizes at
+// the eye, the observer in window cells), for terrain::write_viewshed_preview
+// with result.terrain and a visibility_mask().
+terrain::PreviewOptions preview_options(const ViewshedResult& result);
 
 }  // namespace horizon::visibility
