@@ -1,6 +1,5 @@
 // `horizon info DEM`: what a DEM holds and where it lies.
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <iostream>
 
@@ -30,34 +29,6 @@ Extent extent_of(const terrain::Dem& dem) {
   return {std::min(x0, x1), std::max(x0, x1), std::min(y0, y1), std::max(y0, y1)};
 }
 
-// WGS84 bounds of the extent: the corners and edge midpoints, which is exact
-// for geographic DEMs and within a fraction of a cell for a DEM-sized UTM area.
-struct LonLatBounds {
-  double west, east, south, north;
-};
-
-std::optional<LonLatBounds> lonlat_bounds(const geodesy::Crs& crs, const Extent& e) {
-  const double xm = (e.x_min + e.x_max) / 2, ym = (e.y_min + e.y_max) / 2;
-  const std::array<geodesy::XY, 8> points{{{e.x_min, e.y_min},
-                                           {e.x_max, e.y_min},
-                                           {e.x_min, e.y_max},
-                                           {e.x_max, e.y_max},
-                                           {xm, e.y_min},
-                                           {xm, e.y_max},
-                                           {e.x_min, ym},
-                                           {e.x_max, ym}}};
-  std::optional<LonLatBounds> b;
-  for (const geodesy::XY& p : points) {
-    auto ll = crs.to_lonlat(p);
-    if (!ll.ok()) return std::nullopt;
-    if (!b) b = LonLatBounds{ll->lon, ll->lon, ll->lat, ll->lat};
-    b->west = std::min(b->west, ll->lon);
-    b->east = std::max(b->east, ll->lon);
-    b->south = std::min(b->south, ll->lat);
-    b->north = std::max(b->north, ll->lat);
-  }
-  return b;
-}
 
 int run_info(const Args& args) {
   const std::string& path = single_operand(args, "DEM");
@@ -81,10 +52,10 @@ int run_info(const Args& args) {
     crs = *c;
   }
   geodesy::GroundScale scale;  // metres per CRS unit at the centre; 1 without a CRS
-  std::optional<LonLatBounds> bounds;
+  std::optional<geodesy::LonLatBounds> bounds;
   if (crs) {
     scale = crs->ground_scale({(extent.x_min + extent.x_max) / 2, (extent.y_min + extent.y_max) / 2});
-    bounds = lonlat_bounds(*crs, extent);
+    bounds = geodesy::lonlat_bounds(*crs, extent.x_min, extent.y_min, extent.x_max, extent.y_max);
   }
   const double cell_x_m = std::abs(t.pixel_width) * scale.metres_per_x;
   const double cell_y_m = std::abs(t.pixel_height) * scale.metres_per_y;

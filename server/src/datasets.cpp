@@ -2,33 +2,12 @@
 #include "datasets.hpp"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 
 #include "horizon/geodesy/crs.hpp"
 #include "horizon/terrain/dem_reader.hpp"
 
 namespace horizon::server {
-namespace {
-
-// WGS84 bounds from the corners and edge midpoints of the extent.
-std::optional<LonLatBox> lonlat_bounds(const geodesy::Crs& crs, double x0, double y0, double x1, double y1) {
-  const double xm = (x0 + x1) / 2, ym = (y0 + y1) / 2;
-  const std::array<geodesy::XY, 8> points{{{x0, y0}, {x1, y0}, {x0, y1}, {x1, y1}, {xm, y0}, {xm, y1}, {x0, ym}, {x1, ym}}};
-  std::optional<LonLatBox> b;
-  for (const geodesy::XY& p : points) {
-    auto ll = crs.to_lonlat(p);
-    if (!ll.ok()) return std::nullopt;
-    if (!b) b = LonLatBox{ll->lon, ll->lat, ll->lon, ll->lat};
-    b->west = std::min(b->west, ll->lon);
-    b->east = std::max(b->east, ll->lon);
-    b->south = std::min(b->south, ll->lat);
-    b->north = std::max(b->north, ll->lat);
-  }
-  return b;
-}
-
-}  // namespace
 
 Result<std::shared_ptr<const Dataset>> load_dataset(const Config& config, const DatasetConfig& entry,
                                                     MemoryBudget& budget) {
@@ -73,7 +52,7 @@ Result<std::shared_ptr<const Dataset>> load_dataset(const Config& config, const 
     d->crs_name = crs->name();
     d->geographic = crs->is_geographic();
     scale = crs->ground_scale({(x0 + x1) / 2, (y0 + y1) / 2});
-    d->lonlat = lonlat_bounds(*crs, std::min(x0, x1), std::min(y0, y1), std::max(x0, x1), std::max(y0, y1));
+    d->lonlat = geodesy::lonlat_bounds(*crs, std::min(x0, x1), std::min(y0, y1), std::max(x0, x1), std::max(y0, y1));
   }
   d->cell_size_x_m = std::abs(t.pixel_width) * scale.metres_per_x;
   d->cell_size_y_m = std::abs(t.pixel_height) * scale.metres_per_y;

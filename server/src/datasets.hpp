@@ -17,14 +17,11 @@
 
 #include "config.hpp"
 #include "horizon/common/error.hpp"
+#include "horizon/geodesy/crs.hpp"
 #include "horizon/terrain/dem.hpp"
 #include "memory_budget.hpp"
 
 namespace horizon::server {
-
-struct LonLatBox {
-  double west = 0, south = 0, east = 0, north = 0;
-};
 
 struct Dataset {
   std::string name;
@@ -36,7 +33,7 @@ struct Dataset {
   terrain::ElevationStats stats;
   std::string crs_name;
   bool geographic = false;
-  std::optional<LonLatBox> lonlat;  // when the CRS converts
+  std::optional<geodesy::LonLatBounds> lonlat;  // when the CRS converts
   double cell_size_x_m = 0, cell_size_y_m = 0;  // at the raster's centre
   std::uint64_t resident_bytes = 0;
   Reservation memory;

@@ -177,3 +177,41 @@ TEST(Crs, NorthZoneContinuesAcrossTheEquator) {
 
 }  // namespace
 }  // namespace horizon::geodesy
+
+namespace horizon::geodesy {
+namespace {
+
+TEST(LonLatBounds, GeographicRectangleIsItself) {
+  auto wgs84 = Crs::from_epsg(4326);
+  ASSERT_TRUE(wgs84.ok());
+  auto b = lonlat_bounds(*wgs84, -122.0, 46.0, -121.0, 47.0);
+  ASSERT_TRUE(b.has_value());
+  EXPECT_DOUBLE_EQ(b->west, -122.0);
+  EXPECT_DOUBLE_EQ(b->east, -121.0);
+  EXPECT_DOUBLE_EQ(b->south, 46.0);
+  EXPECT_DOUBLE_EQ(b->north, 47.0);
+}
+
+TEST(LonLatBounds, UtmRectangleEnvelopesItsCornersAndMidpoints) {
+  // A 100 km square whose west edge is UTM 45N's central meridian (87 E), at
+  // 27-28 N: the envelope holds every point of it, and its east edge lies just
+  // past 88 E (a degree of longitude is ~98.6 km there).
+  auto utm = Crs::from_epsg(32645);
+  ASSERT_TRUE(utm.ok());
+  auto b = lonlat_bounds(*utm, 500000.0, 3000000.0, 600000.0, 3100000.0);
+  ASSERT_TRUE(b.has_value());
+  for (XY p : {XY{500000.0, 3000000.0}, XY{600000.0, 3100000.0}, XY{550000.0, 3050000.0}}) {
+    auto ll = utm->to_lonlat(p);
+    ASSERT_TRUE(ll.ok());
+    EXPECT_GE(ll->lon, b->west);
+    EXPECT_LE(ll->lon, b->east);
+    EXPECT_GE(ll->lat, b->south);
+    EXPECT_LE(ll->lat, b->north);
+  }
+  EXPECT_NEAR(b->west, 87.0, 1e-9);  // x = 500000 is the central meridian
+  EXPECT_GT(b->east, 88.0);
+  EXPECT_LT(b->east, 88.1);
+}
+
+}  // namespace
+}  // namespace horizon::geodesy

@@ -230,4 +230,21 @@ GroundScale Crs::ground_scale(XY p) const {
   return GroundScale{};
 }
 
+std::optional<LonLatBounds> lonlat_bounds(const Crs& crs, double x_min, double y_min, double x_max, double y_max) {
+  const double xm = (x_min + x_max) / 2, ym = (y_min + y_max) / 2;
+  const XY points[] = {{x_min, y_min}, {x_max, y_min}, {x_min, y_max}, {x_max, y_max},
+                       {xm, y_min},    {xm, y_max},    {x_min, ym},    {x_max, ym}};
+  std::optional<LonLatBounds> b;
+  for (const XY& p : points) {
+    auto ll = crs.to_lonlat(p);
+    if (!ll.ok()) return std::nullopt;
+    if (!b) b = LonLatBounds{ll->lon, ll->lat, ll->lon, ll->lat};
+    b->west = std::min(b->west, ll->lon);
+    b->east = std::max(b->east, ll->lon);
+    b->south = std::min(b->south, ll->lat);
+    b->north = std::max(b->north, ll->lat);
+  }
+  return b;
+}
+
 }  // namespace horizon::geodesy

@@ -12,6 +12,7 @@
 // Anything else is ErrorCode::kUnsupported with the code in the message.
 #pragma once
 
+#include <optional>
 #include <string>
 
 #include "horizon/common/error.hpp"
@@ -61,6 +62,14 @@ class Crs {
   double lon0_ = 0.0, k0_ = 1.0, false_easting_ = 0.0, false_northing_ = 0.0;  // transverse Mercator
   std::string name_;
 };
+
+// WGS84 bounds of a rectangle in a CRS: the envelope of its corners and edge
+// midpoints, which is exact for geographic CRSs and within a fraction of a
+// cell for a DEM-sized UTM area. Empty when a point does not convert.
+struct LonLatBounds {
+  double west = 0.0, south = 0.0, east = 0.0, north = 0.0;  // degrees
+};
+std::optional<LonLatBounds> lonlat_bounds(const Crs& crs, double x_min, double y_min, double x_max, double y_max);
 
 // WGS84 semi-major axis, metres; the Earth radius used for curvature.
 inline constexpr double kEarthRadiusMetres = 6378137.0;
