@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <iostream>
 #include <thread>
 
 #include "daemon_process.hpp"
@@ -179,7 +180,14 @@ TEST(ServerConcurrency, ThirtyTwoClientsGetTheEngineAnswers) {
   EXPECT_EQ(daemon.log().find("\"level\":\"error\""), std::string::npos);
   const std::uint64_t peak = daemon.peak_rss_bytes();
   EXPECT_GT(peak, 0u);
+#if defined(__SANITIZE_ADDRESS__)
+  // AddressSanitizer's shadow memory and quarantine make RSS say nothing about
+  // the daemon's own allocations (441 MiB measured for a 160 MiB budget): the
+  // budget is checked by the plain build.
+  std::cout << "peak RSS under AddressSanitizer: " << (peak >> 20) << " MiB (not compared with the budget)\n";
+#else
   EXPECT_LE(peak, static_cast<std::uint64_t>(options.memory_budget_mb) << 20) << "peak RSS " << (peak >> 20) << " MiB";
+#endif
 }
 
 }  // namespace
