@@ -49,18 +49,22 @@ class MaxPyramid {
           m = std::max(m, max_[l - 1][static_cast<std::size_t>(j) * cols_[l - 1] + i]);
         }
     }
-    // Each level again as maxima of 2 x 2 tiles (tile (i, j) and its east,
-    // south and south-east neighbours): most stretches span at most 2 tiles
-    // each way, and are then answered by one read.
+    // Each level again as maxima of tile pairs (tile (i, j) with its east
+    // neighbour, with its south neighbour) and of 2 x 2 tiles: most stretches
+    // span at most two tiles each way, and are then answered by one read.
     for (int l = 0; l < kLevels; ++l) {
       const int cols = cols_[l], rows = rows_[l];
+      const auto at = [&](int jj, int ii) { return max_[l][static_cast<std::size_t>(jj) * cols + ii]; };
+      east_[l].resize(max_[l].size());
+      south_[l].resize(max_[l].size());
       quad_[l].resize(max_[l].size());
       for (int j = 0; j < rows; ++j)
         for (int i = 0; i < cols; ++i) {
           const int i1 = std::min(i + 1, cols - 1), j1 = std::min(j + 1, rows - 1);
-          const auto at = [&](int jj, int ii) { return max_[l][static_cast<std::size_t>(jj) * cols + ii]; };
-          quad_[l][static_cast<std::size_t>(j) * cols + i] =
-              std::max(std::max(at(j, i), at(j, i1)), std::max(at(j1, i), at(j1, i1)));
+          const std::size_t k = static_cast<std::size_t>(j) * cols + i;
+          east_[l][k] = std::max(at(j, i), at(j, i1));
+          south_[l][k] = std::max(at(j, i), at(j1, i));
+          quad_[l][k] = std::max(east_[l][k], std::max(at(j1, i), at(j1, i1)));
         }
     }
   }
@@ -72,7 +76,11 @@ class MaxPyramid {
     const int j0 = (std::max(r_lo, window_.row0) - window_.row0) >> shift;
     const int i1 = (std::min(c_hi, window_.col1 - 1) - window_.col0) >> shift;
     const int j1 = (std::min(r_hi, window_.row1 - 1) - window_.row0) >> shift;
-    if (i1 - i0 <= 1 && j1 - j0 <= 1) return quad_[l][static_cast<std::size_t>(j0) * cols_[l] + i0];
+    if (i1 - i0 <= 1 && j1 - j0 <= 1) {
+      const std::size_t k = static_cast<std::size_t>(j0) * cols_[l] + i0;
+      if (i1 == i0) return j1 == j0 ? max_[l][k] : south_[l][k];
+      return j1 == j0 ? east_[l][k] : quad_[l][k];
+    }
     const float* tiles = max_[l].data();
     float m = -std::numeric_limits<float>::infinity();
     for (int j = j0; j <= j1; ++j) {
@@ -86,7 +94,8 @@ class MaxPyramid {
   terrain::Window window_;
   std::array<int, kLevels> cols_{}, rows_{};
   std::array<std::vector<float>, kLevels> max_;
-  std::array<std::vector<float>, kLevels> quad_;  // max over tiles [i, i + 1] x [j, j + 1] (clamped)
+  // Maxima over tiles {i, i + 1} x {j}, {i} x {j, j + 1} and {i, i + 1} x {j, j + 1} (clamped to the level).
+  std::array<std::vector<float>, kLevels> east_, south_, quad_;
 };
 
 // One target's sight line and the search state.
