@@ -13,7 +13,7 @@ packages=(
   libboost-dev nlohmann-json3-dev libgeographiclib-dev
   libopenimageio-dev
   openimageio-tools  # OpenImageIO's CMake package refuses to load without its tools (/usr/bin/iconvert)
-  libgeotiff-dev libtiff-dev
+  libgeotiff-dev libtiff-dev libdeflate-dev  # libdeflate: the GeoTIFF writer deflates tiles on every core
   # GPU path (EGL, headless Mesa)
   libegl-dev libegl-mesa0 libgl1-mesa-dri libgles-dev libopengl-dev
   # daemon

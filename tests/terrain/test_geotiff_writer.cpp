@@ -12,6 +12,7 @@
 #include <iterator>
 #include <limits>
 #include <string>
+#include <utility>
 
 #include "horizon/terrain/dem_reader.hpp"
 #include "horizon/terrain/geotiff_writer.hpp"
@@ -154,6 +155,34 @@ TEST(GeoTiffWriter, GdalinfoSeesOriginPixelSizeEpsgAndNodata) {
   EXPECT_DOUBLE_EQ(band.at("noDataValue").get<double>(), -32768.0);
   EXPECT_EQ(info.at("metadata").at("").at("AREA_OR_POINT").get<std::string>(), "Area");
   EXPECT_EQ(info.at("metadata").at("IMAGE_STRUCTURE").at("COMPRESSION").get<std::string>(), "DEFLATE");
+}
+
+// GDAL decodes the tiles (our own predictor and deflate) to the values written,
+// in every tile, including the padded edge tiles.
+TEST(GeoTiffWriter, GdalReadsThePixelsWritten) {
+  if (testing::run_command("gdallocationinfo --version").exit_code != 0) GTEST_SKIP() << "GDAL not installed";
+  TempDir dir;
+  const std::string path = dir.file("pixels.tif");
+  const Grid<float> grid = float_grid();
+  ASSERT_TRUE(write_geotiff(path, grid, utm_georef(), -9999.0).ok());
+  for (auto [c, r] : {std::pair{1, 0}, {255, 255}, {256, 0}, {299, 268}, {12, 269}, {257, 3}}) {
+    const auto run = testing::run_command("gdallocationinfo -valonly '" + path + "' " + std::to_string(c) + " " +
+                                          std::to_string(r));
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    const double want = std::isnan(grid.at(c, r)) ? -9999.0 : grid.at(c, r);
+    EXPECT_EQ(std::stod(run.output), want) << c << "," << r;
+  }
+  Grid<std::uint8_t> mask(300, 270, 0);
+  for (int r = 0; r < mask.height(); ++r)
+    for (int c = 0; c < mask.width(); ++c) mask.at(c, r) = static_cast<std::uint8_t>((c * 7 + r * 3) % 256);
+  const std::string mask_path = dir.file("mask.tif");
+  ASSERT_TRUE(write_geotiff(mask_path, mask, utm_georef(), 255.0).ok());
+  for (auto [c, r] : {std::pair{0, 0}, {200, 100}, {299, 269}, {260, 10}}) {
+    const auto run = testing::run_command("gdallocationinfo -valonly '" + mask_path + "' " + std::to_string(c) + " " +
+                                          std::to_string(r));
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    EXPECT_EQ(std::stoi(run.output), int(mask.at(c, r))) << c << "," << r;
+  }
 }
 
 TEST(GeoTiffWriter, GdalinfoSeesGeographicUInt8) {

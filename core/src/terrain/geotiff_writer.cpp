@@ -12,6 +12,10 @@
 //   * GDAL_NODATA (TIFF tag 42113, ASCII), https://gdal.org/drivers/raster/gtiff.html.
 //
 // Written with libtiff + libgeotiff (OIIO 2.4 cannot write GeoTIFF tags).
+// Tiles are predicted and deflated here, on every core (libdeflate, zlib
+// format, level 6, as libtiff's own codec would), and handed to libtiff raw
+// in tile order; libtiff alone deflates on one thread (0.4 s of a 48 MB
+// float OHF).
 // Deterministic: no DateTime/Software tags, fixed tile order, and edge tiles
 // padded with the nodata value (or 0), so equal input gives equal bytes.
 // Atomic: see atomic_file.hpp.
@@ -22,11 +26,15 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <string>
 #include <type_traits>
 #include <vector>
 
+#include <libdeflate.h>
+
 #include "atomic_file.hpp"
+#include "horizon/common/parallel.hpp"
 #include "horizon/geodesy/crs.hpp"
 #include "tiff_support.hpp"
 
@@ -100,6 +108,37 @@ Status write_georef(const std::string& path, TIFF* tif, const Georeference& geor
   return Status::Ok();
 }
 
+// TIFF predictors, applied in place to one tile (kTileSize rows of kTileSize
+// samples), exactly as libtiff's encoder applies them (tif_predict.c):
+// horizontal (2) differences each row's bytes; floating point (3) first
+// splits each row into byte planes, most significant first, then
+// differences the row's bytes.
+void predict_horizontal(std::uint8_t* tile) {
+  for (std::uint32_t r = 0; r < kTileSize; ++r) {
+    std::uint8_t* row = tile + static_cast<std::size_t>(r) * kTileSize;
+    for (std::uint32_t i = kTileSize - 1; i > 0; --i) row[i] = static_cast<std::uint8_t>(row[i] - row[i - 1]);
+  }
+}
+
+void predict_floating_point(float* tile, std::vector<std::uint8_t>& scratch) {
+  constexpr std::size_t kBytes = sizeof(float), kRowBytes = kTileSize * kBytes;
+  scratch.resize(kRowBytes);
+  for (std::uint32_t r = 0; r < kTileSize; ++r) {
+    auto* row = reinterpret_cast<std::uint8_t*>(tile + static_cast<std::size_t>(r) * kTileSize);
+    std::copy_n(row, kRowBytes, scratch.data());
+    for (std::size_t i = 0; i < kTileSize; ++i)
+      for (std::size_t b = 0; b < kBytes; ++b) {
+        // Little-endian host: byte b of a sample goes to plane kBytes - 1 - b.
+        row[(kBytes - 1 - b) * kTileSize + i] = scratch[kBytes * i + b];
+      }
+    for (std::size_t i = kRowBytes - 1; i > 0; --i) row[i] = static_cast<std::uint8_t>(row[i] - row[i - 1]);
+  }
+}
+
+struct CompressorDeleter {
+  void operator()(libdeflate_compressor* c) const { libdeflate_free_compressor(c); }
+};
+
 template <class T>
 Status write_impl(const std::string& path, const Grid<T>& grid, const Georeference& georef,
                   std::optional<double> nodata) {
@@ -147,9 +186,24 @@ Status write_impl(const std::string& path, const Grid<T>& grid, const Georeferen
     }
     HORIZON_RETURN_IF_ERROR(write_georef(path, t, georef));
 
-    std::vector<T> tile(static_cast<std::size_t>(kTileSize) * kTileSize);
-    for (int ty = 0; ty < grid.height(); ty += static_cast<int>(kTileSize)) {
-      for (int tx = 0; tx < grid.width(); tx += static_cast<int>(kTileSize)) {
+    // Encode every tile in parallel, then write them in order.
+    const int tiles_x = static_cast<int>((grid.width() + kTileSize - 1) / kTileSize);
+    const int tiles_y = static_cast<int>((grid.height() + kTileSize - 1) / kTileSize);
+    std::vector<std::vector<std::uint8_t>> encoded(static_cast<std::size_t>(tiles_x) * tiles_y);
+    std::vector<char> failed(encoded.size(), 0);
+    const std::size_t tile_bytes = static_cast<std::size_t>(kTileSize) * kTileSize * sizeof(T);
+    parallel_for(static_cast<std::size_t>(tiles_y), 0, [&](std::size_t band) {
+      std::unique_ptr<libdeflate_compressor, CompressorDeleter> compressor(libdeflate_alloc_compressor(6));
+      std::vector<T> tile(static_cast<std::size_t>(kTileSize) * kTileSize);
+      std::vector<std::uint8_t> scratch;
+      const int ty = static_cast<int>(band * kTileSize);
+      for (int ti = 0; ti < tiles_x; ++ti) {
+        const std::size_t index = band * static_cast<std::size_t>(tiles_x) + static_cast<std::size_t>(ti);
+        if (!compressor) {
+          failed[index] = 1;
+          continue;
+        }
+        const int tx = ti * static_cast<int>(kTileSize);
         std::fill(tile.begin(), tile.end(), fill);
         const int rows = std::min<int>(kTileSize, grid.height() - ty);
         const int cols = std::min<int>(kTileSize, grid.width() - tx);
@@ -163,11 +217,27 @@ Status write_impl(const std::string& path, const Grid<T>& grid, const Georeferen
               dst[c] = src[c];
           }
         }
-        const ttile_t index = TIFFComputeTile(t, static_cast<std::uint32_t>(tx), static_cast<std::uint32_t>(ty), 0, 0);
-        if (TIFFWriteEncodedTile(t, index, tile.data(), static_cast<tmsize_t>(tile.size() * sizeof(T))) < 0)
+        if constexpr (kFloat)
+          predict_floating_point(tile.data(), scratch);
+        else
+          predict_horizontal(tile.data());
+        std::vector<std::uint8_t>& out = encoded[index];
+        out.resize(libdeflate_zlib_compress_bound(compressor.get(), tile_bytes));
+        const std::size_t size =
+            libdeflate_zlib_compress(compressor.get(), tile.data(), tile_bytes, out.data(), out.size());
+        if (size == 0) failed[index] = 1;
+        out.resize(size);
+      }
+    });
+    for (int ty = 0; ty < tiles_y; ++ty)
+      for (int ti = 0; ti < tiles_x; ++ti) {
+        const std::size_t index = static_cast<std::size_t>(ty) * tiles_x + static_cast<std::size_t>(ti);
+        if (failed[index]) return write_error(ErrorCode::kInternal, path, "cannot deflate a tile (libdeflate)");
+        const ttile_t tile_index = TIFFComputeTile(t, static_cast<std::uint32_t>(ti) * kTileSize,
+                                                   static_cast<std::uint32_t>(ty) * kTileSize, 0, 0);
+        if (TIFFWriteRawTile(t, tile_index, encoded[index].data(), static_cast<tmsize_t>(encoded[index].size())) < 0)
           return write_error(ErrorCode::kIoError, path, "cannot write tile (" + messages.errors + ")");
       }
-    }
     if (TIFFFlush(t) != 1 || !messages.errors.empty())
       return write_error(ErrorCode::kIoError, path, "cannot finish the file (" + messages.errors + ")");
     tif.reset();  // TIFFClose
