@@ -3,6 +3,7 @@
 // cull_call); the handlers translate and run the engine on the worker pool.
 #pragma once
 
+#include "arena_allocator.hpp"
 #include "horizon/v1/visibility.grpc.pb.h"
 #include "server_env.hpp"
 
@@ -10,7 +11,10 @@ namespace horizon::server {
 
 class VisibilityService final : public v1::VisibilityService::CallbackService {
  public:
-  explicit VisibilityService(ServerEnv& env) : env_(env) {}
+  explicit VisibilityService(ServerEnv& env) : env_(env) {
+    SetMessageAllocatorFor_CullBoxes(&cull_messages_);
+    SetMessageAllocatorFor_LineOfSight(&line_messages_);
+  }
 
   grpc::ServerWriteReactor<v1::ViewshedResponse>* ComputeViewshed(grpc::CallbackServerContext* context,
                                                                   const v1::ViewshedRequest* request) override;
@@ -21,6 +25,9 @@ class VisibilityService final : public v1::VisibilityService::CallbackService {
 
  private:
   ServerEnv& env_;
+  // The batched calls' messages live on one arena per call (arena_allocator.hpp).
+  ArenaAllocator<v1::CullBoxesRequest, v1::CullBoxesResponse> cull_messages_;
+  ArenaAllocator<v1::LineOfSightRequest, v1::LineOfSightResponse> line_messages_;
 };
 
 class CallScope;
