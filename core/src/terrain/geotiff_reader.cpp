@@ -160,6 +160,9 @@ struct TiffFacts {
   bool tiled = false;
   int block_width = 0, block_height = 0;  // a tile, or a strip (width x rows per strip)
   std::uint64_t blocks_per_plane = 0;
+  // What ReadOptions asked for, checked against the layout.
+  int channel = 0;  // 0-based sample of the chosen band
+  PixelType type = PixelType::kUInt8;
 };
 
 Result<int> channel_of(const ReadOptions& options, int bands, const std::string& path);
@@ -191,8 +194,12 @@ Result<TiffFacts> read_tiff_facts(const std::string& path, const ReadOptions& op
   facts.samples = samples;
   // The band and the pixel type before the georeferencing: a layout problem
   // is the first thing to tell.
-  if (auto channel = channel_of(options, facts.samples, path); !channel.ok()) return channel.error();
-  if (auto type = pixel_type_of(facts, path); !type.ok()) return type.error();
+  auto channel = channel_of(options, facts.samples, path);
+  if (!channel.ok()) return channel.error();
+  auto type = pixel_type_of(facts, path);
+  if (!type.ok()) return type.error();
+  facts.channel = *channel;
+  facts.type = *type;
   facts.planar_separate = planar == PLANARCONFIG_SEPARATE && samples > 1;
   facts.tiled = TIFFIsTiled(tif.get()) != 0;
   if (facts.tiled) {
@@ -488,41 +495,38 @@ Status check_path(const std::string& path, const ReadOptions& options) {
 }
 
 // Reads `options.window` (or the whole raster) through libtiff.
-Result<Dem> read_geotiff_window(const std::string& path, const ReadOptions& options, const TiffFacts& tiff_facts,
+Result<Dem> read_geotiff_window(const std::string& path, const ReadOptions& options, const TiffFacts& facts,
                                 std::chrono::steady_clock::time_point start, ReadStats* stats) {
-  const TiffFacts* facts = &tiff_facts;
-  auto channel = channel_of(options, facts->samples, path);
-  if (!channel.ok()) return channel.error();
-  auto type = pixel_type_of(*facts, path);
-  if (!type.ok()) return type.error();
-  auto window = clip_read_window(*options.window, facts->width, facts->height, path);
+  const int channel = facts.channel;
+  const PixelType type = facts.type;
+  auto window = clip_read_window(*options.window, facts.width, facts.height, path);
   if (!window.ok()) return window.error();
 
   ReadStats local;
-  local.file_width = facts->width;
-  local.file_height = facts->height;
+  local.file_width = facts.width;
+  local.file_height = facts.height;
   local.window = *window;
-  local.tiled = facts->tiled;
-  local.block_width = facts->block_width;
-  local.block_height = facts->block_height;
-  local.blocks_total = facts->blocks_per_plane;
-  const std::size_t bytes = pixel_type_size(*type);
+  local.tiled = facts.tiled;
+  local.block_width = facts.block_width;
+  local.block_height = facts.block_height;
+  local.blocks_total = facts.blocks_per_plane;
+  const std::size_t bytes = pixel_type_size(type);
   if (window->cell_count() > kMaxCells)
     return dem_error(ErrorCode::kResourceExhausted, path,
                      std::to_string(window->width()) + "x" + std::to_string(window->height()) +
                          " cells exceed the limit of " + std::to_string(kMaxCells));
   std::vector<unsigned char> raw(window->cell_count() * bytes);
   HORIZON_RETURN_IF_ERROR(
-      read_window_with_libtiff(path, *facts, *channel, *window, bytes, options.threads, raw, local));
+      read_window_with_libtiff(path, facts, channel, *window, bytes, options.threads, raw, local));
 
   Dem dem;
   dem.elevation = Grid<float>(window->width(), window->height());
-  convert_any(*type, raw, dem.elevation, facts->nodata);
-  dem.georef = facts->georef;
-  dem.georef.transform = facts->georef.transform.shifted(window->col0, window->row0);
-  dem.nodata = facts->nodata;
+  convert_any(type, raw, dem.elevation, facts.nodata);
+  dem.georef = facts.georef;
+  dem.georef.transform = facts.georef.transform.shifted(window->col0, window->row0);
+  dem.nodata = facts.nodata;
   dem.source = path;
-  dem.format = format_name(*facts, *type, *channel);
+  dem.format = format_name(facts, type, channel);
   local.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (stats) *stats = local;
   return dem;
@@ -534,17 +538,13 @@ Result<DemHeader> read_geotiff_header(const std::string& path, const ReadOptions
   HORIZON_RETURN_IF_ERROR(check_path(path, options));
   auto facts = read_tiff_facts(path, options);
   if (!facts.ok()) return facts.error();
-  auto channel = channel_of(options, facts->samples, path);
-  if (!channel.ok()) return channel.error();
-  auto type = pixel_type_of(*facts, path);
-  if (!type.ok()) return type.error();
   DemHeader h;
   h.width = facts->width;
   h.height = facts->height;
   h.georef = facts->georef;
   h.nodata = facts->nodata;
   h.source = path;
-  h.format = format_name(*facts, *type, *channel);
+  h.format = format_name(*facts, facts->type, facts->channel);
   h.tiled = facts->tiled;
   h.block_width = facts->block_width;
   h.block_height = facts->block_height;
@@ -558,7 +558,6 @@ Result<Dem> read_geotiff(const std::string& path, const ReadOptions& options, Re
   auto facts = read_tiff_facts(path, options);
   if (!facts.ok()) return facts.error();
   if (options.window) return read_geotiff_window(path, options, *facts, start, stats);
-  if (facts->width <= 0 || facts->height <= 0) return dem_error(ErrorCode::kDataError, path, "has no 2-D pixel grid");
   // The whole raster: a window that covers it.
   ReadOptions whole = options;
   whole.window = Window{0, 0, facts->width, facts->height};
