@@ -22,6 +22,7 @@
 #include "horizon/terrain/geotiff_writer.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -121,6 +122,7 @@ void predict_horizontal(std::uint8_t* tile) {
 }
 
 void predict_floating_point(float* tile, std::vector<std::uint8_t>& scratch) {
+  static_assert(std::endian::native == std::endian::little, "the byte planes below are laid out for little-endian");
   constexpr std::size_t kBytes = sizeof(float), kRowBytes = kTileSize * kBytes;
   scratch.resize(kRowBytes);
   for (std::uint32_t r = 0; r < kTileSize; ++r) {
@@ -197,12 +199,13 @@ Status write_impl(const std::string& path, const Grid<T>& grid, const Georeferen
       std::vector<T> tile(static_cast<std::size_t>(kTileSize) * kTileSize);
       std::vector<std::uint8_t> scratch;
       const int ty = static_cast<int>(band * kTileSize);
+      const std::size_t first = band * static_cast<std::size_t>(tiles_x);
+      if (!compressor) {
+        std::fill_n(failed.begin() + static_cast<std::ptrdiff_t>(first), tiles_x, 1);
+        return;
+      }
       for (int ti = 0; ti < tiles_x; ++ti) {
-        const std::size_t index = band * static_cast<std::size_t>(tiles_x) + static_cast<std::size_t>(ti);
-        if (!compressor) {
-          failed[index] = 1;
-          continue;
-        }
+        const std::size_t index = first + static_cast<std::size_t>(ti);
         const int tx = ti * static_cast<int>(kTileSize);
         std::fill(tile.begin(), tile.end(), fill);
         const int rows = std::min<int>(kTileSize, grid.height() - ty);
