@@ -15,7 +15,7 @@ packages=(
   openimageio-tools  # OpenImageIO's CMake package refuses to load without its tools (/usr/bin/iconvert)
   libgeotiff-dev libtiff-dev libdeflate-dev  # libdeflate: the GeoTIFF writer deflates tiles on every core
   # GPU path (EGL, headless Mesa)
-  libegl-dev libegl-mesa0 libgl1-mesa-dri libgles-dev libopengl-dev
+  libegl-dev libegl-mesa0 libgl1-mesa-dri libgles-dev libopengl-dev libgl-dev
   # daemon
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
   prometheus-cpp-dev  # horizond's /metrics (core + pull)

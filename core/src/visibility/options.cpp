@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <string>
+#include <utility>
 
 namespace horizon::visibility {
 namespace {
@@ -43,6 +44,25 @@ Status validate_options(const ViewshedOptions& o) {
     default:
       return bad_option("blend", "unknown ray blend value " + number(static_cast<int>(o.radial.blend)));
   }
+  switch (o.gpu.method) {
+    case GpuMethod::kFragment:
+    case GpuMethod::kCompute:
+      break;
+    default:
+      return bad_option("gpu_method", "unknown GPU method value " + number(static_cast<int>(o.gpu.method)));
+  }
+  switch (o.backend) {
+    case Backend::kAuto:
+    case Backend::kCpu:
+      break;
+    case Backend::kGpu:
+      if (o.algorithm != Algorithm::kRadial)
+        return bad_option("backend", "the GPU backend computes algorithm fast only; algorithm " +
+                                         std::string(algorithm_name(o.algorithm)) + " runs on the CPU (backend auto or cpu)");
+      break;
+    default:
+      return bad_option("backend", "unknown backend value " + number(static_cast<int>(o.backend)));
+  }
   switch (o.algorithm) {
     case Algorithm::kRadial:
     case Algorithm::kR3:
@@ -62,7 +82,30 @@ constexpr NamedAlgorithm kNames[] = {{Algorithm::kRadial, "fast"},
                                      {Algorithm::kR3, "r3"},
                                      {Algorithm::kExact, "exact"},
                                      {Algorithm::kConservative, "conservative"}};
+constexpr std::pair<Backend, std::string_view> kBackends[] = {
+    {Backend::kAuto, "auto"}, {Backend::kCpu, "cpu"}, {Backend::kGpu, "gpu"}};
+constexpr std::pair<GpuMethod, std::string_view> kGpuMethods[] = {{GpuMethod::kFragment, "fragment"},
+                                                                  {GpuMethod::kCompute, "compute"}};
+
+template <class T, std::size_t N>
+std::string_view name_of(const std::pair<T, std::string_view> (&table)[N], T value) {
+  for (const auto& [v, name] : table)
+    if (v == value) return name;
+  return "unknown";
+}
+
+template <class T, std::size_t N>
+std::optional<T> value_of(const std::pair<T, std::string_view> (&table)[N], std::string_view name) {
+  for (const auto& [v, n] : table)
+    if (n == name) return v;
+  return std::nullopt;
+}
 }  // namespace
+
+std::string_view backend_name(Backend backend) { return name_of(kBackends, backend); }
+std::optional<Backend> parse_backend(std::string_view name) { return value_of(kBackends, name); }
+std::string_view gpu_method_name(GpuMethod method) { return name_of(kGpuMethods, method); }
+std::optional<GpuMethod> parse_gpu_method(std::string_view name) { return value_of(kGpuMethods, name); }
 
 std::string_view algorithm_name(Algorithm algorithm) {
   for (const auto& n : kNames)

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 
+#include "horizon/gpu/gpu_ohf.hpp"
 #include "horizon/visibility/exact.hpp"
 #include "horizon/visibility/r3.hpp"
 #include "horizon/visibility/radial_sweep.hpp"
@@ -33,6 +34,36 @@ terrain::Grid<float> per_answered_cell(const ViewshedResult& result, F&& f) {
   return out;
 }
 
+// The fast OHF on the GPU when the options and the pool ask for it. Returns
+// true when the GPU answered (or the caller's control stopped it: `status`
+// then holds that error); false leaves the work to the CPU, with
+// stats.gpu_fallback saying why when the GPU was asked for.
+bool try_gpu(const terrain::Grid<float>& elevation, const ViewFrame& frame, const ViewshedOptions& options,
+             const RunControl* control, gpu::ContextPool* pool, ViewshedResult& result, Status& status) {
+  if (options.algorithm != Algorithm::kRadial || options.backend == Backend::kCpu) return false;
+  if (pool == nullptr) {
+    if (options.backend == Backend::kGpu) result.stats.gpu_fallback = "no EGL context in this process";
+    return false;
+  }
+  if (options.backend == Backend::kAuto && !pool->prefers_gpu(frame.window.cell_count())) return false;
+  auto lease = pool->borrow();
+  if (!lease.ok()) {
+    result.stats.gpu_fallback = lease.error().message;
+    return false;
+  }
+  status = gpu::gpu_radial_ohf(*lease, elevation, frame, options.radial, options.gpu, control, result.ohf,
+                               result.stats);
+  if (status.ok()) {
+    result.stats.backend = "gpu";
+    return true;
+  }
+  const ErrorCode code = status.error().code;
+  if (code == ErrorCode::kCancelled || code == ErrorCode::kDeadlineExceeded) return true;
+  result.stats.gpu_fallback = status.error().message;
+  status = Status::Ok();
+  return false;
+}
+
 bool has_voids(const terrain::Grid<float>& z) {
   return std::any_of(z.values().begin(), z.values().end(), [](float v) { return std::isnan(v); });
 }
@@ -40,7 +71,8 @@ bool has_voids(const terrain::Grid<float>& z) {
 }  // namespace
 
 Result<ViewshedResult> compute_viewshed(const terrain::Dem& dem, const geodesy::GridPoint& observer,
-                                        const ViewshedOptions& options, const RunControl* control) {
+                                        const ViewshedOptions& options, const RunControl* control,
+                                        gpu::ContextPool* gpu) {
   auto frame = make_view_frame(dem, observer, options);
   if (!frame.ok()) return frame.error();
 
@@ -64,7 +96,7 @@ Result<ViewshedResult> compute_viewshed(const terrain::Dem& dem, const geodesy::
 
   const auto start = std::chrono::steady_clock::now();
   Status status;
-  switch (options.algorithm) {
+  if (!try_gpu(*elevation, *frame, options, control, gpu, result, status)) switch (options.algorithm) {
     case Algorithm::kRadial:
       status = radial_ohf(*elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats);
       break;

@@ -48,6 +48,26 @@ struct RadialOptions {
   int thinning_levels = 0;
 };
 
+// Where the fast algorithm runs (the others always run on the CPU).
+enum class Backend {
+  kAuto,  // the GPU when a hardware one is present and measured faster for the request's size, else the CPU
+  kCpu,   // the radial sweep on the CPU (radial_sweep.hpp)
+  kGpu,   // the same rays on an EGL context (gpu/gpu_ohf.hpp); a GL failure is answered by the CPU path
+};
+
+// The GL formulation of the fast algorithm (gpu/gpu_ohf.hpp).
+enum class GpuMethod {
+  kFragment,  // render passes into R32F/RG32F targets (the patent's modulation and shift disks)
+  kCompute,   // compute-shader passes over the same images
+};
+
+struct GpuOptions {
+  GpuMethod method = GpuMethod::kFragment;
+  // Propagate by shift doubling: log2(N) passes of shifts 1, 2, 4, ... instead
+  // of N passes of a one-texel shift (same result, far fewer passes).
+  bool log_step = true;
+};
+
 struct ViewshedOptions {
   double target_height = 0.0;  // metres above ground at each target cell, >= 0
   // Ground distance limit in metres; +infinity = the whole DEM. Cells beyond it
@@ -62,6 +82,8 @@ struct ViewshedOptions {
   Algorithm algorithm = Algorithm::kRadial;
   RadialOptions radial;
   unsigned threads = 0;  // worker threads; 0 = all hardware threads
+  Backend backend = Backend::kAuto;
+  GpuOptions gpu;
   // The caller needs the visible/hidden answer at target_height only (the
   // viewshed raster), not the OHF or the minimum visible target height.
   // "exact" then decides each cell as R3 does without finding R3's OHF
@@ -73,6 +95,12 @@ struct ViewshedOptions {
 // "fast", "r3", "exact", "conservative".
 std::string_view algorithm_name(Algorithm algorithm);
 std::optional<Algorithm> parse_algorithm(std::string_view name);
+
+// "auto", "cpu", "gpu" and "fragment", "compute".
+std::string_view backend_name(Backend backend);
+std::optional<Backend> parse_backend(std::string_view name);
+std::string_view gpu_method_name(GpuMethod method);
+std::optional<GpuMethod> parse_gpu_method(std::string_view name);
 
 // Checks every field: finite, non-negative distances/heights, knob ranges.
 // The error's field names the option ("max_distance").

@@ -22,6 +22,7 @@
 #include "horizon/common/control.hpp"
 #include "horizon/common/error.hpp"
 #include "horizon/geodesy/observer.hpp"
+#include "horizon/gpu/context_pool.hpp"
 #include "horizon/terrain/dem.hpp"
 #include "horizon/terrain/preview.hpp"
 #include "horizon/visibility/options.hpp"
@@ -39,8 +40,13 @@ struct ViewshedResult {
 };
 
 // Validates the options, builds the frame and runs the chosen algorithm.
+// Algorithm fast runs on `gpu` (may be null: no GPU) when options.backend is
+// kGpu, or kAuto and the pool prefers the GPU for the window's size; a GPU
+// failure, or kGpu without a pool, is answered on the CPU with
+// stats.gpu_fallback saying why. stats.backend says where it ran.
 Result<ViewshedResult> compute_viewshed(const terrain::Dem& dem, const geodesy::GridPoint& observer,
-                                        const ViewshedOptions& options, const RunControl* control = nullptr);
+                                        const ViewshedOptions& options, const RunControl* control = nullptr,
+                                        gpu::ContextPool* gpu = nullptr);
 
 // Metres: an occlusion height at most this far above the ground counts as the ground itself.
 inline constexpr float kTieTolerance = 1.0e-3f;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 
 namespace horizon::visibility {
 
@@ -13,6 +14,12 @@ struct WorkStats {
   std::uint64_t terrain_samples = 0;   // grid-line crossings (terrain interpolations) evaluated
   std::uint64_t rays = 0;              // sight lines traced (radial: sweep rays; R3: one per target)
   double seconds = 0.0;                // wall time of the algorithm itself
+  // Where the OHF was computed: "cpu" or "gpu".
+  std::string backend = "cpu";
+  // Set when the GPU was asked for (backend gpu, or auto choosing it) but
+  // failed and the CPU answered instead: what failed (context lost, out of
+  // memory, texture too large). Empty otherwise.
+  std::string gpu_fallback;
 };
 
 }  // namespace horizon::visibility

@@ -1,0 +1,120 @@
+// horizon/gpu/context_pool.hpp — headless EGL contexts, created once, lent per request.
+//
+//   auto pool = gpu::ContextPool::create({.contexts = 4});   // ~30 ms + ~6 ms a context
+//   if (!pool.ok()) { /* no EGL: run on the CPU */ }
+//   {
+//     gpu::Lease lease = (*pool)->borrow();   // blocks while all contexts are lent
+//     ... GL calls on this thread ...
+//     if (something failed) lease.fail("GL_OUT_OF_MEMORY in the propagation pass");
+//   }                                         // returned; a failed context is replaced
+//
+// The display is the EGL device platform (eglQueryDevicesEXT), preferring a
+// hardware device over Mesa's software one, with Mesa's surfaceless platform
+// as the fallback; no X and no window are ever needed. Each context is a
+// desktop OpenGL 4.3 core context (compute shaders, R32F/RG32F targets) bound
+// with no surface. A context is current only on the thread holding its lease.
+//
+// Per-context GL objects (programs, textures, framebuffers) are kept in a
+// ContextResources the GL code hangs on the context (Lease::resources()), so
+// shaders are compiled once per context and images are reallocated only when
+// a request needs more room than any before it.
+//
+// Failures: a lease marked failed (a GL error, GL_OUT_OF_MEMORY, a lost
+// context) destroys that context and its resources on return and creates a
+// fresh one, so one bad request never poisons later ones. counters() tells
+// an operator how often that happened.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "horizon/common/error.hpp"
+
+namespace horizon::gpu {
+
+struct DeviceInfo {
+  std::string platform;  // "device" (EGL_EXT_platform_device) or "surfaceless" (EGL_MESA_platform_surfaceless)
+  std::string vendor, renderer, version;  // GL_VENDOR, GL_RENDERER, GL_VERSION
+  bool software = false;  // a CPU rasteriser (llvmpipe, softpipe): the CPU path is faster
+  int max_texture_size = 0;  // GL_MAX_TEXTURE_SIZE, texels per side
+};
+
+struct PoolOptions {
+  int contexts = 1;  // contexts created up front, [1, 64]: requests that can run on the GPU at once
+};
+
+// What the GL code keeps per context; created on first use by the code that
+// owns it, destroyed (with the context current) when the context goes.
+class ContextResources {
+ public:
+  virtual ~ContextResources() = default;
+};
+
+class ContextPool;
+
+// One borrowed context, current on the borrowing thread until destruction.
+// Movable, not copyable.
+class Lease {
+ public:
+  Lease(Lease&& other) noexcept;
+  Lease& operator=(Lease&&) = delete;
+  Lease(const Lease&) = delete;
+  ~Lease();
+
+  const DeviceInfo& device() const;
+  // The context's resources slot (null until the GL code sets it).
+  std::unique_ptr<ContextResources>& resources();
+  // Marks the context unusable: it is destroyed when returned and replaced.
+  void fail();
+  bool failed() const { return failed_; }
+  int index() const { return index_; }  // which context of the pool, [0, size)
+
+ private:
+  friend class ContextPool;
+  Lease(ContextPool* pool, int index) : pool_(pool), index_(index) {}
+  ContextPool* pool_ = nullptr;
+  int index_ = -1;
+  bool failed_ = false;
+};
+
+class ContextPool {
+ public:
+  // Initialises the display and creates every context. Fails (kUnsupported)
+  // when no EGL display or OpenGL 4.3 context can be had.
+  static Result<std::unique_ptr<ContextPool>> create(const PoolOptions& options);
+  ~ContextPool();
+  ContextPool(const ContextPool&) = delete;
+  ContextPool& operator=(const ContextPool&) = delete;
+
+  const DeviceInfo& device() const;
+  int size() const;
+
+  // Waits for a free context and makes it current on this thread. Fails only
+  // when a replacement for a failed context cannot be created.
+  Result<Lease> borrow();
+
+  struct Counters {
+    std::uint64_t leases = 0;    // contexts lent
+    std::uint64_t failures = 0;  // leases marked failed
+    std::uint64_t replaced = 0;  // contexts re-created after a failure
+  };
+  Counters counters() const;
+
+  // auto backend: true when requests of `cells` cells should run here. A
+  // software rasteriser never; a hardware GPU from the size at which it was
+  // measured faster than the CPU (set_crossover_cells, from gpu::calibrate),
+  // or from 1 M cells until measured.
+  bool prefers_gpu(std::uint64_t cells) const;
+  void set_crossover_cells(std::uint64_t cells);
+  std::uint64_t crossover_cells() const;
+
+ private:
+  friend class Lease;
+  struct Impl;
+  explicit ContextPool(std::unique_ptr<Impl> impl);
+  void give_back(int index, bool failed);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace horizon::gpu

@@ -1,0 +1,277 @@
+// EGL display and context pool (see context_pool.hpp).
+#include "horizon/gpu/context_pool.hpp"
+
+#include <EGL/egl.h>
+#include <EGL/eglext.h>
+#include <GL/gl.h>
+
+#include <algorithm>
+#include <condition_variable>
+#include <cstdio>
+#include <iterator>
+#include <mutex>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+namespace horizon::gpu {
+namespace {
+
+#ifndef EGL_PLATFORM_SURFACELESS_MESA
+#define EGL_PLATFORM_SURFACELESS_MESA 0x31DD
+#endif
+
+bool has_extension(const char* list, std::string_view name) {
+  if (list == nullptr) return false;
+  std::string_view rest(list);
+  while (!rest.empty()) {
+    const auto space = rest.find(' ');
+    if (rest.substr(0, space) == name) return true;
+    if (space == std::string_view::npos) break;
+    rest.remove_prefix(space + 1);
+  }
+  return false;
+}
+
+std::string egl_error_text(EGLint error) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "EGL error 0x%04X", static_cast<unsigned>(error));
+  return buffer;
+}
+
+struct Display {
+  EGLDisplay display = EGL_NO_DISPLAY;
+  std::string platform;
+  bool software_device = false;  // EGL_MESA_device_software
+};
+
+// The EGL device platform, hardware devices first; then Mesa's surfaceless platform.
+Result<Display> open_display() {
+  const char* client = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
+  std::string tried;
+  if (has_extension(client, "EGL_EXT_device_enumeration") && has_extension(client, "EGL_EXT_platform_device")) {
+    auto query_devices = reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(eglGetProcAddress("eglQueryDevicesEXT"));
+    auto query_string = reinterpret_cast<PFNEGLQUERYDEVICESTRINGEXTPROC>(eglGetProcAddress("eglQueryDeviceStringEXT"));
+    auto platform_display =
+        reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(eglGetProcAddress("eglGetPlatformDisplayEXT"));
+    EGLint count = 0;
+    if (query_devices && query_string && platform_display && query_devices(0, nullptr, &count) && count > 0) {
+      std::vector<EGLDeviceEXT> devices(static_cast<std::size_t>(count));
+      query_devices(count, devices.data(), &count);
+      // Hardware devices first (stable order otherwise).
+      std::stable_sort(devices.begin(), devices.begin() + count, [&](EGLDeviceEXT a, EGLDeviceEXT b) {
+        return !has_extension(query_string(a, EGL_EXTENSIONS), "EGL_MESA_device_software") &&
+               has_extension(query_string(b, EGL_EXTENSIONS), "EGL_MESA_device_software");
+      });
+      for (EGLint i = 0; i < count; ++i) {
+        EGLDisplay display = platform_display(EGL_PLATFORM_DEVICE_EXT, devices[i], nullptr);
+        EGLint major = 0, minor = 0;
+        if (display != EGL_NO_DISPLAY && eglInitialize(display, &major, &minor)) {
+          return Display{display, "device",
+                         has_extension(query_string(devices[i], EGL_EXTENSIONS), "EGL_MESA_device_software")};
+        }
+        tried += "device " + std::to_string(i) + ": " + egl_error_text(eglGetError()) + "; ";
+      }
+    }
+  }
+  if (has_extension(client, "EGL_MESA_platform_surfaceless")) {
+    EGLDisplay display = eglGetPlatformDisplay(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
+    EGLint major = 0, minor = 0;
+    if (display != EGL_NO_DISPLAY && eglInitialize(display, &major, &minor)) return Display{display, "surfaceless", true};
+    tried += "surfaceless: " + egl_error_text(eglGetError()) + "; ";
+  }
+  if (tried.empty()) tried = "no EGL device or surfaceless platform offered; ";
+  tried.resize(tried.size() - 2);
+  return make_error(ErrorCode::kUnsupported, "gpu: no headless EGL display (" + tried + ")", "gpu");
+}
+
+Result<EGLContext> create_context(EGLDisplay display) {
+  const char* extensions = eglQueryString(display, EGL_EXTENSIONS);
+  if (!has_extension(extensions, "EGL_KHR_surfaceless_context"))
+    return make_error(ErrorCode::kUnsupported, "gpu: the EGL display cannot bind a context without a surface", "gpu");
+  EGLConfig config = nullptr;
+  if (!has_extension(extensions, "EGL_KHR_no_config_context")) {
+    const EGLint attributes[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_NONE};
+    EGLint found = 0;
+    if (!eglChooseConfig(display, attributes, &config, 1, &found) || found < 1)
+      return make_error(ErrorCode::kUnsupported, "gpu: no EGL config renders desktop OpenGL", "gpu");
+  }
+  if (!eglBindAPI(EGL_OPENGL_API))
+    return make_error(ErrorCode::kUnsupported, "gpu: EGL cannot bind the desktop OpenGL API", "gpu");
+  // A reset (a lost context) reported rather than fatal, where the driver
+  // offers it (EGL 1.5 / KHR_create_context); without it, plainly.
+  const EGLint base[] = {EGL_CONTEXT_MAJOR_VERSION, 4, EGL_CONTEXT_MINOR_VERSION, 3,
+                         EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT};
+  std::vector<EGLint> robust(std::begin(base), std::end(base));
+  robust.insert(robust.end(), {EGL_CONTEXT_OPENGL_RESET_NOTIFICATION_STRATEGY, EGL_LOSE_CONTEXT_ON_RESET, EGL_NONE});
+  std::vector<EGLint> plain(std::begin(base), std::end(base));
+  plain.push_back(EGL_NONE);
+  EGLContext context = eglCreateContext(display, config, EGL_NO_CONTEXT, robust.data());
+  if (context == EGL_NO_CONTEXT) context = eglCreateContext(display, config, EGL_NO_CONTEXT, plain.data());
+  if (context == EGL_NO_CONTEXT)
+    return make_error(ErrorCode::kUnsupported,
+                      "gpu: cannot create an OpenGL 4.3 core context (" + egl_error_text(eglGetError()) + ")", "gpu");
+  return context;
+}
+
+}  // namespace
+
+struct ContextPool::Impl {
+  Display display;
+  DeviceInfo info;
+  struct Slot {
+    EGLContext context = EGL_NO_CONTEXT;
+    std::unique_ptr<ContextResources> resources;
+    bool lent = false;
+  };
+  std::vector<Slot> slots;
+  mutable std::mutex mutex;
+  std::condition_variable returned;
+  Counters counters;
+  std::uint64_t crossover = 1u << 20;
+
+  // Destroys a slot's context, its resources first with the context current.
+  void destroy(Slot& slot) {
+    if (slot.context == EGL_NO_CONTEXT) return;
+    if (slot.resources) {
+      eglMakeCurrent(display.display, EGL_NO_SURFACE, EGL_NO_SURFACE, slot.context);
+      slot.resources.reset();
+      eglMakeCurrent(display.display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+    }
+    eglDestroyContext(display.display, slot.context);
+    slot.context = EGL_NO_CONTEXT;
+  }
+
+  ~Impl() {
+    for (Slot& slot : slots) destroy(slot);
+    // Mesa's driver unload leaks a few hundred bytes that LeakSanitizer
+    // reports; under ASan the display stays initialised (process exit frees it).
+#if !defined(__SANITIZE_ADDRESS__)
+    if (display.display != EGL_NO_DISPLAY) eglTerminate(display.display);
+#endif
+    eglReleaseThread();
+  }
+};
+
+Result<std::unique_ptr<ContextPool>> ContextPool::create(const PoolOptions& options) {
+  if (options.contexts < 1 || options.contexts > 64)
+    return make_error(ErrorCode::kInvalidArgument,
+                      "gpu.contexts: must be an integer in [1, 64], got " + std::to_string(options.contexts),
+                      "gpu.contexts");
+  auto impl = std::make_unique<Impl>();
+  auto display = open_display();
+  if (!display.ok()) return display.error();
+  impl->display = *display;
+  impl->slots.resize(static_cast<std::size_t>(options.contexts));
+  for (Impl::Slot& slot : impl->slots) {
+    auto context = create_context(impl->display.display);
+    if (!context.ok()) return context.error();
+    slot.context = *context;
+  }
+  // Facts about the device, read on the first context.
+  EGLContext first = impl->slots.front().context;
+  if (!eglMakeCurrent(impl->display.display, EGL_NO_SURFACE, EGL_NO_SURFACE, first))
+    return make_error(ErrorCode::kUnsupported, "gpu: cannot make a context current (" + egl_error_text(eglGetError()) + ")",
+                      "gpu");
+  auto text = [](GLenum name) {
+    const auto* s = reinterpret_cast<const char*>(glGetString(name));
+    return std::string(s ? s : "");
+  };
+  DeviceInfo& info = impl->info;
+  info.platform = impl->display.platform;
+  info.vendor = text(GL_VENDOR);
+  info.renderer = text(GL_RENDERER);
+  info.version = text(GL_VERSION);
+  glGetIntegerv(GL_MAX_TEXTURE_SIZE, &info.max_texture_size);
+  info.software = impl->display.software_device || info.renderer.find("llvmpipe") != std::string::npos ||
+                  info.renderer.find("softpipe") != std::string::npos;
+  eglMakeCurrent(impl->display.display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+  return std::unique_ptr<ContextPool>(new ContextPool(std::move(impl)));
+}
+
+ContextPool::ContextPool(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+ContextPool::~ContextPool() = default;
+
+const DeviceInfo& ContextPool::device() const { return impl_->info; }
+int ContextPool::size() const { return static_cast<int>(impl_->slots.size()); }
+
+Result<Lease> ContextPool::borrow() {
+  std::unique_lock lock(impl_->mutex);
+  auto free_slot = [&] {
+    return std::find_if(impl_->slots.begin(), impl_->slots.end(), [](const Impl::Slot& s) { return !s.lent; });
+  };
+  impl_->returned.wait(lock, [&] { return free_slot() != impl_->slots.end(); });
+  Impl::Slot& slot = *free_slot();
+  const int index = static_cast<int>(&slot - impl_->slots.data());
+  if (slot.context == EGL_NO_CONTEXT) {  // replaced after a failure
+    auto context = create_context(impl_->display.display);
+    if (!context.ok()) return context.error();
+    slot.context = *context;
+    ++impl_->counters.replaced;
+  }
+  if (!eglMakeCurrent(impl_->display.display, EGL_NO_SURFACE, EGL_NO_SURFACE, slot.context))
+    return make_error(ErrorCode::kInternal,
+                      "gpu: cannot make context " + std::to_string(index) + " current (" +
+                          egl_error_text(eglGetError()) + ")",
+                      "gpu");
+  slot.lent = true;
+  ++impl_->counters.leases;
+  return Lease(this, index);
+}
+
+void ContextPool::give_back(int index, bool failed) {
+  Impl::Slot& slot = impl_->slots[static_cast<std::size_t>(index)];
+  if (failed) {
+    // Resources first, with the context still current, then the context.
+    slot.resources.reset();
+  }
+  eglMakeCurrent(impl_->display.display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+  {
+    std::lock_guard lock(impl_->mutex);
+    if (failed) {
+      eglDestroyContext(impl_->display.display, slot.context);
+      slot.context = EGL_NO_CONTEXT;
+      ++impl_->counters.failures;
+    }
+    slot.lent = false;
+  }
+  impl_->returned.notify_one();
+}
+
+ContextPool::Counters ContextPool::counters() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->counters;
+}
+
+bool ContextPool::prefers_gpu(std::uint64_t cells) const {
+  if (impl_->info.software) return false;
+  std::lock_guard lock(impl_->mutex);
+  return cells >= impl_->crossover;
+}
+
+void ContextPool::set_crossover_cells(std::uint64_t cells) {
+  std::lock_guard lock(impl_->mutex);
+  impl_->crossover = cells;
+}
+
+std::uint64_t ContextPool::crossover_cells() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->crossover;
+}
+
+Lease::Lease(Lease&& other) noexcept
+    : pool_(std::exchange(other.pool_, nullptr)), index_(other.index_), failed_(other.failed_) {}
+
+Lease::~Lease() {
+  if (pool_) pool_->give_back(index_, failed_);
+}
+
+const DeviceInfo& Lease::device() const { return pool_->device(); }
+
+std::unique_ptr<ContextResources>& Lease::resources() {
+  return pool_->impl_->slots[static_cast<std::size_t>(index_)].resources;
+}
+
+void Lease::fail() { failed_ = true; }
+
+}  // namespace horizon::gpu

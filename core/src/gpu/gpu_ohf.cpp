@@ -1,0 +1,451 @@
+// The fast occlusion height field on an EGL context (see gpu_ohf.hpp).
+#include "horizon/gpu/gpu_ohf.hpp"
+
+#define GL_GLEXT_PROTOTYPES 1
+#include <GL/glcorearb.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "horizon/common/parallel.hpp"
+#include "shaders.hpp"
+
+namespace horizon::gpu {
+namespace {
+
+using visibility::ViewFrame;
+
+constexpr float kNoHorizon = -1.0e30f;  // as radial_sweep.cpp
+constexpr float kVoid = -3.0e38f;        // a void in the terrain texture
+
+// Mirrors `struct Sector` in shaders::kCommon (std430: 4-byte scalars only).
+struct GpuSector {
+  std::int32_t rows, dir, line0, lines, ray_half, base, u_count, v_count, j_max, steps_at, dv_at, d_at;
+  float k0, eye_v, v_min, v_max, curvature, mu2, mv2, pad1;
+};
+static_assert(sizeof(GpuSector) == 80);
+
+// One sweep sector in window coordinates, with the double-precision values
+// the CPU sweep uses (radial_ohf's `add`), kept for the read-back.
+struct SectorGeometry {
+  bool rows = true;
+  int dir = 1, line0 = 0, lines = 0, ray_half = 0, base = 0, u_count = 0, v_count = 0;
+  double k0 = 1.0, eye_v = 0.0, metres_u = 1.0, metres_v = 1.0;
+};
+
+std::vector<SectorGeometry> plan_sectors(const ViewFrame& f, double ray_spacing) {
+  const terrain::Window& w = f.window;
+  std::vector<SectorGeometry> out;
+  int base = 0;
+  auto add = [&](bool rows, int dir) {
+    SectorGeometry s;
+    s.rows = rows;
+    s.dir = dir;
+    // Window-relative: line 0 is the window's first row (or column).
+    const double eye_u = rows ? f.observer_row - w.row0 : f.observer_col - w.col0;
+    s.eye_v = rows ? f.observer_col - w.col0 : f.observer_row - w.row0;
+    s.u_count = rows ? w.height() : w.width();
+    s.v_count = rows ? w.width() : w.height();
+    s.metres_u = rows ? f.metres_per_row : f.metres_per_col;
+    s.metres_v = rows ? f.metres_per_col : f.metres_per_row;
+    // k0 as the CPU forms it from DEM line numbers (the same double).
+    const double eye_u_dem = rows ? f.observer_row : f.observer_col;
+    const int u0 = rows ? w.row0 : w.col0, u1 = rows ? w.row1 : w.col1;
+    int line0_dem;
+    if (dir > 0) {
+      line0_dem = std::max(static_cast<int>(std::floor(eye_u_dem)) + 1, u0);
+      s.lines = u1 - line0_dem;
+      s.k0 = line0_dem - eye_u_dem;
+    } else {
+      line0_dem = std::min(static_cast<int>(std::ceil(eye_u_dem)) - 1, u1 - 1);
+      s.lines = line0_dem - u0 + 1;
+      s.k0 = eye_u_dem - line0_dem;
+    }
+    (void)eye_u;
+    s.line0 = line0_dem - u0;
+    if (s.lines <= 0) return;
+    const double k_far = s.k0 + (s.lines - 1);
+    s.ray_half = std::max(1, static_cast<int>(std::ceil(k_far / ray_spacing)));
+    s.base = base;
+    base += 2 * s.ray_half + 1;
+    out.push_back(s);
+  };
+  add(true, -1);   // north
+  add(true, +1);   // south
+  add(false, +1);  // east
+  add(false, -1);  // west
+  return out;
+}
+
+GLuint compile(GLenum type, const std::string& source, std::string& log) {
+  GLuint shader = glCreateShader(type);
+  const char* text = source.c_str();
+  glShaderSource(shader, 1, &text, nullptr);
+  glCompileShader(shader);
+  GLint ok = 0;
+  glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
+  if (!ok) {
+    char buffer[4096] = {};
+    glGetShaderInfoLog(shader, sizeof buffer, nullptr, buffer);
+    log = buffer;
+    glDeleteShader(shader);
+    return 0;
+  }
+  return shader;
+}
+
+GLuint link(std::initializer_list<GLuint> shaders, std::string& log) {
+  GLuint program = glCreateProgram();
+  for (GLuint s : shaders) glAttachShader(program, s);
+  glLinkProgram(program);
+  for (GLuint s : shaders) glDeleteShader(s);
+  GLint ok = 0;
+  glGetProgramiv(program, GL_LINK_STATUS, &ok);
+  if (!ok) {
+    char buffer[4096] = {};
+    glGetProgramInfoLog(program, sizeof buffer, nullptr, buffer);
+    log = buffer;
+    glDeleteProgram(program);
+    return 0;
+  }
+  return program;
+}
+
+std::string with_pass(const char* main, const char* pass) {
+  std::string source = std::string(shaders::kCommon) + "#define PASS " + pass + "\n" + main;
+  return source;
+}
+
+// A 2D texture that only grows (glTexStorage2D is immutable: growing
+// re-creates it); requests of the size seen before reuse it.
+struct Image {
+  GLuint texture = 0;
+  GLenum format = GL_R32F;
+  int width = 0, height = 0;
+
+  void ensure(int w, int h) {
+    if (texture != 0 && w <= width && h <= height) return;
+    if (texture != 0) glDeleteTextures(1, &texture);
+    width = std::max(w, width);
+    height = std::max(h, height);
+    glGenTextures(1, &texture);
+    glBindTexture(GL_TEXTURE_2D, texture);
+    glTexStorage2D(GL_TEXTURE_2D, 1, format, width, height);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  }
+  ~Image() {
+    if (texture != 0) glDeleteTextures(1, &texture);
+  }
+};
+
+// The GL objects of one context: compiled once, grown on demand.
+struct OhfResources final : ContextResources {
+  GLuint fragment[3] = {};  // modulate, propagate, resolve
+  GLuint compute[3] = {};
+  GLuint scan = 0;
+  GLuint vao = 0, fbo = 0, buffers[3] = {};
+  Image terrain{0, GL_R32F}, disk[2]{{0, GL_RG32F}, {0, GL_RG32F}}, out{0, GL_RG32F};
+  std::string error;  // set when a program failed to build
+
+  OhfResources() {
+    const char* passes[3] = {"modulate", "propagate", "resolve"};
+    std::string log;
+    for (int i = 0; i < 3 && error.empty(); ++i) {
+      GLuint vs = compile(GL_VERTEX_SHADER, shaders::kVertex, log);
+      GLuint fs = vs ? compile(GL_FRAGMENT_SHADER, with_pass(shaders::kFragmentMain, passes[i]), log) : 0;
+      fragment[i] = fs ? link({vs, fs}, log) : 0;
+      GLuint cs = fragment[i] ? compile(GL_COMPUTE_SHADER, with_pass(shaders::kComputeMain, passes[i]), log) : 0;
+      compute[i] = cs ? link({cs}, log) : 0;
+      if (!compute[i]) error = std::string("gpu: the ") + passes[i] + " shader does not build: " + log;
+    }
+    if (error.empty()) {
+      GLuint cs = compile(GL_COMPUTE_SHADER, std::string(shaders::kCommon) + shaders::kComputeScan, log);
+      scan = cs ? link({cs}, log) : 0;
+      if (!scan) error = "gpu: the scan shader does not build: " + log;
+    }
+    glGenVertexArrays(1, &vao);
+    glGenFramebuffers(1, &fbo);
+    glGenBuffers(3, buffers);
+  }
+  ~OhfResources() override {
+    for (GLuint p : fragment) glDeleteProgram(p);
+    for (GLuint p : compute) glDeleteProgram(p);
+    glDeleteProgram(scan);
+    glDeleteVertexArrays(1, &vao);
+    glDeleteFramebuffers(1, &fbo);
+    glDeleteBuffers(3, buffers);
+  }
+};
+
+std::string gl_error_name(GLenum e) {
+  switch (e) {
+    case GL_OUT_OF_MEMORY: return "GL_OUT_OF_MEMORY";
+    case GL_INVALID_OPERATION: return "GL_INVALID_OPERATION";
+    case GL_INVALID_VALUE: return "GL_INVALID_VALUE";
+    case GL_INVALID_ENUM: return "GL_INVALID_ENUM";
+    case GL_INVALID_FRAMEBUFFER_OPERATION: return "GL_INVALID_FRAMEBUFFER_OPERATION";
+    case GL_CONTEXT_LOST: return "GL_CONTEXT_LOST";
+    default: {
+      char buffer[32];
+      std::snprintf(buffer, sizeof buffer, "GL error 0x%04X", e);
+      return buffer;
+    }
+  }
+}
+
+// Ok, or the first GL error / a lost context, as an error naming `stage`.
+Status gl_status(const char* stage) {
+  if (glGetGraphicsResetStatus() != GL_NO_ERROR)
+    return make_error(ErrorCode::kInternal, std::string("gpu: the GL context was lost during ") + stage, "gpu");
+  const GLenum e = glGetError();
+  if (e == GL_NO_ERROR) return Status::Ok();
+  while (glGetError() != GL_NO_ERROR) {
+  }
+  return make_error(e == GL_OUT_OF_MEMORY ? ErrorCode::kResourceExhausted : ErrorCode::kInternal,
+                    "gpu: " + gl_error_name(e) + " during " + stage, "gpu");
+}
+
+void set_uniform(GLuint program, const char* name, int v) { glUniform1i(glGetUniformLocation(program, name), v); }
+void set_uniform(GLuint program, const char* name, float v) { glUniform1f(glGetUniformLocation(program, name), v); }
+
+}  // namespace
+
+Status gpu_radial_ohf(Lease& lease, const terrain::Grid<float>& z, const ViewFrame& f,
+                      const visibility::RadialOptions& radial, const visibility::GpuOptions& options,
+                      const RunControl* control, terrain::Grid<float>& ohf, visibility::WorkStats& stats) {
+  // Every failure below marks the context failed: it is replaced on return.
+  auto fail = [&lease](Status status) {
+    lease.fail();
+    return status;
+  };
+  const terrain::Window& w = f.window;
+  const std::vector<SectorGeometry> sectors = plan_sectors(f, radial.ray_spacing);
+  int disk_width = 1, disk_rows = 0;
+  for (const SectorGeometry& s : sectors) {
+    disk_width = std::max(disk_width, s.lines);
+    disk_rows += 2 * s.ray_half + 1;
+  }
+  const int limit = lease.device().max_texture_size;
+  if (w.width() > limit || w.height() > limit || disk_width > limit || disk_rows > limit)
+    return make_error(ErrorCode::kResourceExhausted,
+                      "gpu: a window of " + std::to_string(w.width()) + "x" + std::to_string(w.height()) +
+                          " cells needs a ray disk of " + std::to_string(disk_width) + "x" +
+                          std::to_string(disk_rows) + " texels; this device's limit is " + std::to_string(limit) +
+                          " per side",
+                      "gpu");
+  visibility::reset_output(ohf, w);
+  if (sectors.empty()) return Status::Ok();  // a one-cell window: only the eye's cell, below
+
+  auto& slot = lease.resources();
+  if (!slot) slot = std::make_unique<OhfResources>();
+  auto& gl = static_cast<OhfResources&>(*slot);
+  if (!gl.error.empty()) return fail(make_error(ErrorCode::kInternal, gl.error, "gpu"));
+
+  // Tables, as the CPU sweep computes them (float values of double formulas).
+  const double curvature = f.curvature;
+  std::vector<GpuSector> gpu_sectors;
+  std::vector<float> table(3 * static_cast<std::size_t>(disk_rows));
+  std::vector<double> doubles;
+  for (const SectorGeometry& s : sectors) {
+    GpuSector g{};
+    g.rows = s.rows;
+    g.dir = s.dir;
+    g.line0 = s.line0;
+    g.lines = s.lines;
+    g.ray_half = s.ray_half;
+    g.base = s.base;
+    g.u_count = s.u_count;
+    g.v_count = s.v_count;
+    g.j_max = std::max(0, s.v_count - 2);
+    g.k0 = static_cast<float>(s.k0);
+    g.eye_v = static_cast<float>(s.eye_v);
+    g.v_min = 0.0f;
+    g.v_max = static_cast<float>(s.v_count - 1);
+    g.curvature = static_cast<float>(curvature);
+    g.mu2 = static_cast<float>(s.metres_u * s.metres_u);
+    g.mv2 = static_cast<float>(s.metres_v * s.metres_v);
+    const double ray_step = 1.0 / s.ray_half;
+    for (int r = -s.ray_half; r <= s.ray_half; ++r) {
+      const double m = std::clamp(r * ray_step, -1.0, 1.0);
+      const std::size_t row = static_cast<std::size_t>(s.base + r + s.ray_half);
+      table[row] = static_cast<float>(m);
+      table[disk_rows + row] = m == 0 ? 0.0f : static_cast<float>(1.0 / m);
+      const double metres_per_k = std::hypot(s.metres_u, m * s.metres_v);
+      table[2 * disk_rows + row] = static_cast<float>(curvature * metres_per_k * metres_per_k);
+    }
+    g.steps_at = static_cast<std::int32_t>(table.size());
+    g.d_at = static_cast<std::int32_t>(doubles.size());
+    doubles.push_back(s.eye_v);
+    for (int n = 0; n < s.lines; ++n) {
+      const double k = s.k0 + n;
+      const float kf = static_cast<float>(k);
+      // The sector's wedge on this line: |v - eye_v| <= k for north/south, < k for east/west.
+      const double lo = s.eye_v - k, hi = s.eye_v + k;
+      int jlo = static_cast<int>(std::ceil(lo)), jhi = static_cast<int>(std::floor(hi));
+      if (!s.rows) {
+        if (jlo == lo) ++jlo;
+        if (jhi == hi) --jhi;
+      }
+      table.insert(table.end(), {kf, static_cast<float>(k - 1.0), 1.0f / kf, static_cast<float>(1.0 / k),
+                                 static_cast<float>(jlo), static_cast<float>(jhi)});
+      doubles.push_back(1.0 / k);
+    }
+    g.dv_at = static_cast<std::int32_t>(table.size());
+    for (int v = 0; v < s.v_count; ++v)
+      table.push_back(v == s.eye_v ? 0.0f : static_cast<float>(1.0 / (v - s.eye_v)));
+    gpu_sectors.push_back(g);
+  }
+
+  // Terrain: the window, voids as kVoid.
+  std::vector<float> staging(w.cell_count());
+  for (int r = w.row0; r < w.row1; ++r) {
+    const float* src = z.row(r) + w.col0;
+    float* dst = staging.data() + static_cast<std::size_t>(r - w.row0) * w.width();
+    for (int c = 0; c < w.width(); ++c) dst[c] = std::isnan(src[c]) ? kVoid : src[c];
+  }
+  gl.terrain.ensure(w.width(), w.height());
+  glBindTexture(GL_TEXTURE_2D, gl.terrain.texture);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, w.width(), w.height(), GL_RED, GL_FLOAT, staging.data());
+  gl.disk[0].ensure(disk_width, disk_rows);
+  gl.disk[1].ensure(disk_width, disk_rows);
+  gl.out.ensure(w.width(), w.height());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, gl.buffers[0]);
+  glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(4 * sizeof(GpuSector)), nullptr, GL_DYNAMIC_DRAW);
+  glBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, static_cast<GLsizeiptr>(gpu_sectors.size() * sizeof(GpuSector)),
+                  gpu_sectors.data());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, gl.buffers[1]);
+  glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(table.size() * sizeof(float)), table.data(),
+               GL_DYNAMIC_DRAW);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, gl.buffers[2]);
+  glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(doubles.size() * sizeof(double)), doubles.data(),
+               GL_DYNAMIC_DRAW);
+  if (auto s = gl_status("upload"); !s.ok()) return fail(s);
+
+  const float eye_hi = static_cast<float>(f.eye);
+  const float eye_lo = static_cast<float>(f.eye - static_cast<double>(eye_hi));
+  const int blend = radial.blend == visibility::RayBlend::kLinear ? 0 : radial.blend == visibility::RayBlend::kMin ? 1 : 2;
+  const bool compute = options.method == visibility::GpuMethod::kCompute;
+  auto bind_common = [&](GLuint program, GLuint disk_texture) {
+    glUseProgram(program);
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_2D, gl.terrain.texture);
+    set_uniform(program, "u_terrain", 0);
+    glActiveTexture(GL_TEXTURE1);
+    glBindTexture(GL_TEXTURE_2D, disk_texture);
+    set_uniform(program, "u_disk", 1);
+    set_uniform(program, "u_sectors", static_cast<int>(gpu_sectors.size()));
+    set_uniform(program, "u_rows", disk_rows);
+    set_uniform(program, "u_blend", blend);
+    set_uniform(program, "u_eye_hi", eye_hi);
+    set_uniform(program, "u_eye_lo", eye_lo);
+    set_uniform(program, "u_eye_x", static_cast<float>(f.observer_col - w.col0));
+    set_uniform(program, "u_eye_y", static_cast<float>(f.observer_row - w.row0));
+  };
+  // One pass of `which` (0 modulate, 1 propagate, 2 resolve) into `target`.
+  auto run_pass = [&](int which, const Image& target, int width, int height, GLuint disk_texture, int shift) {
+    const GLuint program = compute ? gl.compute[which] : gl.fragment[which];
+    bind_common(program, disk_texture);
+    set_uniform(program, "u_shift", shift);
+    if (compute) {
+      glUniform2i(glGetUniformLocation(program, "u_size"), width, height);
+      glBindImageTexture(0, target.texture, 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RG32F);
+      glDispatchCompute(static_cast<GLuint>((width + 15) / 16), static_cast<GLuint>((height + 15) / 16), 1);
+      glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_FRAMEBUFFER_BARRIER_BIT);
+    } else {
+      glBindFramebuffer(GL_FRAMEBUFFER, gl.fbo);
+      glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, target.texture, 0);
+      glViewport(0, 0, width, height);
+      glBindVertexArray(gl.vao);
+      glDrawArrays(GL_TRIANGLES, 0, 3);
+    }
+  };
+  glDisable(GL_BLEND);
+  glDisable(GL_DEPTH_TEST);
+
+  // 1. Perspective modulation into disk 0.
+  run_pass(0, gl.disk[0], disk_width, disk_rows, 0, 0);
+  if (auto s = gl_status("the modulation pass"); !s.ok()) return fail(s);
+  // 2. Propagation (the shift disk), ping-ponging between the two disks.
+  int current = 0;
+  int passes = 0;
+  if (compute && !options.log_step) {
+    glUseProgram(gl.scan);
+    bind_common(gl.scan, gl.disk[0].texture);
+    glUniform2i(glGetUniformLocation(gl.scan, "u_size"), disk_width, disk_rows);
+    glBindImageTexture(0, gl.disk[1].texture, 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RG32F);
+    glDispatchCompute(static_cast<GLuint>((disk_rows + 63) / 64), 1, 1);
+    glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_FRAMEBUFFER_BARRIER_BIT);
+    current = 1;
+    passes = 1;
+  } else {
+    for (int shift = 1; shift < disk_width; shift = options.log_step ? 2 * shift : shift + 1) {
+      run_pass(1, gl.disk[1 - current], disk_width, disk_rows, gl.disk[current].texture,
+               options.log_step ? shift : 1);
+      current = 1 - current;
+      ++passes;
+      if ((passes & 31) == 0) {
+        if (auto s = check_control(control); !s.ok()) return s;
+        glFinish();
+      }
+    }
+  }
+  if (auto s = check_control(control); !s.ok()) return s;
+  // 3. Resolve every window cell from its two bracketing rays.
+  run_pass(2, gl.out, w.width(), w.height(), gl.disk[current].texture, 0);
+  std::vector<float> resolved(2 * w.cell_count());
+  glBindFramebuffer(GL_FRAMEBUFFER, gl.fbo);
+  glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, gl.out.texture, 0);
+  glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  glReadPixels(0, 0, w.width(), w.height(), GL_RG, GL_FLOAT, resolved.data());
+  if (auto s = gl_status("the resolve pass"); !s.ok()) return fail(s);
+
+  // OHF = eye + k * horizon + curvature * d^2 in double, with the CPU
+  // sweep's k and distance for the sector that owns the cell.
+  const double max_d2 = f.max_distance * f.max_distance;
+  std::vector<std::uint64_t> answered(static_cast<std::size_t>(w.height()), 0);
+  parallel_for(static_cast<std::size_t>(w.height()), 0, [&](std::size_t y) {
+    const float* src = resolved.data() + 2 * y * static_cast<std::size_t>(w.width());
+    const float* zr = z.row(w.row0 + static_cast<int>(y)) + w.col0;
+    float* dst = ohf.row(static_cast<int>(y));
+    std::uint64_t count = 0;
+    for (int x = 0; x < w.width(); ++x) {
+      const int si = static_cast<int>(src[2 * x + 1]);
+      if (si < 0 || si >= static_cast<int>(sectors.size()) || std::isnan(zr[x])) continue;
+      const SectorGeometry& s = sectors[static_cast<std::size_t>(si)];
+      const int line = s.rows ? static_cast<int>(y) : x, j = s.rows ? x : static_cast<int>(y);
+      const double k = s.k0 + (line - s.line0) * s.dir;
+      const double du = k * s.metres_u, dv = (j - s.eye_v) * s.metres_v;
+      const double d2 = du * du + dv * dv;
+      if (d2 > max_d2) continue;
+      const double hz = src[2 * x];
+      dst[x] = !(hz > 0.5 * kNoHorizon) ? -std::numeric_limits<float>::infinity()
+                                        : static_cast<float>(f.eye + k * hz + curvature * d2);
+      ++count;
+    }
+    answered[y] = count;
+  });
+  std::uint64_t evaluated = 0;
+  for (std::uint64_t c : answered) evaluated += c;
+  // The eye's own cell when the eye sits exactly on its centre: no sector owns it.
+  const double oc = f.observer_col, orow = f.observer_row;
+  if (oc == std::floor(oc) && orow == std::floor(orow) && w.contains(int(oc), int(orow)) &&
+      !std::isnan(z.at(int(oc), int(orow)))) {
+    ohf.at(int(oc) - w.col0, int(orow) - w.row0) = -std::numeric_limits<float>::infinity();
+    ++evaluated;
+  }
+  std::uint64_t disk_texels = 0;
+  for (const SectorGeometry& s : sectors) disk_texels += static_cast<std::uint64_t>(2 * s.ray_half + 1) * s.lines;
+  stats.cells_evaluated = evaluated;
+  stats.rays = static_cast<std::uint64_t>(disk_rows);
+  stats.terrain_samples = 2 * disk_texels;
+  (void)passes;
+  return Status::Ok();
+}
+
+}  // namespace horizon::gpu
