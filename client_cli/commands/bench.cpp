@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 #include <sstream>
 #include <string_view>
 
@@ -35,6 +36,7 @@ constexpr FlagSpec kFlags[] = {
     {"--max-distance", "", "M", "Ground distance limit, metres (default: the whole DEM)"},
     {"--curvature", "", "C", "Curvature/refraction coefficient as GDAL's (default 0.85714)"},
     {"--threads", "", "N", "Worker threads for Horizon's algorithms (default 0 = all cores)"},
+    {"--gpu", "", "", "Also run fast's GPU rows on an EGL context (the GPU, or Mesa llvmpipe without one)"},
     {"--out", "-o", "DIR", "Directory for bench.csv, bench.md and the charts (default bench-out)"},
     {"--markdown", "", "FILE", "Also write the Markdown tables to FILE"},
 };
@@ -117,6 +119,14 @@ int run_bench(const Args& args) {
   if (!config.peers.empty()) {
     fs::create_directories(work, ec);
     config.work_dir = work.string();
+  }
+
+  std::unique_ptr<gpu::ContextPool> pool;
+  if (args.has("--gpu")) {
+    auto created = gpu::ContextPool::create({.contexts = 1});
+    if (!created.ok()) return report_error(created.error());
+    pool = std::move(*created);
+    config.gpu = pool.get();
   }
 
   InterruptScope interrupt;

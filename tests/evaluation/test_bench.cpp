@@ -3,6 +3,8 @@
 // front, and the CSV / Markdown / PNG outputs.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <OpenImageIO/imageio.h>
 
 #include <cmath>
@@ -47,17 +49,20 @@ TEST(KnobTable, FastSweepsSpacingAndBlendAndMarksTheEngineDefault) {
   // ray spacing x blend {resample, linear, min}, thinning, plus the engine's
   // default when it is none of those; exactly one setting is the default.
   ASSERT_GE(settings->size(), 13u);
-  std::set<std::tuple<double, int, int>> seen;
+  std::set<std::tuple<double, int, int, int, int, bool>> seen;
   const visibility::RadialOptions engine_default;
   int defaults = 0;
   for (const SweepSetting& k : *settings) {
     visibility::ViewshedOptions o;
     if (k.apply) k.apply(o);
     EXPECT_TRUE(visibility::validate_options(o).ok()) << k.name;
-    seen.insert({o.radial.ray_spacing, static_cast<int>(o.radial.blend), o.radial.thinning_levels});
+    seen.insert({o.radial.ray_spacing, static_cast<int>(o.radial.blend), o.radial.thinning_levels,
+                  static_cast<int>(o.backend), static_cast<int>(o.gpu.method), o.gpu.log_step});
+    // The GPU rows run the default knobs on the GL path: not the engine default.
     const bool is_engine_default = o.radial.ray_spacing == engine_default.ray_spacing &&
                                    o.radial.blend == engine_default.blend &&
-                                   o.radial.thinning_levels == engine_default.thinning_levels;
+                                   o.radial.thinning_levels == engine_default.thinning_levels &&
+                                   o.backend != visibility::Backend::kGpu;
     EXPECT_EQ(k.is_default, is_engine_default) << k.name;
     defaults += k.is_default;
   }
@@ -144,7 +149,15 @@ TEST(RunBench, MeasuresEverySettingAgainstR3) {
   auto report = run_bench(c);
   ASSERT_TRUE(report.ok()) << report.error().message;
   const std::vector<std::string> algorithms = {"fast", "r3"};
-  ASSERT_EQ(report->rows.size(), 2u * settings_for(algorithms)->size());  // 2 observers x settings
+  const auto all = settings_for(algorithms);
+  ASSERT_TRUE(all.ok());
+  const std::vector<SweepSetting>& listed = *all;
+  std::size_t cpu_settings = 0;
+  for (const SweepSetting& k : listed) cpu_settings += !k.name.starts_with("gpu");
+  ASSERT_EQ(report->rows.size(), 2u * cpu_settings);  // 2 observers x settings; no EGL pool: no GPU rows
+  EXPECT_NE(std::find_if(report->notes.begin(), report->notes.end(),
+                         [](const std::string& n) { return n.starts_with("gpu rows skipped"); }),
+            report->notes.end());
   for (const BenchRow& r : report->rows) {
     EXPECT_GT(r.seconds_median, 0.0);
     EXPECT_GT(r.error.cells_compared, 1000u);
@@ -161,6 +174,37 @@ TEST(RunBench, MeasuresEverySettingAgainstR3) {
   for (const BenchRow& r : report->rows)
     if (r.setting == "spacing 2, min") extra += r.error.extra_visible, missed += r.error.missed_visible;
   EXPECT_GT(extra, missed);
+}
+
+// With an EGL context the GPU rows run, and since they compute the default
+// setting's rays, their error against R3 is the CPU default's, cell for cell.
+TEST(RunBench, GpuRowsMatchTheCpuDefaultRow) {
+  auto pool = gpu::ContextPool::create({.contexts = 1});
+  ASSERT_TRUE(pool.ok()) << pool.error().message;
+  BenchConfig c;
+  c.dems = {testing::bundled_dem(kOlinda)};
+  c.observers = 1;
+  c.algorithms = {"fast"};
+  c.repeats = 1;
+  c.warmup = 0;
+  c.peers = {};
+  c.gpu = pool->get();
+  auto report = run_bench(c);
+  ASSERT_TRUE(report.ok()) << report.error().message;
+  const BenchRow* cpu = nullptr;
+  std::vector<const BenchRow*> gpu_rows;
+  for (const BenchRow& r : report->rows) {
+    if (r.is_default) cpu = &r;
+    if (r.setting.starts_with("gpu")) gpu_rows.push_back(&r);
+  }
+  ASSERT_NE(cpu, nullptr);
+  ASSERT_EQ(gpu_rows.size(), 4u);
+  for (const BenchRow* g : gpu_rows) {
+    EXPECT_EQ(g->cells_evaluated, cpu->cells_evaluated) << g->setting;
+    EXPECT_EQ(g->error.missed_visible, cpu->error.missed_visible) << g->setting;
+    EXPECT_EQ(g->error.extra_visible, cpu->error.extra_visible) << g->setting;
+  }
+  for (const std::string& n : report->notes) EXPECT_EQ(n.find("ran on the CPU"), std::string::npos) << n;
 }
 
 TEST(RunBench, RejectsBadConfigByField) {

@@ -8,6 +8,7 @@
 #include <thread>
 #include <vector>
 
+#include "horizon/gpu/calibrate.hpp"
 #include "horizon/gpu/context_pool.hpp"
 #include "horizon/gpu/gpu_ohf.hpp"
 #include "horizon/terrain/dem_reader.hpp"
@@ -262,6 +263,30 @@ TEST(GpuBackend, AutoUsesTheCpuOnASoftwareRasteriser) {
   const auto r = run(dem, eye_at(dem, 20.5, 30.5), {}, Backend::kAuto);
   EXPECT_EQ(r.stats.backend, "cpu");
   EXPECT_TRUE(r.stats.gpu_fallback.empty());
+}
+
+// The crossover is the smallest timed size from which the GPU stayed faster.
+TEST(GpuCalibration, SetsTheCrossoverFromTheTimings) {
+  auto own = gpu::ContextPool::create({.contexts = 1});
+  ASSERT_TRUE(own.ok()) << own.error().message;
+  auto c = gpu::calibrate(**own, {.threads = 0, .max_side = 256, .time_software = true});
+  ASSERT_TRUE(c.ok()) << c.error().message;
+  ASSERT_EQ(c->points.size(), 2u);
+  EXPECT_EQ(c->points[0].cells, 128u * 128u);
+  EXPECT_EQ(c->points[1].cells, 256u * 256u);
+  std::uint64_t expected = UINT64_MAX;
+  for (auto it = c->points.rbegin(); it != c->points.rend() && it->gpu_seconds < it->cpu_seconds; ++it)
+    expected = it->cells;
+  for (const auto& p : c->points) EXPECT_GT(p.cpu_seconds * p.gpu_seconds, 0.0);
+  EXPECT_EQ(c->crossover_cells, expected);
+  EXPECT_EQ((*own)->crossover_cells(), expected);
+  // Without time_software a software rasteriser is not timed and never preferred.
+  if ((*own)->device().software) {
+    auto plain = gpu::calibrate(**own);
+    ASSERT_TRUE(plain.ok());
+    EXPECT_TRUE(plain->points.empty());
+    EXPECT_FALSE((*own)->prefers_gpu(UINT64_MAX - 1));
+  }
 }
 
 TEST(GpuBackend, GpuWithoutAPoolIsAnsweredOnTheCpuAndSaysWhy) {

@@ -29,6 +29,11 @@ void spacing_blend(ViewshedOptions& o, double spacing, RayBlend blend) {
   o.radial.ray_spacing = spacing;
   o.radial.blend = blend;
 }
+void gpu_knobs(ViewshedOptions& o, visibility::GpuMethod method, bool log_step) {
+  o.backend = visibility::Backend::kGpu;
+  o.gpu.method = method;
+  o.gpu.log_step = log_step;
+}
 constexpr KnobSetting kKnobTable[] = {
     {"fast", "spacing 2, resample", [](ViewshedOptions& o) { spacing_blend(o, 2.0, RayBlend::kResample); }},
     {"fast", "spacing 1.5, resample", [](ViewshedOptions& o) { spacing_blend(o, 1.5, RayBlend::kResample); }},
@@ -47,6 +52,12 @@ constexpr KnobSetting kKnobTable[] = {
     {"fast", "spacing 1, min", [](ViewshedOptions& o) { spacing_blend(o, 1.0, RayBlend::kMin); }},
     {"fast", "spacing 0.5, min", [](ViewshedOptions& o) { spacing_blend(o, 0.5, RayBlend::kMin); }},
     {"fast", "spacing 0.25, min", [](ViewshedOptions& o) { spacing_blend(o, 0.25, RayBlend::kMin); }},
+    // The same rays on the GL path (gpu/gpu_ohf.hpp), at the default spacing
+    // and blend; run only when the bench has an EGL context (BenchConfig::gpu).
+    {"fast", "gpu fragment, log-step", [](ViewshedOptions& o) { gpu_knobs(o, visibility::GpuMethod::kFragment, true); }},
+    {"fast", "gpu compute, log-step", [](ViewshedOptions& o) { gpu_knobs(o, visibility::GpuMethod::kCompute, true); }},
+    {"fast", "gpu fragment, one-step", [](ViewshedOptions& o) { gpu_knobs(o, visibility::GpuMethod::kFragment, false); }},
+    {"fast", "gpu compute, one-step", [](ViewshedOptions& o) { gpu_knobs(o, visibility::GpuMethod::kCompute, false); }},
     {"exact", "default", nullptr},
     {"conservative", "default", nullptr},
     {"r3", "reference", nullptr},
@@ -57,7 +68,7 @@ bool has_default_knobs(const ViewshedOptions& o) {
   const visibility::RadialOptions d;
   if (o.algorithm != visibility::Algorithm::kRadial) return true;  // the table sets no knob of the others
   return o.radial.ray_spacing == d.ray_spacing && o.radial.blend == d.blend &&
-         o.radial.thinning_levels == d.thinning_levels;
+         o.radial.thinning_levels == d.thinning_levels && o.backend != visibility::Backend::kGpu;
 }
 
 std::string blend_name(RayBlend b) {
@@ -221,6 +232,18 @@ Result<BenchReport> run_bench(const BenchConfig& config, const RunControl* contr
   if (!settings.ok()) return settings.error();
 
   BenchReport report;
+  std::string gpu_skip;  // why the GPU rows are not run, if they are not
+  if (config.gpu == nullptr) {
+    gpu_skip = "no EGL context given (horizon bench --gpu)";
+  } else {
+    const gpu::DeviceInfo& d = config.gpu->device();
+    report.notes.push_back("gpu rows: " + d.renderer + " (" + d.version + ", EGL " + d.platform + ")");
+  }
+  for (const SweepSetting& s : *settings)
+    if (s.name.starts_with("gpu") && !gpu_skip.empty()) {
+      report.notes.push_back("gpu rows skipped: " + gpu_skip);
+      break;
+    }
   std::vector<Peer> peers;
   for (Peer p : config.peers) {
     if (peer_installed(peer_name(p)))
@@ -273,6 +296,7 @@ Result<BenchReport> run_bench(const BenchConfig& config, const RunControl* contr
       base.curvature_coefficient = config.curvature;
       base.max_distance = config.max_distance;
       base.threads = config.threads;
+      base.backend = visibility::Backend::kCpu;  // a row on the GPU says so (its knobs set kGpu)
 
       BenchRow proto;
       proto.dem = base_name(path);
@@ -298,11 +322,24 @@ Result<BenchReport> run_bench(const BenchConfig& config, const RunControl* contr
         ViewshedOptions options = base;
         options.algorithm = *visibility::parse_algorithm(setting.algorithm);
         if (setting.apply) setting.apply(options);
+        if (options.backend == visibility::Backend::kGpu && !gpu_skip.empty()) {
+          units_done += 1;
+          continue;
+        }
+        if (options.backend == visibility::Backend::kGpu && !options.gpu.log_step &&
+            options.gpu.method == visibility::GpuMethod::kFragment &&
+            std::max(reference->frame.window.width(), reference->frame.window.height()) > config.gpu_one_step_limit) {
+          report.notes.push_back(base_name(path) + ", " + pick.kind + ": " + setting.name + " skipped: one draw per " +
+                                 "step outward, over BenchConfig::gpu_one_step_limit (" +
+                                 std::to_string(config.gpu_one_step_limit) + ") steps");
+          units_done += 1;
+          continue;
+        }
         std::vector<double> times;
         Result<visibility::ViewshedResult> result = make_error(ErrorCode::kInternal, "not run");
         for (int i = 0; i < config.warmup + config.repeats; ++i) {
           const auto start = std::chrono::steady_clock::now();
-          result = visibility::compute_viewshed(*dem, *eye, options, nullptr);
+          result = visibility::compute_viewshed(*dem, *eye, options, nullptr, config.gpu);
           const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
           if (!result.ok()) return result.error();
           if (i >= config.warmup) times.push_back(s);
@@ -317,6 +354,9 @@ Result<BenchReport> run_bench(const BenchConfig& config, const RunControl* contr
         row.seconds_median = median_of(times);
         row.seconds_min = *std::min_element(times.begin(), times.end());
         row.cells_evaluated = result->stats.cells_evaluated;
+        if (!result->stats.gpu_fallback.empty())
+          report.notes.push_back(base_name(path) + ", " + pick.kind + ": " + setting.name +
+                                 " ran on the CPU: " + result->stats.gpu_fallback);
         row.error = visibility::compare_viewsheds(*result, *reference, config.target_height);
         report.rows.push_back(std::move(row));
         units_done += 1;

@@ -145,7 +145,7 @@ struct Image {
 
 // The GL objects of one context: compiled once, grown on demand.
 struct OhfResources final : ContextResources {
-  GLuint fragment[3] = {};  // modulate, propagate, resolve
+  GLuint fragment[4] = {};  // modulate, propagate, resolve, shifted (fragment only)
   GLuint compute[3] = {};
   GLuint scan = 0;
   GLuint vao = 0, fbo = 0, buffers[3] = {};
@@ -162,6 +162,12 @@ struct OhfResources final : ContextResources {
       GLuint cs = fragment[i] ? compile(GL_COMPUTE_SHADER, with_pass(shaders::kComputeMain, passes[i]), log) : 0;
       compute[i] = cs ? link({cs}, log) : 0;
       if (!compute[i]) error = std::string("gpu: the ") + passes[i] + " shader does not build: " + log;
+    }
+    if (error.empty()) {
+      GLuint vs = compile(GL_VERTEX_SHADER, shaders::kVertex, log);
+      GLuint fs = vs ? compile(GL_FRAGMENT_SHADER, with_pass(shaders::kFragmentMain, "shifted"), log) : 0;
+      fragment[3] = fs ? link({vs, fs}, log) : 0;
+      if (!fragment[3]) error = "gpu: the shift shader does not build: " + log;
     }
     if (error.empty()) {
       GLuint cs = compile(GL_COMPUTE_SHADER, std::string(shaders::kCommon) + shaders::kComputeScan, log);
@@ -347,7 +353,7 @@ Status gpu_radial_ohf(Lease& lease, const terrain::Grid<float>& z, const ViewFra
     set_uniform(program, "u_eye_x", static_cast<float>(f.observer_col - w.col0));
     set_uniform(program, "u_eye_y", static_cast<float>(f.observer_row - w.row0));
   };
-  // One pass of `which` (0 modulate, 1 propagate, 2 resolve) into `target`.
+  // One pass of `which` (0 modulate, 1 propagate, 2 resolve, 3 shifted) into `target`.
   auto run_pass = [&](int which, const Image& target, int width, int height, GLuint disk_texture, int shift) {
     const GLuint program = compute ? gl.compute[which] : gl.fragment[which];
     bind_common(program, disk_texture);
@@ -374,27 +380,51 @@ Status gpu_radial_ohf(Lease& lease, const terrain::Grid<float>& z, const ViewFra
   // 2. Propagation (the shift disk), ping-ponging between the two disks.
   int current = 0;
   int passes = 0;
+  auto poll = [&]() -> Status {
+    if ((++passes & 31) != 0) return Status::Ok();
+    HORIZON_RETURN_IF_ERROR(check_control(control));
+    glFinish();  // bounds the queue, so that a stop takes effect soon
+    return Status::Ok();
+  };
   if (compute && !options.log_step) {
-    glUseProgram(gl.scan);
+    // One invocation per ray carries the running maximum outward.
     bind_common(gl.scan, gl.disk[0].texture);
     glUniform2i(glGetUniformLocation(gl.scan, "u_size"), disk_width, disk_rows);
     glBindImageTexture(0, gl.disk[1].texture, 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RG32F);
     glDispatchCompute(static_cast<GLuint>((disk_rows + 63) / 64), 1, 1);
     glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_FRAMEBUFFER_BARRIER_BIT);
     current = 1;
-    passes = 1;
+  } else if (!compute && blend != 2) {
+    // The patent's shift disk: the disk drawn onto its copy shifted outward,
+    // GL_MAX blending keeping the larger horizon. With one-texel shifts the
+    // copy may lag one pass behind (max(H[k-1], shift H[k]) = H[k+1]);
+    // doubled shifts need an up-to-date copy first.
+    glCopyImageSubData(gl.disk[0].texture, GL_TEXTURE_2D, 0, 0, 0, 0, gl.disk[1].texture, GL_TEXTURE_2D, 0, 0, 0, 0,
+                       disk_width, disk_rows, 1);
+    glEnable(GL_BLEND);
+    glBlendEquation(GL_MAX);
+    for (int shift = 1; shift < disk_width; shift = options.log_step ? 2 * shift : shift + 1) {
+      if (options.log_step && shift > 1)
+        glCopyImageSubData(gl.disk[current].texture, GL_TEXTURE_2D, 0, 0, 0, 0, gl.disk[1 - current].texture,
+                           GL_TEXTURE_2D, 0, 0, 0, 0, disk_width, disk_rows, 1);
+      run_pass(3, gl.disk[1 - current], disk_width, disk_rows, gl.disk[current].texture, options.log_step ? shift : 1);
+      current = 1 - current;
+      if (auto s = poll(); !s.ok()) {
+        glDisable(GL_BLEND);
+        return s;
+      }
+    }
+    glDisable(GL_BLEND);
   } else {
+    // The larger of each texel and the one `shift` inward, with where it lies, in the shader.
     for (int shift = 1; shift < disk_width; shift = options.log_step ? 2 * shift : shift + 1) {
       run_pass(1, gl.disk[1 - current], disk_width, disk_rows, gl.disk[current].texture,
                options.log_step ? shift : 1);
       current = 1 - current;
-      ++passes;
-      if ((passes & 31) == 0) {
-        if (auto s = check_control(control); !s.ok()) return s;
-        glFinish();
-      }
+      HORIZON_RETURN_IF_ERROR(poll());
     }
   }
+  if (auto s = gl_status("the propagation passes"); !s.ok()) return fail(s);
   if (auto s = check_control(control); !s.ok()) return s;
   // 3. Resolve every window cell from its two bracketing rays.
   run_pass(2, gl.out, w.width(), w.height(), gl.disk[current].texture, 0);
@@ -444,7 +474,6 @@ Status gpu_radial_ohf(Lease& lease, const terrain::Grid<float>& z, const ViewFra
   stats.cells_evaluated = evaluated;
   stats.rays = static_cast<std::uint64_t>(disk_rows);
   stats.terrain_samples = 2 * disk_texels;
-  (void)passes;
   return Status::Ok();
 }
 

@@ -2,6 +2,7 @@
 // function per pass, shared by the fragment and the compute form:
 //   vec2 modulate(ivec2 texel)  - the disk texel (step, ray): (sample, where)
 //   vec2 propagate(ivec2 texel) - the larger of texel n and texel n - u_shift
+//   vec2 shifted(ivec2 texel)   - texel n - u_shift, for GL_MAX blending
 //   vec2 resolve(ivec2 cell)    - a window cell: (horizon per unit step, sector)
 // The "where" codes and the arithmetic are those of radial_sweep.cpp, which
 // these functions mirror line for line (its comments explain them).
@@ -101,6 +102,14 @@ vec2 propagate(ivec2 texel) {
   if (texel.x < u_shift) return here;
   vec2 before = texelFetch(u_disk, ivec2(texel.x - u_shift, texel.y), 0).xy;
   return here.x > before.x ? here : before;
+}
+
+// The disk moved u_shift texels away from the eye, for GL_MAX blending onto
+// itself (the horizon value only: blending keeps each channel's maximum
+// separately, so "where" does not survive it).
+vec2 shifted(ivec2 texel) {
+  if (texel.x < u_shift) return vec2(kNoHorizon, -1.0);
+  return texelFetch(u_disk, ivec2(texel.x - u_shift, texel.y), 0).xy;
 }
 
 // Re-sampling a cell's own sight line (RayBlend::kResample).

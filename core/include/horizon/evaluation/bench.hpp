@@ -39,6 +39,7 @@
 
 #include "horizon/common/control.hpp"
 #include "horizon/common/error.hpp"
+#include "horizon/gpu/context_pool.hpp"
 #include "horizon/terrain/dem.hpp"
 #include "horizon/visibility/agreement.hpp"
 #include "horizon/visibility/options.hpp"
@@ -101,6 +102,11 @@ struct BenchConfig {
   double max_distance = std::numeric_limits<double>::infinity();
   unsigned threads = 0;  // 0 = all cores (peers use their own defaults)
   std::string work_dir;  // where peer rasters are written (must exist)
+  // Runs the knob table's GPU rows ("gpu ...") on this pool; null: they are
+  // skipped, with a note. The fragment one-step row draws once per step
+  // outward and is skipped (with a note) on windows wider than this.
+  gpu::ContextPool* gpu = nullptr;
+  int gpu_one_step_limit = 1024;
 };
 
 struct BenchRow {
