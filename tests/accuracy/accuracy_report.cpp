@@ -3,6 +3,10 @@
 //   accuracy_report [--algorithm A[,B...]] [--blend linear|min|resample] [--height M] [--max-distance M]
 //                   [--threads N] [--ray-spacing S] [--check] DEM...
 //
+// Algorithm "fast-gpu" is fast on the GL path (an EGL context: the GPU, or
+// Mesa llvmpipe); with both fast and fast-gpu the summary also counts the runs
+// whose OHF is bit-identical between the two.
+//
 // For every DEM and every observer of observer_picks.hpp (summit, ridge,
 // valley, edge) it computes R3 once and each tested algorithm (--algorithm
 // fast,conservative,exact; default fast), and prints one Markdown table row
@@ -13,10 +17,12 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "horizon/geodesy/observer.hpp"
+#include "horizon/gpu/context_pool.hpp"
 #include "horizon/terrain/dem_reader.hpp"
 #include "horizon/visibility/agreement.hpp"
 #include "horizon/visibility/viewshed.hpp"
@@ -25,6 +31,12 @@
 using namespace horizon;
 
 namespace {
+
+struct Tested {
+  visibility::Algorithm algorithm;
+  visibility::Backend backend;
+  std::string label;  // "fast", "fast-gpu", ...
+};
 
 // Parses a finite number or explains what was wrong with the flag's value.
 bool parse_number(const char* flag, const char* text, double& out) {
@@ -48,7 +60,7 @@ int main(int argc, char** argv) {
   double height = 2.0;
   visibility::ViewshedOptions options;
   bool check = false;
-  std::vector<visibility::Algorithm> tested;
+  std::vector<Tested> tested;
   std::vector<std::string> dems;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -70,13 +82,14 @@ int main(int argc, char** argv) {
       for (std::size_t start = 0; start <= list.size();) {
         const std::size_t comma = std::min(list.find(',', start), list.size());
         const std::string name = list.substr(start, comma - start);
-        const auto parsed = visibility::parse_algorithm(name);
+        const bool on_gpu = name == "fast-gpu";
+        const auto parsed = on_gpu ? visibility::Algorithm::kRadial : visibility::parse_algorithm(name);
         if (!parsed) {
-          std::fprintf(stderr, "accuracy_report: --algorithm: expected fast, exact, conservative or r3, got '%s'\n",
+          std::fprintf(stderr, "accuracy_report: --algorithm: expected fast, fast-gpu, exact, conservative or r3, got '%s'\n",
                        name.c_str());
           return usage();
         }
-        tested.push_back(*parsed);
+        tested.push_back({*parsed, on_gpu ? visibility::Backend::kGpu : visibility::Backend::kCpu, name});
         start = comma + 1;
       }
     } else if (a == "--blend") {
@@ -98,7 +111,23 @@ int main(int argc, char** argv) {
     }
   }
   if (dems.empty()) return usage();
-  if (tested.empty()) tested.push_back(visibility::Algorithm::kRadial);
+  if (tested.empty()) tested.push_back({visibility::Algorithm::kRadial, visibility::Backend::kCpu, "fast"});
+  std::unique_ptr<gpu::ContextPool> pool;
+  int cpu_fast = -1, gpu_fast = -1;
+  for (std::size_t k = 0; k < tested.size(); ++k) {
+    if (tested[k].label == "fast") cpu_fast = static_cast<int>(k);
+    if (tested[k].label != "fast-gpu") continue;
+    gpu_fast = static_cast<int>(k);
+    auto created = gpu::ContextPool::create({.contexts = 1});
+    if (!created.ok()) {
+      std::fprintf(stderr, "accuracy_report: fast-gpu: %s\n", created.error().message.c_str());
+      return 1;
+    }
+    pool = std::move(*created);
+    std::fprintf(stderr, "accuracy_report: fast-gpu on %s (%s)\n", pool->device().renderer.c_str(),
+                 pool->device().version.c_str());
+  }
+  int identical = 0;
 
   std::printf("| algorithm | DEM | observer (col,row) | cells compared | R3 visible | IoU | missed visible | "
               "extra visible | OHF RMSE (m) | OHF max (m) | time (ms) | R3 (ms) |\n");
@@ -122,29 +151,44 @@ int main(int argc, char** argv) {
         return 1;
       }
       options.algorithm = visibility::Algorithm::kR3;
+      options.backend = visibility::Backend::kCpu;
       auto exact = visibility::compute_viewshed(*dem, *eye, options);
       if (!exact.ok()) {
         std::fprintf(stderr, "accuracy_report: %s\n", exact.error().message.c_str());
         return 1;
       }
+      std::vector<terrain::Grid<float>> ohfs(tested.size());
       for (std::size_t k = 0; k < tested.size(); ++k) {
-        options.algorithm = tested[k];
-        auto fast = visibility::compute_viewshed(*dem, *eye, options);
+        options.algorithm = tested[k].algorithm;
+        options.backend = tested[k].backend;
+        auto fast = visibility::compute_viewshed(*dem, *eye, options, nullptr, pool.get());
         if (!fast.ok()) {
           std::fprintf(stderr, "accuracy_report: %s\n", fast.error().message.c_str());
           return 1;
         }
+        if (!fast->stats.gpu_fallback.empty()) {
+          std::fprintf(stderr, "accuracy_report: %s: the GPU did not answer: %s\n", tested[k].label.c_str(),
+                       fast->stats.gpu_fallback.c_str());
+          return 1;
+        }
         const auto a = visibility::compare_viewsheds(*fast, *exact, options.target_height);
         std::printf("| %s | %s | %s (%d,%d) | %llu | %.1f%% | %.3f%% | %.3f%% | %.3f%% | %.2f | %.1f | %.1f | %.0f |\n",
-                    std::string(visibility::algorithm_name(tested[k])).c_str(),
-                    std::filesystem::path(path).filename().c_str(), pick.kind.c_str(), pick.col, pick.row,
+                    tested[k].label.c_str(), std::filesystem::path(path).filename().c_str(), pick.kind.c_str(), pick.col, pick.row,
                     static_cast<unsigned long long>(a.cells_compared),
                     a.cells_compared ? 100.0 * a.reference_visible / a.cells_compared : 0.0, 100.0 * a.iou,
                     100.0 * a.missed_rate, 100.0 * a.extra_rate, a.ohf_rmse, a.ohf_max_error,
                     1e3 * fast->stats.seconds, 1e3 * exact->stats.seconds);
         std::fflush(stdout);
+        ohfs[k] = std::move(fast->ohf);
         worst_iou[k] = std::min(worst_iou[k], a.iou);
         worst_missed[k] = std::max(worst_missed[k], a.missed_rate);
+      }
+      if (cpu_fast >= 0 && gpu_fast >= 0) {
+        const auto c = ohfs[static_cast<std::size_t>(cpu_fast)].values(), g = ohfs[static_cast<std::size_t>(gpu_fast)].values();
+        bool same = c.size() == g.size();
+        for (std::size_t i = 0; same && i < c.size(); ++i)
+          same = (std::isnan(c[i]) && std::isnan(g[i])) || c[i] == g[i];
+        identical += same;
       }
       ++rows;
     }
@@ -153,10 +197,12 @@ int main(int argc, char** argv) {
   bool below = false;
   for (std::size_t k = 0; k < tested.size(); ++k) {
     std::printf("%s: %d observer runs; worst IoU %.3f%%, worst missed-visible rate %.3f%%.\n",
-                std::string(visibility::algorithm_name(tested[k])).c_str(), rows, 100.0 * worst_iou[k],
+                tested[k].label.c_str(), rows, 100.0 * worst_iou[k],
                 100.0 * worst_missed[k]);
     below = below || worst_iou[k] < 0.99 || worst_missed[k] > 0.005;
   }
+  if (cpu_fast >= 0 && gpu_fast >= 0)
+    std::printf("fast-gpu: OHF bit-identical to fast (CPU) in %d of %d observer runs.\n", identical, rows);
   if (check && below) {
     std::fprintf(stderr, "accuracy_report: below the bar (IoU >= 99.0%%, missed <= 0.5%%)\n");
     return 1;

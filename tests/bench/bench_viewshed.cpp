@@ -18,6 +18,7 @@
 #include <string>
 
 #include "horizon/geodesy/observer.hpp"
+#include "horizon/gpu/context_pool.hpp"
 #include "horizon/terrain/dem_reader.hpp"
 #include "horizon/visibility/r3.hpp"
 #include "horizon/visibility/radial_sweep.hpp"
@@ -168,6 +169,42 @@ void BM_AlgorithmDem(benchmark::State& state) {
   state.counters["samples/cell"] = double(stats.terrain_samples) / double(std::max<uint64_t>(1, stats.cells_evaluated));
 }
 BENCHMARK(BM_AlgorithmDem)->DenseRange(0, 3)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The fast OHF on the GL path (gpu/gpu_ohf.hpp) on $HORIZON_BENCH_DEM, whole
+// DEM, eye at the centre: (method 0 fragment / 1 compute) x (log-step 1 / 0).
+// "device ms" is the passes alone (GL timestamps); the time also covers the
+// upload, the read-back and the OHF's multiply on the CPU. One-step fragment
+// propagation draws once per step: slow on large DEMs without a real GPU.
+void BM_GpuDem(benchmark::State& state) {
+  const terrain::Dem* dem = bench_dem(state);
+  if (!dem) return;
+  static auto pool = gpu::ContextPool::create({.contexts = 1});
+  if (!pool.ok()) {
+    state.SkipWithError(pool.error().message.c_str());
+    return;
+  }
+  visibility::ViewshedOptions o;
+  o.backend = visibility::Backend::kGpu;
+  o.gpu.method = state.range(0) ? visibility::GpuMethod::kCompute : visibility::GpuMethod::kFragment;
+  o.gpu.log_step = state.range(1) != 0;
+  state.SetLabel((*pool)->device().renderer + ", " + std::string(visibility::gpu_method_name(o.gpu.method)) +
+                 (o.gpu.log_step ? ", log-step" : ", one-step"));
+  visibility::WorkStats stats;
+  double device = 0;
+  for (auto _ : state) {
+    auto result = visibility::compute_viewshed(*dem, centre_eye(*dem), o, nullptr, pool->get());
+    if (!result.ok() || result->stats.backend != "gpu") {
+      state.SkipWithError(result.ok() ? result->stats.gpu_fallback.c_str() : result.error().message.c_str());
+      return;
+    }
+    stats = result->stats;
+    device += stats.device_seconds;
+    benchmark::DoNotOptimize(result->ohf.data());
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * stats.cells_evaluated));
+  state.counters["device ms"] = 1e3 * device / double(std::max<benchmark::IterationCount>(1, state.iterations()));
+}
+BENCHMARK(BM_GpuDem)->ArgsProduct({{0, 1}, {1, 0}})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 

@@ -148,7 +148,7 @@ struct OhfResources final : ContextResources {
   GLuint fragment[4] = {};  // modulate, propagate, resolve, shifted (fragment only)
   GLuint compute[3] = {};
   GLuint scan = 0;
-  GLuint vao = 0, fbo = 0, buffers[3] = {};
+  GLuint vao = 0, fbo = 0, buffers[3] = {}, timers[2] = {};
   Image terrain{0, GL_R32F}, disk[2]{{0, GL_RG32F}, {0, GL_RG32F}}, out{0, GL_RG32F};
   std::string error;  // set when a program failed to build
 
@@ -177,6 +177,7 @@ struct OhfResources final : ContextResources {
     glGenVertexArrays(1, &vao);
     glGenFramebuffers(1, &fbo);
     glGenBuffers(3, buffers);
+    glGenQueries(2, timers);
   }
   ~OhfResources() override {
     for (GLuint p : fragment) glDeleteProgram(p);
@@ -185,6 +186,7 @@ struct OhfResources final : ContextResources {
     glDeleteVertexArrays(1, &vao);
     glDeleteFramebuffers(1, &fbo);
     glDeleteBuffers(3, buffers);
+    glDeleteQueries(2, timers);
   }
 };
 
@@ -375,6 +377,7 @@ Status gpu_radial_ohf(Lease& lease, const terrain::Grid<float>& z, const ViewFra
   glDisable(GL_DEPTH_TEST);
 
   // 1. Perspective modulation into disk 0.
+  glQueryCounter(gl.timers[0], GL_TIMESTAMP);
   run_pass(0, gl.disk[0], disk_width, disk_rows, 0, 0);
   if (auto s = gl_status("the modulation pass"); !s.ok()) return fail(s);
   // 2. Propagation (the shift disk), ping-ponging between the two disks.
@@ -428,12 +431,17 @@ Status gpu_radial_ohf(Lease& lease, const terrain::Grid<float>& z, const ViewFra
   if (auto s = check_control(control); !s.ok()) return s;
   // 3. Resolve every window cell from its two bracketing rays.
   run_pass(2, gl.out, w.width(), w.height(), gl.disk[current].texture, 0);
+  glQueryCounter(gl.timers[1], GL_TIMESTAMP);
   std::vector<float> resolved(2 * w.cell_count());
   glBindFramebuffer(GL_FRAMEBUFFER, gl.fbo);
   glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, gl.out.texture, 0);
   glPixelStorei(GL_PACK_ALIGNMENT, 4);
   glReadPixels(0, 0, w.width(), w.height(), GL_RG, GL_FLOAT, resolved.data());
   if (auto s = gl_status("the resolve pass"); !s.ok()) return fail(s);
+  GLuint64 t0 = 0, t1 = 0;
+  glGetQueryObjectui64v(gl.timers[0], GL_QUERY_RESULT, &t0);
+  glGetQueryObjectui64v(gl.timers[1], GL_QUERY_RESULT, &t1);
+  stats.device_seconds = t1 > t0 ? 1e-9 * static_cast<double>(t1 - t0) : 0.0;
 
   // OHF = eye + k * horizon + curvature * d^2 in double, with the CPU
   // sweep's k and distance for the sector that owns the cell.

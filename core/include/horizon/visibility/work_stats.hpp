@@ -20,6 +20,10 @@ struct WorkStats {
   // failed and the CPU answered instead: what failed (context lost, out of
   // memory, texture too large). Empty otherwise.
   std::string gpu_fallback;
+  // GPU only: time the device spent in the passes themselves (GL timestamp
+  // queries around modulation .. resolve), without the upload, the read-back
+  // and the OHF's final multiply on the CPU that `seconds` also covers.
+  double device_seconds = 0.0;
 };
 
 }  // namespace horizon::visibility
