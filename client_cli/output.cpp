@@ -23,7 +23,10 @@ Json viewshed_options_json(const geodesy::PointSpec& observer, const visibility:
           {"curvature", options.curvature_coefficient},
           {"nodata", nodata},
           {"ray_spacing", options.radial.ray_spacing},
-          {"threads", options.threads}};
+          {"threads", options.threads},
+          {"backend", visibility::backend_name(options.backend)},
+          {"gpu_method", visibility::gpu_method_name(options.gpu.method)},
+          {"gpu_propagation", options.gpu.log_step ? "log-step" : "one-step"}};
 }
 
 Json to_json(const terrain::GeoTransform& t) {
@@ -41,7 +44,10 @@ Json to_json(const visibility::WorkStats& s) {
               {"cells_evaluated", s.cells_evaluated},
               {"terrain_samples", s.terrain_samples},
               {"rays", s.rays},
-              {"seconds", s.seconds}};
+              {"seconds", s.seconds},
+              {"backend", s.backend},
+              {"device_seconds", s.device_seconds},
+              {"gpu_fallback", s.gpu_fallback.empty() ? Json(nullptr) : Json(s.gpu_fallback)}};
 }
 
 Json to_json(const visibility::ProfileSample& s) {

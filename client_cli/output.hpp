@@ -32,6 +32,7 @@ Json finite_or_null(double value);
 
 Json to_json(const terrain::GeoTransform& transform);  // GDAL order [x0, dx, 0, y0, 0, dy]
 Json to_json(const terrain::Window& window);
+// Includes "backend" ("cpu"/"gpu") and "gpu_fallback" (why the GPU asked for did not answer; null when it did).
 Json to_json(const visibility::WorkStats& stats);
 Json to_json(const visibility::ProfileSample& sample);
 // A resolved point: CRS x/y, lon/lat (when known), grid col/row, ground and point elevation.

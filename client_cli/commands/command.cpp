@@ -9,6 +9,11 @@ int report_error(const Error& error) {
   return kExitFailure;
 }
 
+void warn_gpu_fallback(const visibility::WorkStats& stats) {
+  if (!stats.gpu_fallback.empty())
+    std::fprintf(stderr, "horizon: warning: GPU failed (%s); answered on the CPU\n", stats.gpu_fallback.c_str());
+}
+
 const std::string& single_operand(const Args& args, std::string_view what) {
   const auto& operands = args.positionals();
   if (operands.empty()) throw UsageError("missing " + std::string(what) + " operand");

@@ -12,6 +12,7 @@
 
 #include "args.hpp"
 #include "horizon/common/error.hpp"
+#include "horizon/visibility/work_stats.hpp"
 
 namespace horizon::cli {
 
@@ -41,6 +42,11 @@ const Command& datasets_command();  // --server only
 
 // Prints "horizon: error: <message>" to stderr and returns kExitFailure.
 int report_error(const Error& error);
+
+// When the GPU was asked for but the CPU answered (stats.gpu_fallback set),
+// prints "horizon: warning: GPU failed (<why>); answered on the CPU" to stderr.
+// The run still succeeds: the answer is the CPU's.
+void warn_gpu_fallback(const visibility::WorkStats& stats);
 
 // Exactly one positional operand (the DEM path); UsageError otherwise.
 const std::string& single_operand(const Args& args, std::string_view what);

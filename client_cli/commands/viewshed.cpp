@@ -1,9 +1,12 @@
 // `horizon viewshed DEM ...`: flags -> ViewshedOptions, result -> GeoTIFF, PNG, summary.
 #include <cmath>
+#include <filesystem>
 #include <iostream>
+#include <memory>
 #include <string_view>
 
 #include "commands/command.hpp"
+#include "horizon/gpu/context_pool.hpp"
 #include "horizon/imageio/imageio.hpp"
 #include "horizon/terrain/dem_reader.hpp"
 #include "horizon/terrain/geotiff_writer.hpp"
@@ -31,7 +34,13 @@ constexpr FlagSpec kFlags[] = {
     {"--algorithm", "", "ALG",
      "'fast' (radial occlusion height field, default), 'exact' (R3's answers, faster), 'conservative' (never hides "
      "what R3 sees) or 'r3' (the exact reference, slow)"},
-    {"--ray-spacing", "", "S", "fast: ray spacing in cells, (0, 4], default 0.5; smaller is slower, closer to r3"},
+    {"--ray-spacing", "", "S", "fast: ray spacing in cells, (0, 4], default 1; smaller is slower, closer to r3"},
+    {"--backend", "", "B",
+     "Where fast runs: 'auto' (default: a hardware GPU where one is faster, else the CPU), 'cpu' or 'gpu' "
+     "(fast only; if the GPU fails the CPU answers, with a warning)"},
+    {"--gpu-method", "", "M", "On the GPU: 'fragment' (render passes, default) or 'compute' (compute shaders)"},
+    {"--gpu-propagation", "", "P",
+     "On the GPU: 'log-step' (shift doubling, log2 N passes, default) or 'one-step' (N one-cell passes); same result"},
     {"--threads", "", "N", "Worker threads (default 0 = all cores)"},
     {"--output", "", "KIND", "Raster written: 'visible' (default), 'ohf' or 'min-target-height'"},
     {"--out", "-o", "OUT.tif", "GeoTIFF to write (required)"},
@@ -46,6 +55,9 @@ constexpr FlagSpec kFlags[] = {
 
 constexpr std::string_view kAlgorithms[] = {"fast", "exact", "conservative", "r3"};
 constexpr std::string_view kOutputs[] = {"visible", "ohf", "min-target-height"};
+constexpr std::string_view kBackends[] = {"auto", "cpu", "gpu"};
+constexpr std::string_view kGpuMethods[] = {"fragment", "compute"};
+constexpr std::string_view kGpuPropagations[] = {"log-step", "one-step"};
 
 enum class OutputKind { kVisible, kOhf, kMinTargetHeight };
 
@@ -99,6 +111,9 @@ Request parse_request(const Args& args) {
   if (auto algorithm = args.choice("--algorithm", kAlgorithms)) r.algorithm_name = *algorithm;
   o.algorithm = *visibility::parse_algorithm(r.algorithm_name);
   if (auto spacing = args.non_negative("--ray-spacing")) o.radial.ray_spacing = *spacing;
+  if (auto backend = args.choice("--backend", kBackends)) o.backend = *visibility::parse_backend(*backend);
+  if (auto method = args.choice("--gpu-method", kGpuMethods)) o.gpu.method = *visibility::parse_gpu_method(*method);
+  if (auto propagation = args.choice("--gpu-propagation", kGpuPropagations)) o.gpu.log_step = *propagation == "log-step";
   o.threads = args.non_negative_integer("--threads").value_or(0);
   if (auto output = args.choice("--output", kOutputs)) r.output_name = *output;
   r.output = r.output_name == "ohf"                 ? OutputKind::kOhf
@@ -184,6 +199,36 @@ Result<Loaded> load_for_viewshed(const Request& r, const Args& args) {
   return loaded;
 }
 
+// The GL context the fast algorithm may run on, or why there is none.
+struct Gpu {
+  std::unique_ptr<gpu::ContextPool> pool;
+  std::string unavailable;  // set when --backend gpu found no EGL display or context
+};
+
+// A hardware EGL device needs a DRM render node (Mesa's drivers) or NVIDIA's
+// device files; without either only a software rasteriser can answer.
+bool hardware_gpu_possible() {
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator("/dev/dri", ec))
+    if (entry.path().filename().string().starts_with("renderD")) return true;
+  return std::filesystem::exists("/dev/nvidiactl", ec);
+}
+
+// One context, only when fast may run on it: --backend gpu, or auto where a
+// hardware GPU can exist. Auto never picks a software rasteriser, and opening
+// and closing llvmpipe costs 50-70 ms, as much again as a small run.
+Gpu open_gpu(const visibility::ViewshedOptions& o) {
+  Gpu gpu;
+  if (o.algorithm != visibility::Algorithm::kRadial || o.backend == visibility::Backend::kCpu) return gpu;
+  if (o.backend == visibility::Backend::kAuto && !hardware_gpu_possible()) return gpu;
+  auto pool = gpu::ContextPool::create({.contexts = 1});
+  if (pool.ok())
+    gpu.pool = std::move(pool).value();
+  else if (o.backend == visibility::Backend::kGpu)
+    gpu.unavailable = pool.error().message;
+  return gpu;
+}
+
 int run_viewshed(const Args& args) {
   const Request r = parse_request(args);
   if (auto s = check_output_path(r.out_path, "-o", r.dem_path, {".tif", ".tiff"}); !s.ok())
@@ -204,14 +249,18 @@ int run_viewshed(const Args& args) {
   const geodesy::GridPoint* const observer = &loaded->observer;
   const terrain::ReadStats& read = loaded->read;
 
+  const Gpu gpu = open_gpu(r.options);
   InterruptScope interrupt;  // Ctrl-C cancels the computation; nothing is written
   RunControl control;
   control.cancel = &interrupt.token();
   ProgressBar progress("horizon viewshed");
   control.progress = progress.callback();
-  auto result = visibility::compute_viewshed(*dem, *observer, r.options, &control);
+  auto result = visibility::compute_viewshed(*dem, *observer, r.options, &control, gpu.pool.get());
   progress.finish();
   if (!result.ok()) return report_error(result.error());
+  // No pool: the engine only knows it had none; say why there was none.
+  if (!gpu.unavailable.empty()) result->stats.gpu_fallback = gpu.unavailable;
+  warn_gpu_fallback(result->stats);
 
   const terrain::Grid<std::uint8_t> mask = visibility::visibility_mask(*result, r.options.target_height);
   if (auto s = write_output(r, *dem, *result, mask); !s.ok()) return report_error(s.error());
@@ -290,7 +339,7 @@ int run_viewshed(const Args& args) {
             << (r.options.algorithm == visibility::Algorithm::kRadial
                     ? " (radial occlusion height field, ray spacing " + fixed(r.options.radial.ray_spacing, 2) + ")"
                     : std::string(""))
-            << '\n'
+            << (stats.backend == "gpu" ? " on the GPU" : "") << '\n'
             << "  compute:    " << fixed(stats.seconds, 3) << " s (" << fixed(total_seconds, 3) << " s in all)\n"
             << "  wrote:      " << r.out_path << " (" << r.output_name << ")\n";
   if (r.png_path) std::cout << "  preview:    " << *r.png_path << '\n';

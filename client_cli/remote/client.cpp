@@ -83,6 +83,9 @@ visibility::WorkStats to_stats(const v1::WorkStats& s) {
   w.terrain_samples = s.terrain_samples();
   w.rays = s.rays();
   w.seconds = s.seconds();
+  if (!s.backend().empty()) w.backend = s.backend();  // empty from a daemon older than the field: the CPU
+  w.gpu_fallback = s.gpu_fallback();
+  w.device_seconds = s.device_seconds();
   return w;
 }
 
@@ -105,6 +108,23 @@ v1::Algorithm to_proto_algorithm(visibility::Algorithm algorithm) {
     case visibility::Algorithm::kR3: return v1::ALGORITHM_R3;
   }
   return v1::ALGORITHM_UNSPECIFIED;
+}
+
+v1::Backend to_proto_backend(visibility::Backend backend) {
+  switch (backend) {
+    case visibility::Backend::kAuto: return v1::BACKEND_AUTO;
+    case visibility::Backend::kCpu: return v1::BACKEND_CPU;
+    case visibility::Backend::kGpu: return v1::BACKEND_GPU;
+  }
+  return v1::BACKEND_UNSPECIFIED;
+}
+
+v1::GpuMethod to_proto_gpu_method(visibility::GpuMethod method) {
+  switch (method) {
+    case visibility::GpuMethod::kFragment: return v1::GPU_METHOD_FRAGMENT;
+    case visibility::GpuMethod::kCompute: return v1::GPU_METHOD_COMPUTE;
+  }
+  return v1::GPU_METHOD_UNSPECIFIED;
 }
 
 }  // namespace horizon::cli::remote

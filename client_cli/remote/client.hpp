@@ -51,5 +51,7 @@ visibility::WorkStats to_stats(const v1::WorkStats& s);
 
 v1::Point to_proto_point(const geodesy::PointSpec& spec);
 v1::Algorithm to_proto_algorithm(visibility::Algorithm algorithm);
+v1::Backend to_proto_backend(visibility::Backend backend);
+v1::GpuMethod to_proto_gpu_method(visibility::GpuMethod method);
 
 }  // namespace horizon::cli::remote

@@ -34,6 +34,9 @@ int run_viewshed(const Args& args, const ViewshedInputs& in) {
   o.set_nodata_fill_height(in.options.nodata_fill_height);
   o.set_algorithm(to_proto_algorithm(in.options.algorithm));
   o.set_ray_spacing(in.options.radial.ray_spacing);
+  o.set_backend(to_proto_backend(in.options.backend));
+  o.set_gpu_method(to_proto_gpu_method(in.options.gpu.method));
+  o.set_gpu_log_step(in.options.gpu.log_step);
   request.set_raster(in.output_name == "ohf"                 ? v1::RASTER_KIND_OHF
                      : in.output_name == "min-target-height" ? v1::RASTER_KIND_MIN_TARGET_HEIGHT
                                                              : v1::RASTER_KIND_VISIBLE);
@@ -70,6 +73,7 @@ int run_viewshed(const Args& args, const ViewshedInputs& in) {
   const geodesy::GridPoint observer = to_grid_point(header.observer());
   const auto observer_lonlat = to_lonlat(header.observer());
   const visibility::WorkStats stats = to_stats(summary.stats());
+  warn_gpu_fallback(stats);  // the daemon's GPU failed or it has none; its CPU answered
   const terrain::Window window{header.window().col0(), header.window().row0(), header.window().col1(),
                                header.window().row1()};
   const std::uint64_t visible = summary.visible_cells(), hidden = summary.hidden_cells();
@@ -118,7 +122,7 @@ int run_viewshed(const Args& args, const ViewshedInputs& in) {
             << (in.options.algorithm == visibility::Algorithm::kRadial
                     ? " (radial occlusion height field, ray spacing " + fixed(in.options.radial.ray_spacing, 2) + ")"
                     : std::string(""))
-            << '\n'
+            << (stats.backend == "gpu" ? " on the GPU" : "") << '\n'
             << "  compute:    " << fixed(stats.seconds, 3) << " s on the daemon (" << fixed(total_seconds, 3)
             << " s in all)\n"
             << "  wrote:      " << in.out_path << " (" << in.output_name << ")\n";

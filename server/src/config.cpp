@@ -122,6 +122,17 @@ Status parse_limits(const Json& j, const std::string& source, Limits& limits) {
   return Status::Ok();
 }
 
+Status parse_gpu(const Json& j, const std::string& source, GpuConfig& gpu) {
+  if (!j.is_object()) return config_error(source, "gpu", "expected an object, got " + j.dump());
+  HORIZON_RETURN_IF_ERROR(check_keys(j, source, "gpu.", {"contexts"}));
+  if (j.contains("contexts")) {
+    auto v = get_count(j, source, "contexts", "gpu.contexts", 0, 64);
+    if (!v.ok()) return v.error();
+    gpu.contexts = static_cast<std::uint32_t>(*v);
+  }
+  return Status::Ok();
+}
+
 fs::path default_scratch_dir() {
   if (const char* tmp = std::getenv("TMPDIR"); tmp && *tmp) return tmp;
   return "/tmp";
@@ -141,10 +152,10 @@ Result<Config> parse_config(const std::string& text, const std::string& source, 
   if (!overrides.listen.empty()) j["listen"] = overrides.listen;
   if (!overrides.metrics_listen.empty()) j["metrics_listen"] = overrides.metrics_listen;
   if (!overrides.data_root.empty()) j["data_root"] = fs::absolute(overrides.data_root).string();
-  HORIZON_RETURN_IF_ERROR(check_keys(j, source, "",
-                                     {"listen", "metrics_listen", "data_root", "datasets", "memory_budget_mb",
-                                      "worker_threads", "engine_threads", "limits", "default_deadline_ms",
-                                      "shutdown_grace_ms", "scratch_dir"}));
+  HORIZON_RETURN_IF_ERROR(
+      check_keys(j, source, "",
+                 {"listen", "metrics_listen", "data_root", "datasets", "memory_budget_mb", "worker_threads",
+                  "engine_threads", "limits", "gpu", "default_deadline_ms", "shutdown_grace_ms", "scratch_dir"}));
   Config c;
   c.source = source;
   for (const char* required : {"listen", "data_root", "datasets", "memory_budget_mb"})
@@ -185,6 +196,7 @@ Result<Config> parse_config(const std::string& text, const std::string& source, 
     c.engine_threads = static_cast<unsigned>(*v);
   }
   if (j.contains("limits")) HORIZON_RETURN_IF_ERROR(parse_limits(j.at("limits"), source, c.limits));
+  if (j.contains("gpu")) HORIZON_RETURN_IF_ERROR(parse_gpu(j.at("gpu"), source, c.gpu));
   if (j.contains("default_deadline_ms")) {
     auto v = get_count(j, source, "default_deadline_ms", "default_deadline_ms", 1, 3'600'000);
     if (!v.ok()) return v.error();

@@ -16,6 +16,9 @@
 //                "max_boxes": 100000,       boxes in one CullBoxes call
 //                "max_lines": 10000,        sight lines in one LineOfSight call
 //                "max_pending": 64},        requests admitted at once (computing, queued or streaming)
+//     "gpu": {"contexts": 2},               GL contexts for the GPU backend, [0, 64]: one per request
+//                                           computing on the GPU at once; absent = one per worker
+//                                           thread (at most 64); 0 = no GPU, every request on the CPU
 //     "default_deadline_ms": 30000,         for requests that carry no deadline
 //     "shutdown_grace_ms": 10000,           SIGTERM/SIGINT: time in-flight requests get to finish
 //     "scratch_dir": "/tmp"                 where GeoTIFF/PNG bytes are encoded (default: $TMPDIR or /tmp)
@@ -25,11 +28,22 @@
 // is an Error whose message and field name the key ("limits.max_cells",
 // "datasets.rainier"). Relative data_root and scratch_dir resolve against the
 // config file's directory.
+//
+// GPU. With contexts > 0 the daemon opens a headless EGL display at start
+// (gpu/context_pool.hpp: ~30 ms plus ~6 ms a context), on a hardware device
+// measures from which window size the GPU beats the CPU (gpu/calibrate.hpp),
+// and logs the device ("gpu_ready"). A request with backend GPU (or auto, on a
+// hardware GPU, from that size) borrows a context for its computation,
+// waiting when all are lent. No EGL display, or no OpenGL 4.3, is a warning
+// ("gpu_unavailable"), not an error: the daemon then answers every request on
+// the CPU, and a request that asked for the GPU says so in
+// WorkStats.gpu_fallback.
 #pragma once
 
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -50,6 +64,11 @@ struct Limits {
   std::uint32_t max_pending = 64;
 };
 
+struct GpuConfig {
+  // EGL contexts, [0, 64]; nullopt = one per worker thread (at most 64); 0 = no GPU.
+  std::optional<std::uint32_t> contexts;
+};
+
 struct Config {
   std::string source;  // path of the file, for messages
   std::string listen = "127.0.0.1:50051";
@@ -60,6 +79,7 @@ struct Config {
   unsigned worker_threads = 2;
   unsigned engine_threads = 1;
   Limits limits;
+  GpuConfig gpu;
   std::chrono::milliseconds default_deadline{30'000};
   std::chrono::milliseconds shutdown_grace{10'000};
   std::filesystem::path scratch_dir;

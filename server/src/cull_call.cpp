@@ -64,9 +64,14 @@ grpc::Status run_cull_boxes(CallScope& scope, const v1::CullBoxesRequest& reques
       !s.ok())
     return scope.status_of(s.error());
 
-  auto result = visibility::run_cull(d.dem, *observer, *plan, scope.control());
+  // The daemon's GPU contexts are lent to the OHF (backend auto: a hardware GPU for large windows).
+  auto result = visibility::run_cull(d.dem, *observer, *plan, scope.control(), env.gpu);
   if (!result.ok()) return scope.status_of(rename_field(result.error(), ""));
-  scope.record().cells = result->stats.cells_evaluated;
+  const visibility::WorkStats& stats = result->stats;
+  scope.record().cells = stats.cells_evaluated;
+  scope.record().backend = stats.backend;
+  scope.record().gpu_fallback = stats.gpu_fallback;
+  scope.env().metrics.ohf_computed(stats.backend, !stats.gpu_fallback.empty());
 
   response.mutable_boxes()->Reserve(n);
   for (const visibility::BoxVisibility& b : result->boxes) {
@@ -76,7 +81,7 @@ grpc::Status run_cull_boxes(CallScope& scope, const v1::CullBoxesRequest& reques
   }
   response.set_visible_count(static_cast<std::uint32_t>(result->visible_count));
   fill_window(result->window, *response.mutable_window());
-  fill_stats(result->stats, *response.mutable_stats());
+  fill_stats(stats, *response.mutable_stats());
   response.set_pyramid_cells_read(result->pyramid_cells_read);
   response.set_algorithm(std::string(visibility::algorithm_name(result->algorithm)));
   fill_point(*observer, d.dem, *response.mutable_observer());

@@ -1,6 +1,8 @@
 #include "daemon.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <exception>
 
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
@@ -10,6 +12,8 @@
 
 #include "dataset_service.hpp"
 #include "datasets.hpp"
+#include "horizon/gpu/calibrate.hpp"
+#include "horizon/gpu/context_pool.hpp"
 #include "memory_budget.hpp"
 #include "metrics.hpp"
 #include "request_log.hpp"
@@ -27,6 +31,37 @@ constexpr const char* kServices[] = {"", "horizon.v1.DatasetService", "horizon.v
 int max_receive_bytes(const Limits& limits) {
   const std::uint64_t need = 1'048'576 + 96ull * std::max<std::uint64_t>(limits.max_boxes, limits.max_lines);
   return static_cast<int>(std::min<std::uint64_t>(need, 512ull << 20));
+}
+
+// The GPU contexts config.gpu asks for (absent: one per worker thread), or
+// null: none asked for, or no EGL display (a warning; the CPU answers all).
+// On a hardware device the CPU/GPU crossover for backend auto is measured
+// here (gpu/calibrate.hpp; a software rasteriser is not timed).
+std::unique_ptr<gpu::ContextPool> open_gpu(const Config& config, unsigned workers) {
+  const std::uint32_t contexts = config.gpu.contexts.value_or(std::min(workers, 64u));
+  if (contexts == 0) return nullptr;
+  auto pool = gpu::ContextPool::create({.contexts = static_cast<int>(contexts)});
+  if (!pool.ok()) {
+    log_event("warn", "gpu_unavailable",
+              {{"contexts", std::to_string(contexts), true},
+               {"message", pool.error().message + "; every request runs on the CPU"}});
+    return nullptr;
+  }
+  auto calibration = gpu::calibrate(**pool, {.threads = config.engine_threads});
+  if (!calibration.ok())
+    log_event("warn", "gpu_calibration_failed",
+              {{"message", calibration.error().message + "; backend auto keeps the default crossover"}});
+  const gpu::DeviceInfo& device = (*pool)->device();
+  const std::uint64_t crossover = (*pool)->crossover_cells();
+  log_event("info", "gpu_ready",
+            {{"platform", device.platform},
+             {"renderer", device.renderer},
+             {"version", device.version},
+             {"software", device.software ? "true" : "false", true},
+             {"contexts", std::to_string((*pool)->size()), true},
+             // Backend auto's threshold; null: auto never picks this device.
+             {"auto_from_cells", crossover == UINT64_MAX ? "null" : std::to_string(crossover), true}});
+  return std::move(pool).value();
 }
 
 }  // namespace
@@ -51,6 +86,7 @@ struct Daemon::Impl {
   MemoryBudget memory;
   Metrics metrics;
   DatasetRegistry datasets;
+  std::unique_ptr<gpu::ContextPool> gpu;  // outlives the workers that borrow from it
   WorkerPool pool;
   ServerEnv env;
   DatasetService dataset_service;
@@ -74,6 +110,10 @@ Status Daemon::start() {
                         "metrics_listen '" + d.config.metrics_listen + "': cannot listen: " + e.what(), "metrics_listen");
     }
   }
+
+  // Before the first call can arrive: env.gpu is read without a lock.
+  d.gpu = open_gpu(d.config, d.pool.threads());
+  d.env.gpu = d.gpu.get();
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();

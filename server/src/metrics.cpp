@@ -77,9 +77,21 @@ struct Metrics::Impl {
                                     .Add({});
   prometheus::Gauge& datasets =
       prometheus::BuildGauge().Name("horizon_datasets").Help("Datasets loaded").Register(*registry).Add({});
+  prometheus::Family<prometheus::Counter>& backends = prometheus::BuildCounter()
+                                                          .Name("horizon_backend_requests_total")
+                                                          .Help("Viewsheds and culls, by where the OHF was computed")
+                                                          .Register(*registry);
+  prometheus::Counter& gpu_fallbacks = prometheus::BuildCounter()
+                                           .Name("horizon_gpu_fallbacks_total")
+                                           .Help("Requests that asked for the GPU and were answered on the CPU")
+                                           .Register(*registry)
+                                           .Add({});
 };
 
-Metrics::Metrics() : impl_(std::make_unique<Impl>()) {}
+Metrics::Metrics() : impl_(std::make_unique<Impl>()) {
+  // Both series from the start, so that a rate over them is defined before the first request.
+  for (const char* backend : {"cpu", "gpu"}) impl_->backends.Add({{"backend", backend}});
+}
 Metrics::~Metrics() = default;
 
 int Metrics::serve(const std::string& address) {
@@ -102,6 +114,11 @@ void Metrics::request_finished(std::string_view method, std::string_view code, d
   impl_->durations.Add({{"method", m}}, kBuckets).Observe(seconds);
   if (cells) impl_->cells.Add({{"method", m}}).Increment(static_cast<double>(cells));
   if (boxes) impl_->boxes.Increment(static_cast<double>(boxes));
+}
+
+void Metrics::ohf_computed(std::string_view backend, bool gpu_fallback) {
+  impl_->backends.Add({{"backend", std::string(backend)}}).Increment();
+  if (gpu_fallback) impl_->gpu_fallbacks.Increment();
 }
 
 void Metrics::set_datasets(std::size_t count, std::uint64_t resident_bytes) {

@@ -9,6 +9,10 @@
 //   horizon_memory_reserved_bytes                   gauge (datasets + requests, as budgeted)
 //   horizon_process_resident_bytes                  gauge (RSS from /proc/self/statm, read at scrape)
 //   horizon_datasets                                gauge
+//   horizon_backend_requests_total{backend}         counter (viewsheds and culls by where the OHF was
+//                                                   computed: "cpu" or "gpu")
+//   horizon_gpu_fallbacks_total                     counter (the GPU was asked for but failed, or the
+//                                                   daemon has none; the CPU answered)
 // (prometheus-cpp stays inside metrics.cpp.)
 #pragma once
 
@@ -33,6 +37,8 @@ class Metrics {
   void request_started();
   void request_finished(std::string_view method, std::string_view code, double seconds, std::uint64_t cells,
                         std::uint64_t boxes);
+  // One OHF computed on `backend` ("cpu" or "gpu"); `gpu_fallback`: the GPU was asked for and the CPU answered.
+  void ohf_computed(std::string_view backend, bool gpu_fallback);
   void set_datasets(std::size_t count, std::uint64_t resident_bytes);
   void set_memory_reserved(std::uint64_t bytes);
 

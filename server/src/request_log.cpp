@@ -35,7 +35,7 @@ void emit(const nlohmann::ordered_json& j) {
 
 std::string_view level_for(const RequestRecord& r) {
   if (r.server_fault) return "error";
-  return r.status == "OK" ? "info" : "warn";
+  return r.status == "OK" && r.gpu_fallback.empty() ? "info" : "warn";
 }
 
 }  // namespace
@@ -52,6 +52,7 @@ void log_request(const RequestRecord& r) {
   j["lines"] = r.lines;
   j["algorithm"] = r.algorithm;
   j["backend"] = r.backend;
+  j["gpu_fallback"] = r.gpu_fallback;
   j["duration_ms"] = std::round(r.duration_ms * 1000.0) / 1000.0;
   j["status"] = r.status;
   j["message"] = r.message;

@@ -3,12 +3,13 @@
 //
 //   {"ts":"2024-05-01T12:00:00.123Z","level":"info","event":"request","method":"CullBoxes",
 //    "dataset":"everest","cells":44521,"boxes":10000,"lines":0,"algorithm":"fast","backend":"cpu",
-//    "duration_ms":7.41,"status":"OK","message":""}
+//    "gpu_fallback":"","duration_ms":7.41,"status":"OK","message":""}
 //
 // level: "info" for OK, "warn" for errors the client caused or asked for
 // (INVALID_ARGUMENT, NOT_FOUND, OUT_OF_RANGE, RESOURCE_EXHAUSTED,
-// CANCELLED, DEADLINE_EXCEEDED, ...), "error" for the daemon's own failures
-// (INTERNAL, UNKNOWN, DATA_LOSS, UNAVAILABLE at run time).
+// CANCELLED, DEADLINE_EXCEEDED, ...) and for an OK answer the CPU gave after
+// the GPU asked for failed (gpu_fallback says what failed), "error" for the
+// daemon's own failures (INTERNAL, UNKNOWN, DATA_LOSS, UNAVAILABLE at run time).
 #pragma once
 
 #include <cstdint>
@@ -26,7 +27,8 @@ struct RequestRecord {
   std::uint64_t boxes = 0;
   std::uint64_t lines = 0;
   std::string algorithm;
-  std::string_view backend = "cpu";
+  std::string backend = "cpu";  // where the OHF was computed: "cpu" or "gpu"
+  std::string gpu_fallback;     // why the GPU asked for did not answer; empty when it did, or was not asked
   double duration_ms = 0;
   std::string_view status;   // gRPC code name, "OK", "INVALID_ARGUMENT", ...
   std::string message;

@@ -1,6 +1,6 @@
 // server_env.hpp — what every RPC handler reaches: the configuration, the
-// resident datasets, the worker pool, the memory budget and the metrics.
-// Owned by the Daemon; outlives every call.
+// resident datasets, the worker pool, the memory budget, the metrics and the
+// GPU contexts. Owned by the Daemon; outlives every call.
 #pragma once
 
 #include <atomic>
@@ -8,6 +8,7 @@
 
 #include "config.hpp"
 #include "datasets.hpp"
+#include "horizon/gpu/context_pool.hpp"
 #include "memory_budget.hpp"
 #include "metrics.hpp"
 #include "worker_pool.hpp"
@@ -20,6 +21,9 @@ struct ServerEnv {
   WorkerPool& pool;
   MemoryBudget& memory;
   Metrics& metrics;
+  // Set once at start, before the first call; null when config gpu.contexts is
+  // 0 or no EGL display could be had (every request then runs on the CPU).
+  gpu::ContextPool* gpu = nullptr;
   std::atomic<std::uint32_t> pending{0};  // admitted and not finished
 };
 

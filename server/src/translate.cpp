@@ -66,13 +66,32 @@ v1::Algorithm to_proto_algorithm(visibility::Algorithm algorithm) {
   return v1::ALGORITHM_UNSPECIFIED;
 }
 
+Result<visibility::Backend> to_backend(v1::Backend backend, const std::string& field) {
+  switch (backend) {
+    case v1::BACKEND_UNSPECIFIED:
+    case v1::BACKEND_AUTO: return visibility::Backend::kAuto;
+    case v1::BACKEND_CPU: return visibility::Backend::kCpu;
+    case v1::BACKEND_GPU: return visibility::Backend::kGpu;
+    default: return invalid(field, "unknown backend value " + std::to_string(static_cast<int>(backend)));
+  }
+}
+
+Result<visibility::GpuMethod> to_gpu_method(v1::GpuMethod method, const std::string& field) {
+  switch (method) {
+    case v1::GPU_METHOD_UNSPECIFIED:
+    case v1::GPU_METHOD_FRAGMENT: return visibility::GpuMethod::kFragment;
+    case v1::GPU_METHOD_COMPUTE: return visibility::GpuMethod::kCompute;
+    default: return invalid(field, "unknown GPU method value " + std::to_string(static_cast<int>(method)));
+  }
+}
+
 Error rename_field(Error error, std::string_view options_prefix, std::string_view point_prefix) {
   std::string& f = error.field;
   if (f.empty()) return error;
   if (f == "curvature_coefficient") {
     f = std::string(options_prefix) + "curvature";
   } else if (f == "target_height" || f == "max_distance" || f == "nodata_fill_height" || f == "ray_spacing" ||
-             f == "algorithm") {
+             f == "algorithm" || f == "backend" || f == "gpu_method") {
     f = std::string(options_prefix) + f;
   } else if (f.starts_with("observer") || f.starts_with("from") || f.starts_with("to")) {
     // WGS84 points are x = longitude, y = latitude in the API.
@@ -99,6 +118,13 @@ Result<visibility::ViewshedOptions> to_viewshed_options(const v1::ViewshedOption
   if (!algorithm.ok()) return algorithm.error();
   o.algorithm = *algorithm;
   if (in.has_ray_spacing()) o.radial.ray_spacing = in.ray_spacing();
+  auto backend = to_backend(in.backend(), "options.backend");
+  if (!backend.ok()) return backend.error();
+  o.backend = *backend;
+  auto method = to_gpu_method(in.gpu_method(), "options.gpu_method");
+  if (!method.ok()) return method.error();
+  o.gpu.method = *method;
+  if (in.has_gpu_log_step()) o.gpu.log_step = in.gpu_log_step();
   o.threads = threads;
   if (auto s = visibility::validate_options(o); !s.ok()) return rename_field(s.error(), "options.");
   return o;
@@ -132,6 +158,9 @@ void fill_stats(const visibility::WorkStats& s, v1::WorkStats& out) {
   out.set_terrain_samples(s.terrain_samples);
   out.set_rays(s.rays);
   out.set_seconds(s.seconds);
+  out.set_backend(s.backend);
+  out.set_gpu_fallback(s.gpu_fallback);
+  out.set_device_seconds(s.device_seconds);
 }
 
 void fill_sample(const visibility::ProfileSample& s, v1::ProfileSample& out) {

@@ -25,6 +25,9 @@ Result<geodesy::PointSpec> to_point_spec(const v1::Point& point, const std::stri
 Result<geodesy::PointFrame> to_frame(v1::Frame frame, const std::string& field);
 Result<visibility::Algorithm> to_algorithm(v1::Algorithm algorithm, const std::string& field);
 v1::Algorithm to_proto_algorithm(visibility::Algorithm algorithm);
+// Unspecified reads as the default (auto, fragment); an unknown value is kInvalidArgument naming `field`.
+Result<visibility::Backend> to_backend(v1::Backend backend, const std::string& field);
+Result<visibility::GpuMethod> to_gpu_method(v1::GpuMethod method, const std::string& field);
 
 // Viewshed options (checked by the engine's validate_options, errors renamed to API paths).
 Result<visibility::ViewshedOptions> to_viewshed_options(const v1::ViewshedOptions& options, unsigned threads);

@@ -116,9 +116,13 @@ grpc::Status ViewshedCall::compute() {
     bytes += d.dem.elevation.size() * sizeof(float);  // the engine fills a copy of the DEM
   if (auto s = scope_.reserve(bytes, "this viewshed"); !s.ok()) return scope_.status_of(s.error());
 
-  auto result = visibility::compute_viewshed(d.dem, *observer, *options, scope_.control());
+  auto result = visibility::compute_viewshed(d.dem, *observer, *options, scope_.control(), env.gpu);
   if (!result.ok()) return scope_.status_of(rename_field(result.error(), "options."));
-  scope_.record().cells = result->stats.cells_evaluated;
+  const visibility::WorkStats& stats = result->stats;
+  scope_.record().cells = stats.cells_evaluated;
+  scope_.record().backend = stats.backend;
+  scope_.record().gpu_fallback = stats.gpu_fallback;  // logged on the request's line, at level warn
+  scope_.env().metrics.ohf_computed(stats.backend, !stats.gpu_fallback.empty());
 
   // The raster asked for, derived from the one OHF (as the CLI does).
   const auto mask = visibility::visibility_mask(*result, options->target_height);
@@ -164,7 +168,7 @@ grpc::Status ViewshedCall::compute() {
   header_.set_cell_size_x_m(f.metres_per_col);
   header_.set_cell_size_y_m(f.metres_per_row);
   header_.set_algorithm(scope_.record().algorithm);
-  header_.set_backend("cpu");
+  header_.set_backend(stats.backend);
 
   std::uint64_t visible = 0, hidden = 0;
   for (std::uint8_t v : mask.values()) {

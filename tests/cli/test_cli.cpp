@@ -3,6 +3,7 @@
 // consistent with the input DEM.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -176,6 +177,10 @@ INSTANTIATE_TEST_SUITE_P(
                       UsageCase{concat(concat(V, kSummit), {"--nodata", "fill:x"}), "--nodata"},
                       UsageCase{concat(concat(V, kSummit), {"--algorithm", "slow"}), "--algorithm"},
                       UsageCase{concat(concat(V, kSummit), {"--ray-spacing", "9"}), "--ray-spacing"},
+                      UsageCase{concat(concat(V, kSummit), {"--backend", "quantum"}), "--backend"},
+                      UsageCase{concat(concat(V, kSummit), {"--backend", "gpu", "--algorithm", "exact"}), "--backend"},
+                      UsageCase{concat(concat(V, kSummit), {"--gpu-method", "x"}), "--gpu-method"},
+                      UsageCase{concat(concat(V, kSummit), {"--gpu-propagation", "sideways"}), "--gpu-propagation"},
                       UsageCase{concat(concat(V, kSummit), {"--threads", "-2"}), "--threads"},
                       UsageCase{concat(concat(V, kSummit), {"--threads", "1.5"}), "--threads"},
                       UsageCase{concat(concat(V, kSummit), {"--output", "everything"}), "--output"},
@@ -437,6 +442,77 @@ TEST_F(CliViewshed, RaisingTheEyeNeverShrinksTheViewshed) {
     const auto visible = parse_json(r)["visible_cells"].get<std::uint64_t>();
     EXPECT_GE(visible, previous) << "height " << height;
     previous = visible;
+  }
+}
+
+TEST_F(CliViewshed, BackendGpuAnswersOnTheGpuAsTheCpuDoes) {
+  // On a machine without a GPU the GPU path runs on Mesa's llvmpipe: slower, but the same rays.
+  Json stats[2];
+  std::uint64_t visible[2] = {};
+  const char* backends[] = {"gpu", "cpu"};
+  for (int i = 0; i < 2; ++i) {
+    const auto r = horizon(concat({"viewshed", bundled_dem(kRainier), "--max-distance", "5000", "--backend",
+                                   backends[i], "-o", dir.file(std::string(backends[i]) + ".tif"), "--json"},
+                                  kSummit));
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const Json j = parse_json(r);  // also: no warning on stderr
+    EXPECT_EQ(j["options"]["backend"], backends[i]);
+    EXPECT_EQ(j["options"]["gpu_method"], "fragment");
+    EXPECT_EQ(j["options"]["gpu_propagation"], "log-step");
+    stats[i] = j["stats"];
+    visible[i] = j["visible_cells"].get<std::uint64_t>();
+  }
+  EXPECT_EQ(stats[0]["backend"], "gpu") << stats[0];
+  EXPECT_TRUE(stats[0]["gpu_fallback"].is_null()) << stats[0];
+  EXPECT_EQ(stats[1]["backend"], "cpu") << stats[1];
+  EXPECT_EQ(stats[0]["cells_evaluated"], stats[1]["cells_evaluated"]);
+  // Within float rounding of the two OHFs: at most 0.1 % of the visible cells.
+  EXPECT_LE(std::max(visible[0], visible[1]) - std::min(visible[0], visible[1]), visible[1] / 1000);
+}
+
+TEST_F(CliViewshed, GpuMethodAndPropagationAreEchoed) {
+  const auto r =
+      horizon(concat({"viewshed", bundled_dem(kRainier), "--max-distance", "2000", "--backend", "gpu", "--gpu-method",
+                      "compute", "--gpu-propagation", "one-step", "-o", dir.file("v.tif"), "--json"},
+                     kSummit));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json j = parse_json(r);
+  EXPECT_EQ(j["options"]["gpu_method"], "compute");
+  EXPECT_EQ(j["options"]["gpu_propagation"], "one-step");
+  EXPECT_EQ(j["stats"]["backend"], "gpu");
+}
+
+TEST_F(CliViewshed, BackendGpuWithoutEglWarnsAndAnswersOnTheCpu) {
+  // GLVND with no vendor library to load: no EGL display can be had.
+  std::string command = "__EGL_VENDOR_LIBRARY_FILENAMES=/nonexistent.json ";
+  command += quote(HORIZON_CLI_PATH);
+  for (const std::string& a : concat({"viewshed", bundled_dem(kRainier), "--max-distance", "2000", "--backend", "gpu",
+                                      "-o", dir.file("v.tif"), "--json"},
+                                     kSummit)) {
+    command += ' ';
+    command += quote(a);
+  }
+  const auto r = run_command(command);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto warning = r.output.find("horizon: warning: GPU failed (");
+  ASSERT_NE(warning, std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("EGL", warning), std::string::npos) << r.output;  // names why
+  const Json j = Json::parse(r.output.substr(r.output.find('{')), nullptr, false);
+  ASSERT_FALSE(j.is_discarded()) << r.output;
+  EXPECT_EQ(j["stats"]["backend"], "cpu");
+  EXPECT_NE(j["stats"]["gpu_fallback"].get<std::string>().find("EGL"), std::string::npos) << j["stats"];
+  EXPECT_TRUE(fs::is_regular_file(dir.file("v.tif")));
+}
+
+TEST_F(CliViewshed, BackendAutoOnASoftwareRasteriserRunsOnTheCpu) {
+  const auto r = horizon(concat(
+      {"viewshed", bundled_dem(kRainier), "--max-distance", "2000", "-o", dir.file("v.tif"), "--json"}, kSummit));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json j = parse_json(r);
+  EXPECT_EQ(j["options"]["backend"], "auto");
+  EXPECT_TRUE(j["stats"]["gpu_fallback"].is_null()) << j["stats"];
+  if (!fs::exists("/dev/dri") && !fs::exists("/dev/nvidiactl")) {
+    EXPECT_EQ(j["stats"]["backend"], "cpu");
   }
 }
 

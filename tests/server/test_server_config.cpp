@@ -100,9 +100,31 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"max_boxes too many", document(R"("limits": {"max_boxes": 2000000})"), "limits.max_boxes"},
         BadCase{"max_lines negative", document(R"("limits": {"max_lines": -5})"), "limits.max_lines"},
         BadCase{"max_pending 0", document(R"("limits": {"max_pending": 0})"), "limits.max_pending"},
+        BadCase{"gpu not an object", document(R"("gpu": 2)"), "gpu"},
+        BadCase{"gpu unknown key", document(R"("gpu": {"context": 2})"), "gpu.context"},
+        BadCase{"gpu contexts string", document(R"("gpu": {"contexts": "2"})"), "gpu.contexts"},
+        BadCase{"gpu contexts fractional", document(R"("gpu": {"contexts": 1.5})"), "gpu.contexts"},
+        BadCase{"gpu contexts -1", document(R"("gpu": {"contexts": -1})"), "gpu.contexts"},
+        BadCase{"gpu contexts 65", document(R"("gpu": {"contexts": 65})"), "gpu.contexts"},
         BadCase{"deadline 0", document(R"("default_deadline_ms": 0)"), "default_deadline_ms"},
         BadCase{"grace too long", document(R"("shutdown_grace_ms": 700000)"), "shutdown_grace_ms"},
         BadCase{"scratch_dir missing", document(R"("scratch_dir": "/no/such/dir")"), "scratch_dir"}));
+
+TEST(ServerConfig, GpuContextsDefaultToOnePerWorkerAndZeroTurnsTheGpuOff) {
+  auto absent = parse_config(document(""), "test.json", "/");
+  ASSERT_TRUE(absent.ok()) << absent.error().message;
+  EXPECT_FALSE(absent->gpu.contexts.has_value());  // the daemon opens one per worker thread
+  for (const auto& [text, contexts] : {std::pair{R"("gpu": {"contexts": 0})", 0u}, std::pair{R"("gpu": {"contexts": 64})", 64u},
+                                       std::pair{R"("gpu": {"contexts": 3}, "worker_threads": 8)", 3u}}) {
+    auto c = parse_config(document(text), "test.json", "/");
+    ASSERT_TRUE(c.ok()) << c.error().message;
+    ASSERT_TRUE(c->gpu.contexts.has_value()) << text;
+    EXPECT_EQ(*c->gpu.contexts, contexts) << text;
+  }
+  auto empty = parse_config(document(R"("gpu": {})"), "test.json", "/");
+  ASSERT_TRUE(empty.ok()) << empty.error().message;
+  EXPECT_FALSE(empty->gpu.contexts.has_value());
+}
 
 TEST(ServerConfig, DatasetOutsideTheDataRootIsRefused) {
   auto c = parse_config(document(R"("datasets": {"escape": "../../CMakeLists.txt"})"), "c.json", "/");

@@ -197,8 +197,8 @@ Result<CullPlan> plan_cull(const terrain::Dem& dem, const geodesy::GridPoint& ob
 }
 
 Result<CullResult> run_cull(const terrain::Dem& dem, const geodesy::GridPoint& observer, const CullPlan& plan,
-                            const RunControl* control) {
-  auto ohf = compute_viewshed(dem, observer, plan.viewshed, control);
+                            const RunControl* control, gpu::ContextPool* gpu) {
+  auto ohf = compute_viewshed(dem, observer, plan.viewshed, control, gpu);
   if (!ohf.ok()) return ohf.error();
 
   CullResult result;
@@ -212,10 +212,11 @@ Result<CullResult> run_cull(const terrain::Dem& dem, const geodesy::GridPoint& o
 }
 
 Result<CullResult> cull_boxes(const terrain::Dem& dem, const geodesy::GridPoint& observer,
-                              std::span<const BoxSpec> boxes, const CullOptions& options, const RunControl* control) {
+                              std::span<const BoxSpec> boxes, const CullOptions& options, const RunControl* control,
+                              gpu::ContextPool* gpu) {
   auto plan = plan_cull(dem, observer, boxes, options);
   if (!plan.ok()) return plan.error();
-  return run_cull(dem, observer, *plan, control);
+  return run_cull(dem, observer, *plan, control, gpu);
 }
 
 }  // namespace horizon::visibility

@@ -1,0 +1,254 @@
+// The daemon's GPU backend through its gRPC API: config "gpu" opens the
+// contexts at start, a fast viewshed asked for on the GPU runs there (Mesa's
+// llvmpipe on a machine without one) and equals the CPU's answer, GPU with
+// another algorithm is refused naming options.backend, a daemon without
+// contexts answers on the CPU and says why (response, log line, metrics), and
+// `horizon viewshed --server` carries the backend flags both ways.
+#include <gtest/gtest.h>
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "daemon_process.hpp"
+#include "horizon/visibility/viewshed.hpp"
+#include "rpc_helpers.hpp"
+
+namespace horizon::testing {
+namespace {
+
+using Json = nlohmann::json;
+
+// Rainier (EPSG:4326, 3" cells): a viewpoint near the summit.
+constexpr double kRainierLon = -121.7604, kRainierLat = 46.8529;
+
+// The Prometheus text served on 127.0.0.1:port/metrics ("" when it cannot be had).
+std::string scrape_metrics(int port) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  if (fd < 0) return "";
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(static_cast<std::uint16_t>(port));
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  std::string text;
+  if (::connect(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) == 0) {
+    const std::string request = "GET /metrics HTTP/1.0\r\nHost: 127.0.0.1\r\n\r\n";
+    if (::write(fd, request.data(), request.size()) == static_cast<ssize_t>(request.size())) {
+      char buffer[4096];
+      for (ssize_t n; (n = ::read(fd, buffer, sizeof buffer)) > 0;) text.append(buffer, static_cast<std::size_t>(n));
+    }
+  }
+  ::close(fd);
+  return text;
+}
+
+// The value of the sample line starting with `series` (name and labels), or -1.
+double metric(const std::string& text, const std::string& series) {
+  for (std::size_t at = text.find(series + " "); at != std::string::npos; at = text.find(series + " ", at + 1))
+    if (at == 0 || text[at - 1] == '\n') return std::stod(text.substr(at + series.size() + 1));
+  return -1;
+}
+
+struct Viewshed {
+  grpc::Status status;
+  v1::ViewshedHeader header;
+  v1::ViewshedSummary summary;
+  std::string raster;  // uint8: 1 visible, 0 hidden, 255 no answer
+};
+
+// Two daemons holding Rainier, each started when a test first needs it and
+// shared by the rest (starting and stopping one takes ~2 s): one with a GL
+// context, one with the GPU turned off.
+class ServerGpu : public ::testing::Test {
+ protected:
+  static void TearDownTestSuite() {
+    delete gpu_;
+    delete cpu_only_;
+    gpu_ = cpu_only_ = nullptr;
+  }
+  static DaemonProcess& daemon(DaemonProcess*& slot, const std::string& gpu_json) {
+    if (!slot) {
+      DaemonOptions o;
+      o.datasets = {{"rainier", "rainier_summit_srtm3_400x400.tif"}};
+      o.extra_json = gpu_json + R"( "engine_threads": 1,)";
+      slot = new DaemonProcess(o);
+    }
+    EXPECT_TRUE(slot->ready()) << slot->error();
+    return *slot;
+  }
+  static DaemonProcess& with_gpu() { return daemon(gpu_, R"("gpu": {"contexts": 1},)"); }
+  static DaemonProcess& cpu_only() { return daemon(cpu_only_, R"("gpu": {"contexts": 0},)"); }
+
+  static v1::ViewshedRequest rainier(v1::Backend backend, v1::Algorithm algorithm = v1::ALGORITHM_FAST) {
+    v1::ViewshedRequest r;
+    r.set_dataset("rainier");
+    *r.mutable_observer() = point(kRainierLon, kRainierLat, 2.0, v1::FRAME_WGS84);
+    r.mutable_options()->set_max_distance(6000);
+    r.mutable_options()->set_algorithm(algorithm);
+    r.mutable_options()->set_backend(backend);
+    r.set_include_raster(true);
+    return r;
+  }
+
+  static Viewshed run(const DaemonProcess& daemon, const v1::ViewshedRequest& request) {
+    Viewshed out;
+    auto stub = v1::VisibilityService::NewStub(daemon.channel());
+    auto context = context_with_deadline();
+    auto reader = stub->ComputeViewshed(context.get(), request);
+    v1::ViewshedResponse message;
+    while (reader->Read(&message)) {
+      if (message.has_header()) out.header = message.header();
+      if (message.has_raster_chunk()) out.raster += message.raster_chunk().data();
+      if (message.has_summary()) out.summary = message.summary();
+    }
+    out.status = reader->Finish();
+    return out;
+  }
+
+  static DaemonProcess* gpu_;       // with_gpu()
+  static DaemonProcess* cpu_only_;  // cpu_only()
+};
+DaemonProcess* ServerGpu::gpu_ = nullptr;
+DaemonProcess* ServerGpu::cpu_only_ = nullptr;
+
+TEST_F(ServerGpu, StartsWithTheContextsItWasGiven) {
+  const std::string log = with_gpu().log();
+  EXPECT_NE(log.find("\"event\":\"gpu_ready\""), std::string::npos) << log;
+  EXPECT_NE(log.find("\"contexts\":1"), std::string::npos) << log;
+  EXPECT_EQ(cpu_only().log().find("\"event\":\"gpu_"), std::string::npos) << cpu_only().log();
+}
+
+TEST_F(ServerGpu, FastOnTheGpuEqualsTheCpuAndIsCounted) {
+  const std::string before = scrape_metrics(with_gpu().metrics_port());
+  const Viewshed gpu = run(with_gpu(), rainier(v1::BACKEND_GPU));
+  ASSERT_TRUE(gpu.status.ok()) << gpu.status.error_message();
+  EXPECT_EQ(gpu.summary.stats().backend(), "gpu");
+  EXPECT_EQ(gpu.summary.stats().gpu_fallback(), "");
+  EXPECT_EQ(gpu.header.backend(), "gpu");
+  const Viewshed cpu = run(with_gpu(), rainier(v1::BACKEND_CPU));
+  ASSERT_TRUE(cpu.status.ok()) << cpu.status.error_message();
+  EXPECT_EQ(cpu.summary.stats().backend(), "cpu");
+  EXPECT_EQ(cpu.header.backend(), "cpu");
+
+  // Same window and the same answers. llvmpipe rounds as the CPU does, so
+  // the masks are identical there; a hardware GPU may round a few ties the
+  // other way: IoU of the visible sets >= 99.9 %.
+  ASSERT_EQ(gpu.header.width(), cpu.header.width());
+  ASSERT_EQ(gpu.header.height(), cpu.header.height());
+  ASSERT_EQ(gpu.raster.size(), cpu.raster.size());
+  ASSERT_EQ(gpu.raster.size(), static_cast<std::size_t>(cpu.header.width()) * cpu.header.height());
+  std::uint64_t both = 0, either = 0, answered_differently = 0;
+  for (std::size_t i = 0; i < cpu.raster.size(); ++i) {
+    const auto g = static_cast<std::uint8_t>(gpu.raster[i]), c = static_cast<std::uint8_t>(cpu.raster[i]);
+    both += g == visibility::kVisible && c == visibility::kVisible;
+    either += g == visibility::kVisible || c == visibility::kVisible;
+    answered_differently += (g == visibility::kNoAnswer) != (c == visibility::kNoAnswer);
+  }
+  EXPECT_EQ(answered_differently, 0u);
+  ASSERT_GT(either, 0u);
+  EXPECT_GE(static_cast<double>(both) / static_cast<double>(either), 0.999) << both << " of " << either;
+  EXPECT_EQ(gpu.summary.evaluated_cells(), cpu.summary.evaluated_cells());
+  if (with_gpu().log().find("\"software\":true") != std::string::npos) {
+    EXPECT_TRUE(gpu.raster == cpu.raster) << "llvmpipe: " << both << " cells visible to both of " << either;
+  }
+
+  const auto lines = with_gpu().request_lines();
+  ASSERT_GE(lines.size(), 2u);
+  const std::string& gpu_line = lines[lines.size() - 2];
+  EXPECT_NE(gpu_line.find("\"level\":\"info\""), std::string::npos) << gpu_line;
+  EXPECT_NE(gpu_line.find("\"backend\":\"gpu\",\"gpu_fallback\":\"\""), std::string::npos) << gpu_line;
+  EXPECT_NE(lines.back().find("\"backend\":\"cpu\",\"gpu_fallback\":\"\""), std::string::npos) << lines.back();
+  const std::string after = scrape_metrics(with_gpu().metrics_port());
+  const std::string on_gpu = R"(horizon_backend_requests_total{backend="gpu"})";
+  const std::string on_cpu = R"(horizon_backend_requests_total{backend="cpu"})";
+  EXPECT_EQ(metric(after, on_gpu) - metric(before, on_gpu), 1.0) << after;
+  EXPECT_EQ(metric(after, on_cpu) - metric(before, on_cpu), 1.0) << after;
+  EXPECT_EQ(metric(after, "horizon_gpu_fallbacks_total"), 0.0) << after;
+}
+
+TEST_F(ServerGpu, GpuWithAnotherAlgorithmOrAnUnknownValueNamesTheField) {
+  const Viewshed exact = run(with_gpu(), rainier(v1::BACKEND_GPU, v1::ALGORITHM_EXACT));
+  EXPECT_EQ(exact.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << exact.status.error_message();
+  EXPECT_EQ(violated_field(exact.status), "options.backend") << exact.status.error_message();
+
+  const Viewshed unknown = run(with_gpu(), rainier(static_cast<v1::Backend>(7)));
+  EXPECT_EQ(unknown.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(violated_field(unknown.status), "options.backend") << unknown.status.error_message();
+
+  v1::ViewshedRequest method = rainier(v1::BACKEND_GPU);
+  method.mutable_options()->set_gpu_method(static_cast<v1::GpuMethod>(9));
+  const Viewshed bad_method = run(with_gpu(), method);
+  EXPECT_EQ(bad_method.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(violated_field(bad_method.status), "options.gpu_method") << bad_method.status.error_message();
+}
+
+TEST_F(ServerGpu, WithoutContextsTheCpuAnswersAndSaysWhy) {
+  const std::string before = scrape_metrics(cpu_only().metrics_port());
+  v1::ViewshedRequest request = rainier(v1::BACKEND_GPU);
+  request.mutable_options()->set_gpu_method(v1::GPU_METHOD_COMPUTE);
+  request.mutable_options()->set_gpu_log_step(false);
+  const Viewshed answer = run(cpu_only(), request);
+  ASSERT_TRUE(answer.status.ok()) << answer.status.error_message();
+  EXPECT_EQ(answer.summary.stats().backend(), "cpu");
+  EXPECT_FALSE(answer.summary.stats().gpu_fallback().empty());
+  EXPECT_EQ(answer.header.backend(), "cpu");
+  EXPECT_GT(answer.summary.visible_cells(), 0u);
+
+  const auto lines = cpu_only().request_lines();
+  ASSERT_FALSE(lines.empty());
+  EXPECT_NE(lines.back().find("\"level\":\"warn\""), std::string::npos) << lines.back();
+  EXPECT_NE(lines.back().find("\"gpu_fallback\":\"" + answer.summary.stats().gpu_fallback() + "\""), std::string::npos)
+      << lines.back();
+  EXPECT_NE(lines.back().find("\"status\":\"OK\""), std::string::npos) << lines.back();
+  const std::string after = scrape_metrics(cpu_only().metrics_port());
+  EXPECT_EQ(metric(after, "horizon_gpu_fallbacks_total") - metric(before, "horizon_gpu_fallbacks_total"), 1.0) << after;
+  const std::string on_cpu = R"(horizon_backend_requests_total{backend="cpu"})";
+  EXPECT_EQ(metric(after, on_cpu) - metric(before, on_cpu), 1.0) << after;
+}
+
+// `horizon viewshed --server` sends the backend flags and reports where the
+// daemon computed, warning when its GPU could not answer.
+TEST_F(ServerGpu, CliSendsTheBackendAndReportsTheFallback) {
+  TempDir dir;
+  const auto horizon = [&](const DaemonProcess& daemon, const std::string& flags) {
+    return run_command(std::string(HORIZON_CLI_PATH) + " viewshed rainier --server " + daemon.address() +
+                       " --lat 46.8529 --lon -121.7604 --max-distance 3000 --json -o " + dir.file("v.tif") + flags);
+  };
+  // stderr is merged in: the document is the first '{' on.
+  const auto json_of = [](const CommandResult& r) {
+    const auto start = r.output.find('{');
+    return start == std::string::npos ? Json() : Json::parse(r.output.substr(start), nullptr, false);
+  };
+
+  const auto gpu = horizon(with_gpu(), " --backend gpu --gpu-method compute --gpu-propagation one-step");
+  ASSERT_EQ(gpu.exit_code, 0) << gpu.output;
+  EXPECT_EQ(gpu.output.find("warning"), std::string::npos) << gpu.output;
+  const Json j = json_of(gpu);
+  EXPECT_EQ(j["stats"]["backend"], "gpu") << gpu.output;
+  EXPECT_TRUE(j["stats"]["gpu_fallback"].is_null()) << gpu.output;
+  EXPECT_EQ(j["options"]["gpu_method"], "compute");
+  EXPECT_EQ(j["options"]["gpu_propagation"], "one-step");
+  EXPECT_NE(with_gpu().request_lines().back().find("\"backend\":\"gpu\""), std::string::npos);
+
+  const auto exact = horizon(with_gpu(), " --backend gpu --algorithm exact");
+  EXPECT_EQ(exact.exit_code, 2) << exact.output;  // refused before any call
+  EXPECT_NE(exact.output.find("--backend"), std::string::npos) << exact.output;
+
+  const auto cpu = horizon(cpu_only(), " --backend gpu");
+  ASSERT_EQ(cpu.exit_code, 0) << cpu.output;
+  EXPECT_NE(cpu.output.find("horizon: warning: GPU failed ("), std::string::npos) << cpu.output;
+  EXPECT_NE(cpu.output.find("); answered on the CPU"), std::string::npos) << cpu.output;
+  const Json k = json_of(cpu);
+  EXPECT_EQ(k["stats"]["backend"], "cpu") << cpu.output;
+  EXPECT_FALSE(k["stats"]["gpu_fallback"].is_null()) << cpu.output;
+}
+
+}  // namespace
+}  // namespace horizon::testing
