@@ -257,6 +257,24 @@ TEST(GpuOhf, AFailedContextIsReplacedAndTheNextRequestSucceeds) {
   expect_agreement(compare(*g, c, 0.0), "after replacement");
 }
 
+// Pools share the process's EGL display: closing one leaves the others working.
+TEST(GpuPool, ClosingOnePoolLeavesAnotherWorking) {
+  auto first = gpu::ContextPool::create({.contexts = 1});
+  ASSERT_TRUE(first.ok()) << first.error().message;
+  {
+    auto second = gpu::ContextPool::create({.contexts = 2});
+    ASSERT_TRUE(second.ok()) << second.error().message;
+  }
+  const auto dem = testing::make_random_terrain(70, 60, 4, 120.0);
+  const auto eye = eye_at(dem, 20.5, 33.2);
+  ViewshedOptions o;
+  o.backend = Backend::kGpu;
+  auto g = visibility::compute_viewshed(dem, eye, o, nullptr, first->get());
+  ASSERT_TRUE(g.ok());
+  EXPECT_EQ(g->stats.backend, "gpu") << g->stats.gpu_fallback;
+  expect_agreement(compare(*g, run(dem, eye, {}, Backend::kCpu), 0.0), "after the other pool closed");
+}
+
 TEST(GpuBackend, AutoUsesTheCpuOnASoftwareRasteriser) {
   if (!pool().device().software) GTEST_SKIP() << "hardware GPU: " << pool().device().renderer;
   const auto dem = testing::make_random_terrain(64, 64, 1);

@@ -39,6 +39,34 @@ std::string egl_error_text(EGLint error) {
   return buffer;
 }
 
+// EGL hands every pool of a process the same display for the same device,
+// and eglTerminate ends it for all of them: pools count their displays here,
+// and the last one out terminates.
+std::mutex display_users_mutex;
+std::vector<std::pair<EGLDisplay, int>> display_users;
+
+void add_display_user(EGLDisplay display) {
+  std::lock_guard lock(display_users_mutex);
+  for (auto& [d, n] : display_users)
+    if (d == display) {
+      ++n;
+      return;
+    }
+  display_users.push_back({display, 1});
+}
+
+// True when the caller was the display's last user.
+bool remove_display_user(EGLDisplay display) {
+  std::lock_guard lock(display_users_mutex);
+  for (auto it = display_users.begin(); it != display_users.end(); ++it)
+    if (it->first == display) {
+      if (--it->second > 0) return false;
+      display_users.erase(it);
+      return true;
+    }
+  return false;
+}
+
 struct Display {
   EGLDisplay display = EGL_NO_DISPLAY;
   std::string platform;
@@ -144,10 +172,11 @@ struct ContextPool::Impl {
 
   ~Impl() {
     for (Slot& slot : slots) destroy(slot);
+    if (display.display == EGL_NO_DISPLAY || !remove_display_user(display.display)) return;
     // Mesa's driver unload leaks a few hundred bytes that LeakSanitizer
     // reports; under ASan the display stays initialised (process exit frees it).
 #if !defined(__SANITIZE_ADDRESS__)
-    if (display.display != EGL_NO_DISPLAY) eglTerminate(display.display);
+    eglTerminate(display.display);
 #endif
     eglReleaseThread();
   }
@@ -162,6 +191,7 @@ Result<std::unique_ptr<ContextPool>> ContextPool::create(const PoolOptions& opti
   auto display = open_display();
   if (!display.ok()) return display.error();
   impl->display = *display;
+  add_display_user(impl->display.display);
   impl->slots.resize(static_cast<std::size_t>(options.contexts));
   for (Impl::Slot& slot : impl->slots) {
     auto context = create_context(impl->display.display);
