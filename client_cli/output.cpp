@@ -25,8 +25,9 @@ Json viewshed_options_json(const geodesy::PointSpec& observer, const visibility:
           {"ray_spacing", options.radial.ray_spacing},
           {"threads", options.threads},
           {"backend", visibility::backend_name(options.backend)},
-          {"gpu_method", visibility::gpu_method_name(options.gpu.method)},
-          {"gpu_propagation", options.gpu.log_step ? "log-step" : "one-step"}};
+          // null: the device's measured fastest variant (stats.gpu_variant says which ran)
+          {"gpu_method", options.gpu ? Json(visibility::gpu_method_name(options.gpu->method)) : Json(nullptr)},
+          {"gpu_propagation", options.gpu ? Json(options.gpu->log_step ? "log-step" : "one-step") : Json(nullptr)}};
 }
 
 Json to_json(const terrain::GeoTransform& t) {
@@ -46,6 +47,7 @@ Json to_json(const visibility::WorkStats& s) {
               {"rays", s.rays},
               {"seconds", s.seconds},
               {"backend", s.backend},
+              {"gpu_variant", s.gpu_variant.empty() ? Json(nullptr) : Json(s.gpu_variant)},
               {"device_seconds", s.device_seconds},
               {"gpu_fallback", s.gpu_fallback.empty() ? Json(nullptr) : Json(s.gpu_fallback)}};
 }

@@ -112,8 +112,14 @@ Request parse_request(const Args& args) {
   o.algorithm = *visibility::parse_algorithm(r.algorithm_name);
   if (auto spacing = args.non_negative("--ray-spacing")) o.radial.ray_spacing = *spacing;
   if (auto backend = args.choice("--backend", kBackends)) o.backend = *visibility::parse_backend(*backend);
-  if (auto method = args.choice("--gpu-method", kGpuMethods)) o.gpu.method = *visibility::parse_gpu_method(*method);
-  if (auto propagation = args.choice("--gpu-propagation", kGpuPropagations)) o.gpu.log_step = *propagation == "log-step";
+  // Either flag names the variant (the other at its default); neither: the device's measured fastest.
+  const auto method = args.choice("--gpu-method", kGpuMethods);
+  const auto propagation = args.choice("--gpu-propagation", kGpuPropagations);
+  if (method || propagation) {
+    o.gpu.emplace();
+    if (method) o.gpu->method = *visibility::parse_gpu_method(*method);
+    if (propagation) o.gpu->log_step = *propagation == "log-step";
+  }
   o.threads = args.non_negative_integer("--threads").value_or(0);
   if (auto output = args.choice("--output", kOutputs)) r.output_name = *output;
   r.output = r.output_name == "ohf"                 ? OutputKind::kOhf

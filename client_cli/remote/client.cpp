@@ -86,6 +86,7 @@ visibility::WorkStats to_stats(const v1::WorkStats& s) {
   if (!s.backend().empty()) w.backend = s.backend();  // empty from a daemon older than the field: the CPU
   w.gpu_fallback = s.gpu_fallback();
   w.device_seconds = s.device_seconds();
+  w.gpu_variant = s.gpu_variant();
   return w;
 }
 

@@ -35,8 +35,10 @@ int run_viewshed(const Args& args, const ViewshedInputs& in) {
   o.set_algorithm(to_proto_algorithm(in.options.algorithm));
   o.set_ray_spacing(in.options.radial.ray_spacing);
   o.set_backend(to_proto_backend(in.options.backend));
-  o.set_gpu_method(to_proto_gpu_method(in.options.gpu.method));
-  o.set_gpu_log_step(in.options.gpu.log_step);
+  if (in.options.gpu) {  // absent: the daemon's measured fastest variant
+    o.set_gpu_method(to_proto_gpu_method(in.options.gpu->method));
+    o.set_gpu_log_step(in.options.gpu->log_step);
+  }
   request.set_raster(in.output_name == "ohf"                 ? v1::RASTER_KIND_OHF
                      : in.output_name == "min-target-height" ? v1::RASTER_KIND_MIN_TARGET_HEIGHT
                                                              : v1::RASTER_KIND_VISIBLE);

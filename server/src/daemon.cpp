@@ -60,7 +60,9 @@ std::unique_ptr<gpu::ContextPool> open_gpu(const Config& config, unsigned worker
              {"software", device.software ? "true" : "false", true},
              {"contexts", std::to_string((*pool)->size()), true},
              // Backend auto's threshold; null: auto never picks this device.
-             {"auto_from_cells", crossover == UINT64_MAX ? "null" : std::to_string(crossover), true}});
+             {"auto_from_cells", crossover == UINT64_MAX ? "null" : std::to_string(crossover), true},
+             // The GL variant for requests that name none (measured fastest on a hardware device).
+             {"variant", visibility::gpu_variant_name((*pool)->preferred_variant())}});
   return std::move(pool).value();
 }
 

@@ -123,8 +123,11 @@ Result<visibility::ViewshedOptions> to_viewshed_options(const v1::ViewshedOption
   o.backend = *backend;
   auto method = to_gpu_method(in.gpu_method(), "options.gpu_method");
   if (!method.ok()) return method.error();
-  o.gpu.method = *method;
-  if (in.has_gpu_log_step()) o.gpu.log_step = in.gpu_log_step();
+  if (in.gpu_method() != v1::GPU_METHOD_UNSPECIFIED || in.has_gpu_log_step()) {
+    o.gpu.emplace();  // a named variant; neither field: the pool's measured fastest
+    o.gpu->method = *method;
+    if (in.has_gpu_log_step()) o.gpu->log_step = in.gpu_log_step();
+  }
   o.threads = threads;
   if (auto s = visibility::validate_options(o); !s.ok()) return rename_field(s.error(), "options.");
   return o;
@@ -161,6 +164,7 @@ void fill_stats(const visibility::WorkStats& s, v1::WorkStats& out) {
   out.set_backend(s.backend);
   out.set_gpu_fallback(s.gpu_fallback);
   out.set_device_seconds(s.device_seconds);
+  out.set_gpu_variant(s.gpu_variant);
 }
 
 void fill_sample(const visibility::ProfileSample& s, v1::ProfileSample& out) {

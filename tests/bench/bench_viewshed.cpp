@@ -185,10 +185,9 @@ void BM_GpuDem(benchmark::State& state) {
   }
   visibility::ViewshedOptions o;
   o.backend = visibility::Backend::kGpu;
-  o.gpu.method = state.range(0) ? visibility::GpuMethod::kCompute : visibility::GpuMethod::kFragment;
-  o.gpu.log_step = state.range(1) != 0;
-  state.SetLabel((*pool)->device().renderer + ", " + std::string(visibility::gpu_method_name(o.gpu.method)) +
-                 (o.gpu.log_step ? ", log-step" : ", one-step"));
+  o.gpu = visibility::GpuOptions{state.range(0) ? visibility::GpuMethod::kCompute : visibility::GpuMethod::kFragment,
+                                 state.range(1) != 0};
+  state.SetLabel((*pool)->device().renderer + ", " + visibility::gpu_variant_name(*o.gpu));
   visibility::WorkStats stats;
   double device = 0;
   for (auto _ : state) {

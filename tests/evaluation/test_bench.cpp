@@ -57,7 +57,7 @@ TEST(KnobTable, FastSweepsSpacingAndBlendAndMarksTheEngineDefault) {
     if (k.apply) k.apply(o);
     EXPECT_TRUE(visibility::validate_options(o).ok()) << k.name;
     seen.insert({o.radial.ray_spacing, static_cast<int>(o.radial.blend), o.radial.thinning_levels,
-                  static_cast<int>(o.backend), static_cast<int>(o.gpu.method), o.gpu.log_step});
+                  static_cast<int>(o.backend), o.gpu ? static_cast<int>(o.gpu->method) : -1, o.gpu && o.gpu->log_step});
     // The GPU rows run the default knobs on the GL path: not the engine default.
     const bool is_engine_default = o.radial.ray_spacing == engine_default.ray_spacing &&
                                    o.radial.blend == engine_default.blend &&

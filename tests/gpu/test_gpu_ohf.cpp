@@ -4,6 +4,7 @@
 // on the bundled DEMs, against R3 with the bar of issue #2.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <thread>
 #include <vector>
@@ -111,8 +112,7 @@ TEST(GpuOhf, AgreesWithTheCpuSweepForEveryMethodAndBlend) {
       for (bool log_step : {true, false}) {
         ViewshedOptions o;
         o.radial.blend = blend;
-        o.gpu.method = method;
-        o.gpu.log_step = log_step;
+        o.gpu = visibility::GpuOptions{method, log_step};
         const auto g = run(dem, eye, o, Backend::kGpu);
         const auto c = run(dem, eye, o, Backend::kCpu);
         EXPECT_EQ(g.stats.backend, "gpu") << g.stats.gpu_fallback;
@@ -207,7 +207,7 @@ TEST(GpuOhf, ParallelRequestsOnDifferentContextsDoNotCrossTalk) {
   for (int i = 0; i < 8; ++i)
     threads.emplace_back([&, i] {
       ViewshedOptions o;
-      o.gpu.method = i % 2 ? visibility::GpuMethod::kCompute : visibility::GpuMethod::kFragment;
+      o.gpu = visibility::GpuOptions{i % 2 ? visibility::GpuMethod::kCompute : visibility::GpuMethod::kFragment, true};
       for (int repeat = 0; repeat < 3; ++repeat) gpu_results[i] = run(dem, eyes[i], o, Backend::kGpu);
     });
   for (auto& t : threads) t.join();
@@ -298,6 +298,21 @@ TEST(GpuCalibration, SetsTheCrossoverFromTheTimings) {
   for (const auto& p : c->points) EXPECT_GT(p.cpu_seconds * p.gpu_seconds, 0.0);
   EXPECT_EQ(c->crossover_cells, expected);
   EXPECT_EQ((*own)->crossover_cells(), expected);
+  // Every variant timed at the largest size; the fastest is the pool's default.
+  ASSERT_EQ(c->variants.size(), 4u);
+  const auto fastest = std::min_element(c->variants.begin(), c->variants.end(),
+                                        [](const auto& a, const auto& b) { return a.seconds < b.seconds; });
+  EXPECT_EQ(c->preferred.method, fastest->variant.method);
+  EXPECT_EQ(c->preferred.log_step, fastest->variant.log_step);
+  EXPECT_EQ((*own)->preferred_variant().method, fastest->variant.method);
+  EXPECT_EQ((*own)->preferred_variant().log_step, fastest->variant.log_step);
+  // A request naming no variant runs the preferred one.
+  const auto dem = testing::make_random_terrain(60, 60, 2);
+  ViewshedOptions o;
+  o.backend = Backend::kGpu;
+  auto r = visibility::compute_viewshed(dem, eye_at(dem, 30.5, 20.5), o, nullptr, own->get());
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->stats.gpu_variant, visibility::gpu_variant_name(fastest->variant));
   // Without time_software a software rasteriser is not timed and never preferred.
   if ((*own)->device().software) {
     auto plain = gpu::calibrate(**own);

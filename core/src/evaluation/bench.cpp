@@ -31,8 +31,7 @@ void spacing_blend(ViewshedOptions& o, double spacing, RayBlend blend) {
 }
 void gpu_knobs(ViewshedOptions& o, visibility::GpuMethod method, bool log_step) {
   o.backend = visibility::Backend::kGpu;
-  o.gpu.method = method;
-  o.gpu.log_step = log_step;
+  o.gpu = visibility::GpuOptions{method, log_step};
 }
 constexpr KnobSetting kKnobTable[] = {
     {"fast", "spacing 2, resample", [](ViewshedOptions& o) { spacing_blend(o, 2.0, RayBlend::kResample); }},
@@ -326,8 +325,8 @@ Result<BenchReport> run_bench(const BenchConfig& config, const RunControl* contr
           units_done += 1;
           continue;
         }
-        if (options.backend == visibility::Backend::kGpu && !options.gpu.log_step &&
-            options.gpu.method == visibility::GpuMethod::kFragment &&
+        if (options.backend == visibility::Backend::kGpu && options.gpu && !options.gpu->log_step &&
+            options.gpu->method == visibility::GpuMethod::kFragment &&
             std::max(reference->frame.window.width(), reference->frame.window.height()) > config.gpu_one_step_limit) {
           report.notes.push_back(base_name(path) + ", " + pick.kind + ": " + setting.name + " skipped: one draw per " +
                                  "step outward, over BenchConfig::gpu_one_step_limit (" +

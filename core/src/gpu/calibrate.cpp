@@ -25,6 +25,15 @@ terrain::Dem synthetic(int size) {
   return dem;
 }
 
+// 2 m above a point just off the centre cell.
+Result<geodesy::GridPoint> centre_eye(const terrain::Dem& dem) {
+  geodesy::PointSpec spec;
+  spec.x = dem.georef.transform.x_at(dem.width() / 2 + 0.3);
+  spec.y = dem.georef.transform.y_at(dem.height() / 2 + 0.6);
+  spec.height = 2.0;
+  return geodesy::resolve_point(dem, spec, "observer");
+}
+
 double median_seconds(const terrain::Dem& dem, const geodesy::GridPoint& eye, const visibility::ViewshedOptions& o,
                       ContextPool& pool, Status& status) {
   std::vector<double> times;
@@ -54,13 +63,32 @@ Result<Calibration> calibrate(ContextPool& pool, const CalibrationOptions& optio
     pool.set_crossover_cells(out.crossover_cells);
     return out;
   }
+  // Every variant at the largest size; the fastest becomes the pool's default
+  // and is the one the CPU is timed against below.
+  {
+    int size = 128;
+    while (2 * size <= options.max_side) size *= 2;
+    const terrain::Dem dem = synthetic(size);
+    auto eye = centre_eye(dem);
+    if (!eye.ok()) return eye.error();
+    visibility::ViewshedOptions o;
+    o.backend = visibility::Backend::kGpu;
+    for (auto method : {visibility::GpuMethod::kFragment, visibility::GpuMethod::kCompute})
+      for (bool log_step : {true, false}) {
+        o.gpu = visibility::GpuOptions{method, log_step};
+        Status status;
+        const double seconds = median_seconds(dem, *eye, o, pool, status);
+        if (!status.ok()) return status.error();
+        out.variants.push_back({*o.gpu, seconds});
+      }
+    out.preferred = std::min_element(out.variants.begin(), out.variants.end(),
+                                     [](const VariantTime& a, const VariantTime& b) { return a.seconds < b.seconds; })
+                        ->variant;
+    pool.set_preferred_variant(out.preferred);
+  }
   for (int size = 128; size <= options.max_side; size *= 2) {
     const terrain::Dem dem = synthetic(size);
-    geodesy::PointSpec spec;
-    spec.x = dem.georef.transform.x_at(size / 2 + 0.3);
-    spec.y = dem.georef.transform.y_at(size / 2 + 0.6);
-    spec.height = 2.0;
-    auto eye = geodesy::resolve_point(dem, spec, "observer");
+    auto eye = centre_eye(dem);
     if (!eye.ok()) return eye.error();
     visibility::ViewshedOptions o;
     o.threads = options.threads;

@@ -157,6 +157,7 @@ struct ContextPool::Impl {
   std::condition_variable returned;
   Counters counters;
   std::uint64_t crossover = 1u << 20;
+  visibility::GpuOptions preferred;
 
   // Destroys a slot's context, its resources first with the context current.
   void destroy(Slot& slot) {
@@ -287,6 +288,16 @@ void ContextPool::set_crossover_cells(std::uint64_t cells) {
 std::uint64_t ContextPool::crossover_cells() const {
   std::lock_guard lock(impl_->mutex);
   return impl_->crossover;
+}
+
+visibility::GpuOptions ContextPool::preferred_variant() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->preferred;
+}
+
+void ContextPool::set_preferred_variant(const visibility::GpuOptions& variant) {
+  std::lock_guard lock(impl_->mutex);
+  impl_->preferred = variant;
 }
 
 Lease::Lease(Lease&& other) noexcept

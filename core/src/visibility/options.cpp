@@ -44,13 +44,13 @@ Status validate_options(const ViewshedOptions& o) {
     default:
       return bad_option("blend", "unknown ray blend value " + number(static_cast<int>(o.radial.blend)));
   }
-  switch (o.gpu.method) {
-    case GpuMethod::kFragment:
-    case GpuMethod::kCompute:
-      break;
-    default:
-      return bad_option("gpu_method", "unknown GPU method value " + number(static_cast<int>(o.gpu.method)));
-  }
+  if (o.gpu) switch (o.gpu->method) {
+      case GpuMethod::kFragment:
+      case GpuMethod::kCompute:
+        break;
+      default:
+        return bad_option("gpu_method", "unknown GPU method value " + number(static_cast<int>(o.gpu->method)));
+    }
   switch (o.backend) {
     case Backend::kAuto:
     case Backend::kCpu:
@@ -106,6 +106,10 @@ std::string_view backend_name(Backend backend) { return name_of(kBackends, backe
 std::optional<Backend> parse_backend(std::string_view name) { return value_of(kBackends, name); }
 std::string_view gpu_method_name(GpuMethod method) { return name_of(kGpuMethods, method); }
 std::optional<GpuMethod> parse_gpu_method(std::string_view name) { return value_of(kGpuMethods, name); }
+
+std::string gpu_variant_name(const GpuOptions& options) {
+  return std::string(gpu_method_name(options.method)) + (options.log_step ? ", log-step" : ", one-step");
+}
 
 std::string_view algorithm_name(Algorithm algorithm) {
   for (const auto& n : kNames)

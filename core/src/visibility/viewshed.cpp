@@ -51,10 +51,11 @@ bool try_gpu(const terrain::Grid<float>& elevation, const ViewFrame& frame, cons
     result.stats.gpu_fallback = lease.error().message;
     return false;
   }
-  status = gpu::gpu_radial_ohf(*lease, elevation, frame, options.radial, options.gpu, control, result.ohf,
-                               result.stats);
+  const GpuOptions variant = options.gpu.value_or(pool->preferred_variant());
+  status = gpu::gpu_radial_ohf(*lease, elevation, frame, options.radial, variant, control, result.ohf, result.stats);
   if (status.ok()) {
     result.stats.backend = "gpu";
+    result.stats.gpu_variant = gpu_variant_name(variant);
     return true;
   }
   const ErrorCode code = status.error().code;

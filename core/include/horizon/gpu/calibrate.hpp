@@ -6,9 +6,11 @@
 // viewshed on the CPU and on the pool's GPU over synthetic terrain of
 // growing size (128^2 .. 2048^2 cells, eye at the centre, the default knobs;
 // median of 3 after a warm-up) and sets the crossover to the smallest size at
-// which the GPU was faster there and at every larger size. A software
-// rasteriser is not timed (auto never picks it). horizond runs this at start;
-// it takes well under a second on a hardware GPU.
+// which the GPU was faster there and at every larger size. At the largest
+// size it also times every GL variant (fragment / compute x log-step /
+// one-step) and makes the fastest the pool's preferred variant, used by
+// requests that name none. A software rasteriser is not timed (auto never
+// picks it). horizond runs this at start: about a second on a hardware GPU.
 #pragma once
 
 #include <cstdint>
@@ -24,8 +26,15 @@ struct CalibrationPoint {
   double cpu_seconds = 0, gpu_seconds = 0;  // medians
 };
 
+struct VariantTime {
+  visibility::GpuOptions variant;
+  double seconds = 0;  // median, at the largest size timed
+};
+
 struct Calibration {
   std::vector<CalibrationPoint> points;  // empty for a software rasteriser
+  std::vector<VariantTime> variants;     // likewise
+  visibility::GpuOptions preferred;      // the fastest variant, set on the pool
   // Set on the pool: the smallest timed size from which the GPU stayed
   // faster; UINT64_MAX when it never was (auto then always uses the CPU).
   std::uint64_t crossover_cells = UINT64_MAX;

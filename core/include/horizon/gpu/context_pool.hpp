@@ -30,6 +30,7 @@
 #include <string>
 
 #include "horizon/common/error.hpp"
+#include "horizon/visibility/options.hpp"
 
 namespace horizon::gpu {
 
@@ -108,6 +109,12 @@ class ContextPool {
   bool prefers_gpu(std::uint64_t cells) const;
   void set_crossover_cells(std::uint64_t cells);
   std::uint64_t crossover_cells() const;
+
+  // The GL variant used when a request names none (ViewshedOptions::gpu
+  // absent): the fastest gpu::calibrate measured on this device, fragment
+  // with log-step until then.
+  visibility::GpuOptions preferred_variant() const;
+  void set_preferred_variant(const visibility::GpuOptions& variant);
 
  private:
   friend class Lease;

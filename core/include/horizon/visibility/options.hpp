@@ -7,6 +7,7 @@
 
 #include <limits>
 #include <optional>
+#include <string>
 #include <string_view>
 
 #include "horizon/common/error.hpp"
@@ -61,12 +62,16 @@ enum class GpuMethod {
   kCompute,   // compute-shader passes over the same images
 };
 
+// One GL variant of the fast algorithm; all give the same OHF.
 struct GpuOptions {
   GpuMethod method = GpuMethod::kFragment;
   // Propagate by shift doubling: log2(N) passes of shifts 1, 2, 4, ... instead
   // of N passes of a one-texel shift (same result, far fewer passes).
   bool log_step = true;
 };
+
+// "fragment, log-step", "compute, one-step", ...
+std::string gpu_variant_name(const GpuOptions& options);
 
 struct ViewshedOptions {
   double target_height = 0.0;  // metres above ground at each target cell, >= 0
@@ -83,7 +88,9 @@ struct ViewshedOptions {
   RadialOptions radial;
   unsigned threads = 0;  // worker threads; 0 = all hardware threads
   Backend backend = Backend::kAuto;
-  GpuOptions gpu;
+  // The GL variant; absent: the one the context pool measured fastest on its
+  // device (gpu::calibrate), fragment with log-step until measured.
+  std::optional<GpuOptions> gpu;
   // The caller needs the visible/hidden answer at target_height only (the
   // viewshed raster), not the OHF or the minimum visible target height.
   // "exact" then decides each cell as R3 does without finding R3's OHF

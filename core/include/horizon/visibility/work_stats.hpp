@@ -16,6 +16,7 @@ struct WorkStats {
   double seconds = 0.0;                // wall time of the algorithm itself
   // Where the OHF was computed: "cpu" or "gpu".
   std::string backend = "cpu";
+  std::string gpu_variant;  // on the GPU: which GL variant ran ("fragment, log-step", ...)
   // Set when the GPU was asked for (backend gpu, or auto choosing it) but
   // failed and the CPU answered instead: what failed (context lost, out of
   // memory, texture too large). Empty otherwise.
