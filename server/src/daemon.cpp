@@ -14,6 +14,7 @@
 #include "datasets.hpp"
 #include "horizon/gpu/calibrate.hpp"
 #include "horizon/gpu/context_pool.hpp"
+#include "horizon/gpu/gpu_ohf.hpp"
 #include "memory_budget.hpp"
 #include "metrics.hpp"
 #include "request_log.hpp"
@@ -47,6 +48,10 @@ std::unique_ptr<gpu::ContextPool> open_gpu(const Config& config, unsigned worker
                {"message", pool.error().message + "; every request runs on the CPU"}});
     return nullptr;
   }
+  // Shaders built on every context now, not by the first requests.
+  if (auto prepared = gpu::prepare_contexts(**pool); !prepared.ok())
+    log_event("warn", "gpu_prepare_failed",
+              {{"message", prepared.error().message + "; requests on that context run on the CPU"}});
   auto calibration = gpu::calibrate(**pool, {.threads = config.engine_threads});
   if (!calibration.ok())
     log_event("warn", "gpu_calibration_failed",

@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <barrier>
+#include <mutex>
 #include <thread>
 #include <vector>
 
@@ -255,6 +257,29 @@ TEST(GpuOhf, AFailedContextIsReplacedAndTheNextRequestSucceeds) {
   EXPECT_EQ(g->stats.backend, "gpu");
   EXPECT_EQ((*small)->counters().replaced, 1u);
   expect_agreement(compare(*g, c, 0.0), "after replacement");
+}
+
+// prepare_contexts builds the programs on every context before any request.
+TEST(GpuPool, PrepareBuildsEveryContext) {
+  auto p = gpu::ContextPool::create({.contexts = 3});
+  ASSERT_TRUE(p.ok()) << p.error().message;
+  ASSERT_TRUE(gpu::prepare_contexts(**p).ok());
+  // Hold all three at once: each already has its resources.
+  std::vector<std::thread> threads;
+  std::mutex m;
+  std::barrier all(3);
+  int prepared = 0;
+  for (int i = 0; i < 3; ++i)
+    threads.emplace_back([&] {
+      auto lease = (*p)->borrow();
+      {
+        std::lock_guard lock(m);
+        prepared += lease.ok() && lease->resources() != nullptr;
+      }
+      all.arrive_and_wait();
+    });
+  for (auto& t : threads) t.join();
+  EXPECT_EQ(prepared, 3);
 }
 
 // Pools share the process's EGL display: closing one leaves the others working.

@@ -5,6 +5,8 @@
 #include <GL/glcorearb.h>
 
 #include <algorithm>
+#include <barrier>
+#include <thread>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -143,12 +145,32 @@ struct Image {
   }
 };
 
+// A shader storage buffer that only grows; a request that fits reuses it.
+struct StorageBuffer {
+  GLuint id = 0;
+  std::size_t capacity = 0;  // bytes
+
+  void upload(GLuint binding, const void* data, std::size_t bytes) {
+    if (id == 0) glGenBuffers(1, &id);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, binding, id);
+    if (bytes > capacity) {
+      capacity = std::max(bytes, 2 * capacity);
+      glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(capacity), nullptr, GL_DYNAMIC_DRAW);
+    }
+    glBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, static_cast<GLsizeiptr>(bytes), data);
+  }
+  ~StorageBuffer() {
+    if (id != 0) glDeleteBuffers(1, &id);
+  }
+};
+
 // The GL objects of one context: compiled once, grown on demand.
 struct OhfResources final : ContextResources {
   GLuint fragment[4] = {};  // modulate, propagate, resolve, shifted (fragment only)
   GLuint compute[3] = {};
   GLuint scan = 0;
-  GLuint vao = 0, fbo = 0, buffers[3] = {}, timers[2] = {};
+  GLuint vao = 0, fbo = 0, timers[2] = {};
+  StorageBuffer sectors, table, doubles;  // bindings 0, 1, 2 of shaders::kCommon
   Image terrain{0, GL_R32F}, disk[2]{{0, GL_RG32F}, {0, GL_RG32F}}, out{0, GL_RG32F};
   std::string error;  // set when a program failed to build
 
@@ -176,7 +198,6 @@ struct OhfResources final : ContextResources {
     }
     glGenVertexArrays(1, &vao);
     glGenFramebuffers(1, &fbo);
-    glGenBuffers(3, buffers);
     glGenQueries(2, timers);
   }
   ~OhfResources() override {
@@ -185,7 +206,6 @@ struct OhfResources final : ContextResources {
     glDeleteProgram(scan);
     glDeleteVertexArrays(1, &vao);
     glDeleteFramebuffers(1, &fbo);
-    glDeleteBuffers(3, buffers);
     glDeleteQueries(2, timers);
   }
 };
@@ -222,6 +242,31 @@ void set_uniform(GLuint program, const char* name, int v) { glUniform1i(glGetUni
 void set_uniform(GLuint program, const char* name, float v) { glUniform1f(glGetUniformLocation(program, name), v); }
 
 }  // namespace
+
+Status prepare_contexts(ContextPool& pool) {
+  // One thread per context, each holding its lease until all have one, so
+  // that every context (not one of them n times) is prepared.
+  const int n = pool.size();
+  std::barrier all_lent(n);
+  std::vector<std::string> errors(static_cast<std::size_t>(n));
+  std::vector<std::thread> threads;
+  for (int i = 0; i < n; ++i)
+    threads.emplace_back([&, i] {
+      auto lease = pool.borrow();
+      if (lease.ok()) {
+        auto& slot = lease->resources();
+        if (!slot) slot = std::make_unique<OhfResources>();
+        errors[static_cast<std::size_t>(i)] = static_cast<OhfResources&>(*slot).error;
+      } else {
+        errors[static_cast<std::size_t>(i)] = lease.error().message;
+      }
+      all_lent.arrive_and_wait();
+    });
+  for (std::thread& t : threads) t.join();
+  for (const std::string& e : errors)
+    if (!e.empty()) return make_error(ErrorCode::kInternal, e, "gpu");
+  return Status::Ok();
+}
 
 Status gpu_radial_ohf(Lease& lease, const terrain::Grid<float>& z, const ViewFrame& f,
                       const visibility::RadialOptions& radial, const visibility::GpuOptions& options,
@@ -323,16 +368,11 @@ Status gpu_radial_ohf(Lease& lease, const terrain::Grid<float>& z, const ViewFra
   gl.disk[0].ensure(disk_width, disk_rows);
   gl.disk[1].ensure(disk_width, disk_rows);
   gl.out.ensure(w.width(), w.height());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, gl.buffers[0]);
-  glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(4 * sizeof(GpuSector)), nullptr, GL_DYNAMIC_DRAW);
-  glBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, static_cast<GLsizeiptr>(gpu_sectors.size() * sizeof(GpuSector)),
-                  gpu_sectors.data());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, gl.buffers[1]);
-  glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(table.size() * sizeof(float)), table.data(),
-               GL_DYNAMIC_DRAW);
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, gl.buffers[2]);
-  glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(doubles.size() * sizeof(double)), doubles.data(),
-               GL_DYNAMIC_DRAW);
+  const int sector_count = static_cast<int>(gpu_sectors.size());
+  gpu_sectors.resize(4, GpuSector{});  // the shader declares four
+  gl.sectors.upload(0, gpu_sectors.data(), gpu_sectors.size() * sizeof(GpuSector));
+  gl.table.upload(1, table.data(), table.size() * sizeof(float));
+  gl.doubles.upload(2, doubles.data(), doubles.size() * sizeof(double));
   if (auto s = gl_status("upload"); !s.ok()) return fail(s);
 
   const float eye_hi = static_cast<float>(f.eye);
@@ -347,7 +387,7 @@ Status gpu_radial_ohf(Lease& lease, const terrain::Grid<float>& z, const ViewFra
     glActiveTexture(GL_TEXTURE1);
     glBindTexture(GL_TEXTURE_2D, disk_texture);
     set_uniform(program, "u_disk", 1);
-    set_uniform(program, "u_sectors", static_cast<int>(gpu_sectors.size()));
+    set_uniform(program, "u_sectors", sector_count);
     set_uniform(program, "u_rows", disk_rows);
     set_uniform(program, "u_blend", blend);
     set_uniform(program, "u_eye_hi", eye_hi);
