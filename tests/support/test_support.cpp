@@ -7,6 +7,7 @@
 #include <vector>
 #include <atomic>
 #include <cstdio>
+#include <cstdlib>
 #include <random>
 #include <unistd.h>
 
@@ -61,7 +62,12 @@ TempDir::~TempDir() {
   std::filesystem::remove_all(path_, ec);
 }
 
-std::string bundled_dem(const std::string& name) { return std::string(HORIZON_DATA_DIR) + "/" + name; }
+std::string bundled_dem(const std::string& name) {
+  // $HORIZON_TEST_DATA_DIR: the test binaries run from a copied bundle
+  // (tests/bench/gpu_device_bundle.sh) on a machine without this checkout.
+  const char* dir = std::getenv("HORIZON_TEST_DATA_DIR");
+  return std::string(dir && *dir ? dir : HORIZON_DATA_DIR) + "/" + name;
+}
 
 std::string shared_dem_dir() {
   std::error_code ec;

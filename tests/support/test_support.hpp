@@ -36,7 +36,8 @@ class TempDir {
   std::filesystem::path path_;
 };
 
-// Path of a DEM bundled in data/dem (always present).
+// Path of a DEM bundled in data/dem (always present), or in
+// $HORIZON_TEST_DATA_DIR when that is set.
 std::string bundled_dem(const std::string& name);
 // Directory of ../shared/data/dem, or empty when it does not exist (tests then GTEST_SKIP()).
 std::string shared_dem_dir();
