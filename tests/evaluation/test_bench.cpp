@@ -176,18 +176,24 @@ TEST(RunBench, MeasuresEverySettingAgainstR3) {
   EXPECT_GT(extra, missed);
 }
 
+// One observer on the Olinda crop, one timed run per setting, no warm-up.
+BenchConfig one_run_on_olinda(std::vector<std::string> algorithms, std::vector<Peer> peers) {
+  BenchConfig c;
+  c.dems = {testing::bundled_dem(kOlinda)};
+  c.observers = 1;
+  c.algorithms = std::move(algorithms);
+  c.repeats = 1;
+  c.warmup = 0;
+  c.peers = std::move(peers);
+  return c;
+}
+
 // With an EGL context the GPU rows run, and since they compute the default
 // setting's rays, their error against R3 is the CPU default's, cell for cell.
 TEST(RunBench, GpuRowsMatchTheCpuDefaultRow) {
   auto pool = gpu::ContextPool::create({.contexts = 1});
   ASSERT_TRUE(pool.ok()) << pool.error().message;
-  BenchConfig c;
-  c.dems = {testing::bundled_dem(kOlinda)};
-  c.observers = 1;
-  c.algorithms = {"fast"};
-  c.repeats = 1;
-  c.warmup = 0;
-  c.peers = {};
+  BenchConfig c = one_run_on_olinda({"fast"}, {});
   c.gpu = pool->get();
   auto report = run_bench(c);
   ASSERT_TRUE(report.ok()) << report.error().message;
@@ -222,13 +228,7 @@ TEST(RunBench, RejectsBadConfigByField) {
 TEST(RunBench, PeersAreMeasuredWhenInstalled) {
   if (!peer_installed("gdal")) GTEST_SKIP() << "gdal_viewshed not installed";
   testing::TempDir work;
-  BenchConfig c;
-  c.dems = {testing::bundled_dem(kOlinda)};
-  c.observers = 1;
-  c.algorithms = {"r3"};
-  c.repeats = 1;
-  c.warmup = 0;
-  c.peers = {Peer::kGdal};
+  BenchConfig c = one_run_on_olinda({"r3"}, {Peer::kGdal});
   c.work_dir = work.path().string();
   auto report = run_bench(c);
   ASSERT_TRUE(report.ok()) << report.error().message;

@@ -83,21 +83,26 @@ std::vector<SectorGeometry> plan_sectors(const ViewFrame& f, double ray_spacing)
   return out;
 }
 
+// `object` when its compile (shader) or link (program) status is good;
+// otherwise 0, with its info log in `log` and the object deleted.
+GLuint checked(GLuint object, bool program, std::string& log) {
+  GLint ok = 0;
+  program ? glGetProgramiv(object, GL_LINK_STATUS, &ok) : glGetShaderiv(object, GL_COMPILE_STATUS, &ok);
+  if (ok) return object;
+  char buffer[4096] = {};
+  program ? glGetProgramInfoLog(object, sizeof buffer, nullptr, buffer)
+          : glGetShaderInfoLog(object, sizeof buffer, nullptr, buffer);
+  log = buffer;
+  program ? glDeleteProgram(object) : glDeleteShader(object);
+  return 0;
+}
+
 GLuint compile(GLenum type, const std::string& source, std::string& log) {
   GLuint shader = glCreateShader(type);
   const char* text = source.c_str();
   glShaderSource(shader, 1, &text, nullptr);
   glCompileShader(shader);
-  GLint ok = 0;
-  glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
-  if (!ok) {
-    char buffer[4096] = {};
-    glGetShaderInfoLog(shader, sizeof buffer, nullptr, buffer);
-    log = buffer;
-    glDeleteShader(shader);
-    return 0;
-  }
-  return shader;
+  return checked(shader, false, log);
 }
 
 GLuint link(std::initializer_list<GLuint> shaders, std::string& log) {
@@ -105,16 +110,7 @@ GLuint link(std::initializer_list<GLuint> shaders, std::string& log) {
   for (GLuint s : shaders) glAttachShader(program, s);
   glLinkProgram(program);
   for (GLuint s : shaders) glDeleteShader(s);
-  GLint ok = 0;
-  glGetProgramiv(program, GL_LINK_STATUS, &ok);
-  if (!ok) {
-    char buffer[4096] = {};
-    glGetProgramInfoLog(program, sizeof buffer, nullptr, buffer);
-    log = buffer;
-    glDeleteProgram(program);
-    return 0;
-  }
-  return program;
+  return checked(program, true, log);
 }
 
 std::string with_pass(const char* main, const char* pass) {
