@@ -1,6 +1,5 @@
 // `horizon viewshed DEM ...`: flags -> ViewshedOptions, result -> GeoTIFF, PNG, summary.
 #include <cmath>
-#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <string_view>
@@ -36,7 +35,7 @@ constexpr FlagSpec kFlags[] = {
      "what R3 sees) or 'r3' (the exact reference, slow)"},
     {"--ray-spacing", "", "S", "fast: ray spacing in cells, (0, 4], default 1; smaller is slower, closer to r3"},
     {"--backend", "", "B",
-     "Where fast runs: 'auto' (default: a hardware GPU where one is faster, else the CPU), 'cpu' or 'gpu' "
+     "Where fast runs: 'auto' (default; the CPU here: the GPU is chosen by measured speed in horizond), 'cpu' or 'gpu' "
      "(fast only; if the GPU fails the CPU answers, with a warning)"},
     {"--gpu-method", "", "M", "On the GPU: 'fragment' (render passes, default) or 'compute' (compute shaders)"},
     {"--gpu-propagation", "", "P",
@@ -211,26 +210,17 @@ struct Gpu {
   std::string unavailable;  // set when --backend gpu found no EGL display or context
 };
 
-// A hardware EGL device needs a DRM render node (Mesa's drivers) or NVIDIA's
-// device files; without either only a software rasteriser can answer.
-bool hardware_gpu_possible() {
-  std::error_code ec;
-  for (const auto& entry : std::filesystem::directory_iterator("/dev/dri", ec))
-    if (entry.path().filename().string().starts_with("renderD")) return true;
-  return std::filesystem::exists("/dev/nvidiactl", ec);
-}
-
-// One context, only when fast may run on it: --backend gpu, or auto where a
-// hardware GPU can exist. Auto never picks a software rasteriser, and opening
-// and closing llvmpipe costs 50-70 ms, as much again as a small run.
+// One context when fast is asked to run on the GPU (--backend gpu). Auto
+// stays on the CPU here: it takes the GPU only from the size at which the
+// GPU was measured faster (gpu::calibrate, about a second, which horizond
+// pays once at start), and a one-shot command has no such measurement.
 Gpu open_gpu(const visibility::ViewshedOptions& o) {
   Gpu gpu;
-  if (o.algorithm != visibility::Algorithm::kRadial || o.backend == visibility::Backend::kCpu) return gpu;
-  if (o.backend == visibility::Backend::kAuto && !hardware_gpu_possible()) return gpu;
+  if (o.algorithm != visibility::Algorithm::kRadial || o.backend != visibility::Backend::kGpu) return gpu;
   auto pool = gpu::ContextPool::create({.contexts = 1});
   if (pool.ok())
     gpu.pool = std::move(pool).value();
-  else if (o.backend == visibility::Backend::kGpu)
+  else
     gpu.unavailable = pool.error().message;
   return gpu;
 }

@@ -156,7 +156,7 @@ struct ContextPool::Impl {
   mutable std::mutex mutex;
   std::condition_variable returned;
   Counters counters;
-  std::uint64_t crossover = 1u << 20;
+  std::uint64_t crossover = UINT64_MAX;  // until gpu::calibrate measures it
   visibility::GpuOptions preferred;
 
   // Destroys a slot's context, its resources first with the context current.

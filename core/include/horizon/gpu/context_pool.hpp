@@ -54,7 +54,8 @@ class ContextResources {
 
 class ContextPool;
 
-// One borrowed context, current on the borrowing thread until destruction.
+// One borrowed context, current on the borrowing thread until destruction,
+// which must happen on that same thread (EGL binds contexts per thread).
 // Movable, not copyable.
 class Lease {
  public:
@@ -105,7 +106,7 @@ class ContextPool {
   // auto backend: true when requests of `cells` cells should run here. A
   // software rasteriser never; a hardware GPU from the size at which it was
   // measured faster than the CPU (set_crossover_cells, from gpu::calibrate),
-  // or from 1 M cells until measured.
+  // and never until measured.
   bool prefers_gpu(std::uint64_t cells) const;
   void set_crossover_cells(std::uint64_t cells);
   std::uint64_t crossover_cells() const;

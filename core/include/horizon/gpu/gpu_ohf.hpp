@@ -53,8 +53,9 @@ Status gpu_radial_ohf(Lease& lease, const terrain::Grid<float>& elevation, const
                       const RunControl* control, terrain::Grid<float>& ohf, visibility::WorkStats& stats);
 
 // Builds the programs and objects of gpu_radial_ohf() on every context of the
-// pool now (~10 ms a context on a GPU, ~100 ms on llvmpipe), so that no
-// request pays for compiling. Borrows all contexts at once: call it before
+// pool now (11-21 ms for two contexts on llvmpipe, measured; a driver may
+// still finish some work at a program's first draw), so that no request pays
+// for compiling. Borrows all contexts at once: call it before
 // serving. A context whose programs do not build is reported, not fatal:
 // its requests will fall back to the CPU.
 Status prepare_contexts(ContextPool& pool);
