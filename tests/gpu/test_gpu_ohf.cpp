@@ -9,6 +9,7 @@
 #include <barrier>
 #include <mutex>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "horizon/gpu/calibrate.hpp"
@@ -95,6 +96,29 @@ TEST(GpuPool, OpensAHeadlessDisplayAndReportsTheDevice) {
   // auto never picks a software rasteriser: the CPU sweep is faster there.
   if (d.software) {
     EXPECT_FALSE(pool().prefers_gpu(1ull << 40));
+  }
+}
+
+// Both headless platforms: the device one (the default) and Mesa's
+// surfaceless fallback, each computing the same OHF as the CPU.
+TEST(GpuPool, BothHeadlessPlatformsWork) {
+  const auto dem = testing::make_random_terrain(80, 70, 8, 150.0);
+  const auto eye = eye_at(dem, 40.4, 30.7);
+  const auto c = run(dem, eye, {}, Backend::kCpu);
+  for (auto [platform, name] : {std::pair{gpu::EglPlatform::kDevice, "device"},
+                                std::pair{gpu::EglPlatform::kSurfaceless, "surfaceless"}}) {
+    auto p = gpu::ContextPool::create({.contexts = 1, .platform = platform});
+    if (!p.ok()) {
+      ADD_FAILURE() << name << ": " << p.error().message;
+      continue;
+    }
+    EXPECT_EQ((*p)->device().platform, name);
+    ViewshedOptions o;
+    o.backend = Backend::kGpu;
+    auto g = visibility::compute_viewshed(dem, eye, o, nullptr, p->get());
+    ASSERT_TRUE(g.ok());
+    EXPECT_EQ(g->stats.backend, "gpu") << name << ": " << g->stats.gpu_fallback;
+    expect_agreement(compare(*g, c, 0.0), name);
   }
 }
 

@@ -74,10 +74,11 @@ struct Display {
 };
 
 // The EGL device platform, hardware devices first; then Mesa's surfaceless platform.
-Result<Display> open_display() {
+Result<Display> open_display(EglPlatform platform) {
   const char* client = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
   std::string tried;
-  if (has_extension(client, "EGL_EXT_device_enumeration") && has_extension(client, "EGL_EXT_platform_device")) {
+  if (platform != EglPlatform::kSurfaceless && has_extension(client, "EGL_EXT_device_enumeration") &&
+      has_extension(client, "EGL_EXT_platform_device")) {
     auto query_devices = reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(eglGetProcAddress("eglQueryDevicesEXT"));
     auto query_string = reinterpret_cast<PFNEGLQUERYDEVICESTRINGEXTPROC>(eglGetProcAddress("eglQueryDeviceStringEXT"));
     auto platform_display =
@@ -102,13 +103,17 @@ Result<Display> open_display() {
       }
     }
   }
-  if (has_extension(client, "EGL_MESA_platform_surfaceless")) {
+  if (platform != EglPlatform::kDevice && has_extension(client, "EGL_MESA_platform_surfaceless")) {
     EGLDisplay display = eglGetPlatformDisplay(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
     EGLint major = 0, minor = 0;
-    if (display != EGL_NO_DISPLAY && eglInitialize(display, &major, &minor)) return Display{display, "surfaceless", true};
+    // Software or not is read from the renderer once a context exists.
+    if (display != EGL_NO_DISPLAY && eglInitialize(display, &major, &minor)) return Display{display, "surfaceless", false};
     tried += "surfaceless: " + egl_error_text(eglGetError()) + "; ";
   }
-  if (tried.empty()) tried = "no EGL device or surfaceless platform offered; ";
+  if (tried.empty())
+    tried = platform == EglPlatform::kDevice        ? "EGL offers no device platform; "
+            : platform == EglPlatform::kSurfaceless ? "EGL offers no surfaceless platform; "
+                                                    : "EGL offers neither a device nor a surfaceless platform; ";
   tried.resize(tried.size() - 2);
   return make_error(ErrorCode::kUnsupported, "gpu: no headless EGL display (" + tried + ")", "gpu");
 }
@@ -189,7 +194,7 @@ Result<std::unique_ptr<ContextPool>> ContextPool::create(const PoolOptions& opti
                       "gpu.contexts: must be an integer in [1, 64], got " + std::to_string(options.contexts),
                       "gpu.contexts");
   auto impl = std::make_unique<Impl>();
-  auto display = open_display();
+  auto display = open_display(options.platform);
   if (!display.ok()) return display.error();
   impl->display = *display;
   add_display_user(impl->display.display);

@@ -41,8 +41,15 @@ struct DeviceInfo {
   int max_texture_size = 0;  // GL_MAX_TEXTURE_SIZE, texels per side
 };
 
+enum class EglPlatform {
+  kAny,          // the device platform, then Mesa's surfaceless one
+  kDevice,       // EGL_EXT_platform_device only
+  kSurfaceless,  // EGL_MESA_platform_surfaceless only
+};
+
 struct PoolOptions {
   int contexts = 1;  // contexts created up front, [1, 64]: requests that can run on the GPU at once
+  EglPlatform platform = EglPlatform::kAny;
 };
 
 // What the GL code keeps per context; created on first use by the code that
