@@ -65,6 +65,13 @@ grpc::Status CallScope::status_of(const Error& error) const {
   return to_grpc_status(error);
 }
 
+void CallScope::ohf_computed(const visibility::WorkStats& stats) {
+  record_.cells = stats.cells_evaluated;
+  record_.backend = stats.backend;
+  record_.gpu_fallback = stats.gpu_fallback;  // a fallback puts the request's line at level warn
+  env_.metrics.ohf_computed(stats.backend, !stats.gpu_fallback.empty());
+}
+
 void CallScope::finish(const grpc::Status& status) {
   if (finished_) return;
   finished_ = true;

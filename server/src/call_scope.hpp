@@ -20,6 +20,7 @@
 
 #include "horizon/common/control.hpp"
 #include "horizon/common/error.hpp"
+#include "horizon/visibility/work_stats.hpp"
 #include "request_log.hpp"
 #include "server_env.hpp"
 
@@ -44,6 +45,9 @@ class CallScope {
   void cancel() { token_.cancel(); }
   RequestRecord& record() { return record_; }
   ServerEnv& env() { return env_; }
+  // Records an OHF the call computed: its cells, where it ran and any GPU
+  // fallback on the request's log line, and in the backend metrics.
+  void ohf_computed(const visibility::WorkStats& stats);
 
   // An engine error as the status to send. A cancellation after the deadline
   // reads DEADLINE_EXCEEDED: gRPC cancels a call whose deadline passed.

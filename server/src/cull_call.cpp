@@ -68,10 +68,7 @@ grpc::Status run_cull_boxes(CallScope& scope, const v1::CullBoxesRequest& reques
   auto result = visibility::run_cull(d.dem, *observer, *plan, scope.control(), env.gpu);
   if (!result.ok()) return scope.status_of(rename_field(result.error(), ""));
   const visibility::WorkStats& stats = result->stats;
-  scope.record().cells = stats.cells_evaluated;
-  scope.record().backend = stats.backend;
-  scope.record().gpu_fallback = stats.gpu_fallback;
-  scope.env().metrics.ohf_computed(stats.backend, !stats.gpu_fallback.empty());
+  scope.ohf_computed(stats);
 
   response.mutable_boxes()->Reserve(n);
   for (const visibility::BoxVisibility& b : result->boxes) {

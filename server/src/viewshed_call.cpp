@@ -119,10 +119,7 @@ grpc::Status ViewshedCall::compute() {
   auto result = visibility::compute_viewshed(d.dem, *observer, *options, scope_.control(), env.gpu);
   if (!result.ok()) return scope_.status_of(rename_field(result.error(), "options."));
   const visibility::WorkStats& stats = result->stats;
-  scope_.record().cells = stats.cells_evaluated;
-  scope_.record().backend = stats.backend;
-  scope_.record().gpu_fallback = stats.gpu_fallback;  // logged on the request's line, at level warn
-  scope_.env().metrics.ohf_computed(stats.backend, !stats.gpu_fallback.empty());
+  scope_.ohf_computed(stats);
 
   // The raster asked for, derived from the one OHF (as the CLI does).
   const auto mask = visibility::visibility_mask(*result, options->target_height);
