@@ -140,14 +140,21 @@ def main():
     parser.add_argument("--data-dir", required=True)
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="horizond-py-") as tmp:
-        proc, listening, log_path = start_daemon(args.horizond, args.data_dir, tmp)
+        log_path = os.path.join(tmp, "horizond.log")
         try:
-            run_checks(listening, log_path)
-        finally:
-            proc.send_signal(signal.SIGTERM)
-            code = proc.wait(timeout=30)
-        assert code == 0, "horizond exited %d" % code
-        assert '"level":"error"' not in open(log_path).read()
+            proc, listening, log_path = start_daemon(args.horizond, args.data_dir, tmp)
+            try:
+                run_checks(listening, log_path)
+            finally:
+                proc.send_signal(signal.SIGTERM)
+                code = proc.wait(timeout=30)
+            assert code == 0, "horizond exited %d" % code
+            assert '"level":"error"' not in open(log_path).read()
+        except BaseException:
+            # The daemon's side of a failure, for whoever reads the test log.
+            if os.path.exists(log_path):
+                sys.stderr.write("--- horizond log ---\n" + open(log_path).read()[-6000:] + "\n")
+            raise
     print("ok: Python reflection client")
 
 
