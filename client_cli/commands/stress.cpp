@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <fstream>
 #include <iostream>
+#include <memory>
 #include <sstream>
 #include <string_view>
 
@@ -23,6 +24,7 @@ constexpr FlagSpec kFlags[] = {
     {"--size", "", "CELLS", "Side of the synthetic DEMs, >= 64 (default 96)"},
     {"--seed", "", "N", "Seed of the random observers (default 20261122)"},
     {"--threads", "", "N", "Worker threads (default 0 = all cores)"},
+    {"--gpu", "", "", "Also run every check on fast's GPU path (an EGL context; Mesa llvmpipe without a GPU)"},
     {"--markdown", "", "FILE", "Also write the report as a Markdown table"},
 };
 
@@ -62,6 +64,14 @@ int run_stress(const Args& args) {
   if (config.synthetic_size < 64) throw UsageError("--size: must be at least 64");
   config.seed = args.non_negative_integer("--seed").value_or(config.seed);
   config.threads = args.non_negative_integer("--threads").value_or(0);
+
+  std::unique_ptr<gpu::ContextPool> pool;
+  if (args.has("--gpu")) {
+    auto created = gpu::ContextPool::create({.contexts = 1});
+    if (!created.ok()) return report_error(created.error());
+    pool = std::move(*created);
+    config.gpu = pool.get();
+  }
 
   InterruptScope interrupt;
   RunControl control;

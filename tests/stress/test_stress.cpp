@@ -76,6 +76,33 @@ INSTANTIATE_TEST_SUITE_P(AllChecks, StressCheck,
                                                               Algorithm::kConservative, Algorithm::kR3)),
                          param_name);
 
+// Every check on fast's GL path (Mesa llvmpipe in CI) gives the CPU path's
+// answer: the same cases, failures and worst deviation, and every check holds.
+TEST(Stress, FastOnTheGpuHoldsEveryCheckAsTheCpuDoes) {
+  auto pool = gpu::ContextPool::create({.contexts = 1});
+  ASSERT_TRUE(pool.ok()) << pool.error().message;
+  StressConfig config;
+  config.algorithms = {Algorithm::kRadial};
+  config.gpu = pool->get();
+  config.dems = bounded_dems();
+  config.observers_per_dem = 2;
+  config.radius_cells = 60;
+  auto results = run_stress(config);
+  ASSERT_TRUE(results.ok()) << results.error().message;
+  const std::size_t n = stress_check_names().size();
+  ASSERT_EQ(results->size(), 2 * n);  // fast, then fast-gpu, in check order
+  for (std::size_t i = 0; i < n; ++i) {
+    const CheckResult &cpu = (*results)[i], &gpu = (*results)[n + i];
+    ASSERT_EQ(cpu.check, gpu.check);
+    EXPECT_EQ(cpu.algorithm, "fast");
+    EXPECT_EQ(gpu.algorithm, "fast-gpu");
+    EXPECT_EQ(gpu.cases, cpu.cases) << gpu.check;
+    EXPECT_EQ(gpu.failed, cpu.failed) << gpu.check;
+    EXPECT_EQ(gpu.worst, cpu.worst) << gpu.check;
+    EXPECT_TRUE(gpu.passed()) << gpu.check << ": " << gpu.first_failure;
+  }
+}
+
 TEST(Stress, RejectsUnknownCheck) {
   auto r = run_stress({}, {"no_such_check"});
   ASSERT_FALSE(r.ok());

@@ -64,6 +64,7 @@ struct Context {
   const StressConfig& config;
   Algorithm algorithm;
   const RunControl* control;
+  gpu::ContextPool* gpu = nullptr;  // set for the fast-gpu pass: fast runs there (backend gpu)
 };
 
 // --- Synthetic terrain -------------------------------------------------------
@@ -111,6 +112,7 @@ ViewshedOptions base_options(const Context& ctx) {
   ViewshedOptions o;
   o.algorithm = ctx.algorithm;
   o.threads = ctx.config.threads;
+  o.backend = ctx.gpu ? visibility::Backend::kGpu : visibility::Backend::kCpu;
   return o;
 }
 
@@ -124,10 +126,12 @@ geodesy::PointSpec at_cell(const Dem& dem, double col, double row, double height
   return s;
 }
 
-Result<ViewshedResult> viewshed(const Dem& dem, const geodesy::PointSpec& spec, const ViewshedOptions& options) {
+// The check's viewshed, on the GPU pool when the pass is fast-gpu.
+Result<ViewshedResult> viewshed(const Context& ctx, const Dem& dem, const geodesy::PointSpec& spec,
+                                const ViewshedOptions& options) {
   auto eye = geodesy::resolve_point(dem, spec, "observer");
   if (!eye.ok()) return eye.error();
-  return visibility::compute_viewshed(dem, *eye, options);
+  return visibility::compute_viewshed(dem, *eye, options, nullptr, ctx.gpu);
 }
 
 std::string where(const Dem& dem, const geodesy::PointSpec& s, const ViewshedOptions& o) {
@@ -243,7 +247,7 @@ void far_from_origin(Checker& ck, const Context& ctx) {
       const auto s = at_cell(near, n * 0.37, n * 0.55, 2), t = at_cell(far, n * 0.37, n * 0.55, 2);
       // A double at 5e6 m resolves ~1e-9 m: the observer's grid position
       // moves by that much, the OHF by micrometres. Visibility must not move.
-      expect_same(ck, viewshed(near, s, o), viewshed(far, t, o), 0.0, 1e-3, where(far, t, o));
+      expect_same(ck, viewshed(ctx, near, s, o), viewshed(ctx, far, t, o), 0.0, 1e-3, where(far, t, o));
     }
   }
 }
@@ -265,7 +269,7 @@ void utm_large_northing(Checker& ck, const Context& ctx) {
   // Point scales differ by a few ppm between the two latitudes at this easting:
   // allow a few millimetres of OHF, no visibility change.
   const auto s = at_cell(a, n * 0.5, n * 0.5, 2), t = at_cell(b, n * 0.5, n * 0.5, 2);
-  expect_same(ck, viewshed(a, s, o), viewshed(b, t, o), 0.0, 0.05, where(a, s, o));
+  expect_same(ck, viewshed(ctx, a, s, o), viewshed(ctx, b, t, o), 0.0, 0.05, where(a, s, o));
 }
 
 // Geographic DEMs at the equator, 30, 60 and 80 degrees: the frame's metric
@@ -281,7 +285,7 @@ void geographic_latitudes(Checker& ck, const Context& ctx) {
     geo.source += ", EPSG:4326 3\" cells centred on latitude " + fmt("%g", lat);
     const ViewshedOptions o = base_options(ctx);
     const auto s = at_cell(geo, n / 2, n / 2, 2);
-    auto g = viewshed(geo, s, o);
+    auto g = viewshed(ctx, geo, s, o);
     if (!g.ok()) {
       ck.record(true, std::numeric_limits<double>::infinity(), where(geo, s, o) + ": " + g.error().message);
       continue;
@@ -303,7 +307,7 @@ void geographic_latitudes(Checker& ck, const Context& ctx) {
     metric.georef.epsg = 0;
     metric.georef.transform = {0.0, g->frame.metres_per_col, 0.0, -g->frame.metres_per_row};
     metric.source = geo.source + " as plain metres";
-    expect_same(ck, g, viewshed(metric, at_cell(metric, n / 2, n / 2, 2), o), 0.0, 1e-3, where(geo, s, o));
+    expect_same(ck, g, viewshed(ctx, metric, at_cell(metric, n / 2, n / 2, 2), o), 0.0, 1e-3, where(geo, s, o));
   }
 }
 
@@ -327,7 +331,7 @@ void antimeridian(Checker& ck, const Context& ctx) {
     native.frame = geodesy::PointFrame::kDatasetCrs;
     native.x = lon < 0 ? lon + 360.0 : lon;
     const std::string what = geo.source + ", observer lon " + fmt("%g", lon) + " lat -16.95 (WGS84)";
-    expect_same(ck, viewshed(geo, wgs, o), viewshed(geo, native, o), 0.0, 0.0, what);
+    expect_same(ck, viewshed(ctx, geo, wgs, o), viewshed(ctx, geo, native, o), 0.0, 0.0, what);
   }
 }
 
@@ -345,7 +349,7 @@ void height_extremes(Checker& ck, const Context& ctx) {
     const auto s = at_cell(base, n * 0.4, n * 0.6, 2), t = at_cell(shifted, n * 0.4, n * 0.6, 2);
     // The heights are exact before and after (multiples of 1/64 m); the OHF
     // is float32 (1 mm steps near 8.8 km, allowed for in ohf_gap). Allow 1 cm more.
-    expect_same(ck, viewshed(base, s, o), viewshed(shifted, t, o), -dz, 0.01, where(shifted, t, o));
+    expect_same(ck, viewshed(ctx, base, s, o), viewshed(ctx, shifted, t, o), -dz, 0.01, where(shifted, t, o));
   }
 }
 
@@ -365,7 +369,7 @@ void cell_sizes(Checker& ck, const Context& ctx) {
     // A binary fraction of a cell, so that the observer's grid position is exact at every scale.
     const double at = std::floor(n * 0.3) + 0.25;
     const auto s = at_cell(unit, at, at, 2), t = at_cell(scaled, at, at, 2 * cell);
-    auto a = viewshed(unit, s, o), b = viewshed(scaled, t, o);
+    auto a = viewshed(ctx, unit, s, o), b = viewshed(ctx, scaled, t, o);
     if (!a.ok() || !b.ok()) {
       ck.record(true, 1, where(scaled, t, o) + ": failed to compute");
       continue;
@@ -417,7 +421,7 @@ void wall_1000m(Checker& ck, const Context& ctx) {
     ViewshedOptions o = base_options(ctx);
     o.curvature_coefficient = 0;
     const auto s = at_cell(dem, wall / 3, n / 2, 2);
-    auto v = viewshed(dem, s, o);
+    auto v = viewshed(ctx, dem, s, o);
     if (!v.ok()) {
       ck.record(true, 1, where(dem, s, o) + ": " + v.error().message);
       continue;
@@ -448,7 +452,7 @@ void flat_all_visible(Checker& ck, const Context& ctx) {
       o.curvature_coefficient = 0;
       for (auto [c, r] : {std::pair{0.37 * n, 0.61 * n}, std::pair{0.0, 0.0}, std::pair{n * 0.5 + 0.5, n * 0.25}}) {
         const auto s = at_cell(dem, c, r, h);
-        auto v = viewshed(dem, s, o);
+        auto v = viewshed(ctx, dem, s, o);
         if (!v.ok()) {
           ck.record(true, 1, where(dem, s, o) + ": " + v.error().message);
           continue;
@@ -479,7 +483,7 @@ void plateau(Checker& ck, const Context& ctx) {
   ViewshedOptions o = base_options(ctx);
   o.curvature_coefficient = 0;
   const auto s = at_cell(dem, mid, mid, 2);
-  auto v = viewshed(dem, s, o);
+  auto v = viewshed(ctx, dem, s, o);
   if (!v.ok()) {
     ck.record(true, 1, where(dem, s, o) + ": " + v.error().message);
     return;
@@ -521,7 +525,7 @@ void observer_positions(Checker& ck, const Context& ctx) {
                                               {n - 1.0 + 0.5, n - 1.0 + 0.5}};
   for (auto [c, r] : inside) {
     const auto s = at_cell(flat, c, r, 2);
-    auto v = viewshed(flat, s, o);
+    auto v = viewshed(ctx, flat, s, o);
     if (!v.ok()) {
       ck.record(true, 1, where(flat, s, o) + ": " + v.error().message);
       continue;
@@ -533,12 +537,12 @@ void observer_positions(Checker& ck, const Context& ctx) {
               bad ? where(flat, s, o) + ": " + std::to_string(bad) + " cells not visible on flat terrain, first " +
                         cell_text(*v, fc, fr)
                   : std::string());
-    auto w = viewshed(rough, at_cell(rough, c, r, 2), o);
+    auto w = viewshed(ctx, rough, at_cell(rough, c, r, 2), o);
     ck.record(!w.ok(), w.ok() ? 0 : 1, w.ok() ? std::string() : where(rough, s, o) + ": " + w.error().message);
   }
   for (auto [c, r] : {std::pair{-0.5 - 1e-6, n / 2.0}, std::pair{n / 2.0, n - 0.5 + 1e-6}, std::pair{-3.0, -3.0}}) {
     const auto s = at_cell(flat, c, r, 2);
-    auto v = viewshed(flat, s, o);
+    auto v = viewshed(ctx, flat, s, o);
     const bool clean = !v.ok() && v.error().code == ErrorCode::kOutOfRange && v.error().field == "observer";
     ck.record(!clean, clean ? 0 : 1,
               clean ? std::string()
@@ -554,10 +558,10 @@ void observer_heights(Checker& ck, const Context& ctx) {
   const Dem rough = rough_dem(n, n, 9, 300, 30);
   const ViewshedOptions o = base_options(ctx);
   const auto s2 = at_cell(rough, n * 0.45, n * 0.55, 2);
-  auto low = viewshed(rough, s2, o);
+  auto low = viewshed(ctx, rough, s2, o);
   for (double h : {0.0, 10000.0}) {
     const auto s = at_cell(rough, n * 0.45, n * 0.55, h);
-    auto v = viewshed(rough, s, o);
+    auto v = viewshed(ctx, rough, s, o);
     if (!v.ok() || !low.ok()) {
       ck.record(true, 1, where(rough, s, o) + ": failed to compute");
       continue;
@@ -589,7 +593,7 @@ void near_targets(Checker& ck, const Context& ctx) {
   for (int k = 0; k < 12; ++k) {
     const int c = cell(rng), r = cell(rng);
     const auto s = at_cell(rough, c, r, k % 2 ? 0.0 : 1.0);
-    auto v = viewshed(rough, s, o);
+    auto v = viewshed(ctx, rough, s, o);
     if (!v.ok()) {
       ck.record(true, 1, where(rough, s, o) + ": " + v.error().message);
       continue;
@@ -621,7 +625,7 @@ void nodata_on_sight_line(Checker& ck, const Context& ctx) {
   ViewshedOptions o = base_options(ctx);
   o.curvature_coefficient = 0;
   const auto s = at_cell(dem, hole / 3, n / 2, 2);
-  auto v = viewshed(dem, s, o);
+  auto v = viewshed(ctx, dem, s, o);
   if (!v.ok()) {
     ck.record(true, 1, where(dem, s, o) + ": " + v.error().message);
     return;
@@ -637,7 +641,7 @@ void nodata_on_sight_line(Checker& ck, const Context& ctx) {
                 : std::string());
   o.nodata = visibility::NodataPolicy::kFill;
   o.nodata_fill_height = 1000;
-  auto f = viewshed(dem, s, o);
+  auto f = viewshed(ctx, dem, s, o);
   if (!f.ok()) {
     ck.record(true, 1, where(dem, s, o) + ": " + f.error().message);
     return;
@@ -661,14 +665,14 @@ void nodata_at_observer(Checker& ck, const Context& ctx) {
   dem.source += " with a 3x3 void around the observer";
   const ViewshedOptions o = base_options(ctx);
   const auto s = at_cell(dem, c, r, 2);
-  auto v = viewshed(dem, s, o);
+  auto v = viewshed(ctx, dem, s, o);
   const bool clean = !v.ok() && v.error().code == ErrorCode::kDataError && v.error().field == "observer";
   ck.record(!clean, clean ? 0 : 1,
             clean ? std::string()
                   : where(dem, s, o) + ": expected a data error naming the observer, got " +
                         (v.ok() ? std::string("a viewshed") : v.error().message));
   const auto a = at_cell(dem, c, r, 500, geodesy::HeightMode::kAbsolute);
-  auto w = viewshed(dem, a, o);
+  auto w = viewshed(ctx, dem, a, o);
   ck.record(!w.ok(), w.ok() ? 0 : 1, w.ok() ? std::string() : where(dem, a, o) + ": " + w.error().message);
 }
 
@@ -682,8 +686,9 @@ void matches_r3(Checker& ck, const Context& ctx) {
     ViewshedOptions o = base_options(ctx);
     ViewshedOptions ref = o;
     ref.algorithm = Algorithm::kR3;
+    ref.backend = visibility::Backend::kCpu;
     const auto s = at_cell(dem, n * 0.31 + seed % 3, n * 0.47, 2);
-    auto v = viewshed(dem, s, o), r = viewshed(dem, s, ref);
+    auto v = viewshed(ctx, dem, s, o), r = viewshed(ctx, dem, s, ref);
     if (!v.ok() || !r.ok()) {
       ck.record(true, 1, where(dem, s, o) + ": failed to compute");
       continue;
@@ -760,7 +765,7 @@ void dem_properties(DemChecks& out, const Context& ctx, const std::string& path,
     const std::string what =
         label + " observer cell (col " + std::to_string(col) + ", row " + std::to_string(row) + "), height 2 m" +
         (std::isfinite(o.max_distance) ? ", max distance " + fmt("%.1f", o.max_distance) + " m" : std::string());
-    auto base = viewshed(*dem, s, o);
+    auto base = viewshed(ctx, *dem, s, o);
     if (!base.ok()) {
       out.raise_observer.record(true, 1, what + ": " + base.error().message);
       continue;
@@ -769,7 +774,7 @@ void dem_properties(DemChecks& out, const Context& ctx, const std::string& path,
 
     // Raising the observer by 10 m and 100 m never hides a visible cell.
     for (double up : {10.0, 100.0}) {
-      auto higher = viewshed(*dem, at_cell(*dem, c, r, 2 + up), o);
+      auto higher = viewshed(ctx, *dem, at_cell(*dem, c, r, 2 + up), o);
       if (!higher.ok()) {
         out.raise_observer.record(true, 1, what + ": " + higher.error().message);
         continue;
@@ -795,7 +800,7 @@ void dem_properties(DemChecks& out, const Context& ctx, const std::string& path,
     for (double th : {0.0, 1.0, 10.0}) {
       ViewshedOptions ot = o;
       ot.target_height = th;
-      auto t = viewshed(*dem, s, ot);
+      auto t = viewshed(ctx, *dem, s, ot);
       if (!t.ok()) {
         out.raise_target.record(true, 1, what + ": " + t.error().message);
         continue;
@@ -842,8 +847,8 @@ void dem_properties(DemChecks& out, const Context& ctx, const std::string& path,
         moved.georef.transform.origin_y -= 2e6;
         for (float& z : moved.elevation.values())
           if (!std::isnan(z)) z = static_cast<float>(z + 1000.0);
-        const Result<ViewshedResult> a = viewshed(plain, at_cell(plain, c, r, 2), o);
-        const Result<ViewshedResult> b = viewshed(moved, at_cell(moved, c, r, 2), o);
+        const Result<ViewshedResult> a = viewshed(ctx, plain, at_cell(plain, c, r, 2), o);
+        const Result<ViewshedResult> b = viewshed(ctx, moved, at_cell(moved, c, r, 2), o);
         // 1 cm beyond float32 rounding of the OHF itself: float32 algorithms
         // round the heights relative to the eye too.
         expect_same(out.shift_xyz, a, b, -1000.0, 0.01, what + ", moved by (1e6, -2e6, +1000) m");
@@ -865,8 +870,8 @@ void dem_properties(DemChecks& out, const Context& ctx, const std::string& path,
         geodesy::GridPoint e2 = *eye;
         e2.col -= 8;  // exact, as the CLI's window read does
         e2.row -= 8;
-        auto a = visibility::compute_viewshed(*dem, *eye, o);
-        auto b = visibility::compute_viewshed(cropped, e2, o);
+        auto a = visibility::compute_viewshed(*dem, *eye, o, nullptr, ctx.gpu);
+        auto b = visibility::compute_viewshed(cropped, e2, o, nullptr, ctx.gpu);
         expect_same(out.window_crop, a, b, 0.0, 0.0, what + ", the DEM cropped by 8 cells west and north");
       }
     }
@@ -931,13 +936,23 @@ Result<std::vector<CheckResult>> run_stress(const StressConfig& config, const st
   };
   const bool dem_checks =
       std::any_of(std::begin(kChecks), std::end(kChecks), [&](const CheckSpec& c) { return !c.run && wanted(c.name); });
+  // Each algorithm on the CPU, then fast once more on the GPU ("fast-gpu") when a pool is given.
+  struct Pass {
+    Algorithm algorithm;
+    gpu::ContextPool* gpu;
+    std::string label;
+  };
+  std::vector<Pass> passes;
+  for (Algorithm algorithm : config.algorithms)
+    passes.push_back({algorithm, nullptr, std::string(visibility::algorithm_name(algorithm))});
+  if (config.gpu) passes.push_back({Algorithm::kRadial, config.gpu, "fast-gpu"});
   const double units =
-      double(config.algorithms.size()) * (double(std::size(kChecks)) + (dem_checks ? double(config.dems.size()) : 0.0));
+      double(passes.size()) * (double(std::size(kChecks)) + (dem_checks ? double(config.dems.size()) : 0.0));
   double done = 0;
   std::vector<CheckResult> results;
-  for (Algorithm algorithm : config.algorithms) {
-    const Context ctx{config, algorithm, control};
-    const std::string alg(visibility::algorithm_name(algorithm));
+  for (const Pass& pass : passes) {
+    const Context ctx{config, pass.algorithm, control, pass.gpu};
+    const std::string& alg = pass.label;
     auto label = [&](Checker& ck, const CheckSpec& spec) {
       ck.r.check = spec.name;
       ck.r.algorithm = alg;

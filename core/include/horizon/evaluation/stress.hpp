@@ -29,6 +29,7 @@
 
 #include "horizon/common/control.hpp"
 #include "horizon/common/error.hpp"
+#include "horizon/gpu/context_pool.hpp"
 #include "horizon/visibility/options.hpp"
 
 namespace horizon::evaluation {
@@ -47,11 +48,14 @@ struct StressConfig {
   // Synthetic DEM side for the synthetic checks, cells (>= 64).
   int synthetic_size = 96;
   unsigned threads = 0;
+  // When set, every check also runs fast on this pool's GL contexts
+  // (backend gpu), reported as algorithm "fast-gpu".
+  gpu::ContextPool* gpu = nullptr;
 };
 
 struct CheckResult {
   std::string check;          // e.g. "flat_all_visible"
-  std::string algorithm;      // "fast", "exact", "conservative", "r3"
+  std::string algorithm;      // "fast", "exact", "conservative", "r3", "fast-gpu"
   std::string description;    // one line: what must hold
   std::uint64_t cases = 0;    // inputs tried
   std::uint64_t failed = 0;   // cases where the property did not hold
