@@ -121,13 +121,9 @@ int run_bench(const Args& args) {
     config.work_dir = work.string();
   }
 
-  std::unique_ptr<gpu::ContextPool> pool;
-  if (args.has("--gpu")) {
-    auto created = gpu::ContextPool::create({.contexts = 1});
-    if (!created.ok()) return report_error(created.error());
-    pool = std::move(*created);
-    config.gpu = pool.get();
-  }
+  auto pool = gpu_for_switch(args);
+  if (!pool.ok()) return report_error(pool.error());
+  config.gpu = pool->get();
 
   InterruptScope interrupt;
   RunControl control;

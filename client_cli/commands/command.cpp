@@ -14,6 +14,11 @@ void warn_gpu_fallback(const visibility::WorkStats& stats) {
     std::fprintf(stderr, "horizon: warning: GPU failed (%s); answered on the CPU\n", stats.gpu_fallback.c_str());
 }
 
+Result<std::unique_ptr<gpu::ContextPool>> gpu_for_switch(const Args& args) {
+  if (!args.has("--gpu")) return std::unique_ptr<gpu::ContextPool>();
+  return gpu::ContextPool::create({.contexts = 1});
+}
+
 const std::string& single_operand(const Args& args, std::string_view what) {
   const auto& operands = args.positionals();
   if (operands.empty()) throw UsageError("missing " + std::string(what) + " operand");

@@ -7,11 +7,13 @@
 // report_error() and gives exit status 1.
 #pragma once
 
+#include <memory>
 #include <span>
 #include <string_view>
 
 #include "args.hpp"
 #include "horizon/common/error.hpp"
+#include "horizon/gpu/context_pool.hpp"
 #include "horizon/visibility/work_stats.hpp"
 
 namespace horizon::cli {
@@ -47,6 +49,10 @@ int report_error(const Error& error);
 // prints "horizon: warning: GPU failed (<why>); answered on the CPU" to stderr.
 // The run still succeeds: the answer is the CPU's.
 void warn_gpu_fallback(const visibility::WorkStats& stats);
+
+// The one EGL context behind a command's --gpu switch (bench, stress): null
+// when the switch is absent, the pool's error when no context can be had.
+Result<std::unique_ptr<gpu::ContextPool>> gpu_for_switch(const Args& args);
 
 // Exactly one positional operand (the DEM path); UsageError otherwise.
 const std::string& single_operand(const Args& args, std::string_view what);

@@ -65,13 +65,9 @@ int run_stress(const Args& args) {
   config.seed = args.non_negative_integer("--seed").value_or(config.seed);
   config.threads = args.non_negative_integer("--threads").value_or(0);
 
-  std::unique_ptr<gpu::ContextPool> pool;
-  if (args.has("--gpu")) {
-    auto created = gpu::ContextPool::create({.contexts = 1});
-    if (!created.ok()) return report_error(created.error());
-    pool = std::move(*created);
-    config.gpu = pool.get();
-  }
+  auto pool = gpu_for_switch(args);
+  if (!pool.ok()) return report_error(pool.error());
+  config.gpu = pool->get();
 
   InterruptScope interrupt;
   RunControl control;
