@@ -76,7 +76,7 @@ struct Sector {
   // float arithmetic is the same whatever surrounds the window: a result
   // never depends on how much of the file around it was read.
   int v_offset = 0;
-  int v_count = 0;            // positions along v in the DEM from v_offset on
+  int v_count = 0;  // positions along v in the DEM from v_offset on
   // Output (window-relative): ohf[(i - out_line0) * o_line + (j - out_v0) * o_v].
   float* out = nullptr;
   std::ptrdiff_t o_line = 0, o_v = 0;
@@ -96,18 +96,18 @@ struct SweepConstants {
   double curvature = 0.0;
   double max_distance = 0.0;
   RayBlend blend = RayBlend::kLinear;
-  bool precise = false;  // re-sample through R3's arithmetic (RadialBound::kLowerBound)
+  bool precise = false;                        // re-sample through R3's arithmetic (RadialBound::kLowerBound)
   const terrain::Grid<float>* grid = nullptr;  // for R3's arithmetic
   const ViewFrame* frame = nullptr;
 };
 
 // Per-sector ray set and the nested per-line ranges of rays and cells.
 struct SectorPlan {
-  int ray_half = 0;                 // rays r in [-ray_half, ray_half]
-  double ray_step = 0.0;            // slope spacing between neighbouring rays
-  std::vector<float> slope;         // m_r, index r + ray_half
-  std::vector<float> inv_slope;     // 1 / m_r, 0 for m_r == 0
-  std::vector<float> curv_k;        // curvature * (ground metres per unit step along ray r)^2
+  int ray_half = 0;                   // rays r in [-ray_half, ray_half]
+  double ray_step = 0.0;              // slope spacing between neighbouring rays
+  std::vector<float> slope;           // m_r, index r + ray_half
+  std::vector<float> inv_slope;       // 1 / m_r, 0 for m_r == 0
+  std::vector<float> curv_k;          // curvature * (ground metres per unit step along ray r)^2
   std::vector<int> cell_lo, cell_hi;  // per line: target cells j in [lo, hi], empty if lo > hi
   std::vector<int> ray_lo, ray_hi;    // per line: rays to update (nested: shrinking outward)
   double k0 = 1.0, level_far = 0.0;   // first step; the far step that thinning levels are measured from
@@ -116,10 +116,14 @@ struct SectorPlan {
   std::vector<float> inv_dv;          // per v index c: 1 / (c - eye_v), 0 where c == eye_v
 };
 
-inline double step_of(const Sector& s, int n) { return s.k0 + n; }
+inline double step_of(const Sector& s, int n) {
+  return s.k0 + n;
+}
 
 // Floor of a / b for b > 0.
-inline int floor_div(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+inline int floor_div(int a, int b) {
+  return a >= 0 ? a / b : -((-a + b - 1) / b);
+}
 
 SectorPlan plan_sector(const Sector& s, const SweepConstants& c, double ray_spacing, int thinning_levels) {
   SectorPlan p;
@@ -214,7 +218,7 @@ inline float eye_relative(float a, float b, float t, float eye_hi, float eye_lo)
 }
 
 struct LineStep {
-  float eye, eye_lo, eye_v;      // the eye's height as eye_hi + eye_lo (see eye_relative), its v position
+  float eye, eye_lo, eye_v;             // the eye's height as eye_hi + eye_lo (see eye_relative), its v position
   float v_min, v_max, kf, kp, k_start;  // v_min / v_max: the window's first and last v line
   int j_max, zv;
 };
@@ -224,10 +228,9 @@ struct LineStep {
 // (kNoHorizon, or NaN where the clamped position reads a void). Every value is
 // computed for every ray and selected at the end: branch-free, so it
 // vectorises (with -fno-trapping-math, see CMakeLists.txt, for floor/ceil).
-inline void step_cross(const LineStep& ls, int count, const float* __restrict slope,
-                       const float* __restrict inv_slope, const float* __restrict curv_k,
-                       const float* __restrict prev, const float* __restrict cur, float* __restrict cross_slope,
-                       int* __restrict cross_v) {
+inline void step_cross(const LineStep& ls, int count, const float* __restrict slope, const float* __restrict inv_slope,
+                       const float* __restrict curv_k, const float* __restrict prev, const float* __restrict cur,
+                       float* __restrict cross_slope, int* __restrict cross_v) {
   const float eye_v = ls.eye_v, k_start = ls.k_start, kf = ls.kf, v_min = ls.v_min, v_max = ls.v_max, kp = ls.kp,
               eye = ls.eye, eye_lo = ls.eye_lo;
   const int zv = ls.zv;
@@ -254,8 +257,8 @@ inline void step_cross(const LineStep& ls, int count, const float* __restrict sl
 // running maxima. NaN slopes (voids) never win: `x > best ? x : best` keeps
 // best when x is NaN (and compiles to maxps).
 inline void step_line(const LineStep& ls, int count, const float* __restrict slope, const float* __restrict curv_k,
-                      const float* __restrict cur, const float* __restrict cross_slope,
-                      const int* __restrict cross_v, float* __restrict h, int* __restrict arg, int n) {
+                      const float* __restrict cur, const float* __restrict cross_slope, const int* __restrict cross_v,
+                      float* __restrict h, int* __restrict arg, int n) {
   const float inv_kf = 1.0f / ls.kf;
   for (int i = 0; i < count; ++i) {
     const float v = std::min(std::max(ls.eye_v + slope[i] * ls.kf, ls.v_min), ls.v_max);
@@ -284,10 +287,10 @@ inline void step_line(const LineStep& ls, int count, const float* __restrict slo
 // line's own maximum lies where neither bracketing ray had its maximum.
 struct CellLine {
   const Sector* s;
-  const float* inv_step;  // 1 / (k0 + n) per line step n
-  const float* inv_dv;    // 1 / (c - eye_v) per v index c (0 where c == eye_v)
+  const float* inv_step;                          // 1 / (k0 + n) per line step n
+  const float* inv_dv;                            // 1 / (c - eye_v) per v index c (0 where c == eye_v)
   float eye, eye_lo, eye_v, v_min, v_max, k0, k;  // eye = eye_hi + eye_lo (see eye_relative)
-  float curvature, mu2, mv2;  // curvature per metre^2; metres per unit step along u and v, squared
+  float curvature, mu2, mv2;                      // curvature per metre^2; metres per unit step along u and v, squared
   int j_max, zv, line0, dir, line_count;
   std::ptrdiff_t z_line;
 };
@@ -369,10 +372,10 @@ double resample_r3(const Sector& s, const SweepConstants& c, int line, int j, in
 
 // Per-task scratch: one entry per ray of the task.
 struct RayScratch {
-  std::vector<float> horizon;     // running max slope up to the last line marched
-  std::vector<float> cross_slope; // slope at the v-line crossing inside the current step, kNoHorizon if none
-  std::vector<int> cross_v;       // the v-line crossed in the current step, -1 if none
-  std::vector<int> arg;           // where the horizon was found: line step n >= 0, or -2 - v for v-line v
+  std::vector<float> horizon;      // running max slope up to the last line marched
+  std::vector<float> cross_slope;  // slope at the v-line crossing inside the current step, kNoHorizon if none
+  std::vector<int> cross_v;        // the v-line crossed in the current step, -1 if none
+  std::vector<int> arg;            // where the horizon was found: line step n >= 0, or -2 - v for v-line v
   std::vector<float> slope, inv_slope, curv_k;  // the marching rays' constants (copied from the plan)
 };
 
@@ -435,7 +438,6 @@ int task_level(const SectorPlan& p, int n, int ra, int rb) {
   return (rb - ra) % (1 << level) == 0 ? level : 0;
 }
 
-
 // Marches rays [ra, rb] (inclusive, plan indices) of one sector through every
 // line and writes the cells whose bracketing pair (r, r + 1) has r in [ra, rb).
 // Adds the ray steps taken and the cells answered to `steps` / `evaluated`.
@@ -479,10 +481,25 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
     const float* cur = s.z + line * s.z_line;
     for (const int target = task_level(p, n, ra, rb); level > target;) {
       stride = 1 << --level;
-      const CellLine before{&s, p.inv_step.data(), p.inv_dv.data(), eye, eye_lo, eye_v, v_min, v_max, static_cast<float>(s.k0),
-                            static_cast<float>(k - 1.0), static_cast<float>(c.curvature),
-                            static_cast<float>(s.metres_u * s.metres_u), static_cast<float>(s.metres_v * s.metres_v),
-                            j_max, zv, s.line0, s.dir, s.line_count, s.z_line};
+      const CellLine before{&s,
+                            p.inv_step.data(),
+                            p.inv_dv.data(),
+                            eye,
+                            eye_lo,
+                            eye_v,
+                            v_min,
+                            v_max,
+                            static_cast<float>(s.k0),
+                            static_cast<float>(k - 1.0),
+                            static_cast<float>(c.curvature),
+                            static_cast<float>(s.metres_u * s.metres_u),
+                            static_cast<float>(s.metres_v * s.metres_v),
+                            j_max,
+                            zv,
+                            s.line0,
+                            s.dir,
+                            s.line_count,
+                            s.z_line};
       spawn_rays(scratch, p, ra, stride, before);
       count = static_cast<int>(scratch.horizon.size());
       h = scratch.horizon.data();
@@ -519,9 +536,24 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
       const int j_first = std::max(p.cell_lo[n], static_cast<int>(std::floor(s.eye_v + k * ra * p.ray_step)));
       const int j_last = std::min(p.cell_hi[n], static_cast<int>(std::ceil(s.eye_v + k * rb * p.ray_step)));
       const double du2 = (k * s.metres_u) * (k * s.metres_u);
-      const CellLine cl{&s, p.inv_step.data(), p.inv_dv.data(), eye, eye_lo, eye_v, v_min, v_max, static_cast<float>(s.k0),
-                        kf, static_cast<float>(c.curvature), static_cast<float>(s.metres_u * s.metres_u),
-                        static_cast<float>(s.metres_v * s.metres_v), j_max, zv, s.line0, s.dir, s.line_count,
+      const CellLine cl{&s,
+                        p.inv_step.data(),
+                        p.inv_dv.data(),
+                        eye,
+                        eye_lo,
+                        eye_v,
+                        v_min,
+                        v_max,
+                        static_cast<float>(s.k0),
+                        kf,
+                        static_cast<float>(c.curvature),
+                        static_cast<float>(s.metres_u * s.metres_u),
+                        static_cast<float>(s.metres_v * s.metres_v),
+                        j_max,
+                        zv,
+                        s.line0,
+                        s.dir,
+                        s.line_count,
                         s.z_line};
       for (int j = j_first; j <= j_last; ++j) {
         // Rays are evenly spaced: ray r has slope r / ray_half, so the cell's
@@ -588,9 +620,8 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
 
 }  // namespace
 
-Status radial_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const RadialOptions& options,
-                  unsigned threads, const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats,
-                  RadialBound bound) {
+Status radial_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const RadialOptions& options, unsigned threads,
+                  const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats, RadialBound bound) {
   const terrain::Window& win = f.window;
   if (z.size() >= (std::size_t{1} << 31))
     return make_error(ErrorCode::kResourceExhausted,
@@ -598,8 +629,8 @@ Status radial_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const Radia
                       "dem");
   reset_output(ohf, win);
   const bool lower_bound = bound == RadialBound::kLowerBound;
-  const SweepConstants c{f.eye, f.curvature, f.max_distance, lower_bound ? RayBlend::kResample : options.blend,
-                         lower_bound, &z, &f};
+  const SweepConstants c{
+      f.eye, f.curvature, f.max_distance, lower_bound ? RayBlend::kResample : options.blend, lower_bound, &z, &f};
   const std::ptrdiff_t pitch = z.width();
 
   // The four sectors. North/south step rows (v = column, contiguous); east/west
