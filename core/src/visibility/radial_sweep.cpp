@@ -49,13 +49,19 @@
 
 #include "crossings.hpp"
 #include "horizon/common/parallel.hpp"
+#include "resample_cells.hpp"
+#include "sweep_samples.hpp"
 
 namespace horizon::visibility {
 namespace {
 
-// "No horizon yet": a finite value below any real one, so that blending two
-// rays never produces NaN from -inf arithmetic.
-constexpr float kNoHorizon = -1.0e30f;
+using sweep::CellLine;
+using sweep::CellRay;
+using sweep::eye_relative;
+using sweep::kNoHorizon;
+using sweep::sample_at;
+using sweep::Sector;
+
 constexpr int kRaysPerTask = 192;
 // RadialOptions::thinning_levels: rays may be thinned near the eye, where
 // they crowd together: at step k only every 2^L-th ray marches, L =
@@ -66,30 +72,6 @@ constexpr int kRaysPerTask = 192;
 // multiple of 2^kMaxThinning.
 constexpr int kMaxThinning = 6;
 static_assert(kRaysPerTask % (1 << kMaxThinning) == 0);
-
-// One sector, in (u, v) terms, addressing the elevation and output grids.
-struct Sector {
-  // Elevation: value at (line i, v index j) = z[i * z_line + j * z_v].
-  const float* z = nullptr;
-  std::ptrdiff_t z_line = 0, z_v = 0;
-  // v is counted from the window's first v line (v_offset in the DEM), so the
-  // float arithmetic is the same whatever surrounds the window: a result
-  // never depends on how much of the file around it was read.
-  int v_offset = 0;
-  int v_count = 0;  // positions along v in the DEM from v_offset on
-  // Output (window-relative): ohf[(i - out_line0) * o_line + (j - out_v0) * o_v].
-  float* out = nullptr;
-  std::ptrdiff_t o_line = 0, o_v = 0;
-  int out_line0 = 0, out_v0 = 0;
-  int win_v0 = 0, win_v1 = 0;  // window range along v, half-open
-  // Lines: first line index, direction (+1 / -1), count; step of line n is k0 + n.
-  int line0 = 0, dir = 1, lines = 0, line_count = 0;  // line_count = lines in the whole DEM along u
-  double k0 = 1.0;
-  double eye_v = 0.0;
-  double metres_u = 1.0, metres_v = 1.0;
-  bool include_diagonal = true;  // north/south own |dv| == k, east/west do not
-  bool rows = true;              // u runs along rows (north/south: lines are rows, v = column)
-};
 
 struct SweepConstants {
   double eye = 0.0;
@@ -207,16 +189,6 @@ SectorPlan plan_sector(const Sector& s, const SweepConstants& c, double ray_spac
 // The two per-line ray loops, as free functions over restrict-qualified
 // arrays so the compiler can prove they do not alias and vectorise them
 // (gathers for the terrain reads, maxps for the running maximum).
-// Height of the terrain sample a + t (b - a) relative to the eye, in float32
-// without losing the eye-relative bits at high altitude: the eye is split
-// into eye_hi (its float rounding) + eye_lo, and a - eye_hi is exact for
-// terrain near the eye (Sterbenz), so the result is the same whether the
-// scene sits at 0 m or at 8 km (a plain a + t (b - a) - eye rounds to
-// 0.5 mm there, which a crossing close to the eye amplifies to decimetres).
-inline float eye_relative(float a, float b, float t, float eye_hi, float eye_lo) {
-  return ((a - eye_hi) - eye_lo) + t * (b - a);
-}
-
 struct LineStep {
   float eye, eye_lo, eye_v;             // the eye's height as eye_hi + eye_lo (see eye_relative), its v position
   float v_min, v_max, kf, kp, k_start;  // v_min / v_max: the window's first and last v line
@@ -277,67 +249,6 @@ inline void step_line(const LineStep& ls, int count, const float* __restrict slo
   }
 }
 
-// Re-sampling a cell's own sight line (RayBlend::kResample). The cell at
-// step k, v = j has sight line v = eye_v + m k' (m = (j - eye_v) / k). Where a
-// bracketing ray found its horizon (on the u line at step n', or on the v line
-// c) the cell's sight line crosses the same grid line close by; its R3 sample
-// there, and at the last line before the cell, are taken. Every value is one
-// of R3's samples of that sight line, so the maximum never exceeds R3's
-// horizon: the result errs only towards "visible", and only when the sight
-// line's own maximum lies where neither bracketing ray had its maximum.
-struct CellLine {
-  const Sector* s;
-  const float* inv_step;                          // 1 / (k0 + n) per line step n
-  const float* inv_dv;                            // 1 / (c - eye_v) per v index c (0 where c == eye_v)
-  float eye, eye_lo, eye_v, v_min, v_max, k0, k;  // eye = eye_hi + eye_lo (see eye_relative)
-  float curvature, mu2, mv2;                      // curvature per metre^2; metres per unit step along u and v, squared
-  int j_max, zv, line0, dir, line_count;
-  std::ptrdiff_t z_line;
-};
-
-struct CellRay {
-  float m, inv_m, curv_k;  // the cell's slope dv/dk, its inverse (0 when m == 0), curvature per unit step
-  int own_v = -1;          // the cell's own v line, which its sight line reaches only at the cell itself
-};
-
-inline CellRay cell_ray(const CellLine& L, int j) {
-  const float dj = static_cast<float>(j) - L.eye_v;
-  const float m = dj / L.k;
-  return {m, L.k * L.inv_dv[j], L.curvature * (L.mu2 + m * m * L.mv2), j};
-}
-
-// Sample on the u line at step n (the cell's line has a larger step).
-inline float sample_u(const CellLine& L, const CellRay& c, int n) {
-  const float kn = L.k0 + static_cast<float>(n);
-  const float v = std::min(std::max(L.eye_v + c.m * kn, L.v_min), L.v_max);
-  const int j0 = std::min(static_cast<int>(v), L.j_max);
-  const float t = v - static_cast<float>(j0);
-  const float* zl = L.s->z + (L.line0 + L.dir * n) * L.z_line;
-  const float a = zl[j0 * L.zv], b = zl[(j0 + 1) * L.zv];
-  return eye_relative(a, b, t, L.eye, L.eye_lo) * L.inv_step[n] - c.curv_k * kn;
-}
-
-// Sample on the v line `vline`, if the sight line crosses it before the cell.
-inline float sample_v(const CellLine& L, const CellRay& c, int vline) {
-  if (c.inv_m == 0.0f || vline == c.own_v) return kNoHorizon;
-  const float kc = (static_cast<float>(vline) - L.eye_v) * c.inv_m;
-  if (!(kc > 0.0f && kc < L.k)) return kNoHorizon;
-  // Between the lines at steps k0 + n1 and k0 + n1 + 1 (n1 = -1: the line at or behind the eye).
-  const float x = kc - L.k0;
-  const int n1 = static_cast<int>(std::floor(x));
-  const float t = x - static_cast<float>(n1);
-  const int la = std::clamp(L.line0 + L.dir * n1, 0, L.line_count - 1);
-  const int lb = std::clamp(L.line0 + L.dir * (n1 + 1), 0, L.line_count - 1);
-  const float a = L.s->z[la * L.z_line + vline * L.zv], b = L.s->z[lb * L.z_line + vline * L.zv];
-  return eye_relative(a, b, t, L.eye, L.eye_lo) * (c.m * L.inv_dv[vline]) - c.curv_k * kc;
-}
-
-inline float sample_at(const CellLine& L, const CellRay& c, int where) {
-  if (where >= 0) return sample_u(L, c, where);
-  if (where <= -2) return sample_v(L, c, -2 - where);
-  return kNoHorizon;
-}
-
 // The same re-sampling for RadialBound::kLowerBound, through R3's own
 // crossing arithmetic (crossings.hpp): each candidate is R3's sample of the
 // cell's sight line on that grid line, bit for bit, so the maximum never
@@ -377,6 +288,7 @@ struct RayScratch {
   std::vector<int> cross_v;        // the v-line crossed in the current step, -1 if none
   std::vector<int> arg;            // where the horizon was found: line step n >= 0, or -2 - v for v-line v
   std::vector<float> slope, inv_slope, curv_k;  // the marching rays' constants (copied from the plan)
+  std::vector<int> code;                        // per line: where each ray's horizon lies, this step's crossing counted
 };
 
 int level_of(const SectorPlan& p, int n) {
@@ -394,6 +306,7 @@ void load_rays(RayScratch& s, const SectorPlan& p, int ra, int stride) {
   s.slope.resize(count);
   s.inv_slope.resize(count);
   s.curv_k.resize(count);
+  s.code.resize(count);
   for (int i = 0; i < count; ++i) {
     const int q = ra + i * stride + p.ray_half;
     s.slope[i] = p.slope[q];
@@ -555,57 +468,61 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
                         s.dir,
                         s.line_count,
                         s.z_line};
-      for (int j = j_first; j <= j_last; ++j) {
-        // Rays are evenly spaced: ray r has slope r / ray_half, so the cell's
-        // own slope m sits at ray coordinate rho = m * ray_half.
+      // The cells this task owns (bracketing pair r in [ra, rb)) inside max
+      // distance: each condition holds on an interval of j, so trimming the
+      // ends finds their intersection.
+      auto answers = [&](int j) {
         const double rho = (j - s.eye_v) * inv_k * p.ray_half;
         const int r = std::clamp(static_cast<int>(std::floor(rho)), -p.ray_half, p.ray_half - 1);
-        if (r < ra || r >= rb) continue;  // another task's cell
         const double dv = (j - s.eye_v) * s.metres_v;
-        const double d2 = du2 + dv * dv;
-        if (d2 > max_d2) continue;
-        const float zc = cur[j * zv];
-        if (std::isnan(zc)) continue;  // void target: no answer (stays NaN)
-        ++evaluated;
-        const int i0 = (r - ra) >> level;  // the bracketing rays are i0 and i0 + 1
-        double hz;
-        if (c.blend == RayBlend::kResample) {
-          // A ray's v-line crossing inside this step outranks its stored horizon when higher.
-          const int a0 = cross_slope[i0] > h[i0] ? -2 - cross_v[i0] : arg[i0];
-          const int a1 = cross_slope[i0 + 1] > h[i0 + 1] ? -2 - cross_v[i0 + 1] : arg[i0 + 1];
+        return r >= ra && r < rb && du2 + dv * dv <= max_d2;
+      };
+      int j_begin = j_first, j_end = j_last;
+      while (j_begin <= j_end && !answers(j_begin)) ++j_begin;
+      while (j_end >= j_begin && !answers(j_end)) --j_end;
+      float* const out_line = s.out + (line - s.out_line0) * s.o_line - s.out_v0 * s.o_v;
+      if (c.blend == RayBlend::kResample && !c.precise) {
+        // A ray's v-line crossing inside this step outranks its stored horizon when higher.
+        int* code = scratch.code.data();
+        for (int i = lo; i <= hi; ++i) code[i] = cross_slope[i] > h[i] ? -2 - cross_v[i] : arg[i];
+        const sweep::ResampleLine rl{&cl, code,  n,           ra,  level,      p.ray_half, s.eye_v,  inv_k,
+                                     k,   c.eye, c.curvature, du2, s.metres_v, cur,        out_line, s.o_v};
+        if (j_begin <= j_end) evaluated += sweep::resample_cells(rl, j_begin, j_end);
+      } else {
+        for (int j = j_begin; j <= j_end; ++j) {
+          const double rho = (j - s.eye_v) * inv_k * p.ray_half;
+          const int r = std::clamp(static_cast<int>(std::floor(rho)), -p.ray_half, p.ray_half - 1);
+          const double dv = (j - s.eye_v) * s.metres_v;
+          const double d2 = du2 + dv * dv;
+          const float zc = cur[j * zv];
+          if (std::isnan(zc)) continue;  // void target: no answer (stays NaN)
+          ++evaluated;
+          const int i0 = (r - ra) >> level;  // the bracketing rays are i0 and i0 + 1
+          float* out = out_line + j * s.o_v;
           if (c.precise) {
-            // R3's own OHF formula on R3's samples: never above R3's value.
+            // R3's own OHF formula on R3's samples (the lower bound): never above R3's value.
+            const int a0 = cross_slope[i0] > h[i0] ? -2 - cross_v[i0] : arg[i0];
+            const int a1 = cross_slope[i0 + 1] > h[i0 + 1] ? -2 - cross_v[i0 + 1] : arg[i0 + 1];
             const double horizon = resample_r3(s, c, line, j, n, a0, a1);
             const int jd = j + s.v_offset;
             const double d = c.frame->distance(s.rows ? jd : line, s.rows ? line : jd);
-            float* cell = s.out + (line - s.out_line0) * s.o_line + (j - s.out_v0) * s.o_v;
-            *cell = horizon == -std::numeric_limits<double>::infinity()
-                        ? -std::numeric_limits<float>::infinity()
-                        : static_cast<float>(detail::r3_ohf_value(*c.frame, d, horizon));
+            *out = horizon == -std::numeric_limits<double>::infinity()
+                       ? -std::numeric_limits<float>::infinity()
+                       : static_cast<float>(detail::r3_ohf_value(*c.frame, d, horizon));
             continue;
-          } else {
-            // `x > best ? x : best`: a void (NaN) sample never wins.
-            const CellRay cr = cell_ray(cl, j);
-            float best = kNoHorizon;
-            auto take = [&best](float x) { best = x > best ? x : best; };
-            if (n > 0) take(sample_u(cl, cr, n - 1));
-            if (a0 != n - 1) take(sample_at(cl, cr, a0));
-            if (a1 != a0 && a1 != n - 1) take(sample_at(cl, cr, a1));
-            hz = best;
           }
-        } else {
+          // The value-only blends (kLinear, kMin) of the two rays' horizons.
           float h0 = h[i0], h1 = h[i0 + 1];
           if (cross_v[i0] != j && cross_slope[i0] > h0) h0 = cross_slope[i0];
           if (cross_v[i0 + 1] != j && cross_slope[i0 + 1] > h1) h1 = cross_slope[i0 + 1];
           const float f = std::clamp(static_cast<float>((rho - (ra + i0 * stride)) / stride), 0.0f, 1.0f);
-          hz = c.blend == RayBlend::kMin ? std::min(h0, h1) : h0 + f * (h1 - h0);
-        }
-        float* out = s.out + (line - s.out_line0) * s.o_line + (j - s.out_v0) * s.o_v;
-        // OHF = eye + d * (slope per metre) + curvature d^2, and d * slope = k * sigma.
-        if (!(hz > 0.5 * kNoHorizon)) {
-          *out = -std::numeric_limits<float>::infinity();
-        } else {
-          *out = static_cast<float>(c.eye + k * hz + c.curvature * d2);
+          const double hz = c.blend == RayBlend::kMin ? std::min(h0, h1) : h0 + f * (h1 - h0);
+          // OHF = eye + d * (slope per metre) + curvature d^2, and d * slope = k * sigma.
+          if (!(hz > 0.5 * kNoHorizon)) {
+            *out = -std::numeric_limits<float>::infinity();
+          } else {
+            *out = static_cast<float>(c.eye + k * hz + c.curvature * d2);
+          }
         }
       }
     }
