@@ -49,6 +49,7 @@
 
 #include "crossings.hpp"
 #include "horizon/common/parallel.hpp"
+#include "ray_steps.hpp"
 #include "resample_cells.hpp"
 #include "sweep_samples.hpp"
 
@@ -59,6 +60,7 @@ using sweep::CellLine;
 using sweep::CellRay;
 using sweep::eye_relative;
 using sweep::kNoHorizon;
+using sweep::LineStep;
 using sweep::sample_at;
 using sweep::Sector;
 
@@ -186,69 +188,6 @@ SectorPlan plan_sector(const Sector& s, const SweepConstants& c, double ray_spac
   return p;
 }
 
-// The two per-line ray loops, as free functions over restrict-qualified
-// arrays so the compiler can prove they do not alias and vectorise them
-// (gathers for the terrain reads, maxps for the running maximum).
-struct LineStep {
-  float eye, eye_lo, eye_v;             // the eye's height as eye_hi + eye_lo (see eye_relative), its v position
-  float v_min, v_max, kf, kp, k_start;  // v_min / v_max: the window's first and last v line
-  int j_max, zv;
-};
-
-// Crossing of a v grid line strictly inside (k_start, k) for rays [0, count);
-// rays that cross none get cross_v = -1 and a slope that never wins
-// (kNoHorizon, or NaN where the clamped position reads a void). Every value is
-// computed for every ray and selected at the end: branch-free, so it
-// vectorises (with -fno-trapping-math, see CMakeLists.txt, for floor/ceil).
-inline void step_cross(const LineStep& ls, int count, const float* __restrict slope, const float* __restrict inv_slope,
-                       const float* __restrict curv_k, const float* __restrict prev, const float* __restrict cur,
-                       float* __restrict cross_slope, int* __restrict cross_v) {
-  const float eye_v = ls.eye_v, k_start = ls.k_start, kf = ls.kf, v_min = ls.v_min, v_max = ls.v_max, kp = ls.kp,
-              eye = ls.eye, eye_lo = ls.eye_lo;
-  const int zv = ls.zv;
-  for (int i = 0; i < count; ++i) {
-    const float m = slope[i];
-    const float v_start = eye_v + m * k_start, v_end = eye_v + m * kf;
-    const float up = std::floor(v_start) + 1.0f, down = std::ceil(v_start) - 1.0f;
-    const float cv = m > 0.0f ? up : down;
-    // Integer masks rather than && / ||, which would become branches.
-    const int crosses = (int(m > 0.0f) & int(up < v_end)) | (int(m < 0.0f) & int(down > v_end));
-    const int valid = crosses & int(cv >= v_min) & int(cv <= v_max);
-    const float cv_clamped = std::min(std::max(cv, v_min), v_max);  // a readable line even when not valid
-    const int jc = static_cast<int>(cv_clamped);
-    const float kc = std::max((cv_clamped - eye_v) * inv_slope[i], 1.0e-6f);
-    const float tc = kc - kp;
-    const float pa = prev[jc * zv], pb = cur[jc * zv];
-    const float s_cross = eye_relative(pa, pb, tc, eye, eye_lo) / kc - curv_k[i] * kc;
-    cross_slope[i] = std::min(s_cross, valid ? 3.0e38f : kNoHorizon);
-    cross_v[i] = (jc + 1) * valid - 1;
-  }
-}
-
-// Folds the step's v-line crossing and the line's own crossing into the
-// running maxima. NaN slopes (voids) never win: `x > best ? x : best` keeps
-// best when x is NaN (and compiles to maxps).
-inline void step_line(const LineStep& ls, int count, const float* __restrict slope, const float* __restrict curv_k,
-                      const float* __restrict cur, const float* __restrict cross_slope, const int* __restrict cross_v,
-                      float* __restrict h, int* __restrict arg, int n) {
-  const float inv_kf = 1.0f / ls.kf;
-  for (int i = 0; i < count; ++i) {
-    const float v = std::min(std::max(ls.eye_v + slope[i] * ls.kf, ls.v_min), ls.v_max);
-    const int j0 = std::min(static_cast<int>(v), ls.j_max);
-    const float t = v - static_cast<float>(j0);
-    const float a = cur[j0 * ls.zv], b = cur[(j0 + 1) * ls.zv];
-    const float s_line = eye_relative(a, b, t, ls.eye, ls.eye_lo) * inv_kf - curv_k[i] * ls.kf;
-    float best = h[i];
-    int where = arg[i];
-    where = cross_slope[i] > best ? -2 - cross_v[i] : where;
-    best = cross_slope[i] > best ? cross_slope[i] : best;
-    where = s_line > best ? n : where;
-    best = s_line > best ? s_line : best;
-    h[i] = best;
-    arg[i] = where;
-  }
-}
-
 // The same re-sampling for RadialBound::kLowerBound, through R3's own
 // crossing arithmetic (crossings.hpp): each candidate is R3's sample of the
 // cell's sight line on that grid line, bit for bit, so the maximum never
@@ -354,10 +293,8 @@ int task_level(const SectorPlan& p, int n, int ra, int rb) {
 // Marches rays [ra, rb] (inclusive, plan indices) of one sector through every
 // line and writes the cells whose bracketing pair (r, r + 1) has r in [ra, rb).
 // Adds the ray steps taken and the cells answered to `steps` / `evaluated`.
-// Compiled twice (AVX2 and baseline x86-64); the loader picks one at start-up.
-#if defined(__x86_64__) && !defined(__SANITIZE_ADDRESS__)
-__attribute__((target_clones("avx2", "default")))
-#endif
+// The per-ray and per-cell loops are in ray_steps.cpp and resample_cells.cpp
+// (each with an AVX2 kernel).
 void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, int ra, int rb, RayScratch& scratch,
                 const RunControl* control, std::atomic<bool>& stop, std::uint64_t& steps, std::uint64_t& evaluated) {
   int level = task_level(p, 0, ra, rb);
@@ -435,8 +372,8 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
     if (lo <= hi) {
       const int prev_line = std::clamp(line - s.dir, 0, s.line_count - 1);
       const int o = lo;
-      step_cross(ls, hi - lo + 1, slope + o, inv_slope + o, curv_k + o, s.z + prev_line * s.z_line, cur,
-                 cross_slope + o, cross_v + o);
+      sweep::step_cross(ls, hi - lo + 1, slope + o, inv_slope + o, curv_k + o, s.z + prev_line * s.z_line, cur, h + o,
+                        arg + o, cross_slope + o, cross_v + o, scratch.code.data() + o);
     }
 
     // 2. Cells on this line. A cell's own segment crosses, in its last step, no
@@ -482,9 +419,8 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
       while (j_end >= j_begin && !answers(j_end)) --j_end;
       float* const out_line = s.out + (line - s.out_line0) * s.o_line - s.out_v0 * s.o_v;
       if (c.blend == RayBlend::kResample && !c.precise) {
-        // A ray's v-line crossing inside this step outranks its stored horizon when higher.
-        int* code = scratch.code.data();
-        for (int i = lo; i <= hi; ++i) code[i] = cross_slope[i] > h[i] ? -2 - cross_v[i] : arg[i];
+        // Where each ray's horizon lies, this step's crossing counted (step 1).
+        const int* code = scratch.code.data();
         const sweep::ResampleLine rl{&cl, code,  n,           ra,  level,      p.ray_half, s.eye_v,  inv_k,
                                      k,   c.eye, c.curvature, du2, s.metres_v, cur,        out_line, s.o_v};
         if (j_begin <= j_end) evaluated += sweep::resample_cells(rl, j_begin, j_end);
@@ -501,9 +437,8 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
           float* out = out_line + j * s.o_v;
           if (c.precise) {
             // R3's own OHF formula on R3's samples (the lower bound): never above R3's value.
-            const int a0 = cross_slope[i0] > h[i0] ? -2 - cross_v[i0] : arg[i0];
-            const int a1 = cross_slope[i0 + 1] > h[i0 + 1] ? -2 - cross_v[i0 + 1] : arg[i0 + 1];
-            const double horizon = resample_r3(s, c, line, j, n, a0, a1);
+            const int* code = scratch.code.data();  // where each ray's horizon lies (step 1)
+            const double horizon = resample_r3(s, c, line, j, n, code[i0], code[i0 + 1]);
             const int jd = j + s.v_offset;
             const double d = c.frame->distance(s.rows ? jd : line, s.rows ? line : jd);
             *out = horizon == -std::numeric_limits<double>::infinity()
@@ -530,7 +465,7 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
     // 3. Fold the step's crossings and line n's own one into the maxima.
     if (lo > hi) continue;
     const int o = lo;
-    step_line(ls, hi - lo + 1, slope + o, curv_k + o, cur, cross_slope + o, cross_v + o, h + o, arg + o, n);
+    sweep::step_line(ls, hi - lo + 1, slope + o, curv_k + o, cur, cross_slope + o, cross_v + o, h + o, arg + o, n);
     steps += static_cast<std::uint64_t>(hi - lo + 1);
   }
 }

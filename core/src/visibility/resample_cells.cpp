@@ -4,10 +4,7 @@
 #include <cmath>
 #include <limits>
 
-#if defined(__x86_64__) && defined(__GNUC__)
-#include <immintrin.h>
-#define HORIZON_RESAMPLE_AVX2 1
-#endif
+#include "simd.hpp"
 
 namespace horizon::visibility::sweep {
 namespace {
@@ -47,7 +44,7 @@ std::uint64_t resample_cells_scalar(const ResampleLine& L, int j_begin, int j_en
   return written;
 }
 
-#ifdef HORIZON_RESAMPLE_AVX2
+#ifdef HORIZON_SIMD_AVX2
 namespace {
 
 // The AVX2 kernel: eight cells per iteration, each lane computing exactly
@@ -56,83 +53,70 @@ namespace {
 // turned into masks. Taking a candidate twice (a0 == n - 1, a1 == a0) cannot
 // change a maximum, so those tests are dropped. Gathers read only the lanes a
 // mask enables, so a lane never touches memory its scalar twin would not.
-struct Avx2 {
-  using F = __m256;
-  using I = __m256i;
 
-  __attribute__((target("avx2"))) static F f(float x) { return _mm256_set1_ps(x); }
-  __attribute__((target("avx2"))) static I i(int x) { return _mm256_set1_epi32(x); }
-  // std::min(std::max(x, lo), hi) for finite x.
-  __attribute__((target("avx2"))) static F clamp(F x, F lo, F hi) { return _mm256_min_ps(_mm256_max_ps(x, lo), hi); }
-  __attribute__((target("avx2"))) static I clampi(I x, I lo, I hi) {
-    return _mm256_min_epi32(_mm256_max_epi32(x, lo), hi);
-  }
-  // eye_relative(a, b, t, eye_hi, eye_lo).
-  __attribute__((target("avx2"))) static F eye_relative(F a, F b, F t, F eye_hi, F eye_lo) {
-    return _mm256_add_ps(_mm256_sub_ps(_mm256_sub_ps(a, eye_hi), eye_lo), _mm256_mul_ps(t, _mm256_sub_ps(b, a)));
-  }
-  __attribute__((target("avx2"))) static F gather(const float* base, I index, F mask) {
-    return _mm256_mask_i32gather_ps(_mm256_setzero_ps(), base, index, mask, 4);
-  }
-};
+// std::clamp as the scalar kernel spells it: std::min(std::max(x, lo), hi).
+HORIZON_AVX2 inline __m256 clamp8(__m256 x, __m256 lo, __m256 hi) {
+  return simd::min_of(simd::max_of(x, lo), hi);
+}
+HORIZON_AVX2 inline __m256i clampi8(__m256i x, __m256i lo, __m256i hi) {
+  return simd::mini_of(simd::maxi_of(x, lo), hi);
+}
 
 // sample_u on the u line at step `step` (per lane), for the lanes of `mask`.
-__attribute__((target("avx2"))) __m256 sample_u8(const CellLine& L, __m256 m, __m256 curv_k, __m256i step,
-                                                 __m256 mask) {
-  using A = Avx2;
-  const __m256 kn = _mm256_add_ps(A::f(L.k0), _mm256_cvtepi32_ps(step));
-  const __m256 v = A::clamp(_mm256_add_ps(A::f(L.eye_v), _mm256_mul_ps(m, kn)), A::f(L.v_min), A::f(L.v_max));
-  const __m256i j0 = _mm256_min_epi32(_mm256_cvttps_epi32(v), A::i(L.j_max));
+HORIZON_AVX2 __m256 sample_u8(const CellLine& L, __m256 m, __m256 curv_k, __m256i step, __m256 mask) {
+  using namespace simd;
+  const __m256 kn = _mm256_add_ps(f8(L.k0), _mm256_cvtepi32_ps(step));
+  const __m256 v = clamp8(_mm256_add_ps(f8(L.eye_v), _mm256_mul_ps(m, kn)), f8(L.v_min), f8(L.v_max));
+  const __m256i j0 = _mm256_min_epi32(_mm256_cvttps_epi32(v), i8(L.j_max));
   const __m256 t = _mm256_sub_ps(v, _mm256_cvtepi32_ps(j0));
-  const __m256i line = _mm256_add_epi32(A::i(L.line0), _mm256_mullo_epi32(A::i(L.dir), step));
+  const __m256i line = _mm256_add_epi32(i8(L.line0), _mm256_mullo_epi32(i8(L.dir), step));
   const __m256i ia =
-      _mm256_add_epi32(_mm256_mullo_epi32(line, A::i(static_cast<int>(L.z_line))), _mm256_mullo_epi32(j0, A::i(L.zv)));
-  const __m256i ib = _mm256_add_epi32(ia, A::i(L.zv));
-  const __m256 a = A::gather(L.s->z, ia, mask), b = A::gather(L.s->z, ib, mask);
-  const __m256 inv_step = A::gather(L.inv_step, step, mask);
-  const __m256 er = A::eye_relative(a, b, t, A::f(L.eye), A::f(L.eye_lo));
+      _mm256_add_epi32(_mm256_mullo_epi32(line, i8(static_cast<int>(L.z_line))), _mm256_mullo_epi32(j0, i8(L.zv)));
+  const __m256i ib = _mm256_add_epi32(ia, i8(L.zv));
+  const __m256 a = gather_masked(L.s->z, ia, mask), b = gather_masked(L.s->z, ib, mask);
+  const __m256 inv_step = gather_masked(L.inv_step, step, mask);
+  const __m256 er = eye_relative8(a, b, t, f8(L.eye), f8(L.eye_lo));
   return _mm256_sub_ps(_mm256_mul_ps(er, inv_step), _mm256_mul_ps(curv_k, kn));
 }
 
 // sample_at(L, cell, code) per lane of `lanes`: the u line, the v line, or
 // kNoHorizon. A kind of line no lane needs is skipped.
-__attribute__((target("avx2"))) __m256 sample_at8(const CellLine& L, __m256 lanes, __m256i j, __m256 m, __m256 inv_m,
-                                                  __m256 curv_k, __m256i code) {
-  using A = Avx2;
-  const __m256 none = A::f(kNoHorizon);
+HORIZON_AVX2 __m256 sample_at8(const CellLine& L, __m256 lanes, __m256i j, __m256 m, __m256 inv_m, __m256 curv_k,
+                               __m256i code) {
+  using namespace simd;
+  const __m256 none = f8(kNoHorizon);
   // u lines: code >= 0.
-  const __m256 on_u = _mm256_and_ps(lanes, _mm256_castsi256_ps(_mm256_cmpgt_epi32(code, A::i(-1))));
-  const __m256 su =
-      _mm256_movemask_ps(on_u) == 0 ? none : sample_u8(L, m, curv_k, _mm256_max_epi32(code, A::i(0)), on_u);
+  const __m256 on_u = _mm256_and_ps(lanes, _mm256_castsi256_ps(_mm256_cmpgt_epi32(code, i8(-1))));
+  const __m256 su = _mm256_movemask_ps(on_u) == 0 ? none : sample_u8(L, m, curv_k, _mm256_max_epi32(code, i8(0)), on_u);
   // v lines: code <= -2, vline = -2 - code, not the cell's own, crossed strictly before the cell.
-  const __m256i vline = _mm256_sub_epi32(A::i(-2), code);
-  __m256 on_v = _mm256_and_ps(lanes, _mm256_castsi256_ps(_mm256_cmpgt_epi32(A::i(-1), code)));
+  const __m256i vline = _mm256_sub_epi32(i8(-2), code);
+  __m256 on_v = _mm256_and_ps(lanes, _mm256_castsi256_ps(_mm256_cmpgt_epi32(i8(-1), code)));
   if (_mm256_movemask_ps(on_v) == 0) return _mm256_blendv_ps(none, su, on_u);
   on_v = _mm256_and_ps(on_v, _mm256_cmp_ps(inv_m, _mm256_setzero_ps(), _CMP_NEQ_OQ));
   on_v = _mm256_andnot_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(vline, j)), on_v);
-  const __m256 kc = _mm256_mul_ps(_mm256_sub_ps(_mm256_cvtepi32_ps(vline), A::f(L.eye_v)), inv_m);
+  const __m256 kc = _mm256_mul_ps(_mm256_sub_ps(_mm256_cvtepi32_ps(vline), f8(L.eye_v)), inv_m);
   on_v = _mm256_and_ps(on_v, _mm256_cmp_ps(kc, _mm256_setzero_ps(), _CMP_GT_OQ));
-  on_v = _mm256_and_ps(on_v, _mm256_cmp_ps(kc, A::f(L.k), _CMP_LT_OQ));
-  const __m256 x = _mm256_sub_ps(kc, A::f(L.k0));
+  on_v = _mm256_and_ps(on_v, _mm256_cmp_ps(kc, f8(L.k), _CMP_LT_OQ));
+  const __m256 x = _mm256_sub_ps(kc, f8(L.k0));
   const __m256 xf = _mm256_floor_ps(x);
   const __m256i n1 = _mm256_cvttps_epi32(xf);
   const __m256 t = _mm256_sub_ps(x, _mm256_cvtepi32_ps(n1));
-  const __m256i last = A::i(L.line_count - 1), zero = _mm256_setzero_si256();
-  const __m256i la = A::clampi(_mm256_add_epi32(A::i(L.line0), _mm256_mullo_epi32(A::i(L.dir), n1)), zero, last);
-  const __m256i lb = A::clampi(
-      _mm256_add_epi32(A::i(L.line0), _mm256_mullo_epi32(A::i(L.dir), _mm256_add_epi32(n1, A::i(1)))), zero, last);
-  const __m256i zl = A::i(static_cast<int>(L.z_line));
-  const __m256i vo = _mm256_mullo_epi32(vline, A::i(L.zv));
-  const __m256 a = A::gather(L.s->z, _mm256_add_epi32(_mm256_mullo_epi32(la, zl), vo), on_v);
-  const __m256 b = A::gather(L.s->z, _mm256_add_epi32(_mm256_mullo_epi32(lb, zl), vo), on_v);
-  const __m256 inv_dv = A::gather(L.inv_dv, vline, on_v);
-  const __m256 er = A::eye_relative(a, b, t, A::f(L.eye), A::f(L.eye_lo));
+  const __m256i last = i8(L.line_count - 1), zero = _mm256_setzero_si256();
+  const __m256i la = clampi8(_mm256_add_epi32(i8(L.line0), _mm256_mullo_epi32(i8(L.dir), n1)), zero, last);
+  const __m256i lb =
+      clampi8(_mm256_add_epi32(i8(L.line0), _mm256_mullo_epi32(i8(L.dir), _mm256_add_epi32(n1, i8(1)))), zero, last);
+  const __m256i zl = i8(static_cast<int>(L.z_line));
+  const __m256i vo = _mm256_mullo_epi32(vline, i8(L.zv));
+  const __m256 a = gather_masked(L.s->z, _mm256_add_epi32(_mm256_mullo_epi32(la, zl), vo), on_v);
+  const __m256 b = gather_masked(L.s->z, _mm256_add_epi32(_mm256_mullo_epi32(lb, zl), vo), on_v);
+  const __m256 inv_dv = gather_masked(L.inv_dv, vline, on_v);
+  const __m256 er = eye_relative8(a, b, t, f8(L.eye), f8(L.eye_lo));
   const __m256 sv = _mm256_sub_ps(_mm256_mul_ps(er, _mm256_mul_ps(m, inv_dv)), _mm256_mul_ps(curv_k, kc));
   return _mm256_blendv_ps(_mm256_blendv_ps(none, sv, on_v), su, on_u);
 }
 
-__attribute__((target("avx2"))) std::uint64_t resample_cells_avx2(const ResampleLine& L, int j_begin, int j_end) {
-  using A = Avx2;
+HORIZON_AVX2 std::uint64_t resample_cells_avx2(const ResampleLine& L, int j_begin, int j_end) {
+  using namespace simd;
   const CellLine& cl = *L.cells;
   std::uint64_t written = 0;
   int j = j_begin;
@@ -142,16 +126,16 @@ __attribute__((target("avx2"))) std::uint64_t resample_cells_avx2(const Resample
   const __m256d eye = _mm256_set1_pd(L.eye), k = _mm256_set1_pd(L.k), curvature = _mm256_set1_pd(L.curvature),
                 du2 = _mm256_set1_pd(L.du2), metres_v = _mm256_set1_pd(L.metres_v);
   const __m128i shift = _mm_cvtsi32_si128(L.level);
-  const __m256 minus_inf = A::f(-std::numeric_limits<float>::infinity());
+  const __m256 minus_inf = f8(-std::numeric_limits<float>::infinity());
   alignas(32) float values[8];
   alignas(32) int keep[8];
   for (; j <= j_end; j += 8) {
-    const __m256i jv = _mm256_add_epi32(A::i(j), lane);
+    const __m256i jv = _mm256_add_epi32(i8(j), lane);
     // The lanes inside [j, j_end] (all but in the last, partial group), then
     // those whose target is not void; void cells are left alone.
-    const __m256 lanes = _mm256_castsi256_ps(_mm256_cmpgt_epi32(A::i(j_end + 1), jv));
+    const __m256 lanes = _mm256_castsi256_ps(_mm256_cmpgt_epi32(i8(j_end + 1), jv));
     const __m256 zc = cl.zv == 1 ? _mm256_maskload_ps(L.elevation + j, _mm256_castps_si256(lanes))
-                                 : A::gather(L.elevation, _mm256_mullo_epi32(jv, A::i(cl.zv)), lanes);
+                                 : gather_masked(L.elevation, _mm256_mullo_epi32(jv, i8(cl.zv)), lanes);
     const __m256 valid = _mm256_and_ps(lanes, _mm256_cmp_ps(zc, zc, _CMP_ORD_Q));
     const int valid_bits = _mm256_movemask_ps(valid);
     if (valid_bits == 0) continue;
@@ -161,19 +145,19 @@ __attribute__((target("avx2"))) std::uint64_t resample_cells_avx2(const Resample
     const __m256d dj_lo = _mm256_sub_pd(j_lo, eye_v), dj_hi = _mm256_sub_pd(j_hi, eye_v);
     const __m128i r_lo = _mm256_cvttpd_epi32(_mm256_floor_pd(_mm256_mul_pd(_mm256_mul_pd(dj_lo, inv_k), ray_half)));
     const __m128i r_hi = _mm256_cvttpd_epi32(_mm256_floor_pd(_mm256_mul_pd(_mm256_mul_pd(dj_hi, inv_k), ray_half)));
-    const __m256i r = A::clampi(_mm256_set_m128i(r_hi, r_lo), A::i(-L.ray_half), A::i(L.ray_half - 1));
-    const __m256i i0 = _mm256_sra_epi32(_mm256_sub_epi32(r, A::i(L.ra)), shift);
+    const __m256i r = clampi8(_mm256_set_m128i(r_hi, r_lo), i8(-L.ray_half), i8(L.ray_half - 1));
+    const __m256i i0 = _mm256_sra_epi32(_mm256_sub_epi32(r, i8(L.ra)), shift);
     const __m256i a0 = _mm256_mask_i32gather_epi32(_mm256_set1_epi32(-1), L.code, i0, _mm256_castps_si256(valid), 4);
-    const __m256i a1 = _mm256_mask_i32gather_epi32(_mm256_set1_epi32(-1), L.code, _mm256_add_epi32(i0, A::i(1)),
+    const __m256i a1 = _mm256_mask_i32gather_epi32(_mm256_set1_epi32(-1), L.code, _mm256_add_epi32(i0, i8(1)),
                                                    _mm256_castps_si256(valid), 4);
     // cell_ray(cl, j).
-    const __m256 m = _mm256_div_ps(_mm256_sub_ps(_mm256_cvtepi32_ps(jv), A::f(cl.eye_v)), A::f(cl.k));
-    const __m256 inv_m = _mm256_mul_ps(A::f(cl.k), A::gather(cl.inv_dv, jv, valid));
-    const __m256 curv_k = _mm256_mul_ps(A::f(cl.curvature),
-                                        _mm256_add_ps(A::f(cl.mu2), _mm256_mul_ps(_mm256_mul_ps(m, m), A::f(cl.mv2))));
+    const __m256 m = _mm256_div_ps(_mm256_sub_ps(_mm256_cvtepi32_ps(jv), f8(cl.eye_v)), f8(cl.k));
+    const __m256 inv_m = _mm256_mul_ps(f8(cl.k), gather_masked(cl.inv_dv, jv, valid));
+    const __m256 curv_k =
+        _mm256_mul_ps(f8(cl.curvature), _mm256_add_ps(f8(cl.mu2), _mm256_mul_ps(_mm256_mul_ps(m, m), f8(cl.mv2))));
     // The candidates; `max(x, best)` keeps best when x is NaN, as take() does.
-    __m256 best = A::f(kNoHorizon);
-    if (L.n > 0) best = _mm256_max_ps(sample_u8(cl, m, curv_k, A::i(L.n - 1), valid), best);
+    __m256 best = f8(kNoHorizon);
+    if (L.n > 0) best = _mm256_max_ps(sample_u8(cl, m, curv_k, i8(L.n - 1), valid), best);
     best = _mm256_max_ps(sample_at8(cl, valid, jv, m, inv_m, curv_k, a0), best);
     best = _mm256_max_ps(sample_at8(cl, valid, jv, m, inv_m, curv_k, a1), best);
     // occlusion_height, in double.
@@ -185,7 +169,7 @@ __attribute__((target("avx2"))) std::uint64_t resample_cells_avx2(const Resample
     const __m256d h_lo = _mm256_add_pd(_mm256_add_pd(eye, _mm256_mul_pd(k, b_lo)), _mm256_mul_pd(curvature, d2_lo));
     const __m256d h_hi = _mm256_add_pd(_mm256_add_pd(eye, _mm256_mul_pd(k, b_hi)), _mm256_mul_pd(curvature, d2_hi));
     __m256 height = _mm256_set_m128(_mm256_cvtpd_ps(h_hi), _mm256_cvtpd_ps(h_lo));
-    const __m256 some = _mm256_cmp_ps(best, A::f(static_cast<float>(0.5 * kNoHorizon)), _CMP_GT_OQ);
+    const __m256 some = _mm256_cmp_ps(best, f8(static_cast<float>(0.5 * kNoHorizon)), _CMP_GT_OQ);
     height = _mm256_blendv_ps(minus_inf, height, some);
     if (L.o_v == 1) {
       _mm256_maskstore_ps(L.out + j, _mm256_castps_si256(valid), height);
@@ -204,16 +188,11 @@ __attribute__((target("avx2"))) std::uint64_t resample_cells_avx2(const Resample
 #endif
 
 bool resample_cells_vectorised() {
-#ifdef HORIZON_RESAMPLE_AVX2
-  static const bool avx2 = __builtin_cpu_supports("avx2");
-  return avx2;
-#else
-  return false;
-#endif
+  return simd::has_avx2();
 }
 
 std::uint64_t resample_cells(const ResampleLine& line, int j_begin, int j_end) {
-#ifdef HORIZON_RESAMPLE_AVX2
+#ifdef HORIZON_SIMD_AVX2
   if (resample_cells_vectorised()) return resample_cells_avx2(line, j_begin, j_end);
 #endif
   return resample_cells_scalar(line, j_begin, j_end);
