@@ -3,7 +3,8 @@
 // Frame: column c grows east (x), row r grows south (down the image), cell
 // (0, 0) is the first value stored. Throughout the engine the *centre* of cell
 // (c, r) sits at continuous grid coordinates (c, r); the cell covers
-// [c - 0.5, c + 0.5] x [r - 0.5, r + 0.5]. A Grid owns its storage.
+// [c - 0.5, c + 0.5] x [r - 0.5, r + 0.5]. A Grid owns its storage (on
+// huge pages when large: horizon/common/large_allocator.hpp).
 #pragma once
 
 #include <cassert>
@@ -11,6 +12,8 @@
 #include <cstdint>
 #include <span>
 #include <vector>
+
+#include "horizon/common/large_allocator.hpp"
 
 namespace horizon::terrain {
 
@@ -62,7 +65,7 @@ class Grid {
  private:
   int width_ = 0;
   int height_ = 0;
-  std::vector<T> cells_;
+  std::vector<T, LargeAllocator<T>> cells_;  // large rasters on huge pages (large_allocator.hpp)
 };
 
 }  // namespace horizon::terrain
