@@ -162,7 +162,7 @@ Status write_preview(const std::string& path, const visibility::ViewshedResult& 
 
 // The DEM cells a request needs, the observer resolved on them, and what the read cost.
 struct Loaded {
-  terrain::Dem dem;           // the whole file, or with --max-distance only the window around the observer
+  terrain::Dem dem;  // the whole file, or with --max-distance only the window around the observer
   geodesy::GridPoint observer;
   terrain::ReadStats read;
 };
@@ -235,8 +235,8 @@ int run_viewshed(const Args& args) {
     if (auto plugin = imageio::plugin_path(); !plugin.ok()) return report_error(plugin.error());
   }
   if (args.has("--server"))  // DEM is a dataset name; the daemon computes
-    return remote::run_viewshed(args, {r.dem_path, r.out_path, r.png_path, r.observer, r.options, r.output_name,
-                                       r.algorithm_name, r.json});
+    return remote::run_viewshed(
+        args, {r.dem_path, r.out_path, r.png_path, r.observer, r.options, r.output_name, r.algorithm_name, r.json});
 
   const auto started = std::chrono::steady_clock::now();
   auto loaded = load_for_viewshed(r, args);
@@ -251,7 +251,9 @@ int run_viewshed(const Args& args) {
   control.cancel = &interrupt.token();
   ProgressBar progress("horizon viewshed");
   control.progress = progress.callback();
-  auto result = visibility::compute_viewshed(*dem, *observer, r.options, &control, gpu.pool.get());
+  // The CLI is done with the elevations once computed: the result may take them.
+  auto result =
+      visibility::compute_viewshed_taking_elevation(loaded->dem, *observer, r.options, &control, gpu.pool.get());
   progress.finish();
   if (!result.ok()) return report_error(result.error());
   // No pool: the engine only knows it had none; say why there was none.
@@ -327,10 +329,10 @@ int run_viewshed(const Args& args) {
             << "  evaluated:  " << with_separators(stats.cells_evaluated) << " cells of "
             << with_separators(stats.dem_cells) << " in the DEM (window " << f.window.width() << "x"
             << f.window.height() << ")\n"
-            << "  read:       " << read.blocks_read << " of " << read.blocks_total << (read.tiled ? " tiles" : " strips")
-            << " (" << read.block_width << "x" << read.block_height << "), cells " << read.window.col0 << ".."
-            << read.window.col1 << " x " << read.window.row0 << ".." << read.window.row1 << ", "
-            << fixed(read.seconds, 3) << " s\n"
+            << "  read:       " << read.blocks_read << " of " << read.blocks_total
+            << (read.tiled ? " tiles" : " strips") << " (" << read.block_width << "x" << read.block_height
+            << "), cells " << read.window.col0 << ".." << read.window.col1 << " x " << read.window.row0 << ".."
+            << read.window.row1 << ", " << fixed(read.seconds, 3) << " s\n"
             << "  algorithm:  " << r.algorithm_name
             << (r.options.algorithm == visibility::Algorithm::kRadial
                     ? " (radial occlusion height field, ray spacing " + fixed(r.options.radial.ray_spacing, 2) + ")"

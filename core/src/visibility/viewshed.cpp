@@ -69,11 +69,10 @@ bool has_voids(const terrain::Grid<float>& z) {
   return std::any_of(z.values().begin(), z.values().end(), [](float v) { return std::isnan(v); });
 }
 
-}  // namespace
-
-Result<ViewshedResult> compute_viewshed(const terrain::Dem& dem, const geodesy::GridPoint& observer,
-                                        const ViewshedOptions& options, const RunControl* control,
-                                        gpu::ContextPool* gpu) {
+// compute_viewshed, with `spare` (dem.elevation itself, or null) free to be
+// taken as result.terrain.
+Result<ViewshedResult> compute(const terrain::Dem& dem, terrain::Grid<float>* spare, const geodesy::GridPoint& observer,
+                               const ViewshedOptions& options, const RunControl* control, gpu::ContextPool* gpu) {
   auto frame = make_view_frame(dem, observer, options);
   if (!frame.ok()) return frame.error();
 
@@ -98,25 +97,49 @@ Result<ViewshedResult> compute_viewshed(const terrain::Dem& dem, const geodesy::
   const auto start = std::chrono::steady_clock::now();
   Status status;
   if (!try_gpu(*elevation, *frame, options, control, gpu, result, status)) switch (options.algorithm) {
-    case Algorithm::kRadial:
-      status = radial_ohf(*elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats);
-      break;
-    case Algorithm::kConservative:
-      status = radial_ohf(*elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats,
-                          RadialBound::kLowerBound);
-      break;
-    case Algorithm::kExact:
-      status = exact_ohf(*elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats,
-                         options.visibility_only ? std::optional<double>(options.target_height) : std::nullopt);
-      break;
-    case Algorithm::kR3:
-      status = r3_ohf(*elevation, *frame, options.threads, control, result.ohf, result.stats);
-      break;
-  }
+      case Algorithm::kRadial:
+        status = radial_ohf(*elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats);
+        break;
+      case Algorithm::kConservative:
+        status = radial_ohf(*elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats,
+                            RadialBound::kLowerBound);
+        break;
+      case Algorithm::kExact:
+        status = exact_ohf(*elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats,
+                           options.visibility_only ? std::optional<double>(options.target_height) : std::nullopt);
+        break;
+      case Algorithm::kR3:
+        status = r3_ohf(*elevation, *frame, options.threads, control, result.ohf, result.stats);
+        break;
+    }
   if (!status.ok()) return status.error();
   result.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  result.terrain = crop(*elevation, frame->window);
+  // The elevations used, window-sized: the grid itself when the window
+  // covers it and it can be given away, else a copy.
+  const terrain::Window& w = frame->window;
+  const bool whole = w.col0 == 0 && w.row0 == 0 && w.width() == elevation->width() && w.height() == elevation->height();
+  if (whole && elevation == &filled) {
+    result.terrain = std::move(filled);
+  } else if (whole && spare != nullptr) {
+    result.terrain = std::move(*spare);
+  } else {
+    result.terrain = crop(*elevation, w);
+  }
   return result;
+}
+
+}  // namespace
+
+Result<ViewshedResult> compute_viewshed(const terrain::Dem& dem, const geodesy::GridPoint& observer,
+                                        const ViewshedOptions& options, const RunControl* control,
+                                        gpu::ContextPool* gpu) {
+  return compute(dem, nullptr, observer, options, control, gpu);
+}
+
+Result<ViewshedResult> compute_viewshed_taking_elevation(terrain::Dem& dem, const geodesy::GridPoint& observer,
+                                                         const ViewshedOptions& options, const RunControl* control,
+                                                         gpu::ContextPool* gpu) {
+  return compute(dem, &dem.elevation, observer, options, control, gpu);
 }
 
 terrain::Grid<float> min_target_height(const ViewshedResult& result) {
@@ -131,7 +154,8 @@ terrain::Grid<std::uint8_t> visibility_mask(const ViewshedResult& result, double
   const auto z = result.terrain.values();
   auto dst = out.values();
   for (std::size_t i = 0; i < ohf.size(); ++i)
-    if (!std::isnan(ohf[i]) && !std::isnan(z[i])) dst[i] = th >= min_target_height_at(ohf[i], z[i]) ? kVisible : kHidden;
+    if (!std::isnan(ohf[i]) && !std::isnan(z[i]))
+      dst[i] = th >= min_target_height_at(ohf[i], z[i]) ? kVisible : kHidden;
   return out;
 }
 

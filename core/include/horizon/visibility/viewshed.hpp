@@ -32,10 +32,10 @@
 namespace horizon::visibility {
 
 struct ViewshedResult {
-  ViewFrame frame;                // geometry; frame.window locates the grids in the DEM
-  terrain::Grid<float> ohf;       // absolute metres, window-sized; NaN = not computed; -inf = nothing can block
-  terrain::Grid<float> terrain;   // window crop of the elevations used (voids filled per NodataPolicy)
-  double target_height = 0.0;     // from the options, used by visibility_mask() by default
+  ViewFrame frame;               // geometry; frame.window locates the grids in the DEM
+  terrain::Grid<float> ohf;      // absolute metres, window-sized; NaN = not computed; -inf = nothing can block
+  terrain::Grid<float> terrain;  // window crop of the elevations used (voids filled per NodataPolicy)
+  double target_height = 0.0;    // from the options, used by visibility_mask() by default
   WorkStats stats;
 };
 
@@ -47,6 +47,15 @@ struct ViewshedResult {
 Result<ViewshedResult> compute_viewshed(const terrain::Dem& dem, const geodesy::GridPoint& observer,
                                         const ViewshedOptions& options, const RunControl* control = nullptr,
                                         gpu::ContextPool* gpu = nullptr);
+
+// The same for a caller done with the DEM's elevations (the one-shot CLI):
+// when the window covers the whole grid, result.terrain takes over
+// dem.elevation instead of copying it (dem.elevation is left empty; the rest
+// of `dem` is untouched). On an error dem.elevation is untouched too.
+Result<ViewshedResult> compute_viewshed_taking_elevation(terrain::Dem& dem, const geodesy::GridPoint& observer,
+                                                         const ViewshedOptions& options,
+                                                         const RunControl* control = nullptr,
+                                                         gpu::ContextPool* gpu = nullptr);
 
 // Metres: an occlusion height at most this far above the ground counts as the ground itself.
 inline constexpr float kTieTolerance = 1.0e-3f;

@@ -1,0 +1,79 @@
+// compute_viewshed_taking_elevation: the same answer as compute_viewshed,
+// with the DEM's grid handed over instead of copied only when the window
+// covers it, and the DEM left whole otherwise and on errors.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "visibility_test_util.hpp"
+
+namespace horizon {
+namespace {
+
+using testing::eye_at;
+using testing::grid_dem;
+
+terrain::Dem hills() {
+  return grid_dem(61, 47, [](int c, int r) { return 30.0 * std::sin(c * 0.3) * std::cos(r * 0.2) + 0.5 * c; });
+}
+
+void expect_same(const visibility::ViewshedResult& a, const visibility::ViewshedResult& b) {
+  ASSERT_EQ(a.frame.window, b.frame.window);
+  ASSERT_EQ(a.ohf.size(), b.ohf.size());
+  EXPECT_EQ(std::memcmp(a.ohf.data(), b.ohf.data(), a.ohf.size() * sizeof(float)), 0);
+  ASSERT_EQ(a.terrain.size(), b.terrain.size());
+  EXPECT_EQ(std::memcmp(a.terrain.data(), b.terrain.data(), a.terrain.size() * sizeof(float)), 0);
+}
+
+TEST(ViewshedDriver, TakingTheElevationsOfAWholeWindowGivesTheSameResultWithoutACopy) {
+  const terrain::Dem reference = hills();
+  terrain::Dem dem = hills();
+  const float* grid = dem.elevation.data();
+  const auto eye = eye_at(dem, 30, 20, 2.0);
+  auto copied = visibility::compute_viewshed(reference, eye, {});
+  auto taken = visibility::compute_viewshed_taking_elevation(dem, eye, {});
+  ASSERT_TRUE(copied.ok() && taken.ok());
+  expect_same(*copied, *taken);
+  EXPECT_EQ(taken->terrain.data(), grid);  // the DEM's own grid, not a copy
+  EXPECT_TRUE(dem.elevation.empty());
+  EXPECT_EQ(dem.georef.transform.x_at(3), reference.georef.transform.x_at(3));  // the rest of the DEM stays
+}
+
+TEST(ViewshedDriver, AWindowSmallerThanTheGridIsCopiedAndTheDemKept) {
+  terrain::Dem dem = hills();
+  const auto eye = eye_at(dem, 30, 20, 2.0);
+  visibility::ViewshedOptions options;
+  options.max_distance = 120.0;  // 12 cells: a window inside the grid
+  auto taken = visibility::compute_viewshed_taking_elevation(dem, eye, options);
+  ASSERT_TRUE(taken.ok());
+  EXPECT_LT(taken->frame.window.cell_count(), dem.elevation.size());
+  EXPECT_EQ(dem.elevation.size(), std::size_t{61} * 47);
+  expect_same(*visibility::compute_viewshed(dem, eye, options), *taken);
+}
+
+TEST(ViewshedDriver, AnErrorLeavesTheElevationsWhereTheyWere) {
+  terrain::Dem dem = hills();
+  const auto eye = eye_at(dem, 30, 20, 2.0);
+  visibility::ViewshedOptions options;
+  options.max_distance = -5.0;
+  auto taken = visibility::compute_viewshed_taking_elevation(dem, eye, options);
+  ASSERT_FALSE(taken.ok());
+  EXPECT_EQ(dem.elevation.size(), std::size_t{61} * 47);
+}
+
+TEST(ViewshedDriver, FilledVoidsAreHandedOverAsTheFilledGrid) {
+  terrain::Dem dem = hills();
+  dem.elevation.at(5, 5) = std::nanf("");
+  const auto eye = eye_at(dem, 30, 20, 2.0);
+  visibility::ViewshedOptions options;
+  options.nodata = visibility::NodataPolicy::kFill;
+  options.nodata_fill_height = 12.5;
+  auto result = visibility::compute_viewshed(dem, eye, options);
+  ASSERT_TRUE(result.ok());
+  EXPECT_EQ(result->terrain.at(5, 5), 12.5f);
+  EXPECT_TRUE(std::isnan(dem.elevation.at(5, 5)));  // the caller's DEM keeps its void
+}
+
+}  // namespace
+}  // namespace horizon
