@@ -125,24 +125,34 @@ enum class PixelType { kUInt8, kInt16, kUInt16, kInt32, kFloat32, kFloat64 };
 
 const char* pixel_type_name(PixelType t) {
   switch (t) {
-    case PixelType::kUInt8: return "UInt8";
-    case PixelType::kInt16: return "Int16";
-    case PixelType::kUInt16: return "UInt16";
-    case PixelType::kInt32: return "Int32";
-    case PixelType::kFloat32: return "Float32";
-    case PixelType::kFloat64: return "Float64";
+    case PixelType::kUInt8:
+      return "UInt8";
+    case PixelType::kInt16:
+      return "Int16";
+    case PixelType::kUInt16:
+      return "UInt16";
+    case PixelType::kInt32:
+      return "Int32";
+    case PixelType::kFloat32:
+      return "Float32";
+    case PixelType::kFloat64:
+      return "Float64";
   }
   return "?";
 }
 
 std::size_t pixel_type_size(PixelType t) {
   switch (t) {
-    case PixelType::kUInt8: return 1;
+    case PixelType::kUInt8:
+      return 1;
     case PixelType::kInt16:
-    case PixelType::kUInt16: return 2;
+    case PixelType::kUInt16:
+      return 2;
     case PixelType::kInt32:
-    case PixelType::kFloat32: return 4;
-    case PixelType::kFloat64: return 8;
+    case PixelType::kFloat32:
+      return 4;
+    case PixelType::kFloat64:
+      return 8;
   }
   return 0;
 }
@@ -353,22 +363,63 @@ Result<int> channel_of(const ReadOptions& options, int bands, const std::string&
   return options.band == 0 ? 0 : options.band - 1;
 }
 
+// Converts `count` native samples of type T, `stride` bytes apart (several
+// bands interleaved), to float elevations, replacing the nodata code by NaN.
+template <class T>
+void convert_run(const unsigned char* src, std::size_t stride, int count, float* dst, std::optional<double> nodata) {
+  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+  bool use = false;
+  T code{};
+  if constexpr (std::is_integral_v<T>) {
+    // An integer code only matches when it is an exact value of T.
+    use = nodata && std::isfinite(*nodata) && std::floor(*nodata) == *nodata &&
+          *nodata >= static_cast<double>(std::numeric_limits<T>::lowest()) &&
+          *nodata <= static_cast<double>(std::numeric_limits<T>::max());
+  } else {
+    // Float files compare in the file's own precision (GDAL does the same).
+    use = nodata && !std::isnan(*nodata);
+  }
+  if (use) code = static_cast<T>(*nodata);
+  for (int i = 0; i < count; ++i) {
+    T v;
+    std::memcpy(&v, src + static_cast<std::size_t>(i) * stride, sizeof(T));
+    dst[i] = (use && v == code) ? kNaN : static_cast<float>(v);
+  }
+}
+
+void convert_any(PixelType type, const unsigned char* src, std::size_t stride, int count, float* dst,
+                 std::optional<double> nodata) {
+  switch (type) {
+    case PixelType::kUInt8:
+      return convert_run<std::uint8_t>(src, stride, count, dst, nodata);
+    case PixelType::kInt16:
+      return convert_run<std::int16_t>(src, stride, count, dst, nodata);
+    case PixelType::kUInt16:
+      return convert_run<std::uint16_t>(src, stride, count, dst, nodata);
+    case PixelType::kInt32:
+      return convert_run<std::int32_t>(src, stride, count, dst, nodata);
+    case PixelType::kFloat32:
+      return convert_run<float>(src, stride, count, dst, nodata);
+    case PixelType::kFloat64:
+      return convert_run<double>(src, stride, count, dst, nodata);
+  }
+}
+
 // Decodes only the blocks (tiles or strips) of one channel that intersect
-// `window`, straight through libtiff, into `raw` (window-sized, row-major,
-// `bytes` per value). Counts the blocks it decodes. libtiff undoes the
-// compression, the predictor and the byte order, exactly as for a full read.
+// `window`, straight through libtiff, and converts them into `out` (window-
+// sized float elevations, nodata as NaN) on the same thread, block by block.
+// Counts the blocks it decodes. libtiff undoes the compression, the
+// predictor and the byte order, exactly as for a full read.
 Status read_window_with_libtiff(const std::string& path, const TiffFacts& f, int channel, const Window& window,
-                                std::size_t bytes, unsigned threads, std::vector<unsigned char>& raw,
-                                ReadStats& stats) {
+                                std::size_t bytes, unsigned threads, Grid<float>& out, ReadStats& stats) {
   const std::size_t stride = f.planar_separate ? bytes : bytes * static_cast<std::size_t>(f.samples);
   const std::size_t offset = f.planar_separate ? 0 : bytes * static_cast<std::size_t>(channel);
   const std::uint16_t plane = f.planar_separate ? static_cast<std::uint16_t>(channel) : 0;
   const int bw = f.block_width, bh = f.block_height;
-  const std::size_t out_width = static_cast<std::size_t>(window.width());
   const int first_row = window.row0 / bh * bh;
   const int block_rows = (window.row1 - first_row + bh - 1) / bh;
   // Rows of blocks are shared out in contiguous runs, one libtiff handle per
-  // run (a handle is not thread-safe); each run writes its own rows of `raw`.
+  // run (a handle is not thread-safe); each run writes its own rows of `out`.
   const unsigned hw = threads ? threads : std::max(1u, std::thread::hardware_concurrency());
   const int runs = std::max(1, std::min(block_rows, static_cast<int>(hw)));
   std::vector<Status> status(static_cast<std::size_t>(runs), Status::Ok());
@@ -386,23 +437,24 @@ Status read_window_with_libtiff(const std::string& path, const TiffFacts& f, int
       return;
     }
     std::vector<unsigned char> block(static_cast<std::size_t>(block_bytes));
-    const int row_lo = static_cast<int>(run * block_rows / runs), row_hi = static_cast<int>((run + 1) * block_rows / runs);
+    const int row_lo = static_cast<int>(run * block_rows / runs),
+              row_hi = static_cast<int>((run + 1) * block_rows / runs);
     for (int by = first_row + row_lo * bh; by < first_row + row_hi * bh && by < window.row1; by += bh) {
       for (int bx = window.col0 / bw * bw; bx < window.col1; bx += bw) {
         tmsize_t got = 0;
         if (f.tiled) {
-          const ttile_t index = TIFFComputeTile(tif.get(), static_cast<std::uint32_t>(bx),
-                                                static_cast<std::uint32_t>(by), 0, plane);
+          const ttile_t index =
+              TIFFComputeTile(tif.get(), static_cast<std::uint32_t>(bx), static_cast<std::uint32_t>(by), 0, plane);
           got = TIFFReadEncodedTile(tif.get(), index, block.data(), block_bytes);
         } else {
           const tstrip_t index = TIFFComputeStrip(tif.get(), static_cast<std::uint32_t>(by), plane);
           got = TIFFReadEncodedStrip(tif.get(), index, block.data(), block_bytes);
         }
         if (got < 0) {
-          status[run] = dem_error(ErrorCode::kDataError, path,
-                                  std::string("cannot decode ") + (f.tiled ? "tile" : "strip") + " at col " +
-                                      std::to_string(bx) + ", row " + std::to_string(by) + " (" + messages.errors +
-                                      ")");
+          status[run] =
+              dem_error(ErrorCode::kDataError, path,
+                        std::string("cannot decode ") + (f.tiled ? "tile" : "strip") + " at col " + std::to_string(bx) +
+                            ", row " + std::to_string(by) + " (" + messages.errors + ")");
           return;
         }
         ++blocks[run];
@@ -417,16 +469,10 @@ Status read_window_with_libtiff(const std::string& path, const TiffFacts& f, int
           return;
         }
         for (int r = r0; r < r1; ++r) {
-          const unsigned char* src = block.data() + static_cast<std::size_t>(r - by) * row_pitch + offset;
-          unsigned char* dst = raw.data() + (static_cast<std::size_t>(r - window.row0) * out_width) * bytes;
-          if (stride == bytes) {
-            std::memcpy(dst + static_cast<std::size_t>(c0 - window.col0) * bytes,
-                        src + static_cast<std::size_t>(c0 - bx) * bytes, static_cast<std::size_t>(c1 - c0) * bytes);
-          } else {
-            for (int c = c0; c < c1; ++c)
-              std::memcpy(dst + static_cast<std::size_t>(c - window.col0) * bytes,
-                          src + static_cast<std::size_t>(c - bx) * stride, bytes);
-          }
+          const unsigned char* src = block.data() + static_cast<std::size_t>(r - by) * row_pitch + offset +
+                                     static_cast<std::size_t>(c0 - bx) * stride;
+          float* dst = out.row(r - window.row0) + (c0 - window.col0);
+          convert_any(f.type, src, stride, c1 - c0, dst, f.nodata);
         }
       }
     }
@@ -439,45 +485,11 @@ Status read_window_with_libtiff(const std::string& path, const TiffFacts& f, int
   return Status::Ok();
 }
 
-// Converts native samples to float elevations, replacing the nodata code by NaN.
-template <class T>
-void convert(const std::vector<unsigned char>& raw, Grid<float>& out, std::optional<double> nodata) {
-  const std::size_t n = out.size();
-  const T* src = reinterpret_cast<const T*>(raw.data());
-  float* dst = out.data();
-  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
-  if constexpr (std::is_integral_v<T>) {
-    // An integer code only matches when it is an exact value of T.
-    const bool use = nodata && std::isfinite(*nodata) && std::floor(*nodata) == *nodata &&
-                     *nodata >= static_cast<double>(std::numeric_limits<T>::lowest()) &&
-                     *nodata <= static_cast<double>(std::numeric_limits<T>::max());
-    const T code = use ? static_cast<T>(*nodata) : T{};
-    for (std::size_t i = 0; i < n; ++i) dst[i] = (use && src[i] == code) ? kNaN : static_cast<float>(src[i]);
-  } else {
-    // Float files compare in the file's own precision (GDAL does the same).
-    const bool use = nodata && !std::isnan(*nodata);
-    const T code = use ? static_cast<T>(*nodata) : T{};
-    for (std::size_t i = 0; i < n; ++i) dst[i] = (use && src[i] == code) ? kNaN : static_cast<float>(src[i]);
-  }
-}
-
 std::string format_name(const TiffFacts& facts, PixelType type, int channel) {
-  std::string name = std::string(facts.bigtiff ? "BigTIFF " : "GeoTIFF ") + pixel_type_name(type) + " (" +
-                     facts.layout + ")";
+  std::string name =
+      std::string(facts.bigtiff ? "BigTIFF " : "GeoTIFF ") + pixel_type_name(type) + " (" + facts.layout + ")";
   if (facts.samples > 1) name += ", band " + std::to_string(channel + 1) + " of " + std::to_string(facts.samples);
   return name;
-}
-
-void convert_any(PixelType type, const std::vector<unsigned char>& raw, Grid<float>& out,
-                 std::optional<double> nodata) {
-  switch (type) {
-    case PixelType::kUInt8: return convert<std::uint8_t>(raw, out, nodata);
-    case PixelType::kInt16: return convert<std::int16_t>(raw, out, nodata);
-    case PixelType::kUInt16: return convert<std::uint16_t>(raw, out, nodata);
-    case PixelType::kInt32: return convert<std::int32_t>(raw, out, nodata);
-    case PixelType::kFloat32: return convert<float>(raw, out, nodata);
-    case PixelType::kFloat64: return convert<double>(raw, out, nodata);
-  }
 }
 
 Status check_path(const std::string& path, const ReadOptions& options) {
@@ -515,13 +527,10 @@ Result<Dem> read_geotiff_window(const std::string& path, const ReadOptions& opti
     return dem_error(ErrorCode::kResourceExhausted, path,
                      std::to_string(window->width()) + "x" + std::to_string(window->height()) +
                          " cells exceed the limit of " + std::to_string(kMaxCells));
-  std::vector<unsigned char> raw(window->cell_count() * bytes);
-  HORIZON_RETURN_IF_ERROR(
-      read_window_with_libtiff(path, facts, channel, *window, bytes, options.threads, raw, local));
-
   Dem dem;
   dem.elevation = Grid<float>(window->width(), window->height());
-  convert_any(type, raw, dem.elevation, facts.nodata);
+  HORIZON_RETURN_IF_ERROR(
+      read_window_with_libtiff(path, facts, channel, *window, bytes, options.threads, dem.elevation, local));
   dem.georef = facts.georef;
   dem.georef.transform = facts.georef.transform.shifted(window->col0, window->row0);
   dem.nodata = facts.nodata;
