@@ -153,9 +153,16 @@ terrain::Grid<std::uint8_t> visibility_mask(const ViewshedResult& result, double
   const auto ohf = result.ohf.values();
   const auto z = result.terrain.values();
   auto dst = out.values();
-  for (std::size_t i = 0; i < ohf.size(); ++i)
-    if (!std::isnan(ohf[i]) && !std::isnan(z[i]))
-      dst[i] = th >= min_target_height_at(ohf[i], z[i]) ? kVisible : kHidden;
+  // Branch-free (both answers computed, one kept) so that it vectorises.
+  const std::size_t n = ohf.size();
+  const float* __restrict o = ohf.data();
+  const float* __restrict g = z.data();
+  std::uint8_t* __restrict d = dst.data();
+  for (std::size_t i = 0; i < n; ++i) {
+    const bool answered = !std::isnan(o[i]) & !std::isnan(g[i]);
+    const std::uint8_t seen = th >= min_target_height_at(o[i], g[i]) ? kVisible : kHidden;
+    d[i] = answered ? seen : kNoAnswer;
+  }
   return out;
 }
 
