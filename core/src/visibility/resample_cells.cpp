@@ -50,9 +50,12 @@ namespace {
 // The AVX2 kernel: eight cells per iteration, each lane computing exactly
 // what resample_cells_scalar computes for its cell (same operations in the
 // same order, no fused multiply-add), with the scalar kernel's branches
-// turned into masks. Taking a candidate twice (a0 == n - 1, a1 == a0) cannot
-// change a maximum, so those tests are dropped. Gathers read only the lanes a
-// mask enables, so a lane never touches memory its scalar twin would not.
+// turned into masks: a candidate the scalar kernel skips (a0 == n - 1, or
+// a1 == a0 or n - 1: already taken) becomes "none" (-1) in its lane, and a
+// kind of sample no lane needs is not computed at all (neighbouring cells
+// mostly share their candidates, so the second one is often skipped whole).
+// Gathers read only the lanes a mask enables, so a lane never touches memory
+// its scalar twin would not.
 
 // std::clamp as the scalar kernel spells it: std::min(std::max(x, lo), hi).
 HORIZON_AVX2 inline __m256 clamp8(__m256 x, __m256 lo, __m256 hi) {
@@ -147,12 +150,14 @@ HORIZON_AVX2 std::uint64_t resample_cells_avx2(const ResampleLine& L, int j_begi
     const __m128i r_hi = _mm256_cvttpd_epi32(_mm256_floor_pd(_mm256_mul_pd(_mm256_mul_pd(dj_hi, inv_k), ray_half)));
     const __m256i r = clampi8(_mm256_set_m128i(r_hi, r_lo), i8(-L.ray_half), i8(L.ray_half - 1));
     const __m256i i0 = _mm256_sra_epi32(_mm256_sub_epi32(r, i8(L.ra)), shift);
-    const __m256i a0 = _mm256_mask_i32gather_epi32(_mm256_set1_epi32(-1), L.code, i0, _mm256_castps_si256(valid), 4);
-    const __m256i a1 = _mm256_mask_i32gather_epi32(_mm256_set1_epi32(-1), L.code, _mm256_add_epi32(i0, i8(1)),
-                                                   _mm256_castps_si256(valid), 4);
+    const __m256i none = i8(-1), previous = i8(L.n - 1);
+    __m256i a0 = _mm256_mask_i32gather_epi32(none, L.code, i0, _mm256_castps_si256(valid), 4);
+    __m256i a1 = _mm256_mask_i32gather_epi32(none, L.code, _mm256_add_epi32(i0, i8(1)), _mm256_castps_si256(valid), 4);
+    a1 = _mm256_blendv_epi8(a1, none, _mm256_or_si256(_mm256_cmpeq_epi32(a1, a0), _mm256_cmpeq_epi32(a1, previous)));
+    a0 = _mm256_blendv_epi8(a0, none, _mm256_cmpeq_epi32(a0, previous));
     // cell_ray(cl, j).
     const __m256 m = _mm256_div_ps(_mm256_sub_ps(_mm256_cvtepi32_ps(jv), f8(cl.eye_v)), f8(cl.k));
-    const __m256 inv_m = _mm256_mul_ps(f8(cl.k), gather_masked(cl.inv_dv, jv, valid));
+    const __m256 inv_m = _mm256_mul_ps(f8(cl.k), _mm256_maskload_ps(cl.inv_dv + j, _mm256_castps_si256(valid)));
     const __m256 curv_k =
         _mm256_mul_ps(f8(cl.curvature), _mm256_add_ps(f8(cl.mu2), _mm256_mul_ps(_mm256_mul_ps(m, m), f8(cl.mv2))));
     // The candidates; `max(x, best)` keeps best when x is NaN, as take() does.
