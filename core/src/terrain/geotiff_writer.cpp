@@ -13,9 +13,11 @@
 //
 // Written with libtiff + libgeotiff (OIIO 2.4 cannot write GeoTIFF tags).
 // Tiles are predicted and deflated here, on every core (libdeflate, zlib
-// format, level 6, as libtiff's own codec would), and handed to libtiff raw
-// in tile order; libtiff alone deflates on one thread (0.4 s of a 48 MB
-// float OHF).
+// format), and handed to libtiff raw in tile order; libtiff alone deflates
+// on one thread (0.4 s of a 48 MB float OHF). Level 6 (libtiff's own) for
+// float rasters; level 1 for 8-bit ones (visibility masks), which compress
+// almost as well at any level: the 12 M-cell mask is 146 KB instead of
+// 99 KB and the whole `horizon viewshed` 25 ms faster.
 // Deterministic: no DateTime/Software tags, fixed tile order, and edge tiles
 // padded with the nodata value (or 0), so equal input gives equal bytes.
 // Atomic: see atomic_file.hpp.
@@ -195,7 +197,8 @@ Status write_impl(const std::string& path, const Grid<T>& grid, const Georeferen
     std::vector<char> failed(encoded.size(), 0);
     const std::size_t tile_bytes = static_cast<std::size_t>(kTileSize) * kTileSize * sizeof(T);
     parallel_for(static_cast<std::size_t>(tiles_y), 0, [&](std::size_t band) {
-      std::unique_ptr<libdeflate_compressor, CompressorDeleter> compressor(libdeflate_alloc_compressor(6));
+      std::unique_ptr<libdeflate_compressor, CompressorDeleter> compressor(
+          libdeflate_alloc_compressor(sizeof(T) == 1 ? 1 : 6));
       std::vector<T> tile(static_cast<std::size_t>(kTileSize) * kTileSize);
       std::vector<std::uint8_t> scratch;
       const int ty = static_cast<int>(band * kTileSize);
