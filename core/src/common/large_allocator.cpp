@@ -1,5 +1,9 @@
 #include "horizon/common/large_allocator.hpp"
 
+#include <algorithm>
+
+#include "horizon/common/parallel.hpp"
+
 #if defined(__linux__)
 #include <sys/mman.h>
 #endif
@@ -28,8 +32,21 @@ void* map_large_block(std::size_t bytes) {
   if (block == MAP_FAILED) throw std::bad_alloc();
 #ifdef MADV_POPULATE_WRITE
   // Failure (an old kernel, or memory short now) leaves the pages to be
-  // faulted in on first write, as for any other allocation.
-  ::madvise(block, bytes, MADV_POPULATE_WRITE);
+  // faulted in on first write, as for any other allocation. The kernel
+  // allocates pages on the calling thread, so a big block is populated in
+  // page-aligned slices on every core (48 MB: ~9 ms instead of ~16 ms here).
+  constexpr std::size_t kPage = 4096, kSlice = std::size_t{16} << 20;
+  const std::size_t slices = std::clamp<std::size_t>(bytes / kSlice, 1, resolve_thread_count(0));
+  const std::size_t step = (bytes / slices + kPage - 1) / kPage * kPage;
+  auto populate = [&](std::size_t i) {
+    const std::size_t begin = i * step;
+    if (begin < bytes) ::madvise(static_cast<char*>(block) + begin, std::min(step, bytes - begin), MADV_POPULATE_WRITE);
+  };
+  if (slices == 1) {
+    populate(0);
+  } else {
+    parallel_for(slices, static_cast<unsigned>(slices), populate);
+  }
 #endif
   return block;
 }

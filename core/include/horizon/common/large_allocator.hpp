@@ -1,10 +1,10 @@
 // horizon/common/large_allocator.hpp — the allocator behind every raster.
 //
-// A block of 2 MiB or more is mapped on its own and, on Linux, populated in
-// one call (madvise MADV_POPULATE_WRITE, Linux 5.14+; older kernels ignore
-// it): the kernel allocates the block's pages in one pass instead of taking
-// a page fault on each first write, ~12,000 of them for a 12 M-cell float
-// raster. Smaller blocks, and every block in sanitizer builds (which must
+// A block of 2 MiB or more is mapped on its own and, on Linux, populated
+// up front (madvise MADV_POPULATE_WRITE, Linux 5.14+; older kernels ignore
+// it), in slices on every core when it is big: the kernel allocates the
+// block's pages in a few passes instead of taking a page fault on each
+// first write, ~12,000 of them for a 12 M-cell float raster. Smaller blocks, and every block in sanitizer builds (which must
 // see each allocation), come from operator new.
 //
 // Transparent huge pages (MADV_HUGEPAGE) were measured as well: 10-15 %
