@@ -3,6 +3,7 @@
 // is written to them.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <numeric>
 #include <vector>
@@ -50,6 +51,21 @@ TEST(LargeAllocator, AGridOfTwelveMillionCellsIsFilledEverywhere) {
   const terrain::Grid<float> copy = g;
   EXPECT_EQ(copy.at(1654, 1854), 2951.0f);
   EXPECT_EQ(copy.at(3308, 0), 7.5f);
+}
+
+TEST(LargeAllocator, AnUninitializedGridHasItsSizeAndTakesWhatIsWritten) {
+  terrain::Grid<float> g(3309, 3708, terrain::kUninitialized);
+  ASSERT_EQ(g.size(), std::size_t{3309} * 3708);
+  std::fill(g.values().begin(), g.values().end(), 4.25f);
+  EXPECT_EQ(g.at(0, 0), 4.25f);
+  EXPECT_EQ(g.at(3308, 3707), 4.25f);
+  terrain::Grid<std::uint8_t> small(5, 4, terrain::kUninitialized);
+  EXPECT_EQ(small.size(), 20u);
+  // A value-less construct leaves a float as it is; a construct with a value sets it.
+  LargeAllocator<float> alloc;
+  float cell = 9.5f;
+  alloc.construct(&cell, 1.5f);
+  EXPECT_EQ(cell, 1.5f);
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "horizon/visibility/view_frame.hpp"
 #include "visibility_test_util.hpp"
 
 namespace horizon {
@@ -73,6 +74,20 @@ TEST(ViewshedDriver, FilledVoidsAreHandedOverAsTheFilledGrid) {
   ASSERT_TRUE(result.ok());
   EXPECT_EQ(result->terrain.at(5, 5), 12.5f);
   EXPECT_TRUE(std::isnan(dem.elevation.at(5, 5)));  // the caller's DEM keeps its void
+}
+
+TEST(ViewshedDriver, ResetOutputLeavesEveryCellNoAnswerWhetherItReusesTheGridOrNot) {
+  for (const unsigned threads : {1u, 2u, 0u}) {
+    terrain::Grid<float> ohf(7, 3, 5.0f);
+    const terrain::Window big{10, 20, 10 + 1100, 20 + 1300};  // 1.4 M cells: a new, mapped grid, many bands
+    visibility::reset_output(ohf, big, threads);
+    ASSERT_EQ(ohf.width(), 1100);
+    ASSERT_EQ(ohf.height(), 1300);
+    for (const float v : ohf.values()) ASSERT_TRUE(std::isnan(v));
+    for (float& v : ohf.values()) v = 1.0f;
+    visibility::reset_output(ohf, big, threads);  // same size: the storage is reused
+    for (const float v : ohf.values()) ASSERT_TRUE(std::isnan(v));
+  }
 }
 
 }  // namespace

@@ -528,7 +528,7 @@ Result<Dem> read_geotiff_window(const std::string& path, const ReadOptions& opti
                      std::to_string(window->width()) + "x" + std::to_string(window->height()) +
                          " cells exceed the limit of " + std::to_string(kMaxCells));
   Dem dem;
-  dem.elevation = Grid<float>(window->width(), window->height());
+  dem.elevation = Grid<float>(window->width(), window->height(), kUninitialized);  // every block writes its cells
   HORIZON_RETURN_IF_ERROR(
       read_window_with_libtiff(path, facts, channel, *window, bytes, options.threads, dem.elevation, local));
   dem.georef = facts.georef;

@@ -32,7 +32,7 @@ double r3_horizon(const terrain::Grid<float>& z, const ViewFrame& f, double tc, 
 Status r3_ohf(const terrain::Grid<float>& z, const ViewFrame& f, unsigned threads, const RunControl* control,
               terrain::Grid<float>& ohf, WorkStats& stats) {
   const terrain::Window& win = f.window;
-  reset_output(ohf, win);
+  reset_output(ohf, win, threads);
   std::atomic<std::uint64_t> evaluated{0}, samples{0};
   std::atomic<bool> stop{false};
   std::atomic<int> rows_done{0};

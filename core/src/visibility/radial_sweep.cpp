@@ -479,7 +479,7 @@ Status radial_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const Radia
     return make_error(ErrorCode::kResourceExhausted,
                       "dem: the radial sweep handles up to 2^31 cells; this DEM has " + std::to_string(z.size()),
                       "dem");
-  reset_output(ohf, win);
+  reset_output(ohf, win, threads);
   const bool lower_bound = bound == RadialBound::kLowerBound;
   const SweepConstants c{
       f.eye, f.curvature, f.max_distance, lower_bound ? RayBlend::kResample : options.blend, lower_bound, &z, &f};

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "horizon/common/parallel.hpp"
 #include "horizon/geodesy/crs.hpp"
 
 namespace horizon::visibility {
@@ -20,12 +21,16 @@ bool ViewFrame::in_range(int col, int row) const {
   return dx * dx + dy * dy <= max_distance * max_distance;
 }
 
-void reset_output(terrain::Grid<float>& ohf, const terrain::Window& window) {
-  if (ohf.width() == window.width() && ohf.height() == window.height()) {
-    std::fill(ohf.values().begin(), ohf.values().end(), std::numeric_limits<float>::quiet_NaN());
-    return;
-  }
-  ohf = terrain::Grid<float>(window.width(), window.height(), std::numeric_limits<float>::quiet_NaN());
+void reset_output(terrain::Grid<float>& ohf, const terrain::Window& window, unsigned threads) {
+  if (ohf.width() != window.width() || ohf.height() != window.height())
+    ohf = terrain::Grid<float>(window.width(), window.height(), terrain::kUninitialized);
+  // Row bands of at least 64 K cells each, filled in parallel.
+  const std::size_t rows = static_cast<std::size_t>(ohf.height()), width = static_cast<std::size_t>(ohf.width());
+  const std::size_t band = std::max<std::size_t>(1, (std::size_t{1} << 16) / std::max<std::size_t>(1, width));
+  parallel_for((rows + band - 1) / band, threads, [&](std::size_t b) {
+    const std::size_t r0 = b * band, r1 = std::min(rows, r0 + band);
+    std::fill(ohf.data() + r0 * width, ohf.data() + r1 * width, std::numeric_limits<float>::quiet_NaN());
+  });
 }
 
 Result<ViewFrame> make_view_frame(const terrain::Dem& dem, const geodesy::GridPoint& observer,

@@ -148,7 +148,7 @@ terrain::Grid<float> min_target_height(const ViewshedResult& result) {
 
 terrain::Grid<std::uint8_t> visibility_mask(const ViewshedResult& result, double target_height) {
   // The rule of min_target_height(), cell by cell, so the two rasters can never disagree.
-  terrain::Grid<std::uint8_t> out(result.ohf.width(), result.ohf.height(), kNoAnswer);
+  terrain::Grid<std::uint8_t> out(result.ohf.width(), result.ohf.height(), terrain::kUninitialized);  // all written below
   const float th = static_cast<float>(target_height);
   const auto ohf = result.ohf.values();
   const auto z = result.terrain.values();

@@ -4,8 +4,8 @@
 // up front (madvise MADV_POPULATE_WRITE, Linux 5.14+; older kernels ignore
 // it), in slices on every core when it is big: the kernel allocates the
 // block's pages in a few passes instead of taking a page fault on each
-// first write, ~12,000 of them for a 12 M-cell float raster. Smaller blocks, and every block in sanitizer builds (which must
-// see each allocation), come from operator new.
+// first write, ~12,000 of them for a 12 M-cell float raster. Smaller blocks, and every block in sanitizer builds (which
+// must see each allocation), come from operator new.
 //
 // Transparent huge pages (MADV_HUGEPAGE) were measured as well: 10-15 %
 // faster sweeps, but with the kernel's usual "defrag=madvise" a fault may
@@ -17,6 +17,8 @@
 #include <cstddef>
 #include <limits>
 #include <new>
+#include <type_traits>
+#include <utility>
 
 namespace horizon {
 
@@ -51,6 +53,19 @@ struct LargeAllocator {
     } else {
       ::operator delete (p, std::align_val_t{alignof(T)});
     }
+  }
+
+  // A value-less construct default-initialises (a float is left as the
+  // memory holds it), so a container sized without a value does not write
+  // every element first; terrain::Grid only does that when asked
+  // (terrain::kUninitialized), for rasters the caller then fills whole.
+  template <class U>
+  void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <class U, class... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
   }
 
   template <class U>

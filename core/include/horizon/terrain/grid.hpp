@@ -3,8 +3,8 @@
 // Frame: column c grows east (x), row r grows south (down the image), cell
 // (0, 0) is the first value stored. Throughout the engine the *centre* of cell
 // (c, r) sits at continuous grid coordinates (c, r); the cell covers
-// [c - 0.5, c + 0.5] x [r - 0.5, r + 0.5]. A Grid owns its storage (on
-// huge pages when large: horizon/common/large_allocator.hpp).
+// [c - 0.5, c + 0.5] x [r - 0.5, r + 0.5]. A Grid owns its storage (large
+// ones mapped and populated whole: horizon/common/large_allocator.hpp).
 #pragma once
 
 #include <cassert>
@@ -31,6 +31,11 @@ struct Window {
   friend bool operator==(const Window&, const Window&) = default;
 };
 
+// Tag for a Grid whose cells are left unset, for a caller about to write
+// every one of them (a reader decoding a whole window, a pass over all cells).
+struct Uninitialized {};
+inline constexpr Uninitialized kUninitialized{};
+
 template <class T>
 class Grid {
  public:
@@ -38,6 +43,11 @@ class Grid {
   Grid(int width, int height, T fill = T{})
       : width_(width), height_(height),
         cells_(static_cast<std::size_t>(width) * static_cast<std::size_t>(height), fill) {
+    assert(width >= 0 && height >= 0);
+  }
+  // Cells unset (whatever the memory holds): the caller must write them all.
+  Grid(int width, int height, Uninitialized)
+      : width_(width), height_(height), cells_(static_cast<std::size_t>(width) * static_cast<std::size_t>(height)) {
     assert(width >= 0 && height >= 0);
   }
 
@@ -65,7 +75,7 @@ class Grid {
  private:
   int width_ = 0;
   int height_ = 0;
-  std::vector<T, LargeAllocator<T>> cells_;  // large rasters on huge pages (large_allocator.hpp)
+  std::vector<T, LargeAllocator<T>> cells_;  // large rasters mapped whole (large_allocator.hpp)
 };
 
 }  // namespace horizon::terrain

@@ -33,10 +33,11 @@ struct ViewFrame {
   bool in_range(int col, int row) const;
 };
 
-// Sizes `ohf` to the frame's window and fills it with NaN ("no answer"),
-// reusing its storage when it already has that size: a caller computing many
-// viewsheds of one size (a daemon, a benchmark) then pays no page faults.
-void reset_output(terrain::Grid<float>& ohf, const terrain::Window& window);
+// Sizes `ohf` to the frame's window and fills it with NaN ("no answer") on
+// `threads` threads (0: one per core), reusing its storage when it already
+// has that size: a caller computing many viewsheds of one size (a daemon, a
+// benchmark) then pays no page faults.
+void reset_output(terrain::Grid<float>& ohf, const terrain::Window& window, unsigned threads = 1);
 
 // Builds the frame for an observer already resolved against `dem`.
 Result<ViewFrame> make_view_frame(const terrain::Dem& dem, const geodesy::GridPoint& observer,
