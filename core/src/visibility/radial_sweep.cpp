@@ -58,7 +58,6 @@ namespace {
 
 using sweep::CellLine;
 using sweep::CellRay;
-using sweep::eye_relative;
 using sweep::kNoHorizon;
 using sweep::LineStep;
 using sweep::sample_at;
