@@ -320,6 +320,29 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
   const double max_d2 = c.max_distance * c.max_distance;
   const int zv = static_cast<int>(s.z_v);  // offsets within a line fit in 32 bits (checked by the driver)
 
+  // The sampling geometry of the cells (or spawned rays) on the line at step k.
+  auto cell_line = [&](float k) {
+    return CellLine{&s,
+                    p.inv_step.data(),
+                    p.inv_dv.data(),
+                    eye,
+                    eye_lo,
+                    eye_v,
+                    v_min,
+                    v_max,
+                    static_cast<float>(s.k0),
+                    k,
+                    static_cast<float>(c.curvature),
+                    static_cast<float>(s.metres_u * s.metres_u),
+                    static_cast<float>(s.metres_v * s.metres_v),
+                    j_max,
+                    zv,
+                    s.line0,
+                    s.dir,
+                    s.line_count,
+                    s.z_line};
+  };
+
   for (int n = 0; n < s.lines; ++n) {
     if ((n & 63) == 0 && (stop.load(std::memory_order_relaxed) || !check_control(control).ok())) {
       stop = true;
@@ -330,25 +353,7 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
     const float* cur = s.z + line * s.z_line;
     for (const int target = task_level(p, n, ra, rb); level > target;) {
       stride = 1 << --level;
-      const CellLine before{&s,
-                            p.inv_step.data(),
-                            p.inv_dv.data(),
-                            eye,
-                            eye_lo,
-                            eye_v,
-                            v_min,
-                            v_max,
-                            static_cast<float>(s.k0),
-                            static_cast<float>(k - 1.0),
-                            static_cast<float>(c.curvature),
-                            static_cast<float>(s.metres_u * s.metres_u),
-                            static_cast<float>(s.metres_v * s.metres_v),
-                            j_max,
-                            zv,
-                            s.line0,
-                            s.dir,
-                            s.line_count,
-                            s.z_line};
+      const CellLine before = cell_line(static_cast<float>(k - 1.0));
       spawn_rays(scratch, p, ra, stride, before);
       count = static_cast<int>(scratch.horizon.size());
       h = scratch.horizon.data();
@@ -385,25 +390,7 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
       const int j_first = std::max(p.cell_lo[n], static_cast<int>(std::floor(s.eye_v + k * ra * p.ray_step)));
       const int j_last = std::min(p.cell_hi[n], static_cast<int>(std::ceil(s.eye_v + k * rb * p.ray_step)));
       const double du2 = (k * s.metres_u) * (k * s.metres_u);
-      const CellLine cl{&s,
-                        p.inv_step.data(),
-                        p.inv_dv.data(),
-                        eye,
-                        eye_lo,
-                        eye_v,
-                        v_min,
-                        v_max,
-                        static_cast<float>(s.k0),
-                        kf,
-                        static_cast<float>(c.curvature),
-                        static_cast<float>(s.metres_u * s.metres_u),
-                        static_cast<float>(s.metres_v * s.metres_v),
-                        j_max,
-                        zv,
-                        s.line0,
-                        s.dir,
-                        s.line_count,
-                        s.z_line};
+      const CellLine cl = cell_line(kf);
       // The cells this task owns (bracketing pair r in [ra, rb)) inside max
       // distance: each condition holds on an interval of j, so trimming the
       // ends finds their intersection.
