@@ -23,6 +23,7 @@
 #include "horizon/visibility/r3.hpp"
 #include "horizon/visibility/radial_sweep.hpp"
 #include "horizon/visibility/viewshed.hpp"
+#include "simd.hpp"  // core/src/visibility: the sweep kernels' instruction-set cap
 
 using namespace horizon;
 
@@ -33,7 +34,9 @@ terrain::Dem synthetic(int size) {
   dem.elevation = terrain::Grid<float>(size, size);
   std::mt19937 rng(42);
   std::uniform_real_distribution<float> u(0, 1);
-  struct Hill { float x, y, a, r; };
+  struct Hill {
+    float x, y, a, r;
+  };
   std::vector<Hill> hills(60);
   for (auto& h : hills) h = {u(rng) * size, u(rng) * size, (u(rng) - 0.3f) * 800.0f, (0.02f + 0.2f * u(rng)) * size};
   for (int r = 0; r < size; ++r)
@@ -90,7 +93,10 @@ void BM_RadialSynthetic(benchmark::State& state) {
   if (!dem) dem = std::make_unique<terrain::Dem>(synthetic(size));
   run_radial(state, *dem, state.range(1) / 100.0, std::numeric_limits<double>::infinity());
 }
-BENCHMARK(BM_RadialSynthetic)->ArgsProduct({{1024, 2048, 3500}, {100, 50, 25}})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_RadialSynthetic)
+    ->ArgsProduct({{1024, 2048, 3500}, {100, 50, 25}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 void BM_R3Synthetic(benchmark::State& state) {
   const auto dem = synthetic(static_cast<int>(state.range(0)));
@@ -143,6 +149,25 @@ void BM_RadialDem(benchmark::State& state) {
              state.range(1) ? 0.1 * width_m : std::numeric_limits<double>::infinity());
 }
 BENCHMARK(BM_RadialDem)->ArgsProduct({{100, 50, 25}, {0, 1}})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// BM_RadialDem's default (ray spacing 1, whole DEM) with the sweep's kernels
+// capped at one instruction set: 0 scalar, 1 AVX2, 2 AVX-512 (skipped when
+// the CPU lacks it). Run with --benchmark_enable_random_interleaving=true to
+// compare the forms in one run on a noisy machine.
+void BM_RadialKernels(benchmark::State& state) {
+  using visibility::sweep::simd::Isa;
+  const auto isa = static_cast<Isa>(state.range(0));
+  if (visibility::sweep::simd::cpu_isa() < isa) {
+    state.SkipWithError("this CPU lacks that instruction set");
+    return;
+  }
+  const terrain::Dem* dem = bench_dem(state);
+  if (!dem) return;
+  visibility::sweep::simd::isa_limit() = isa;
+  run_radial(state, *dem, 1.0, std::numeric_limits<double>::infinity());
+  visibility::sweep::simd::isa_limit() = Isa::kAvx512;
+}
+BENCHMARK(BM_RadialKernels)->DenseRange(0, 2)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // Each algorithm mode through compute_viewshed on $HORIZON_BENCH_DEM, whole
 // DEM: 0 fast, 1 conservative, 2 exact, 3 r3 (the last two are slow: run them

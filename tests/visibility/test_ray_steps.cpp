@@ -1,8 +1,8 @@
 // The radial sweep's ray loops (core/src/visibility/ray_steps.hpp): the AVX2
-// kernels must give the scalar loops' bits, ray for ray, for every kind of
-// ray (level, rising, falling, the diagonals), crossings and none, voids,
-// the first line closer than one step, along rows and along columns, and for
-// counts that leave partial groups of eight.
+// and AVX-512 kernels must give the scalar loops' bits, ray for ray, for
+// every kind of ray (level, rising, falling, the diagonals), crossings and
+// none, voids, the first line closer than one step, along rows and along
+// columns, and for counts that leave partial groups of sixteen and eight.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -13,6 +13,7 @@
 
 #include "ray_steps.hpp"
 #include "simd.hpp"
+#include "vector_forms.hpp"
 
 namespace horizon::visibility::sweep {
 namespace {
@@ -26,8 +27,7 @@ void expect_same_bits(const std::vector<T>& a, const std::vector<T>& b, const ch
     ASSERT_EQ(std::memcmp(&a[i], &b[i], sizeof(T)), 0) << what << " of ray " << i << " at step " << k;
 }
 
-TEST(RaySteps, TheAvx2KernelsGiveTheScalarLoopsBits) {
-  if (!simd::has_avx2()) GTEST_SKIP() << "this CPU has no AVX2: only the scalar loops run";
+void compare_ray_steps() {
   std::mt19937 rng(1201);
   std::uniform_real_distribution<float> height(-430.0f, 8848.0f), unit(0.0f, 1.0f);
   for (const int zv : {1, 7}) {  // v contiguous (north/south) or strided (east/west)
@@ -42,7 +42,7 @@ TEST(RaySteps, TheAvx2KernelsGiveTheScalarLoopsBits) {
       const float eye_hi = static_cast<float>(eye), eye_lo = static_cast<float>(eye - eye_hi);
       const float kf = static_cast<float>(k), kp = static_cast<float>(k - 1.0);
       const LineStep ls{eye_hi, eye_lo, eye_v, 0.0f, float(kV - 1), kf, kp, std::max(kp, 0.0f), kV - 2, zv};
-      for (const int count : {0, 1, 7, 8, 9, 61, 193}) {
+      for (const int count : {0, 1, 7, 8, 9, 15, 16, 17, 24, 25, 61, 193}) {
         // Slopes evenly spaced in [-1, 1] as the plan makes them (0 and the
         // diagonals included), with their inverses and curvature terms.
         std::vector<float> slope(count), inv_slope(count), curv_k(count);
@@ -93,6 +93,10 @@ TEST(RaySteps, TheAvx2KernelsGiveTheScalarLoopsBits) {
       }
     }
   }
+}
+
+TEST(RaySteps, TheVectorKernelsGiveTheScalarLoopsBits) {
+  if (for_each_vector_form(compare_ray_steps) == 0) GTEST_SKIP() << "this CPU has no AVX2: only the scalar loops run";
 }
 
 // The loops' answer on a case worked by hand: one ray along v = eye_v + k / 2

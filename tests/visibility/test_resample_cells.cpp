@@ -1,8 +1,8 @@
 // The radial sweep's cell kernels (core/src/visibility/resample_cells.hpp):
-// the AVX2 kernel must give the scalar kernel's bits, cell for cell, on every
-// kind of candidate (the line before, u lines, v lines, none), with voids,
-// along rows and along columns, and for ranges of every length (partial
-// groups of eight included).
+// the AVX2 and AVX-512 kernels must give the scalar kernel's bits, cell for
+// cell, on every kind of candidate (the line before, u lines, v lines, none),
+// with voids, along rows and along columns, and for ranges of every length
+// (partial groups of sixteen and eight included).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "resample_cells.hpp"
+#include "vector_forms.hpp"
 
 namespace horizon::visibility::sweep {
 namespace {
@@ -141,13 +142,15 @@ void compare_kernels(bool rows, std::mt19937& rng) {
   }
 }
 
-TEST(ResampleCells, TheAvx2KernelGivesTheScalarKernelsBits) {
-  if (!resample_cells_vectorised()) GTEST_SKIP() << "this CPU has no AVX2: only the scalar kernel runs";
-  std::mt19937 rng(20261201);
-  for (int round = 0; round < 4; ++round) {
-    compare_kernels(true, rng);
-    compare_kernels(false, rng);
-  }
+TEST(ResampleCells, TheVectorKernelsGiveTheScalarKernelsBits) {
+  const int forms = for_each_vector_form([] {
+    std::mt19937 rng(20261201);
+    for (int round = 0; round < 4; ++round) {
+      compare_kernels(true, rng);
+      compare_kernels(false, rng);
+    }
+  });
+  if (forms == 0) GTEST_SKIP() << "this CPU has no AVX2: only the scalar kernel runs";
 }
 
 }  // namespace

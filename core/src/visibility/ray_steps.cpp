@@ -142,12 +142,95 @@ HORIZON_AVX2 int step_line_avx2(const LineStep& ls, int count, const float* slop
   return i;
 }
 
+// The same two loops sixteen rays at a time with AVX-512: lane for lane the
+// AVX2 kernels' operations, with mask registers for the comparisons. The
+// last, partial group runs masked: its absent lanes read and write nothing.
+HORIZON_AVX512 void step_cross_avx512(const LineStep& ls, int count, const float* slope, const float* inv_slope,
+                                      const float* curv_k, const float* prev, const float* cur, const float* h,
+                                      const int* arg, float* cross_slope, int* cross_v, int* code) {
+  using namespace simd;
+  const __m512 eye_v = f16(ls.eye_v), k_start = f16(ls.k_start), kf = f16(ls.kf), v_min = f16(ls.v_min),
+               v_max = f16(ls.v_max), kp = f16(ls.kp), eye = f16(ls.eye), eye_lo = f16(ls.eye_lo), zero = f16(0.0f),
+               one = f16(1.0f);
+  const __m512i zv = i16(ls.zv);
+  for (int i = 0; i < count; i += 16) {
+    const __mmask16 in = count - i >= 16 ? __mmask16(0xffff) : __mmask16((1u << (count - i)) - 1);
+    const __m512 m = _mm512_maskz_loadu_ps(in, slope + i);
+    const __m512 v_start = _mm512_add_ps(eye_v, _mm512_mul_ps(m, k_start));
+    const __m512 v_end = _mm512_add_ps(eye_v, _mm512_mul_ps(m, kf));
+    const __m512 up = _mm512_add_ps(floor16(v_start), one);
+    const __m512 down = _mm512_sub_ps(ceil16(v_start), one);
+    const __mmask16 rising = _mm512_cmp_ps_mask(m, zero, _CMP_GT_OQ);
+    const __m512 cv = _mm512_mask_blend_ps(rising, down, up);
+    const __mmask16 crosses = (rising & _mm512_cmp_ps_mask(up, v_end, _CMP_LT_OQ)) |
+                              (_mm512_cmp_ps_mask(m, zero, _CMP_LT_OQ) & _mm512_cmp_ps_mask(down, v_end, _CMP_GT_OQ));
+    const __mmask16 valid =
+        crosses & _mm512_cmp_ps_mask(cv, v_min, _CMP_GE_OQ) & _mm512_cmp_ps_mask(cv, v_max, _CMP_LE_OQ);
+    const __m512 cv_clamped = min_of(max_of(cv, v_min), v_max);
+    const __m512i jc = _mm512_cvttps_epi32(cv_clamped);
+    const __m512 kc =
+        max_of(_mm512_mul_ps(_mm512_sub_ps(cv_clamped, eye_v), _mm512_maskz_loadu_ps(in, inv_slope + i)), f16(1.0e-6f));
+    const __m512 tc = _mm512_sub_ps(kc, kp);
+    const __m512i at = _mm512_mullo_epi32(jc, zv);
+    const __m512 pa = gather_masked(prev, at, in), pb = gather_masked(cur, at, in);
+    const __m512 s_cross = _mm512_sub_ps(_mm512_div_ps(eye_relative16(pa, pb, tc, eye, eye_lo), kc),
+                                         _mm512_mul_ps(_mm512_maskz_loadu_ps(in, curv_k + i), kc));
+    const __m512 best = min_of(s_cross, _mm512_mask_blend_ps(valid, f16(kNoHorizon), f16(3.0e38f)));
+    const __m512i v = _mm512_mask_blend_epi32(valid, i16(-1), jc);
+    _mm512_mask_storeu_ps(cross_slope + i, in, best);
+    _mm512_mask_storeu_epi32(cross_v + i, in, v);
+    const __mmask16 wins = _mm512_cmp_ps_mask(best, _mm512_maskz_loadu_ps(in, h + i), _CMP_GT_OQ);
+    const __m512i kept = _mm512_maskz_loadu_epi32(in, arg + i);
+    _mm512_mask_storeu_epi32(code + i, in, _mm512_mask_blend_epi32(wins, kept, _mm512_sub_epi32(i16(-2), v)));
+  }
+}
+
+HORIZON_AVX512 void step_line_avx512(const LineStep& ls, int count, const float* slope, const float* curv_k,
+                                     const float* cur, const float* cross_slope, const int* cross_v, float* h, int* arg,
+                                     int n) {
+  using namespace simd;
+  const float inv_kf_scalar = 1.0f / ls.kf;
+  const __m512 inv_kf = f16(inv_kf_scalar), kf = f16(ls.kf), eye_v = f16(ls.eye_v), v_min = f16(ls.v_min),
+               v_max = f16(ls.v_max), eye = f16(ls.eye), eye_lo = f16(ls.eye_lo);
+  const __m512i zv = i16(ls.zv), j_max = i16(ls.j_max), line = i16(n), minus_two = i16(-2);
+  for (int i = 0; i < count; i += 16) {
+    const __mmask16 in = count - i >= 16 ? __mmask16(0xffff) : __mmask16((1u << (count - i)) - 1);
+    const __m512 v =
+        min_of(max_of(_mm512_add_ps(eye_v, _mm512_mul_ps(_mm512_maskz_loadu_ps(in, slope + i), kf)), v_min), v_max);
+    const __m512i j0 = mini_of(_mm512_cvttps_epi32(v), j_max);
+    const __m512 t = _mm512_sub_ps(v, _mm512_cvtepi32_ps(j0));
+    const __m512i at = _mm512_mullo_epi32(j0, zv);
+    const __m512 a = gather_masked(cur, at, in), b = gather_masked(cur, _mm512_add_epi32(at, zv), in);
+    const __m512 s_line = _mm512_sub_ps(_mm512_mul_ps(eye_relative16(a, b, t, eye, eye_lo), inv_kf),
+                                        _mm512_mul_ps(_mm512_maskz_loadu_ps(in, curv_k + i), kf));
+    __m512 best = _mm512_maskz_loadu_ps(in, h + i);
+    __m512i where = _mm512_maskz_loadu_epi32(in, arg + i);
+    const __m512 cs = _mm512_maskz_loadu_ps(in, cross_slope + i);
+    const __mmask16 cross_wins = _mm512_cmp_ps_mask(cs, best, _CMP_GT_OQ);
+    where = _mm512_mask_blend_epi32(cross_wins, where,
+                                    _mm512_sub_epi32(minus_two, _mm512_maskz_loadu_epi32(in, cross_v + i)));
+    best = _mm512_mask_blend_ps(cross_wins, best, cs);
+    const __mmask16 line_wins = _mm512_cmp_ps_mask(s_line, best, _CMP_GT_OQ);
+    where = _mm512_mask_blend_epi32(line_wins, where, line);
+    best = _mm512_mask_blend_ps(line_wins, best, s_line);
+    _mm512_mask_storeu_ps(h + i, in, best);
+    _mm512_mask_storeu_epi32(arg + i, in, where);
+  }
+}
+
 }  // namespace
 #endif
 
 void step_cross(const LineStep& ls, int count, const float* slope, const float* inv_slope, const float* curv_k,
                 const float* prev, const float* cur, const float* h, const int* arg, float* cross_slope, int* cross_v,
                 int* code) {
+  // AVX-512 takes every ray; AVX2 groups of eight, then one by one.
+#ifdef HORIZON_SIMD_AVX2
+  if (simd::has_avx512()) {
+    step_cross_avx512(ls, count, slope, inv_slope, curv_k, prev, cur, h, arg, cross_slope, cross_v, code);
+    return;
+  }
+#endif
   int done = 0;
 #ifdef HORIZON_SIMD_AVX2
   if (simd::has_avx2())
@@ -159,6 +242,12 @@ void step_cross(const LineStep& ls, int count, const float* slope, const float* 
 
 void step_line(const LineStep& ls, int count, const float* slope, const float* curv_k, const float* cur,
                const float* cross_slope, const int* cross_v, float* h, int* arg, int n) {
+#ifdef HORIZON_SIMD_AVX2
+  if (simd::has_avx512()) {
+    step_line_avx512(ls, count, slope, curv_k, cur, cross_slope, cross_v, h, arg, n);
+    return;
+  }
+#endif
   int done = 0;
 #ifdef HORIZON_SIMD_AVX2
   if (simd::has_avx2()) done = step_line_avx2(ls, count, slope, curv_k, cur, cross_slope, cross_v, h, arg, n);

@@ -5,9 +5,10 @@
 // cells are then evaluated (resample_cells.hpp); finally each ray folds that
 // crossing and its crossing of line n itself into its running maximum
 // (step_line). Together they are about half of the fast viewshed's time.
-// Each has a scalar loop and an AVX2 kernel (eight rays at once, hardware
-// gathers for the terrain reads) with the same float operations in the same
-// order, chosen at run time; both give the same bits
+// Each has a scalar loop, an AVX2 kernel (eight rays at once, hardware
+// gathers for the terrain reads) and an AVX-512 kernel (sixteen), with the
+// same float operations in the same order, chosen at run time
+// (simd::kernel_isa()); all give the same bits
 // (tests/visibility/test_ray_steps.cpp).
 #pragma once
 

@@ -189,16 +189,141 @@ HORIZON_AVX2 std::uint64_t resample_cells_avx2(const ResampleLine& L, int j_begi
   return written;
 }
 
+// The AVX-512 kernel: the AVX2 kernel sixteen cells at a time, lane for lane
+// the same operations, with mask registers for the lane masks.
+
+HORIZON_AVX512 inline __m512 clamp16(__m512 x, __m512 lo, __m512 hi) {
+  return simd::min_of(simd::max_of(x, lo), hi);
+}
+HORIZON_AVX512 inline __m512i clampi16(__m512i x, __m512i lo, __m512i hi) {
+  return simd::mini_of(simd::maxi_of(x, lo), hi);
+}
+
+HORIZON_AVX512 __m512 sample_u16(const CellLine& L, __m512 m, __m512 curv_k, __m512i step, __mmask16 mask) {
+  using namespace simd;
+  const __m512 kn = _mm512_add_ps(f16(L.k0), _mm512_cvtepi32_ps(step));
+  const __m512 v = clamp16(_mm512_add_ps(f16(L.eye_v), _mm512_mul_ps(m, kn)), f16(L.v_min), f16(L.v_max));
+  const __m512i j0 = _mm512_min_epi32(_mm512_cvttps_epi32(v), i16(L.j_max));
+  const __m512 t = _mm512_sub_ps(v, _mm512_cvtepi32_ps(j0));
+  const __m512i line = _mm512_add_epi32(i16(L.line0), _mm512_mullo_epi32(i16(L.dir), step));
+  const __m512i ia =
+      _mm512_add_epi32(_mm512_mullo_epi32(line, i16(static_cast<int>(L.z_line))), _mm512_mullo_epi32(j0, i16(L.zv)));
+  const __m512i ib = _mm512_add_epi32(ia, i16(L.zv));
+  const __m512 a = gather_masked(L.s->z, ia, mask), b = gather_masked(L.s->z, ib, mask);
+  const __m512 inv_step = gather_masked(L.inv_step, step, mask);
+  const __m512 er = eye_relative16(a, b, t, f16(L.eye), f16(L.eye_lo));
+  return _mm512_sub_ps(_mm512_mul_ps(er, inv_step), _mm512_mul_ps(curv_k, kn));
+}
+
+HORIZON_AVX512 __m512 sample_at16(const CellLine& L, __mmask16 lanes, __m512i j, __m512 m, __m512 inv_m, __m512 curv_k,
+                                  __m512i code) {
+  using namespace simd;
+  const __m512 none = f16(kNoHorizon);
+  const __mmask16 on_u = _mm512_mask_cmpgt_epi32_mask(lanes, code, i16(-1));
+  const __m512 su = on_u == 0 ? none : sample_u16(L, m, curv_k, _mm512_max_epi32(code, i16(0)), on_u);
+  const __m512i vline = _mm512_sub_epi32(i16(-2), code);
+  __mmask16 on_v = _mm512_mask_cmpgt_epi32_mask(lanes, i16(-1), code);
+  if (on_v == 0) return _mm512_mask_blend_ps(on_u, none, su);
+  on_v = _mm512_mask_cmp_ps_mask(on_v, inv_m, _mm512_setzero_ps(), _CMP_NEQ_OQ);
+  on_v = _mm512_mask_cmpneq_epi32_mask(on_v, vline, j);
+  const __m512 kc = _mm512_mul_ps(_mm512_sub_ps(_mm512_cvtepi32_ps(vline), f16(L.eye_v)), inv_m);
+  on_v = _mm512_mask_cmp_ps_mask(on_v, kc, _mm512_setzero_ps(), _CMP_GT_OQ);
+  on_v = _mm512_mask_cmp_ps_mask(on_v, kc, f16(L.k), _CMP_LT_OQ);
+  const __m512 x = _mm512_sub_ps(kc, f16(L.k0));
+  const __m512 xf = floor16(x);
+  const __m512i n1 = _mm512_cvttps_epi32(xf);
+  const __m512 t = _mm512_sub_ps(x, _mm512_cvtepi32_ps(n1));
+  const __m512i last = i16(L.line_count - 1), zero = _mm512_setzero_si512();
+  const __m512i la = clampi16(_mm512_add_epi32(i16(L.line0), _mm512_mullo_epi32(i16(L.dir), n1)), zero, last);
+  const __m512i lb = clampi16(
+      _mm512_add_epi32(i16(L.line0), _mm512_mullo_epi32(i16(L.dir), _mm512_add_epi32(n1, i16(1)))), zero, last);
+  const __m512i zl = i16(static_cast<int>(L.z_line));
+  const __m512i vo = _mm512_mullo_epi32(vline, i16(L.zv));
+  const __m512 a = gather_masked(L.s->z, _mm512_add_epi32(_mm512_mullo_epi32(la, zl), vo), on_v);
+  const __m512 b = gather_masked(L.s->z, _mm512_add_epi32(_mm512_mullo_epi32(lb, zl), vo), on_v);
+  const __m512 inv_dv = gather_masked(L.inv_dv, vline, on_v);
+  const __m512 er = eye_relative16(a, b, t, f16(L.eye), f16(L.eye_lo));
+  const __m512 sv = _mm512_sub_ps(_mm512_mul_ps(er, _mm512_mul_ps(m, inv_dv)), _mm512_mul_ps(curv_k, kc));
+  return _mm512_mask_blend_ps(on_u, _mm512_mask_blend_ps(on_v, none, sv), su);
+}
+
+// The double-precision halves of sixteen lanes: lanes 0-7 and 8-15.
+HORIZON_AVX512 inline __m512d low_pd(__m512i x) {
+  return _mm512_cvtepi32_pd(_mm512_castsi512_si256(x));
+}
+HORIZON_AVX512 inline __m512d high_pd(__m512i x) {
+  return _mm512_cvtepi32_pd(_mm512_extracti64x4_epi64(x, 1));
+}
+
+HORIZON_AVX512 std::uint64_t resample_cells_avx512(const ResampleLine& L, int j_begin, int j_end) {
+  using namespace simd;
+  const CellLine& cl = *L.cells;
+  std::uint64_t written = 0;
+  const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  const __m512d eye_v = _mm512_set1_pd(L.eye_v), inv_k = _mm512_set1_pd(L.inv_k),
+                ray_half = _mm512_set1_pd(static_cast<double>(L.ray_half));
+  const __m512d eye = _mm512_set1_pd(L.eye), k = _mm512_set1_pd(L.k), curvature = _mm512_set1_pd(L.curvature),
+                du2 = _mm512_set1_pd(L.du2), metres_v = _mm512_set1_pd(L.metres_v);
+  const __m128i shift = _mm_cvtsi32_si128(L.level);
+  const __m512 minus_inf = f16(-std::numeric_limits<float>::infinity());
+  const __m512i o_v = i16(static_cast<int>(L.o_v));
+  constexpr int kFloor = _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC;
+  for (int j = j_begin; j <= j_end; j += 16) {
+    const __m512i jv = _mm512_add_epi32(i16(j), lane);
+    const __mmask16 lanes = _mm512_cmpgt_epi32_mask(i16(j_end + 1), jv);
+    const __m512 zc = cl.zv == 1 ? _mm512_maskz_loadu_ps(lanes, L.elevation + j)
+                                 : gather_masked(L.elevation, _mm512_mullo_epi32(jv, i16(cl.zv)), lanes);
+    const __mmask16 valid = _mm512_mask_cmp_ps_mask(lanes, zc, zc, _CMP_ORD_Q);
+    if (valid == 0) continue;
+    const __m512d dj_lo = _mm512_sub_pd(low_pd(jv), eye_v), dj_hi = _mm512_sub_pd(high_pd(jv), eye_v);
+    const __m256i r_lo =
+        _mm512_cvttpd_epi32(_mm512_roundscale_pd(_mm512_mul_pd(_mm512_mul_pd(dj_lo, inv_k), ray_half), kFloor));
+    const __m256i r_hi =
+        _mm512_cvttpd_epi32(_mm512_roundscale_pd(_mm512_mul_pd(_mm512_mul_pd(dj_hi, inv_k), ray_half), kFloor));
+    const __m512i r =
+        clampi16(_mm512_inserti64x4(_mm512_castsi256_si512(r_lo), r_hi, 1), i16(-L.ray_half), i16(L.ray_half - 1));
+    const __m512i i0 = _mm512_sra_epi32(_mm512_sub_epi32(r, i16(L.ra)), shift);
+    const __m512i none = i16(-1), previous = i16(L.n - 1);
+    __m512i a0 = _mm512_mask_i32gather_epi32(none, valid, i0, L.code, 4);
+    __m512i a1 = _mm512_mask_i32gather_epi32(none, valid, _mm512_add_epi32(i0, i16(1)), L.code, 4);
+    a1 = _mm512_mask_blend_epi32(_mm512_cmpeq_epi32_mask(a1, a0) | _mm512_cmpeq_epi32_mask(a1, previous), a1, none);
+    a0 = _mm512_mask_blend_epi32(_mm512_cmpeq_epi32_mask(a0, previous), a0, none);
+    const __m512 m = _mm512_div_ps(_mm512_sub_ps(_mm512_cvtepi32_ps(jv), f16(cl.eye_v)), f16(cl.k));
+    const __m512 inv_m = _mm512_mul_ps(f16(cl.k), _mm512_maskz_loadu_ps(valid, cl.inv_dv + j));
+    const __m512 curv_k =
+        _mm512_mul_ps(f16(cl.curvature), _mm512_add_ps(f16(cl.mu2), _mm512_mul_ps(_mm512_mul_ps(m, m), f16(cl.mv2))));
+    __m512 best = f16(kNoHorizon);
+    if (L.n > 0) best = _mm512_max_ps(sample_u16(cl, m, curv_k, i16(L.n - 1), valid), best);
+    best = _mm512_max_ps(sample_at16(cl, valid, jv, m, inv_m, curv_k, a0), best);
+    best = _mm512_max_ps(sample_at16(cl, valid, jv, m, inv_m, curv_k, a1), best);
+    const __m512d b_lo = _mm512_cvtps_pd(_mm512_castps512_ps256(best));
+    const __m512d b_hi = _mm512_cvtps_pd(_mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(best), 1)));
+    const __m512d dv_lo = _mm512_mul_pd(dj_lo, metres_v), dv_hi = _mm512_mul_pd(dj_hi, metres_v);
+    const __m512d d2_lo = _mm512_add_pd(du2, _mm512_mul_pd(dv_lo, dv_lo));
+    const __m512d d2_hi = _mm512_add_pd(du2, _mm512_mul_pd(dv_hi, dv_hi));
+    const __m512d h_lo = _mm512_add_pd(_mm512_add_pd(eye, _mm512_mul_pd(k, b_lo)), _mm512_mul_pd(curvature, d2_lo));
+    const __m512d h_hi = _mm512_add_pd(_mm512_add_pd(eye, _mm512_mul_pd(k, b_hi)), _mm512_mul_pd(curvature, d2_hi));
+    const __m512 both = _mm512_castpd_ps(_mm512_insertf64x4(
+        _mm512_castpd256_pd512(_mm256_castps_pd(_mm512_cvtpd_ps(h_lo))), _mm256_castps_pd(_mm512_cvtpd_ps(h_hi)), 1));
+    const __mmask16 some = _mm512_cmp_ps_mask(best, f16(static_cast<float>(0.5 * kNoHorizon)), _CMP_GT_OQ);
+    const __m512 height = _mm512_mask_blend_ps(some, minus_inf, both);
+    if (L.o_v == 1) {
+      _mm512_mask_storeu_ps(L.out + j, valid, height);
+    } else {
+      _mm512_mask_i32scatter_ps(L.out, valid, _mm512_mullo_epi32(jv, o_v), height, 4);
+    }
+    written += static_cast<std::uint64_t>(__builtin_popcount(static_cast<unsigned>(valid)));
+  }
+  return written;
+}
+
 }  // namespace
 #endif
 
-bool resample_cells_vectorised() {
-  return simd::has_avx2();
-}
-
 std::uint64_t resample_cells(const ResampleLine& line, int j_begin, int j_end) {
 #ifdef HORIZON_SIMD_AVX2
-  if (resample_cells_vectorised()) return resample_cells_avx2(line, j_begin, j_end);
+  if (simd::has_avx512()) return resample_cells_avx512(line, j_begin, j_end);
+  if (simd::has_avx2()) return resample_cells_avx2(line, j_begin, j_end);
 #endif
   return resample_cells_scalar(line, j_begin, j_end);
 }

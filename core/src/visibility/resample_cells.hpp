@@ -4,10 +4,11 @@
 // cell of the line re-samples its own sight line where its two bracketing
 // rays found their horizons and on the line before it (sweep_samples.hpp),
 // keeps the highest sample and writes its occlusion height. This is most of
-// the fast viewshed's time, so it has two kernels with the same arithmetic,
-// float operation for float operation: a scalar one, and an AVX2 one that
-// evaluates eight cells at once with hardware gathers, chosen at run time.
-// Both give the same bits (tests/visibility/test_resample_cells.cpp).
+// the fast viewshed's time, so it has three kernels with the same
+// arithmetic, float operation for float operation: a scalar one, an AVX2 one
+// that evaluates eight cells at once with hardware gathers, and an AVX-512
+// one that evaluates sixteen, chosen at run time (simd::kernel_isa()). All
+// give the same bits (tests/visibility/test_resample_cells.cpp).
 #pragma once
 
 #include <cstddef>
@@ -50,8 +51,5 @@ std::uint64_t resample_cells(const ResampleLine& line, int j_begin, int j_end);
 
 // The same with the scalar kernel whatever the CPU, for the tests.
 std::uint64_t resample_cells_scalar(const ResampleLine& line, int j_begin, int j_end);
-
-// Whether resample_cells uses the AVX2 kernel on this CPU.
-bool resample_cells_vectorised();
 
 }  // namespace horizon::visibility::sweep

@@ -1,29 +1,73 @@
-// Private to the radial sweep: the AVX2 vocabulary its kernels share.
+// Private to the radial sweep: the SIMD vocabulary its kernels share.
 //
-// The kernels must give the scalar loops' bits, so these helpers reproduce
-// the scalar operations exactly, NaN and ties included: min_of(a, b) is
-// std::min(a, b) (`b < a ? b : a`), max_of(a, b) is std::max(a, b)
-// (`a < b ? b : a`). No helper fuses a multiply and an add. Functions using
-// AVX2 carry HORIZON_AVX2 and run only when has_avx2() says so; the rest of
-// the engine is built for baseline x86-64 (or any other architecture, where
+// Each kernel of the sweep has a scalar loop and, on x86-64, an AVX2 form
+// (eight lanes) and an AVX-512 form (sixteen lanes, mask registers), chosen
+// at run time by kernel_isa(). They must give the scalar loops' bits, so
+// these helpers reproduce the scalar operations exactly, NaN and ties
+// included: min_of(a, b) is std::min(a, b) (`b < a ? b : a`), max_of(a, b)
+// is std::max(a, b) (`a < b ? b : a`). No helper fuses a multiply and an add,
+// and the kernels' files are built with -ffp-contract=off, since AVX-512
+// targets carry FMA and GCC would otherwise fuse a * b + c. Functions using
+// AVX2 / AVX-512 carry HORIZON_AVX2 / HORIZON_AVX512; the rest of the engine
+// is built for baseline x86-64 (or any other architecture, where
 // HORIZON_SIMD_AVX2 is not defined and only the scalar loops exist).
 #pragma once
 
+#include <atomic>
+
 #if defined(__x86_64__) && defined(__GNUC__)
+// GCC 12's AVX-512 headers trip -Wmaybe-uninitialized on their own
+// _mm512_undefined_* placeholders (GCC bug 105593, fixed in GCC 13).
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include <immintrin.h>
+#pragma GCC diagnostic pop
 #define HORIZON_SIMD_AVX2 1
 #define HORIZON_AVX2 __attribute__((target("avx2")))
+#define HORIZON_AVX512 __attribute__((target("avx2,avx512f")))
 #endif
 
 #include "sweep_samples.hpp"
 
 namespace horizon::visibility::sweep::simd {
 
+// The instruction sets a kernel may use, in increasing order.
+enum class Isa { kScalar = 0, kAvx2 = 1, kAvx512 = 2 };
+
+// The best the CPU runs (AVX-512 means AVX-512F).
+inline Isa cpu_isa() {
+#ifdef HORIZON_SIMD_AVX2
+  static const Isa isa = __builtin_cpu_supports("avx512f") ? Isa::kAvx512
+                         : __builtin_cpu_supports("avx2")  ? Isa::kAvx2
+                                                           : Isa::kScalar;
+  return isa;
+#else
+  return Isa::kScalar;
+#endif
+}
+
+// A process-wide ceiling on the kernels' instruction set, for the tests
+// (every form against the scalar loop) and benchmarks (one form against
+// another in the same run). Default: none.
+inline std::atomic<Isa>& isa_limit() {
+  static std::atomic<Isa> limit{Isa::kAvx512};
+  return limit;
+}
+
+// What the kernels use: the CPU's best, capped by isa_limit().
+inline Isa kernel_isa() {
+  const Isa limit = isa_limit().load(std::memory_order_relaxed);
+  return cpu_isa() < limit ? cpu_isa() : limit;
+}
+
 #ifdef HORIZON_SIMD_AVX2
 
 inline bool has_avx2() {
-  static const bool avx2 = __builtin_cpu_supports("avx2");
-  return avx2;
+  return kernel_isa() >= Isa::kAvx2;
+}
+
+inline bool has_avx512() {
+  return kernel_isa() >= Isa::kAvx512;
 }
 
 HORIZON_AVX2 inline __m256 f8(float x) {
@@ -55,9 +99,47 @@ HORIZON_AVX2 inline __m256 gather_masked(const float* base, __m256i index, __m25
   return _mm256_mask_i32gather_ps(_mm256_setzero_ps(), base, index, mask, 4);
 }
 
+// The AVX-512 twins of the helpers above (sixteen lanes).
+HORIZON_AVX512 inline __m512 f16(float x) {
+  return _mm512_set1_ps(x);
+}
+HORIZON_AVX512 inline __m512i i16(int x) {
+  return _mm512_set1_epi32(x);
+}
+HORIZON_AVX512 inline __m512 min_of(__m512 a, __m512 b) {
+  return _mm512_min_ps(b, a);
+}
+HORIZON_AVX512 inline __m512 max_of(__m512 a, __m512 b) {
+  return _mm512_max_ps(b, a);
+}
+HORIZON_AVX512 inline __m512i mini_of(__m512i a, __m512i b) {
+  return _mm512_min_epi32(a, b);
+}
+HORIZON_AVX512 inline __m512i maxi_of(__m512i a, __m512i b) {
+  return _mm512_max_epi32(a, b);
+}
+HORIZON_AVX512 inline __m512 eye_relative16(__m512 a, __m512 b, __m512 t, __m512 eye_hi, __m512 eye_lo) {
+  return _mm512_add_ps(_mm512_sub_ps(_mm512_sub_ps(a, eye_hi), eye_lo), _mm512_mul_ps(t, _mm512_sub_ps(b, a)));
+}
+// floor / ceil as _mm256_floor_ps / _mm256_ceil_ps round.
+HORIZON_AVX512 inline __m512 floor16(__m512 x) {
+  return _mm512_roundscale_ps(x, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+}
+HORIZON_AVX512 inline __m512 ceil16(__m512 x) {
+  return _mm512_roundscale_ps(x, _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC);
+}
+// base[index] for the lanes of `mask`, 0 elsewhere; the others are not read.
+HORIZON_AVX512 inline __m512 gather_masked(const float* base, __m512i index, __mmask16 mask) {
+  return _mm512_mask_i32gather_ps(_mm512_setzero_ps(), mask, index, base, 4);
+}
+
 #else
 
 inline bool has_avx2() {
+  return false;
+}
+
+inline bool has_avx512() {
   return false;
 }
 
