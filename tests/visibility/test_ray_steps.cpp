@@ -1,8 +1,9 @@
 // The radial sweep's ray loops (core/src/visibility/ray_steps.hpp): the AVX2
-// and AVX-512 kernels must give the scalar loops' bits, ray for ray, for
-// every kind of ray (level, rising, falling, the diagonals), crossings and
-// none, voids, the first line closer than one step, along rows and along
-// columns, and for counts that leave partial groups of sixteen and eight.
+// and AVX-512 kernels, and the fused step_rays, must give the scalar loops'
+// bits, ray for ray, for every kind of ray (level, rising, falling, the
+// diagonals), crossings and none, voids, the first line closer than one
+// step, along rows and along columns, and for counts that leave partial
+// groups of sixteen and eight.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -74,6 +75,8 @@ void compare_ray_steps() {
           EXPECT_EQ(code_scalar[i], crossing_wins ? -2 - cv_scalar[i] : arg_scalar[i]);
         }
 
+        const std::vector<float> h_before = h_scalar;
+        const std::vector<int> arg_before = arg_scalar;
         std::vector<float> h_vector = h_scalar;
         std::vector<int> arg_vector = arg_scalar;
         step_line_scalar(ls, count, slope.data(), curv_k.data(), cur.data(), cs_scalar.data(), cv_scalar.data(),
@@ -82,6 +85,16 @@ void compare_ray_steps() {
                   h_vector.data(), arg_vector.data(), 11);
         expect_same_bits(h_scalar, h_vector, "running maximum", k);
         expect_same_bits(arg_scalar, arg_vector, "where the maximum lies", k);
+        // step_rays, both loops in one pass, from the same state: the same bits.
+        for (const bool scalar : {true, false}) {
+          std::vector<float> h_fused = h_before;
+          std::vector<int> arg_fused = arg_before, code_fused(count, 9);
+          (scalar ? step_rays_scalar : step_rays)(ls, count, slope.data(), inv_slope.data(), curv_k.data(), prev.data(),
+                                                  cur.data(), h_fused.data(), arg_fused.data(), code_fused.data(), 11);
+          expect_same_bits(h_scalar, h_fused, scalar ? "fused scalar maximum" : "fused maximum", k);
+          expect_same_bits(arg_scalar, arg_fused, scalar ? "fused scalar place" : "fused place", k);
+          expect_same_bits(code_scalar, code_fused, scalar ? "fused scalar code" : "fused code", k);
+        }
         // The same crossings again: every candidate now ties with the maximum
         // it set, and a tie must keep the old place (line 11, not 12).
         step_line_scalar(ls, count, slope.data(), curv_k.data(), cur.data(), cs_scalar.data(), cv_scalar.data(),

@@ -35,14 +35,17 @@
 // is linear in the ray slope on any planar terrain, so blending sigma between
 // two rays is exact on planes (per-metre slopes carry the convex 1/|ray|).
 //
-// The kernel is a plain loop over rays (structure of arrays, no allocation,
-// invariants hoisted per line and per ray); GCC vectorises the ray update.
+// Rays are kept as structures of arrays, marched by tasks of kRaysPerTask
+// neighbouring rays line by line; the per-line loops over a task's rays and
+// over a line's cells are kernels with scalar, AVX2 and AVX-512 forms that
+// give the same bits (ray_steps.hpp, resample_cells.hpp, simd.hpp).
 #include "horizon/visibility/radial_sweep.hpp"
 
 #include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <limits>
 #include <string>
 #include <vector>
@@ -289,6 +292,38 @@ int task_level(const SectorPlan& p, int n, int ra, int rb) {
   return (rb - ra) % (1 << level) == 0 ? level : 0;
 }
 
+// Prefetching. A task reads each line of the elevation for the first time
+// when its rays reach it: along rows (north/south) a new row, a DEM width
+// away from the last, every step; along columns (east/west) a new cache line
+// of each row its rays cross every 16 steps. The hardware prefetchers do not
+// foresee either, and the kernels then wait on their gathers. So a task asks
+// for the part of the line kPrefetchLines ahead that its rays will read:
+// along rows the whole run, along columns only the rows whose cache line
+// changes there (one prefetch each, spread over the steps, rather than all
+// rows every 16th step, which fills the line-fill buffers at once and was
+// measured slower).
+constexpr int kPrefetchLines = 4;
+
+// The prefetch for a task's marching rays at line n, slopes slope_lo..slope_hi.
+void prefetch_ahead(const Sector& s, int n, float slope_lo, float slope_hi) {
+  const int ahead = n + kPrefetchLines;
+  if (ahead >= s.lines) return;
+  const double k = step_of(s, ahead);
+  const int v0 = std::clamp(static_cast<int>(std::floor(s.eye_v + slope_lo * k)) - 1, 0, s.v_count - 1);
+  const int v1 = std::clamp(static_cast<int>(std::ceil(s.eye_v + slope_hi * k)) + 1, 0, s.v_count - 1);
+  const float* line = s.z + (s.line0 + s.dir * ahead) * s.z_line;
+  if (s.z_v == 1) {
+    for (int v = v0; v <= v1; v += 16) __builtin_prefetch(line + v);
+    __builtin_prefetch(line + v1);
+    return;
+  }
+  for (int v = v0; v <= v1; ++v) {
+    const float* at = line + v * s.z_v;
+    if ((reinterpret_cast<std::uintptr_t>(at) >> 6) != (reinterpret_cast<std::uintptr_t>(at - s.dir) >> 6))
+      __builtin_prefetch(at);
+  }
+}
+
 // Marches rays [ra, rb] (inclusive, plan indices) of one sector through every
 // line and writes the cells whose bracketing pair (r, r + 1) has r in [ra, rb).
 // Adds the ray steps taken and the cells answered to `steps` / `evaluated`.
@@ -370,14 +405,25 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
     const float kf = static_cast<float>(k);
     const float kp = static_cast<float>(k - 1.0);  // step of the previous line (< 0 on a first line closer than 1)
 
+    if (lo <= hi) prefetch_ahead(s, n, slope[lo], slope[hi]);
+
     // 1. Each active ray's crossing of a v grid line strictly inside
-    //    (max(kp, 0), k), if any (|m| <= 1: at most one).
+    //    (max(kp, 0), k), if any (|m| <= 1: at most one), and where its
+    //    horizon lies with it (`code`). The re-sampling blend needs nothing
+    //    else from the rays, so step 3 is done here in the same pass.
     const LineStep ls{eye, eye_lo, eye_v, v_min, v_max, kf, kp, std::max(kp, 0.0f), j_max, zv};
+    const bool fused = c.blend == RayBlend::kResample;
     if (lo <= hi) {
       const int prev_line = std::clamp(line - s.dir, 0, s.line_count - 1);
+      const float* prev = s.z + prev_line * s.z_line;
       const int o = lo;
-      sweep::step_cross(ls, hi - lo + 1, slope + o, inv_slope + o, curv_k + o, s.z + prev_line * s.z_line, cur, h + o,
-                        arg + o, cross_slope + o, cross_v + o, scratch.code.data() + o);
+      if (fused) {
+        sweep::step_rays(ls, hi - lo + 1, slope + o, inv_slope + o, curv_k + o, prev, cur, h + o, arg + o,
+                         scratch.code.data() + o, n);
+      } else {
+        sweep::step_cross(ls, hi - lo + 1, slope + o, inv_slope + o, curv_k + o, prev, cur, h + o, arg + o,
+                          cross_slope + o, cross_v + o, scratch.code.data() + o);
+      }
     }
 
     // 2. Cells on this line. A cell's own segment crosses, in its last step, no
@@ -448,10 +494,12 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
       }
     }
 
-    // 3. Fold the step's crossings and line n's own one into the maxima.
+    // 3. Fold the step's crossings and line n's own one into the maxima
+    //    (done in step 1 for the re-sampling blend).
     if (lo > hi) continue;
     const int o = lo;
-    sweep::step_line(ls, hi - lo + 1, slope + o, curv_k + o, cur, cross_slope + o, cross_v + o, h + o, arg + o, n);
+    if (!fused)
+      sweep::step_line(ls, hi - lo + 1, slope + o, curv_k + o, cur, cross_slope + o, cross_v + o, h + o, arg + o, n);
     steps += static_cast<std::uint64_t>(hi - lo + 1);
   }
 }

@@ -6,54 +6,89 @@
 #include "simd.hpp"
 
 namespace horizon::visibility::sweep {
+namespace {
 
-// Every value is computed for every ray and selected at the end: branch-free.
+// One ray's v-line crossing inside the step: its slope (kNoHorizon, or NaN
+// on a void, when there is none) and the v line (-1 when none). Every value
+// is computed and selected at the end: branch-free.
+struct Cross {
+  float slope;
+  int v;
+};
+
+inline Cross cross_one(const LineStep& ls, float m, float inv_m, float curv_k, const float* __restrict prev,
+                       const float* __restrict cur) {
+  const float v_start = ls.eye_v + m * ls.k_start, v_end = ls.eye_v + m * ls.kf;
+  const float up = std::floor(v_start) + 1.0f, down = std::ceil(v_start) - 1.0f;
+  const float cv = m > 0.0f ? up : down;
+  // Integer masks rather than && / ||, which would become branches.
+  const int crosses = (int(m > 0.0f) & int(up < v_end)) | (int(m < 0.0f) & int(down > v_end));
+  const int valid = crosses & int(cv >= ls.v_min) & int(cv <= ls.v_max);
+  const float cv_clamped = std::min(std::max(cv, ls.v_min), ls.v_max);  // a readable line even when not valid
+  const int jc = static_cast<int>(cv_clamped);
+  const float kc = std::max((cv_clamped - ls.eye_v) * inv_m, 1.0e-6f);
+  const float tc = kc - ls.kp;
+  const float pa = prev[jc * ls.zv], pb = cur[jc * ls.zv];
+  const float s_cross = eye_relative(pa, pb, tc, ls.eye, ls.eye_lo) / kc - curv_k * kc;
+  return {std::min(s_cross, valid ? 3.0e38f : kNoHorizon), (jc + 1) * valid - 1};
+}
+
+// One ray's slope where it crosses line n (`cur`); inv_kf = 1 / ls.kf.
+inline float line_one(const LineStep& ls, float inv_kf, float m, float curv_k, const float* __restrict cur) {
+  const float v = std::min(std::max(ls.eye_v + m * ls.kf, ls.v_min), ls.v_max);
+  const int j0 = std::min(static_cast<int>(v), ls.j_max);
+  const float t = v - static_cast<float>(j0);
+  const float a = cur[j0 * ls.zv], b = cur[(j0 + 1) * ls.zv];
+  return eye_relative(a, b, t, ls.eye, ls.eye_lo) * inv_kf - curv_k * ls.kf;
+}
+
+// Folds a crossing and a line sample into one ray's maximum. `x > best ? x :
+// best` keeps best when x is NaN, and a tie keeps the earlier place.
+inline void fold_one(float& best, int& where, float cross_slope, int cross_v, float s_line, int n) {
+  where = cross_slope > best ? -2 - cross_v : where;
+  best = cross_slope > best ? cross_slope : best;
+  where = s_line > best ? n : where;
+  best = s_line > best ? s_line : best;
+}
+
+}  // namespace
+
 void step_cross_scalar(const LineStep& ls, int count, const float* __restrict slope, const float* __restrict inv_slope,
                        const float* __restrict curv_k, const float* __restrict prev, const float* __restrict cur,
                        const float* __restrict h, const int* __restrict arg, float* __restrict cross_slope,
                        int* __restrict cross_v, int* __restrict code) {
-  const float eye_v = ls.eye_v, k_start = ls.k_start, kf = ls.kf, v_min = ls.v_min, v_max = ls.v_max, kp = ls.kp,
-              eye = ls.eye, eye_lo = ls.eye_lo;
-  const int zv = ls.zv;
   for (int i = 0; i < count; ++i) {
-    const float m = slope[i];
-    const float v_start = eye_v + m * k_start, v_end = eye_v + m * kf;
-    const float up = std::floor(v_start) + 1.0f, down = std::ceil(v_start) - 1.0f;
-    const float cv = m > 0.0f ? up : down;
-    // Integer masks rather than && / ||, which would become branches.
-    const int crosses = (int(m > 0.0f) & int(up < v_end)) | (int(m < 0.0f) & int(down > v_end));
-    const int valid = crosses & int(cv >= v_min) & int(cv <= v_max);
-    const float cv_clamped = std::min(std::max(cv, v_min), v_max);  // a readable line even when not valid
-    const int jc = static_cast<int>(cv_clamped);
-    const float kc = std::max((cv_clamped - eye_v) * inv_slope[i], 1.0e-6f);
-    const float tc = kc - kp;
-    const float pa = prev[jc * zv], pb = cur[jc * zv];
-    const float s_cross = eye_relative(pa, pb, tc, eye, eye_lo) / kc - curv_k[i] * kc;
-    const float best = std::min(s_cross, valid ? 3.0e38f : kNoHorizon);
-    const int v = (jc + 1) * valid - 1;
-    cross_slope[i] = best;
-    cross_v[i] = v;
-    code[i] = best > h[i] ? -2 - v : arg[i];
+    const Cross c = cross_one(ls, slope[i], inv_slope[i], curv_k[i], prev, cur);
+    cross_slope[i] = c.slope;
+    cross_v[i] = c.v;
+    code[i] = c.slope > h[i] ? -2 - c.v : arg[i];
   }
 }
 
-// `x > best ? x : best` keeps best when x is NaN.
 void step_line_scalar(const LineStep& ls, int count, const float* __restrict slope, const float* __restrict curv_k,
                       const float* __restrict cur, const float* __restrict cross_slope, const int* __restrict cross_v,
                       float* __restrict h, int* __restrict arg, int n) {
   const float inv_kf = 1.0f / ls.kf;
   for (int i = 0; i < count; ++i) {
-    const float v = std::min(std::max(ls.eye_v + slope[i] * ls.kf, ls.v_min), ls.v_max);
-    const int j0 = std::min(static_cast<int>(v), ls.j_max);
-    const float t = v - static_cast<float>(j0);
-    const float a = cur[j0 * ls.zv], b = cur[(j0 + 1) * ls.zv];
-    const float s_line = eye_relative(a, b, t, ls.eye, ls.eye_lo) * inv_kf - curv_k[i] * ls.kf;
+    const float s_line = line_one(ls, inv_kf, slope[i], curv_k[i], cur);
     float best = h[i];
     int where = arg[i];
-    where = cross_slope[i] > best ? -2 - cross_v[i] : where;
-    best = cross_slope[i] > best ? cross_slope[i] : best;
-    where = s_line > best ? n : where;
-    best = s_line > best ? s_line : best;
+    fold_one(best, where, cross_slope[i], cross_v[i], s_line, n);
+    h[i] = best;
+    arg[i] = where;
+  }
+}
+
+void step_rays_scalar(const LineStep& ls, int count, const float* __restrict slope, const float* __restrict inv_slope,
+                      const float* __restrict curv_k, const float* __restrict prev, const float* __restrict cur,
+                      float* __restrict h, int* __restrict arg, int* __restrict code, int n) {
+  const float inv_kf = 1.0f / ls.kf;
+  for (int i = 0; i < count; ++i) {
+    const Cross c = cross_one(ls, slope[i], inv_slope[i], curv_k[i], prev, cur);
+    float best = h[i];
+    int where = arg[i];
+    code[i] = c.slope > best ? -2 - c.v : where;
+    fold_one(best, where, c.slope, c.v, line_one(ls, inv_kf, slope[i], curv_k[i], cur), n);
     h[i] = best;
     arg[i] = where;
   }
@@ -62,48 +97,97 @@ void step_line_scalar(const LineStep& ls, int count, const float* __restrict slo
 #ifdef HORIZON_SIMD_AVX2
 namespace {
 
-// Eight rays per iteration, lane for lane the scalar loop's operations
-// (simd.hpp gives std::min / std::max's exact NaN and tie behaviour); the
-// last, partial group runs through the scalar loop.
+// The AVX2 forms: eight rays per iteration, lane for lane the scalar loops'
+// operations (simd.hpp gives std::min / std::max's exact NaN and tie
+// behaviour); the last, partial group runs through the scalar loop.
+struct Step8 {
+  __m256 eye_v, k_start, kf, inv_kf, v_min, v_max, kp, eye, eye_lo;
+  __m256i zv, j_max;
+};
+
+HORIZON_AVX2 inline Step8 step8(const LineStep& ls) {
+  using namespace simd;
+  const float inv_kf = 1.0f / ls.kf;
+  return {f8(ls.eye_v), f8(ls.k_start), f8(ls.kf),     f8(inv_kf), f8(ls.v_min), f8(ls.v_max),
+          f8(ls.kp),    f8(ls.eye),     f8(ls.eye_lo), i8(ls.zv),  i8(ls.j_max)};
+}
+
+struct Cross8 {
+  __m256 slope;
+  __m256i v;
+};
+
+HORIZON_AVX2 inline Cross8 cross8(const Step8& s, __m256 m, __m256 inv_m, __m256 curv_k, const float* prev,
+                                  const float* cur) {
+  using namespace simd;
+  const __m256 zero = _mm256_setzero_ps(), one = f8(1.0f);
+  const __m256 v_start = _mm256_add_ps(s.eye_v, _mm256_mul_ps(m, s.k_start));
+  const __m256 v_end = _mm256_add_ps(s.eye_v, _mm256_mul_ps(m, s.kf));
+  const __m256 up = _mm256_add_ps(_mm256_floor_ps(v_start), one);
+  const __m256 down = _mm256_sub_ps(_mm256_ceil_ps(v_start), one);
+  const __m256 rising = _mm256_cmp_ps(m, zero, _CMP_GT_OQ);
+  const __m256 cv = _mm256_blendv_ps(down, up, rising);
+  const __m256 crosses =
+      _mm256_or_ps(_mm256_and_ps(rising, _mm256_cmp_ps(up, v_end, _CMP_LT_OQ)),
+                   _mm256_and_ps(_mm256_cmp_ps(m, zero, _CMP_LT_OQ), _mm256_cmp_ps(down, v_end, _CMP_GT_OQ)));
+  const __m256 valid = _mm256_and_ps(
+      crosses, _mm256_and_ps(_mm256_cmp_ps(cv, s.v_min, _CMP_GE_OQ), _mm256_cmp_ps(cv, s.v_max, _CMP_LE_OQ)));
+  const __m256 cv_clamped = min_of(max_of(cv, s.v_min), s.v_max);
+  const __m256i jc = _mm256_cvttps_epi32(cv_clamped);
+  const __m256 kc = max_of(_mm256_mul_ps(_mm256_sub_ps(cv_clamped, s.eye_v), inv_m), f8(1.0e-6f));
+  const __m256 tc = _mm256_sub_ps(kc, s.kp);
+  const __m256i at = _mm256_mullo_epi32(jc, s.zv);
+  const __m256 pa = _mm256_i32gather_ps(prev, at, 4), pb = _mm256_i32gather_ps(cur, at, 4);
+  const __m256 s_cross =
+      _mm256_sub_ps(_mm256_div_ps(eye_relative8(pa, pb, tc, s.eye, s.eye_lo), kc), _mm256_mul_ps(curv_k, kc));
+  return {min_of(s_cross, _mm256_blendv_ps(f8(kNoHorizon), f8(3.0e38f), valid)),
+          _mm256_blendv_epi8(i8(-1), jc, _mm256_castps_si256(valid))};
+}
+
+HORIZON_AVX2 inline __m256 line8(const Step8& s, __m256 m, __m256 curv_k, const float* cur) {
+  using namespace simd;
+  const __m256 v = min_of(max_of(_mm256_add_ps(s.eye_v, _mm256_mul_ps(m, s.kf)), s.v_min), s.v_max);
+  const __m256i j0 = mini_of(_mm256_cvttps_epi32(v), s.j_max);
+  const __m256 t = _mm256_sub_ps(v, _mm256_cvtepi32_ps(j0));
+  const __m256i at = _mm256_mullo_epi32(j0, s.zv);
+  const __m256 a = _mm256_i32gather_ps(cur, at, 4), b = _mm256_i32gather_ps(cur, _mm256_add_epi32(at, s.zv), 4);
+  return _mm256_sub_ps(_mm256_mul_ps(eye_relative8(a, b, t, s.eye, s.eye_lo), s.inv_kf), _mm256_mul_ps(curv_k, s.kf));
+}
+
+// The code a crossing leaves: its v line when it beats the maximum, else `arg`.
+HORIZON_AVX2 inline __m256i code8(const Cross8& c, __m256 h, __m256i arg) {
+  const __m256 wins = _mm256_cmp_ps(c.slope, h, _CMP_GT_OQ);
+  return _mm256_blendv_epi8(arg, _mm256_sub_epi32(simd::i8(-2), c.v), _mm256_castps_si256(wins));
+}
+
+HORIZON_AVX2 inline void fold8(__m256& best, __m256i& where, __m256 cross_slope, __m256i cross_v, __m256 s_line,
+                               __m256i n) {
+  const __m256 cross_wins = _mm256_cmp_ps(cross_slope, best, _CMP_GT_OQ);
+  where = _mm256_blendv_epi8(where, _mm256_sub_epi32(simd::i8(-2), cross_v), _mm256_castps_si256(cross_wins));
+  best = _mm256_blendv_ps(best, cross_slope, cross_wins);
+  const __m256 line_wins = _mm256_cmp_ps(s_line, best, _CMP_GT_OQ);
+  where = _mm256_blendv_epi8(where, n, _mm256_castps_si256(line_wins));
+  best = _mm256_blendv_ps(best, s_line, line_wins);
+}
+
+HORIZON_AVX2 inline __m256i load8(const int* p) {
+  return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p));
+}
+HORIZON_AVX2 inline void store8(int* p, __m256i x) {
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(p), x);
+}
+
 HORIZON_AVX2 int step_cross_avx2(const LineStep& ls, int count, const float* slope, const float* inv_slope,
                                  const float* curv_k, const float* prev, const float* cur, const float* h,
                                  const int* arg, float* cross_slope, int* cross_v, int* code) {
-  using namespace simd;
-  const __m256 eye_v = f8(ls.eye_v), k_start = f8(ls.k_start), kf = f8(ls.kf), v_min = f8(ls.v_min),
-               v_max = f8(ls.v_max), kp = f8(ls.kp), eye = f8(ls.eye), eye_lo = f8(ls.eye_lo), zero = f8(0.0f),
-               one = f8(1.0f);
-  const __m256i zv = i8(ls.zv);
+  const Step8 s = step8(ls);
   int i = 0;
   for (; i + 8 <= count; i += 8) {
-    const __m256 m = _mm256_loadu_ps(slope + i);
-    const __m256 v_start = _mm256_add_ps(eye_v, _mm256_mul_ps(m, k_start));
-    const __m256 v_end = _mm256_add_ps(eye_v, _mm256_mul_ps(m, kf));
-    const __m256 up = _mm256_add_ps(_mm256_floor_ps(v_start), one);
-    const __m256 down = _mm256_sub_ps(_mm256_ceil_ps(v_start), one);
-    const __m256 rising = _mm256_cmp_ps(m, zero, _CMP_GT_OQ);
-    const __m256 cv = _mm256_blendv_ps(down, up, rising);
-    const __m256 crosses =
-        _mm256_or_ps(_mm256_and_ps(rising, _mm256_cmp_ps(up, v_end, _CMP_LT_OQ)),
-                     _mm256_and_ps(_mm256_cmp_ps(m, zero, _CMP_LT_OQ), _mm256_cmp_ps(down, v_end, _CMP_GT_OQ)));
-    const __m256 valid = _mm256_and_ps(
-        crosses, _mm256_and_ps(_mm256_cmp_ps(cv, v_min, _CMP_GE_OQ), _mm256_cmp_ps(cv, v_max, _CMP_LE_OQ)));
-    const __m256 cv_clamped = min_of(max_of(cv, v_min), v_max);
-    const __m256i jc = _mm256_cvttps_epi32(cv_clamped);
-    const __m256 kc =
-        max_of(_mm256_mul_ps(_mm256_sub_ps(cv_clamped, eye_v), _mm256_loadu_ps(inv_slope + i)), f8(1.0e-6f));
-    const __m256 tc = _mm256_sub_ps(kc, kp);
-    const __m256i at = _mm256_mullo_epi32(jc, zv);
-    const __m256 pa = _mm256_i32gather_ps(prev, at, 4), pb = _mm256_i32gather_ps(cur, at, 4);
-    const __m256 s_cross = _mm256_sub_ps(_mm256_div_ps(eye_relative8(pa, pb, tc, eye, eye_lo), kc),
-                                         _mm256_mul_ps(_mm256_loadu_ps(curv_k + i), kc));
-    const __m256 best = min_of(s_cross, _mm256_blendv_ps(f8(kNoHorizon), f8(3.0e38f), valid));
-    const __m256i v = _mm256_blendv_epi8(i8(-1), jc, _mm256_castps_si256(valid));
-    _mm256_storeu_ps(cross_slope + i, best);
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(cross_v + i), v);
-    const __m256 wins = _mm256_cmp_ps(best, _mm256_loadu_ps(h + i), _CMP_GT_OQ);
-    const __m256i kept = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(arg + i));
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(code + i),
-                        _mm256_blendv_epi8(kept, _mm256_sub_epi32(i8(-2), v), _mm256_castps_si256(wins)));
+    const Cross8 c =
+        cross8(s, _mm256_loadu_ps(slope + i), _mm256_loadu_ps(inv_slope + i), _mm256_loadu_ps(curv_k + i), prev, cur);
+    _mm256_storeu_ps(cross_slope + i, c.slope);
+    store8(cross_v + i, c.v);
+    store8(code + i, code8(c, _mm256_loadu_ps(h + i), load8(arg + i)));
   }
   return i;
 }
@@ -111,108 +195,161 @@ HORIZON_AVX2 int step_cross_avx2(const LineStep& ls, int count, const float* slo
 HORIZON_AVX2 int step_line_avx2(const LineStep& ls, int count, const float* slope, const float* curv_k,
                                 const float* cur, const float* cross_slope, const int* cross_v, float* h, int* arg,
                                 int n) {
-  using namespace simd;
-  const float inv_kf_scalar = 1.0f / ls.kf;
-  const __m256 inv_kf = f8(inv_kf_scalar), kf = f8(ls.kf), eye_v = f8(ls.eye_v), v_min = f8(ls.v_min),
-               v_max = f8(ls.v_max), eye = f8(ls.eye), eye_lo = f8(ls.eye_lo);
-  const __m256i zv = i8(ls.zv), j_max = i8(ls.j_max), line = i8(n), minus_two = i8(-2);
+  const Step8 s = step8(ls);
+  const __m256i line = simd::i8(n);
   int i = 0;
   for (; i + 8 <= count; i += 8) {
-    const __m256 v = min_of(max_of(_mm256_add_ps(eye_v, _mm256_mul_ps(_mm256_loadu_ps(slope + i), kf)), v_min), v_max);
-    const __m256i j0 = mini_of(_mm256_cvttps_epi32(v), j_max);
-    const __m256 t = _mm256_sub_ps(v, _mm256_cvtepi32_ps(j0));
-    const __m256i at = _mm256_mullo_epi32(j0, zv);
-    const __m256 a = _mm256_i32gather_ps(cur, at, 4), b = _mm256_i32gather_ps(cur, _mm256_add_epi32(at, zv), 4);
-    const __m256 s_line = _mm256_sub_ps(_mm256_mul_ps(eye_relative8(a, b, t, eye, eye_lo), inv_kf),
-                                        _mm256_mul_ps(_mm256_loadu_ps(curv_k + i), kf));
+    const __m256 s_line = line8(s, _mm256_loadu_ps(slope + i), _mm256_loadu_ps(curv_k + i), cur);
     __m256 best = _mm256_loadu_ps(h + i);
-    __m256i where = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(arg + i));
-    const __m256 cs = _mm256_loadu_ps(cross_slope + i);
-    const __m256 cross_wins = _mm256_cmp_ps(cs, best, _CMP_GT_OQ);
-    const __m256i cross_where =
-        _mm256_sub_epi32(minus_two, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(cross_v + i)));
-    where = _mm256_blendv_epi8(where, cross_where, _mm256_castps_si256(cross_wins));
-    best = _mm256_blendv_ps(best, cs, cross_wins);
-    const __m256 line_wins = _mm256_cmp_ps(s_line, best, _CMP_GT_OQ);
-    where = _mm256_blendv_epi8(where, line, _mm256_castps_si256(line_wins));
-    best = _mm256_blendv_ps(best, s_line, line_wins);
+    __m256i where = load8(arg + i);
+    fold8(best, where, _mm256_loadu_ps(cross_slope + i), load8(cross_v + i), s_line, line);
     _mm256_storeu_ps(h + i, best);
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(arg + i), where);
+    store8(arg + i, where);
   }
   return i;
 }
 
-// The same two loops sixteen rays at a time with AVX-512: lane for lane the
-// AVX2 kernels' operations, with mask registers for the comparisons. The
-// last, partial group runs masked: its absent lanes read and write nothing.
+HORIZON_AVX2 int step_rays_avx2(const LineStep& ls, int count, const float* slope, const float* inv_slope,
+                                const float* curv_k, const float* prev, const float* cur, float* h, int* arg, int* code,
+                                int n) {
+  const Step8 s = step8(ls);
+  const __m256i line = simd::i8(n);
+  int i = 0;
+  for (; i + 8 <= count; i += 8) {
+    const __m256 m = _mm256_loadu_ps(slope + i), ck = _mm256_loadu_ps(curv_k + i);
+    const Cross8 c = cross8(s, m, _mm256_loadu_ps(inv_slope + i), ck, prev, cur);
+    __m256 best = _mm256_loadu_ps(h + i);
+    __m256i where = load8(arg + i);
+    store8(code + i, code8(c, best, where));
+    fold8(best, where, c.slope, c.v, line8(s, m, ck, cur), line);
+    _mm256_storeu_ps(h + i, best);
+    store8(arg + i, where);
+  }
+  return i;
+}
+
+// The AVX-512 forms: the AVX2 forms sixteen rays at a time, with mask
+// registers for the comparisons. The last, partial group runs masked: its
+// absent lanes read and write nothing.
+struct Step16 {
+  __m512 eye_v, k_start, kf, inv_kf, v_min, v_max, kp, eye, eye_lo;
+  __m512i zv, j_max;
+};
+
+HORIZON_AVX512 inline Step16 step16(const LineStep& ls) {
+  using namespace simd;
+  const float inv_kf = 1.0f / ls.kf;
+  return {f16(ls.eye_v), f16(ls.k_start), f16(ls.kf),     f16(inv_kf), f16(ls.v_min), f16(ls.v_max),
+          f16(ls.kp),    f16(ls.eye),     f16(ls.eye_lo), i16(ls.zv),  i16(ls.j_max)};
+}
+
+struct Cross16 {
+  __m512 slope;
+  __m512i v;
+};
+
+HORIZON_AVX512 inline Cross16 cross16(const Step16& s, __mmask16 in, __m512 m, __m512 inv_m, __m512 curv_k,
+                                      const float* prev, const float* cur) {
+  using namespace simd;
+  const __m512 zero = _mm512_setzero_ps(), one = f16(1.0f);
+  const __m512 v_start = _mm512_add_ps(s.eye_v, _mm512_mul_ps(m, s.k_start));
+  const __m512 v_end = _mm512_add_ps(s.eye_v, _mm512_mul_ps(m, s.kf));
+  const __m512 up = _mm512_add_ps(floor16(v_start), one);
+  const __m512 down = _mm512_sub_ps(ceil16(v_start), one);
+  const __mmask16 rising = _mm512_cmp_ps_mask(m, zero, _CMP_GT_OQ);
+  const __m512 cv = _mm512_mask_blend_ps(rising, down, up);
+  const __mmask16 crosses = (rising & _mm512_cmp_ps_mask(up, v_end, _CMP_LT_OQ)) |
+                            (_mm512_cmp_ps_mask(m, zero, _CMP_LT_OQ) & _mm512_cmp_ps_mask(down, v_end, _CMP_GT_OQ));
+  const __mmask16 valid =
+      crosses & _mm512_cmp_ps_mask(cv, s.v_min, _CMP_GE_OQ) & _mm512_cmp_ps_mask(cv, s.v_max, _CMP_LE_OQ);
+  const __m512 cv_clamped = min_of(max_of(cv, s.v_min), s.v_max);
+  const __m512i jc = _mm512_cvttps_epi32(cv_clamped);
+  const __m512 kc = max_of(_mm512_mul_ps(_mm512_sub_ps(cv_clamped, s.eye_v), inv_m), f16(1.0e-6f));
+  const __m512 tc = _mm512_sub_ps(kc, s.kp);
+  const __m512i at = _mm512_mullo_epi32(jc, s.zv);
+  const __m512 pa = gather_masked(prev, at, in), pb = gather_masked(cur, at, in);
+  const __m512 s_cross =
+      _mm512_sub_ps(_mm512_div_ps(eye_relative16(pa, pb, tc, s.eye, s.eye_lo), kc), _mm512_mul_ps(curv_k, kc));
+  return {min_of(s_cross, _mm512_mask_blend_ps(valid, f16(kNoHorizon), f16(3.0e38f))),
+          _mm512_mask_blend_epi32(valid, i16(-1), jc)};
+}
+
+HORIZON_AVX512 inline __m512 line16(const Step16& s, __mmask16 in, __m512 m, __m512 curv_k, const float* cur) {
+  using namespace simd;
+  const __m512 v = min_of(max_of(_mm512_add_ps(s.eye_v, _mm512_mul_ps(m, s.kf)), s.v_min), s.v_max);
+  const __m512i j0 = mini_of(_mm512_cvttps_epi32(v), s.j_max);
+  const __m512 t = _mm512_sub_ps(v, _mm512_cvtepi32_ps(j0));
+  const __m512i at = _mm512_mullo_epi32(j0, s.zv);
+  const __m512 a = gather_masked(cur, at, in), b = gather_masked(cur, _mm512_add_epi32(at, s.zv), in);
+  return _mm512_sub_ps(_mm512_mul_ps(eye_relative16(a, b, t, s.eye, s.eye_lo), s.inv_kf), _mm512_mul_ps(curv_k, s.kf));
+}
+
+HORIZON_AVX512 inline __m512i code16(const Cross16& c, __m512 h, __m512i arg) {
+  const __mmask16 wins = _mm512_cmp_ps_mask(c.slope, h, _CMP_GT_OQ);
+  return _mm512_mask_blend_epi32(wins, arg, _mm512_sub_epi32(simd::i16(-2), c.v));
+}
+
+HORIZON_AVX512 inline void fold16(__m512& best, __m512i& where, __m512 cross_slope, __m512i cross_v, __m512 s_line,
+                                  __m512i n) {
+  const __mmask16 cross_wins = _mm512_cmp_ps_mask(cross_slope, best, _CMP_GT_OQ);
+  where = _mm512_mask_blend_epi32(cross_wins, where, _mm512_sub_epi32(simd::i16(-2), cross_v));
+  best = _mm512_mask_blend_ps(cross_wins, best, cross_slope);
+  const __mmask16 line_wins = _mm512_cmp_ps_mask(s_line, best, _CMP_GT_OQ);
+  where = _mm512_mask_blend_epi32(line_wins, where, n);
+  best = _mm512_mask_blend_ps(line_wins, best, s_line);
+}
+
+// The lanes of the group starting at i that hold rays.
+HORIZON_AVX512 inline __mmask16 lanes16(int i, int count) {
+  return count - i >= 16 ? __mmask16(0xffff) : __mmask16((1u << (count - i)) - 1);
+}
+
 HORIZON_AVX512 void step_cross_avx512(const LineStep& ls, int count, const float* slope, const float* inv_slope,
                                       const float* curv_k, const float* prev, const float* cur, const float* h,
                                       const int* arg, float* cross_slope, int* cross_v, int* code) {
-  using namespace simd;
-  const __m512 eye_v = f16(ls.eye_v), k_start = f16(ls.k_start), kf = f16(ls.kf), v_min = f16(ls.v_min),
-               v_max = f16(ls.v_max), kp = f16(ls.kp), eye = f16(ls.eye), eye_lo = f16(ls.eye_lo), zero = f16(0.0f),
-               one = f16(1.0f);
-  const __m512i zv = i16(ls.zv);
+  const Step16 s = step16(ls);
   for (int i = 0; i < count; i += 16) {
-    const __mmask16 in = count - i >= 16 ? __mmask16(0xffff) : __mmask16((1u << (count - i)) - 1);
-    const __m512 m = _mm512_maskz_loadu_ps(in, slope + i);
-    const __m512 v_start = _mm512_add_ps(eye_v, _mm512_mul_ps(m, k_start));
-    const __m512 v_end = _mm512_add_ps(eye_v, _mm512_mul_ps(m, kf));
-    const __m512 up = _mm512_add_ps(floor16(v_start), one);
-    const __m512 down = _mm512_sub_ps(ceil16(v_start), one);
-    const __mmask16 rising = _mm512_cmp_ps_mask(m, zero, _CMP_GT_OQ);
-    const __m512 cv = _mm512_mask_blend_ps(rising, down, up);
-    const __mmask16 crosses = (rising & _mm512_cmp_ps_mask(up, v_end, _CMP_LT_OQ)) |
-                              (_mm512_cmp_ps_mask(m, zero, _CMP_LT_OQ) & _mm512_cmp_ps_mask(down, v_end, _CMP_GT_OQ));
-    const __mmask16 valid =
-        crosses & _mm512_cmp_ps_mask(cv, v_min, _CMP_GE_OQ) & _mm512_cmp_ps_mask(cv, v_max, _CMP_LE_OQ);
-    const __m512 cv_clamped = min_of(max_of(cv, v_min), v_max);
-    const __m512i jc = _mm512_cvttps_epi32(cv_clamped);
-    const __m512 kc =
-        max_of(_mm512_mul_ps(_mm512_sub_ps(cv_clamped, eye_v), _mm512_maskz_loadu_ps(in, inv_slope + i)), f16(1.0e-6f));
-    const __m512 tc = _mm512_sub_ps(kc, kp);
-    const __m512i at = _mm512_mullo_epi32(jc, zv);
-    const __m512 pa = gather_masked(prev, at, in), pb = gather_masked(cur, at, in);
-    const __m512 s_cross = _mm512_sub_ps(_mm512_div_ps(eye_relative16(pa, pb, tc, eye, eye_lo), kc),
-                                         _mm512_mul_ps(_mm512_maskz_loadu_ps(in, curv_k + i), kc));
-    const __m512 best = min_of(s_cross, _mm512_mask_blend_ps(valid, f16(kNoHorizon), f16(3.0e38f)));
-    const __m512i v = _mm512_mask_blend_epi32(valid, i16(-1), jc);
-    _mm512_mask_storeu_ps(cross_slope + i, in, best);
-    _mm512_mask_storeu_epi32(cross_v + i, in, v);
-    const __mmask16 wins = _mm512_cmp_ps_mask(best, _mm512_maskz_loadu_ps(in, h + i), _CMP_GT_OQ);
-    const __m512i kept = _mm512_maskz_loadu_epi32(in, arg + i);
-    _mm512_mask_storeu_epi32(code + i, in, _mm512_mask_blend_epi32(wins, kept, _mm512_sub_epi32(i16(-2), v)));
+    const __mmask16 in = lanes16(i, count);
+    const Cross16 c = cross16(s, in, _mm512_maskz_loadu_ps(in, slope + i), _mm512_maskz_loadu_ps(in, inv_slope + i),
+                              _mm512_maskz_loadu_ps(in, curv_k + i), prev, cur);
+    _mm512_mask_storeu_ps(cross_slope + i, in, c.slope);
+    _mm512_mask_storeu_epi32(cross_v + i, in, c.v);
+    _mm512_mask_storeu_epi32(code + i, in,
+                             code16(c, _mm512_maskz_loadu_ps(in, h + i), _mm512_maskz_loadu_epi32(in, arg + i)));
   }
 }
 
 HORIZON_AVX512 void step_line_avx512(const LineStep& ls, int count, const float* slope, const float* curv_k,
                                      const float* cur, const float* cross_slope, const int* cross_v, float* h, int* arg,
                                      int n) {
-  using namespace simd;
-  const float inv_kf_scalar = 1.0f / ls.kf;
-  const __m512 inv_kf = f16(inv_kf_scalar), kf = f16(ls.kf), eye_v = f16(ls.eye_v), v_min = f16(ls.v_min),
-               v_max = f16(ls.v_max), eye = f16(ls.eye), eye_lo = f16(ls.eye_lo);
-  const __m512i zv = i16(ls.zv), j_max = i16(ls.j_max), line = i16(n), minus_two = i16(-2);
+  const Step16 s = step16(ls);
+  const __m512i line = simd::i16(n);
   for (int i = 0; i < count; i += 16) {
-    const __mmask16 in = count - i >= 16 ? __mmask16(0xffff) : __mmask16((1u << (count - i)) - 1);
-    const __m512 v =
-        min_of(max_of(_mm512_add_ps(eye_v, _mm512_mul_ps(_mm512_maskz_loadu_ps(in, slope + i), kf)), v_min), v_max);
-    const __m512i j0 = mini_of(_mm512_cvttps_epi32(v), j_max);
-    const __m512 t = _mm512_sub_ps(v, _mm512_cvtepi32_ps(j0));
-    const __m512i at = _mm512_mullo_epi32(j0, zv);
-    const __m512 a = gather_masked(cur, at, in), b = gather_masked(cur, _mm512_add_epi32(at, zv), in);
-    const __m512 s_line = _mm512_sub_ps(_mm512_mul_ps(eye_relative16(a, b, t, eye, eye_lo), inv_kf),
-                                        _mm512_mul_ps(_mm512_maskz_loadu_ps(in, curv_k + i), kf));
+    const __mmask16 in = lanes16(i, count);
+    const __m512 s_line =
+        line16(s, in, _mm512_maskz_loadu_ps(in, slope + i), _mm512_maskz_loadu_ps(in, curv_k + i), cur);
     __m512 best = _mm512_maskz_loadu_ps(in, h + i);
     __m512i where = _mm512_maskz_loadu_epi32(in, arg + i);
-    const __m512 cs = _mm512_maskz_loadu_ps(in, cross_slope + i);
-    const __mmask16 cross_wins = _mm512_cmp_ps_mask(cs, best, _CMP_GT_OQ);
-    where = _mm512_mask_blend_epi32(cross_wins, where,
-                                    _mm512_sub_epi32(minus_two, _mm512_maskz_loadu_epi32(in, cross_v + i)));
-    best = _mm512_mask_blend_ps(cross_wins, best, cs);
-    const __mmask16 line_wins = _mm512_cmp_ps_mask(s_line, best, _CMP_GT_OQ);
-    where = _mm512_mask_blend_epi32(line_wins, where, line);
-    best = _mm512_mask_blend_ps(line_wins, best, s_line);
+    fold16(best, where, _mm512_maskz_loadu_ps(in, cross_slope + i), _mm512_maskz_loadu_epi32(in, cross_v + i), s_line,
+           line);
+    _mm512_mask_storeu_ps(h + i, in, best);
+    _mm512_mask_storeu_epi32(arg + i, in, where);
+  }
+}
+
+HORIZON_AVX512 void step_rays_avx512(const LineStep& ls, int count, const float* slope, const float* inv_slope,
+                                     const float* curv_k, const float* prev, const float* cur, float* h, int* arg,
+                                     int* code, int n) {
+  const Step16 s = step16(ls);
+  const __m512i line = simd::i16(n);
+  for (int i = 0; i < count; i += 16) {
+    const __mmask16 in = lanes16(i, count);
+    const __m512 m = _mm512_maskz_loadu_ps(in, slope + i), ck = _mm512_maskz_loadu_ps(in, curv_k + i);
+    const Cross16 c = cross16(s, in, m, _mm512_maskz_loadu_ps(in, inv_slope + i), ck, prev, cur);
+    __m512 best = _mm512_maskz_loadu_ps(in, h + i);
+    __m512i where = _mm512_maskz_loadu_epi32(in, arg + i);
+    _mm512_mask_storeu_epi32(code + i, in, code16(c, best, where));
+    fold16(best, where, c.slope, c.v, line16(s, in, m, ck, cur), line);
     _mm512_mask_storeu_ps(h + i, in, best);
     _mm512_mask_storeu_epi32(arg + i, in, where);
   }
@@ -221,18 +358,16 @@ HORIZON_AVX512 void step_line_avx512(const LineStep& ls, int count, const float*
 }  // namespace
 #endif
 
+// Each entry point: AVX-512 takes every ray; AVX2 groups of eight, then the
+// scalar loop the rest.
+
 void step_cross(const LineStep& ls, int count, const float* slope, const float* inv_slope, const float* curv_k,
                 const float* prev, const float* cur, const float* h, const int* arg, float* cross_slope, int* cross_v,
                 int* code) {
-  // AVX-512 takes every ray; AVX2 groups of eight, then one by one.
-#ifdef HORIZON_SIMD_AVX2
-  if (simd::has_avx512()) {
-    step_cross_avx512(ls, count, slope, inv_slope, curv_k, prev, cur, h, arg, cross_slope, cross_v, code);
-    return;
-  }
-#endif
   int done = 0;
 #ifdef HORIZON_SIMD_AVX2
+  if (simd::has_avx512())
+    return step_cross_avx512(ls, count, slope, inv_slope, curv_k, prev, cur, h, arg, cross_slope, cross_v, code);
   if (simd::has_avx2())
     done = step_cross_avx2(ls, count, slope, inv_slope, curv_k, prev, cur, h, arg, cross_slope, cross_v, code);
 #endif
@@ -242,18 +377,24 @@ void step_cross(const LineStep& ls, int count, const float* slope, const float* 
 
 void step_line(const LineStep& ls, int count, const float* slope, const float* curv_k, const float* cur,
                const float* cross_slope, const int* cross_v, float* h, int* arg, int n) {
-#ifdef HORIZON_SIMD_AVX2
-  if (simd::has_avx512()) {
-    step_line_avx512(ls, count, slope, curv_k, cur, cross_slope, cross_v, h, arg, n);
-    return;
-  }
-#endif
   int done = 0;
 #ifdef HORIZON_SIMD_AVX2
+  if (simd::has_avx512()) return step_line_avx512(ls, count, slope, curv_k, cur, cross_slope, cross_v, h, arg, n);
   if (simd::has_avx2()) done = step_line_avx2(ls, count, slope, curv_k, cur, cross_slope, cross_v, h, arg, n);
 #endif
   step_line_scalar(ls, count - done, slope + done, curv_k + done, cur, cross_slope + done, cross_v + done, h + done,
                    arg + done, n);
+}
+
+void step_rays(const LineStep& ls, int count, const float* slope, const float* inv_slope, const float* curv_k,
+               const float* prev, const float* cur, float* h, int* arg, int* code, int n) {
+  int done = 0;
+#ifdef HORIZON_SIMD_AVX2
+  if (simd::has_avx512()) return step_rays_avx512(ls, count, slope, inv_slope, curv_k, prev, cur, h, arg, code, n);
+  if (simd::has_avx2()) done = step_rays_avx2(ls, count, slope, inv_slope, curv_k, prev, cur, h, arg, code, n);
+#endif
+  step_rays_scalar(ls, count - done, slope + done, inv_slope + done, curv_k + done, prev, cur, h + done, arg + done,
+                   code + done, n);
 }
 
 }  // namespace horizon::visibility::sweep

@@ -1,10 +1,12 @@
-// Private to the radial sweep: the two per-line loops over the marching rays.
+// Private to the radial sweep: the per-line loops over the marching rays.
 //
 // Walking from line n-1 to line n (steps k-1 to k), each ray first finds its
 // crossing of a v grid line inside the step, if any (step_cross); the line's
 // cells are then evaluated (resample_cells.hpp); finally each ray folds that
 // crossing and its crossing of line n itself into its running maximum
-// (step_line). Together they are about half of the fast viewshed's time.
+// (step_line). When the cells need only where each ray's horizon lies (the
+// default re-sampling blend), step_rays does both loops in one pass before
+// them. Together they are about half of the fast viewshed's time.
 // Each has a scalar loop, an AVX2 kernel (eight rays at once, hardware
 // gathers for the terrain reads) and an AVX-512 kernel (sixteen), with the
 // same float operations in the same order, chosen at run time
@@ -40,11 +42,19 @@ void step_cross(const LineStep& ls, int count, const float* slope, const float* 
 void step_line(const LineStep& ls, int count, const float* slope, const float* curv_k, const float* cur,
                const float* cross_slope, const int* cross_v, float* h, int* arg, int n);
 
+// step_cross and step_line in one pass, for sweeps whose cells need only
+// `code` (RayBlend::kResample): the same h, arg and code bits, without
+// writing the crossings out and reading them back.
+void step_rays(const LineStep& ls, int count, const float* slope, const float* inv_slope, const float* curv_k,
+               const float* prev, const float* cur, float* h, int* arg, int* code, int n);
+
 // The scalar loops whatever the CPU, for the tests.
 void step_cross_scalar(const LineStep& ls, int count, const float* slope, const float* inv_slope, const float* curv_k,
                        const float* prev, const float* cur, const float* h, const int* arg, float* cross_slope,
                        int* cross_v, int* code);
 void step_line_scalar(const LineStep& ls, int count, const float* slope, const float* curv_k, const float* cur,
                       const float* cross_slope, const int* cross_v, float* h, int* arg, int n);
+void step_rays_scalar(const LineStep& ls, int count, const float* slope, const float* inv_slope, const float* curv_k,
+                      const float* prev, const float* cur, float* h, int* arg, int* code, int n);
 
 }  // namespace horizon::visibility::sweep
