@@ -66,7 +66,7 @@ using sweep::LineStep;
 using sweep::sample_at;
 using sweep::Sector;
 
-constexpr int kRaysPerTask = 192;
+constexpr int kRaysPerTask = 512;
 // RadialOptions::thinning_levels: rays may be thinned near the eye, where
 // they crowd together: at step k only every 2^L-th ray marches, L =
 // floor(log2(k_far / k)) capped at the option, so the spacing between
