@@ -65,8 +65,10 @@ HORIZON_AVX2 inline __m256i clampi8(__m256i x, __m256i lo, __m256i hi) {
   return simd::mini_of(simd::maxi_of(x, lo), hi);
 }
 
-// sample_u on the u line at step `step` (per lane), for the lanes of `mask`.
-HORIZON_AVX2 __m256 sample_u8(const CellLine& L, __m256 m, __m256 curv_k, __m256i step, __m256 mask) {
+// sample_u on the u line at step `step` (per lane), for the lanes of `mask`;
+// inv_step holds 1 / step per lane (L.inv_step[step], gathered or, for one
+// step in every lane, broadcast).
+HORIZON_AVX2 __m256 sample_u8(const CellLine& L, __m256 m, __m256 curv_k, __m256i step, __m256 mask, __m256 inv_step) {
   using namespace simd;
   const __m256 kn = _mm256_add_ps(f8(L.k0), _mm256_cvtepi32_ps(step));
   const __m256 v = clamp8(_mm256_add_ps(f8(L.eye_v), _mm256_mul_ps(m, kn)), f8(L.v_min), f8(L.v_max));
@@ -77,7 +79,6 @@ HORIZON_AVX2 __m256 sample_u8(const CellLine& L, __m256 m, __m256 curv_k, __m256
       _mm256_add_epi32(_mm256_mullo_epi32(line, i8(static_cast<int>(L.z_line))), _mm256_mullo_epi32(j0, i8(L.zv)));
   const __m256i ib = _mm256_add_epi32(ia, i8(L.zv));
   const __m256 a = gather_masked(L.s->z, ia, mask), b = gather_masked(L.s->z, ib, mask);
-  const __m256 inv_step = gather_masked(L.inv_step, step, mask);
   const __m256 er = eye_relative8(a, b, t, f8(L.eye), f8(L.eye_lo));
   return _mm256_sub_ps(_mm256_mul_ps(er, inv_step), _mm256_mul_ps(curv_k, kn));
 }
@@ -90,7 +91,9 @@ HORIZON_AVX2 __m256 sample_at8(const CellLine& L, __m256 lanes, __m256i j, __m25
   const __m256 none = f8(kNoHorizon);
   // u lines: code >= 0.
   const __m256 on_u = _mm256_and_ps(lanes, _mm256_castsi256_ps(_mm256_cmpgt_epi32(code, i8(-1))));
-  const __m256 su = _mm256_movemask_ps(on_u) == 0 ? none : sample_u8(L, m, curv_k, _mm256_max_epi32(code, i8(0)), on_u);
+  const __m256i step = _mm256_max_epi32(code, i8(0));
+  const __m256 su =
+      _mm256_movemask_ps(on_u) == 0 ? none : sample_u8(L, m, curv_k, step, on_u, gather_masked(L.inv_step, step, on_u));
   // v lines: code <= -2, vline = -2 - code, not the cell's own, crossed strictly before the cell.
   const __m256i vline = _mm256_sub_epi32(i8(-2), code);
   __m256 on_v = _mm256_and_ps(lanes, _mm256_castsi256_ps(_mm256_cmpgt_epi32(i8(-1), code)));
@@ -162,7 +165,7 @@ HORIZON_AVX2 std::uint64_t resample_cells_avx2(const ResampleLine& L, int j_begi
         _mm256_mul_ps(f8(cl.curvature), _mm256_add_ps(f8(cl.mu2), _mm256_mul_ps(_mm256_mul_ps(m, m), f8(cl.mv2))));
     // The candidates; `max(x, best)` keeps best when x is NaN, as take() does.
     __m256 best = f8(kNoHorizon);
-    if (L.n > 0) best = _mm256_max_ps(sample_u8(cl, m, curv_k, i8(L.n - 1), valid), best);
+    if (L.n > 0) best = _mm256_max_ps(sample_u8(cl, m, curv_k, i8(L.n - 1), valid, f8(cl.inv_step[L.n - 1])), best);
     best = _mm256_max_ps(sample_at8(cl, valid, jv, m, inv_m, curv_k, a0), best);
     best = _mm256_max_ps(sample_at8(cl, valid, jv, m, inv_m, curv_k, a1), best);
     // occlusion_height, in double.
@@ -199,7 +202,8 @@ HORIZON_AVX512 inline __m512i clampi16(__m512i x, __m512i lo, __m512i hi) {
   return simd::mini_of(simd::maxi_of(x, lo), hi);
 }
 
-HORIZON_AVX512 __m512 sample_u16(const CellLine& L, __m512 m, __m512 curv_k, __m512i step, __mmask16 mask) {
+HORIZON_AVX512 __m512 sample_u16(const CellLine& L, __m512 m, __m512 curv_k, __m512i step, __mmask16 mask,
+                                 __m512 inv_step) {
   using namespace simd;
   const __m512 kn = _mm512_add_ps(f16(L.k0), _mm512_cvtepi32_ps(step));
   const __m512 v = clamp16(_mm512_add_ps(f16(L.eye_v), _mm512_mul_ps(m, kn)), f16(L.v_min), f16(L.v_max));
@@ -210,7 +214,6 @@ HORIZON_AVX512 __m512 sample_u16(const CellLine& L, __m512 m, __m512 curv_k, __m
       _mm512_add_epi32(_mm512_mullo_epi32(line, i16(static_cast<int>(L.z_line))), _mm512_mullo_epi32(j0, i16(L.zv)));
   const __m512i ib = _mm512_add_epi32(ia, i16(L.zv));
   const __m512 a = gather_masked(L.s->z, ia, mask), b = gather_masked(L.s->z, ib, mask);
-  const __m512 inv_step = gather_masked(L.inv_step, step, mask);
   const __m512 er = eye_relative16(a, b, t, f16(L.eye), f16(L.eye_lo));
   return _mm512_sub_ps(_mm512_mul_ps(er, inv_step), _mm512_mul_ps(curv_k, kn));
 }
@@ -220,7 +223,8 @@ HORIZON_AVX512 __m512 sample_at16(const CellLine& L, __mmask16 lanes, __m512i j,
   using namespace simd;
   const __m512 none = f16(kNoHorizon);
   const __mmask16 on_u = _mm512_mask_cmpgt_epi32_mask(lanes, code, i16(-1));
-  const __m512 su = on_u == 0 ? none : sample_u16(L, m, curv_k, _mm512_max_epi32(code, i16(0)), on_u);
+  const __m512i step = _mm512_max_epi32(code, i16(0));
+  const __m512 su = on_u == 0 ? none : sample_u16(L, m, curv_k, step, on_u, gather_masked(L.inv_step, step, on_u));
   const __m512i vline = _mm512_sub_epi32(i16(-2), code);
   __mmask16 on_v = _mm512_mask_cmpgt_epi32_mask(lanes, i16(-1), code);
   if (on_v == 0) return _mm512_mask_blend_ps(on_u, none, su);
@@ -293,7 +297,7 @@ HORIZON_AVX512 std::uint64_t resample_cells_avx512(const ResampleLine& L, int j_
     const __m512 curv_k =
         _mm512_mul_ps(f16(cl.curvature), _mm512_add_ps(f16(cl.mu2), _mm512_mul_ps(_mm512_mul_ps(m, m), f16(cl.mv2))));
     __m512 best = f16(kNoHorizon);
-    if (L.n > 0) best = _mm512_max_ps(sample_u16(cl, m, curv_k, i16(L.n - 1), valid), best);
+    if (L.n > 0) best = _mm512_max_ps(sample_u16(cl, m, curv_k, i16(L.n - 1), valid, f16(cl.inv_step[L.n - 1])), best);
     best = _mm512_max_ps(sample_at16(cl, valid, jv, m, inv_m, curv_k, a0), best);
     best = _mm512_max_ps(sample_at16(cl, valid, jv, m, inv_m, curv_k, a1), best);
     const __m512d b_lo = _mm512_cvtps_pd(_mm512_castps512_ps256(best));
