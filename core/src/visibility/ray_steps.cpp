@@ -8,9 +8,10 @@
 namespace horizon::visibility::sweep {
 namespace {
 
-// One ray's v-line crossing inside the step: its slope (kNoHorizon, or NaN
-// on a void, when there is none) and the v line (-1 when none). Every value
-// is computed and selected at the end: branch-free.
+// One ray's v-line crossing inside the step: its slope (kNoHorizon when it
+// crosses none, NaN when the crossing reads a void, which never wins) and
+// the v line (-1 when none). Every value is computed and selected at the
+// end: branch-free.
 struct Cross {
   float slope;
   int v;
