@@ -50,7 +50,9 @@ bool parse_number(const char* flag, const char* text, double& out) {
 }
 
 int usage() {
-  std::fprintf(stderr, "usage: accuracy_report [--algorithm A[,B...]] [--blend B] [--height M] [--max-distance M] [--threads N] [--ray-spacing S] [--check] DEM...\n");
+  std::fprintf(stderr,
+               "usage: accuracy_report [--algorithm A[,B...]] [--blend B] [--height M] [--max-distance M] [--threads "
+               "N] [--ray-spacing S] [--check] DEM...\n");
   return 2;
 }
 
@@ -85,7 +87,8 @@ int main(int argc, char** argv) {
         const bool on_gpu = name == "fast-gpu";
         const auto parsed = on_gpu ? visibility::Algorithm::kRadial : visibility::parse_algorithm(name);
         if (!parsed) {
-          std::fprintf(stderr, "accuracy_report: --algorithm: expected fast, fast-gpu, exact, conservative or r3, got '%s'\n",
+          std::fprintf(stderr,
+                       "accuracy_report: --algorithm: expected fast, fast-gpu, exact, conservative or r3, got '%s'\n",
                        name.c_str());
           return usage();
         }
@@ -95,9 +98,12 @@ int main(int argc, char** argv) {
     } else if (a == "--blend") {
       const char* v = value();
       const std::string b = v ? v : "";
-      if (b == "linear") options.radial.blend = visibility::RayBlend::kLinear;
-      else if (b == "min") options.radial.blend = visibility::RayBlend::kMin;
-      else if (b == "resample") options.radial.blend = visibility::RayBlend::kResample;
+      if (b == "linear")
+        options.radial.blend = visibility::RayBlend::kLinear;
+      else if (b == "min")
+        options.radial.blend = visibility::RayBlend::kMin;
+      else if (b == "resample")
+        options.radial.blend = visibility::RayBlend::kResample;
       else {
         std::fprintf(stderr, "accuracy_report: --blend: expected linear, min or resample, got '%s'\n", b.c_str());
         return usage();
@@ -129,8 +135,9 @@ int main(int argc, char** argv) {
   }
   int identical = 0;
 
-  std::printf("| algorithm | DEM | observer (col,row) | cells compared | R3 visible | IoU | missed visible | "
-              "extra visible | OHF RMSE (m) | OHF max (m) | time (ms) | R3 (ms) |\n");
+  std::printf(
+      "| algorithm | DEM | observer (col,row) | cells compared | R3 visible | IoU | missed visible | "
+      "extra visible | OHF RMSE (m) | OHF max (m) | time (ms) | R3 (ms) |\n");
   std::printf("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
   std::vector<double> worst_iou(tested.size(), 1.0), worst_missed(tested.size(), 0.0);
   int rows = 0;
@@ -141,11 +148,7 @@ int main(int argc, char** argv) {
       return 1;
     }
     for (const auto& pick : accuracy::pick_observers(*dem)) {
-      geodesy::PointSpec spec;
-      spec.x = dem->georef.transform.x_at(pick.col);
-      spec.y = dem->georef.transform.y_at(pick.row);
-      spec.height = height;
-      auto eye = geodesy::resolve_point(*dem, spec, "observer");
+      auto eye = accuracy::pick_eye(*dem, pick, height);
       if (!eye.ok()) {
         std::fprintf(stderr, "accuracy_report: %s\n", eye.error().message.c_str());
         return 1;
@@ -173,18 +176,19 @@ int main(int argc, char** argv) {
         }
         const auto a = visibility::compare_viewsheds(*fast, *exact, options.target_height);
         std::printf("| %s | %s | %s (%d,%d) | %llu | %.1f%% | %.3f%% | %.3f%% | %.3f%% | %.2f | %.1f | %.1f | %.0f |\n",
-                    tested[k].label.c_str(), std::filesystem::path(path).filename().c_str(), pick.kind.c_str(), pick.col, pick.row,
-                    static_cast<unsigned long long>(a.cells_compared),
+                    tested[k].label.c_str(), std::filesystem::path(path).filename().c_str(), pick.kind.c_str(),
+                    pick.col, pick.row, static_cast<unsigned long long>(a.cells_compared),
                     a.cells_compared ? 100.0 * a.reference_visible / a.cells_compared : 0.0, 100.0 * a.iou,
-                    100.0 * a.missed_rate, 100.0 * a.extra_rate, a.ohf_rmse, a.ohf_max_error,
-                    1e3 * fast->stats.seconds, 1e3 * exact->stats.seconds);
+                    100.0 * a.missed_rate, 100.0 * a.extra_rate, a.ohf_rmse, a.ohf_max_error, 1e3 * fast->stats.seconds,
+                    1e3 * exact->stats.seconds);
         std::fflush(stdout);
         ohfs[k] = std::move(fast->ohf);
         worst_iou[k] = std::min(worst_iou[k], a.iou);
         worst_missed[k] = std::max(worst_missed[k], a.missed_rate);
       }
       if (cpu_fast >= 0 && gpu_fast >= 0) {
-        const auto c = ohfs[static_cast<std::size_t>(cpu_fast)].values(), g = ohfs[static_cast<std::size_t>(gpu_fast)].values();
+        const auto c = ohfs[static_cast<std::size_t>(cpu_fast)].values(),
+                   g = ohfs[static_cast<std::size_t>(gpu_fast)].values();
         bool same = c.size() == g.size();
         for (std::size_t i = 0; same && i < c.size(); ++i)
           same = (std::isnan(c[i]) && std::isnan(g[i])) || c[i] == g[i];
@@ -196,9 +200,8 @@ int main(int argc, char** argv) {
   std::printf("\n");
   bool below = false;
   for (std::size_t k = 0; k < tested.size(); ++k) {
-    std::printf("%s: %d observer runs; worst IoU %.3f%%, worst missed-visible rate %.3f%%.\n",
-                tested[k].label.c_str(), rows, 100.0 * worst_iou[k],
-                100.0 * worst_missed[k]);
+    std::printf("%s: %d observer runs; worst IoU %.3f%%, worst missed-visible rate %.3f%%.\n", tested[k].label.c_str(),
+                rows, 100.0 * worst_iou[k], 100.0 * worst_missed[k]);
     below = below || worst_iou[k] < 0.99 || worst_missed[k] > 0.005;
   }
   if (cpu_fast >= 0 && gpu_fast >= 0)

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "horizon/evaluation/bench.hpp"
+#include "horizon/geodesy/observer.hpp"
 #include "horizon/terrain/dem.hpp"
 
 namespace horizon::accuracy {
@@ -19,6 +20,15 @@ using ObserverPick = evaluation::ObserverPick;  // kind ("summit", "ridge", "val
 // the west edge (or further in, past voids).
 inline std::vector<ObserverPick> pick_observers(const terrain::Dem& dem) {
   return evaluation::pick_observers(dem, 4);
+}
+
+// The eye of a pick: the centre of its cell, `height` metres above ground.
+inline Result<geodesy::GridPoint> pick_eye(const terrain::Dem& dem, const ObserverPick& pick, double height) {
+  geodesy::PointSpec spec;
+  spec.x = dem.georef.transform.x_at(pick.col);
+  spec.y = dem.georef.transform.y_at(pick.row);
+  spec.height = height;
+  return geodesy::resolve_point(dem, spec, "observer");
 }
 
 }  // namespace horizon::accuracy

@@ -41,11 +41,7 @@ TEST_P(KernelForms, EveryFormGivesTheSameOhf) {
   auto dem = terrain::read_dem(testing::bundled_dem(GetParam()));
   ASSERT_TRUE(dem.ok()) << dem.error().message;
   for (const auto& pick : accuracy::pick_observers(*dem)) {
-    geodesy::PointSpec spec;
-    spec.x = dem->georef.transform.x_at(pick.col);
-    spec.y = dem->georef.transform.y_at(pick.row);
-    spec.height = 2.0;
-    auto eye = geodesy::resolve_point(*dem, spec, "observer");
+    auto eye = accuracy::pick_eye(*dem, pick, 2.0);
     ASSERT_TRUE(eye.ok()) << eye.error().message;
     for (const auto algorithm : {visibility::Algorithm::kRadial, visibility::Algorithm::kConservative}) {
       const std::vector<float> scalar = ohf_with(*dem, *eye, algorithm, Isa::kScalar);

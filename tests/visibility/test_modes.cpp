@@ -115,8 +115,7 @@ TEST(Modes, ConservativeOhfNeverExceedsR3) {
       EXPECT_EQ(visibility::compare_viewsheds(cons, r3, 0.0).missed_visible, 0u);
       EXPECT_EQ(visibility::compare_viewsheds(cons, r3, 3.0).missed_visible, 0u);
       // A max-distance window starts away from the DEM's corner (window-based indices inside).
-      EXPECT_EQ(cells_above(run(dem, eye, Algorithm::kConservative, 1500.0), run(dem, eye, Algorithm::kR3, 1500.0)),
-                0);
+      EXPECT_EQ(cells_above(run(dem, eye, Algorithm::kConservative, 1500.0), run(dem, eye, Algorithm::kR3, 1500.0)), 0);
     }
   }
 }
@@ -129,11 +128,7 @@ class BundledModes : public ::testing::TestWithParam<const char*> {};
 std::vector<std::pair<std::string, geodesy::GridPoint>> report_eyes(const terrain::Dem& dem) {
   std::vector<std::pair<std::string, geodesy::GridPoint>> eyes;
   for (const auto& pick : accuracy::pick_observers(dem)) {
-    geodesy::PointSpec spec;
-    spec.x = dem.georef.transform.x_at(pick.col);
-    spec.y = dem.georef.transform.y_at(pick.row);
-    spec.height = 2.0;
-    auto eye = geodesy::resolve_point(dem, spec, "observer");
+    auto eye = accuracy::pick_eye(dem, pick, 2.0);
     EXPECT_TRUE(eye.ok()) << eye.error().message;
     if (eye.ok()) eyes.emplace_back(pick.kind, *eye);
   }
