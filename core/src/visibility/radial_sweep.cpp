@@ -354,6 +354,9 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
   const int j_max = std::max(0, std::min(std::max(s.win_v0, s.win_v1 - 2), s.v_count - 2));
   const double max_d2 = c.max_distance * c.max_distance;
   const int zv = static_cast<int>(s.z_v);  // offsets within a line fit in 32 bits (checked by the driver)
+  // The re-sampling blend's cells need only where each ray's horizon lies, so
+  // its rays cross and fold in one pass (step_rays) before the cells.
+  const bool fused = c.blend == RayBlend::kResample;
 
   // The sampling geometry of the cells (or spawned rays) on the line at step k.
   auto cell_line = [&](float k) {
@@ -412,7 +415,6 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
     //    horizon lies with it (`code`). The re-sampling blend needs nothing
     //    else from the rays, so step 3 is done here in the same pass.
     const LineStep ls{eye, eye_lo, eye_v, v_min, v_max, kf, kp, std::max(kp, 0.0f), j_max, zv};
-    const bool fused = c.blend == RayBlend::kResample;
     if (lo <= hi) {
       const int prev_line = std::clamp(line - s.dir, 0, s.line_count - 1);
       const float* prev = s.z + prev_line * s.z_line;
