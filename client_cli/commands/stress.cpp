@@ -93,8 +93,14 @@ int run_stress(const Args& args) {
     std::cout << "  " << check << algorithm << " " << cases << "  " << result << " " << fixed(r.worst, 0) << " "
               << r.unit;
     if (r.worst_ohf > 0) std::cout << "  (" << fixed(r.worst_ohf, 4) << " m)";
+    if (r.explained > 0) std::cout << "  + " << r.explained << " cells its own error explains";
     std::cout << '\n';
     failed += !r.passed();
+  }
+  if (std::any_of(results->begin(), results->end(), [](const auto& r) { return r.explained > 0; })) {
+    std::cout << "\nCells a property missed that the algorithm's own error explains (not failures; see docs/stress.md):\n";
+    for (const evaluation::CheckResult& r : *results)
+      if (r.explained > 0) std::cout << "  " << r.check << " / " << r.algorithm << ": " << r.first_explained << '\n';
   }
   if (failed) {
     std::cout << "\nFirst failure of each failing check:\n";

@@ -77,7 +77,8 @@ INSTANTIATE_TEST_SUITE_P(AllChecks, StressCheck,
                          param_name);
 
 // Every check on fast's GL path (Mesa llvmpipe in CI) gives the CPU path's
-// answer: the same cases, failures and worst deviation, and every check holds.
+// answer: the same cases, failures, worst deviation and explained cells, and
+// every check holds.
 TEST(Stress, FastOnTheGpuHoldsEveryCheckAsTheCpuDoes) {
   auto pool = gpu::ContextPool::create({.contexts = 1});
   ASSERT_TRUE(pool.ok()) << pool.error().message;
@@ -99,8 +100,46 @@ TEST(Stress, FastOnTheGpuHoldsEveryCheckAsTheCpuDoes) {
     EXPECT_EQ(gpu.cases, cpu.cases) << gpu.check;
     EXPECT_EQ(gpu.failed, cpu.failed) << gpu.check;
     EXPECT_EQ(gpu.worst, cpu.worst) << gpu.check;
+    EXPECT_EQ(gpu.explained, cpu.explained) << gpu.check;
     EXPECT_TRUE(gpu.passed()) << gpu.check << ": " << gpu.first_failure;
   }
+}
+
+// Regression (dem_raise_observer, found 2026-12-01 on the shared Colorado
+// DEM, here on a bundled crop): fast and conservative take each cell's
+// horizon from samples their eye height chooses, so a cell they wrongly see
+// from 2 m can be rightly hidden from 12 m. The check must tell that (an
+// extra-visible error at the lower eye, R3 hides the cell from there) from a
+// cell R3 sees that the algorithm hides once the eye rises, which fails it.
+TEST(Stress, RaisingTheEyeHidesOnlyCellsTheLowerEyeSawInError) {
+  for (const Algorithm algorithm : {Algorithm::kRadial, Algorithm::kConservative}) {
+    StressConfig config;
+    config.algorithms = {algorithm};
+    config.dems = {testing::bundled_dem("ecuador_andes_utm17s_10m_383x415.tif")};
+    config.observers_per_dem = 40;  // the seed's 40 observers include the one below
+    config.radius_cells = 150;
+    auto results = run_stress(config, {"dem_raise_observer"});
+    ASSERT_TRUE(results.ok()) << results.error().message;
+    const CheckResult& r = results->front();
+    EXPECT_EQ(r.cases, 80u);
+    EXPECT_TRUE(r.passed()) << r.algorithm << ": " << r.first_failure;
+    EXPECT_GE(r.explained, 1u) << r.algorithm << ": the known case below no longer flips; update this test";
+    EXPECT_NE(r.first_explained.find("observer cell (col 200, row 341), height 2 m, max distance 1499.7 m: raised by "
+                                     "10 m hides 1 cells that R3 hides from the lower eye, first cell (col 100, row "
+                                     "145)"),
+              std::string::npos)
+        << r.algorithm << ": " << r.first_explained;
+  }
+  // R3's answers are monotone: nothing to explain.
+  StressConfig config;
+  config.algorithms = {Algorithm::kR3};
+  config.dems = {testing::bundled_dem("ecuador_andes_utm17s_10m_383x415.tif")};
+  config.observers_per_dem = 2;
+  config.radius_cells = 60;
+  auto results = run_stress(config, {"dem_raise_observer"});
+  ASSERT_TRUE(results.ok()) << results.error().message;
+  EXPECT_TRUE(results->front().passed());
+  EXPECT_EQ(results->front().explained, 0u);
 }
 
 TEST(Stress, RejectsUnknownCheck) {
@@ -117,12 +156,13 @@ TEST(Stress, RejectsTinySyntheticSize) {
 }
 
 TEST(Stress, MarkdownMarksFailuresAndNamesTheFirst) {
-  CheckResult ok{"flat_all_visible", "fast", "d", 4, 0, 0, "cells", 0.0, ""};
-  CheckResult bad{"wall_1000m", "r3", "d", 2, 1, 17, "cells", 0.25, "dem x | observer y"};
-  const std::string md = stress_markdown({ok, bad});
+  CheckResult ok{"flat_all_visible", "fast", "d", 4, 0, 0, "cells", 0.0, "", 0, ""};
+  CheckResult bad{"wall_1000m", "r3", "d", 2, 1, 17, "cells", 0.25, "dem x | observer y", 0, ""};
+  CheckResult explained{"dem_raise_observer", "fast", "d", 6, 0, 0, "cells", 0.0, "", 3, "dem z | observer w"};
+  const std::string md = stress_markdown({ok, bad, explained});
   EXPECT_NE(md.find("| flat_all_visible | fast | 4 | pass |"), std::string::npos) << md;
-  EXPECT_NE(md.find("**FAIL** (1) | 17 cells | 0.25 m |"), std::string::npos) << md;
-  EXPECT_NE(md.find("dem x / observer y"), std::string::npos);  // a '|' would break the table
+  EXPECT_NE(md.find("**FAIL** (1) | 17 cells | 0.25 m |  | dem x / observer y |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| 6 | pass | 0 cells |  | 3 cells (first: dem z / observer w) |  |"), std::string::npos) << md;
 }
 
 }  // namespace

@@ -29,6 +29,12 @@ double r3_horizon(const terrain::Grid<float>& z, const ViewFrame& f, double tc, 
   return horizon;
 }
 
+float r3_ohf_at(const terrain::Grid<float>& z, const ViewFrame& f, int col, int row) {
+  const double horizon = r3_horizon(z, f, col, row);
+  if (horizon == kNoHorizon) return -std::numeric_limits<float>::infinity();
+  return static_cast<float>(detail::r3_ohf_value(f, f.distance(col, row), horizon));
+}
+
 Status r3_ohf(const terrain::Grid<float>& z, const ViewFrame& f, unsigned threads, const RunControl* control,
               terrain::Grid<float>& ohf, WorkStats& stats) {
   const terrain::Window& win = f.window;
@@ -47,10 +53,7 @@ Status r3_ohf(const terrain::Grid<float>& z, const ViewFrame& f, unsigned thread
     std::uint64_t n = 0, s = 0;
     for (int col = win.col0; col < win.col1; ++col) {
       if (!f.in_range(col, row) || std::isnan(z.at(col, row))) continue;
-      const double horizon = r3_horizon(z, f, col, row);
-      const double d = f.distance(col, row);
-      const double value = horizon == kNoHorizon ? kNoHorizon : detail::r3_ohf_value(f, d, horizon);
-      ohf.at(col - win.col0, static_cast<int>(i)) = static_cast<float>(value);
+      ohf.at(col - win.col0, static_cast<int>(i)) = r3_ohf_at(z, f, col, row);
       ++n;
       s += static_cast<std::uint64_t>(std::abs(std::floor(col) - std::floor(f.observer_col)) +
                                       std::abs(std::floor(row) - std::floor(f.observer_row)));

@@ -40,4 +40,9 @@ Status r3_ohf(const terrain::Grid<float>& elevation, const ViewFrame& frame, uns
 double r3_horizon(const terrain::Grid<float>& elevation, const ViewFrame& frame, double target_col,
                   double target_row);
 
+// The OHF r3_ohf() stores for the target cell (col, row) of `elevation`
+// (-inf when no crossing lies between it and the eye), for checks that need
+// R3's answer at a few cells only. The cell must be in range.
+float r3_ohf_at(const terrain::Grid<float>& elevation, const ViewFrame& frame, int col, int row);
+
 }  // namespace horizon::visibility
