@@ -192,20 +192,35 @@ struct SightLine {
       best = s;
       if (decide && s > floor_slope && hides(s)) stop = true;
     };
-    for (int line = std::max(first, 0); line <= std::min(last, line_count - 1) && !stop; ++line) {
-      ++samples;
+    // Loop invariants held in locals (the compiler cannot: `exact` writes
+    // members). `best`, and with it the slope to beat, changes only there.
+    const double eye = f->eye, curv = f->curvature, pos_max = double(pos_count - 1);
+    const int p_max = pos_count - 2;
+    // The crossing's two cells: (line, p0) and (line, p0 + 1) on a column
+    // line, (p0, line) and (p0 + 1, line) on a row line.
+    const std::ptrdiff_t width = z->width();
+    const std::ptrdiff_t line_stride = columns ? 1 : width, pos_stride = columns ? width : 1;
+    const float* cells = z->data();
+    double T = std::max(floor_slope, best);
+    std::uint64_t screened = 0;
+    const int end = std::min(last, line_count - 1);
+    for (int line = std::max(first, 0); line <= end; ++line) {
+      ++screened;
       const double t = (line - a0) * inv_da;
-      const double pos = std::clamp(b0 + t * db, 0.0, double(pos_count - 1));
-      const int p0 = std::min(static_cast<int>(pos), pos_count - 2);
-      const double za = columns ? z->at(line, p0) : z->at(p0, line);
-      const double zb = columns ? z->at(line, p0 + 1) : z->at(p0 + 1, line);
+      const double pos = std::clamp(b0 + t * db, 0.0, pos_max);
+      const int p0 = std::min(static_cast<int>(pos), p_max);
+      const float* cell = cells + line * line_stride + p0 * pos_stride;
+      const double za = cell[0], zb = cell[pos_stride];
       const double terrain = za + (pos - p0) * (zb - za);
-      const double T = std::max(floor_slope, best);
       const double d = t * total;
-      const double needed = f->eye + T * d + f->curvature * d * d;
-      if (std::isnan(terrain) || !(terrain < needed - 1e-6 * (1.0 + std::abs(needed))))
+      const double needed = eye + T * d + curv * d * d;
+      if (std::isnan(terrain) || !(terrain < needed - 1e-6 * (1.0 + std::abs(needed)))) {
         detail::for_each_crossing_on(axis, *z, c0, r0, c1, r1, line, line, exact);
+        if (stop) break;
+        T = std::max(floor_slope, best);
+      }
     }
+    samples += screened;
   }
 };
 
