@@ -15,10 +15,20 @@
 //     otherwise it is split 8 ways, down to stretches of 8 cells whose
 //     crossings are taken exactly as R3 takes them (crossings.hpp).
 //
-// The stretch holding R3's maximum is never skipped (its bound is at least
-// that maximum, which is at least the lower bound), so the maximum found is
-// R3's, computed by the same arithmetic. Cost: O(cells * log) when the lower
-// bound is tight; never more than R3's samples plus the pyramid lookups.
+//  3. Near the eye (out to 256 cells), for the whole OHF: bounds by distance
+//     ring and direction (polar_bounds.hpp). Every grid segment there, in
+//     pieces, bounds the slope of any crossing on it; a ring's bound in one
+//     direction is the highest of the pieces that direction meets. A sight
+//     line skips a ring whose bound is below the best slope known. The
+//     pyramid's square tiles span wide angles near the eye, where every
+//     sight line passes; these follow the sight line (on the 12 M-cell
+//     Everest case they halve the crossings screened, 1.51 G to 0.69 G).
+//
+// The stretch holding R3's maximum is never skipped (its bounds, tile and
+// ring, are at least that maximum, which is at least the lower bound), so
+// the maximum found is R3's, computed by the same arithmetic. Cost:
+// O(cells * log) when the lower bound is tight; never more than R3's samples
+// plus the bound lookups, and the rings' build (about 0.5 M grid segments).
 #pragma once
 
 #include <optional>
