@@ -75,9 +75,10 @@ terrain::Dem holey(int size, unsigned seed) {
 
 TEST(PolarBounds, BoundEveryCrossingForEyesOnAndOffTheGridLines) {
   const auto dem = holey(61, 7);
-  // Cell centre, on a column line, just off both lines, a corner of the
-  // grid, just inside the outer edge; eye on the ground and 2 m above it.
-  const double spots[][2] = {{30, 30}, {30, 17.5}, {29.99999, 30.0001}, {0, 0}, {60.49, 12.3}};
+  // Cell centre, on a column line, just off both lines, 30 nm off a column
+  // line, a corner of the grid, just inside the outer edge; eye on the
+  // ground and 2 m above it.
+  const double spots[][2] = {{30, 30}, {30, 17.5}, {29.99999, 30.0001}, {17.000000001, 17.5}, {0, 0}, {60.49, 12.3}};
   for (const auto& spot : spots)
     for (const double height : {0.0, 2.0})
       for (const double curvature : {0.85714, 0.0}) {

@@ -47,8 +47,10 @@ struct Builder {
     if (above < 0 || d_lo > 0)
       s = round_up(above / (above >= 0 ? d_lo : d_hi) - f.curvature * (f.curvature >= 0 ? d_lo : d_hi));
     // Its directions: the shorter arc between its ends (a piece that does
-    // not hold the eye spans less than half a turn), or every direction.
-    const bool holds_eye = !(d_lo > 0);
+    // not hold the eye spans less than half a turn), or every direction for
+    // a piece through the eye or so close to it (a micrometre) that
+    // rounding could pick the wrong arc.
+    const bool holds_eye = !(d_lo > 1e-6);
     double lo = 0, hi = 4;
     if (!holds_eye) {
       const double a0 = PolarBounds::pseudo_angle(x0 - f.observer_col, y0 - f.observer_row);
