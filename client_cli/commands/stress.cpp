@@ -98,7 +98,8 @@ int run_stress(const Args& args) {
     failed += !r.passed();
   }
   if (std::any_of(results->begin(), results->end(), [](const auto& r) { return r.explained > 0; })) {
-    std::cout << "\nCells a property missed that the algorithm's own error explains (not failures; see docs/stress.md):\n";
+    std::cout
+        << "\nCells a property missed that the algorithm's own error explains (not failures; see docs/stress.md):\n";
     for (const evaluation::CheckResult& r : *results)
       if (r.explained > 0) std::cout << "  " << r.check << " / " << r.algorithm << ": " << r.first_explained << '\n';
   }

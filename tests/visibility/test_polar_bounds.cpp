@@ -26,8 +26,9 @@ struct Count {
 };
 
 // Every crossing of the sight lines from the eye to each cell of `dem`
-// within the rings against the ring bound in its direction; returns how
-// many crossings were checked. `slack` = 0: the bound must hold exactly.
+// that lies in a ring, against that ring's bound in the line's direction
+// (no tolerance: the bound must hold as computed). Returns how many
+// crossings were checked and how many held.
 Count check_every_crossing(const terrain::Dem& dem, const geodesy::GridPoint& eye, double curvature) {
   ViewshedOptions o;
   o.curvature_coefficient = curvature;
@@ -82,7 +83,8 @@ TEST(PolarBounds, BoundEveryCrossingForEyesOnAndOffTheGridLines) {
   for (const auto& spot : spots)
     for (const double height : {0.0, 2.0})
       for (const double curvature : {0.85714, 0.0}) {
-        if (std::isnan(dem.elevation.at(static_cast<int>(std::lround(spot[0])), static_cast<int>(std::lround(spot[1])))))
+        if (std::isnan(
+                dem.elevation.at(static_cast<int>(std::lround(spot[0])), static_cast<int>(std::lround(spot[1])))))
           continue;
         const Count n = check_every_crossing(dem, testing::eye_at(dem, spot[0], spot[1], height), curvature);
         EXPECT_GT(n.crossings, 10000) << spot[0] << "," << spot[1];
