@@ -14,6 +14,10 @@ namespace {
 
 constexpr float kNone = -std::numeric_limits<float>::infinity();
 constexpr int kTasks = 16;
+// The first ring's outer radius, in cells, and each next ring's ratio to it
+// (on the 12 M-cell Everest case, 1.5 left 0.69 G crossings to screen, 2
+// left 0.80 G, 1.25 left 0.67 G in more rings).
+constexpr double kFirstRing = 8, kRingGrowth = 1.5;
 
 // The double rounded up to a float.
 float round_up(double s) {
@@ -123,7 +127,7 @@ double PolarBounds::pseudo_angle(double dx, double dy) {
 
 PolarBounds::PolarBounds(const terrain::Grid<float>& z, const ViewFrame& f, double reach, unsigned threads) {
   const double cell = std::max(f.metres_per_col, f.metres_per_row);
-  for (double r = 8 * cell;; r *= 1.5) {
+  for (double r = kFirstRing * cell;; r *= kRingGrowth) {
     outer_.push_back(r);
     int n = 64;
     while (n < 8 * r / cell) n *= 2;

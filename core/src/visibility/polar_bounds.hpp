@@ -12,9 +12,9 @@
 // whose span covers a bounds every crossing of every sight line in
 // direction a at a distance in ring k.
 //
-// Rings double in width outwards ([0, 8 L), [8 L, 16 L), ... with L the
-// larger cell side); each has enough directions for about one cell of arc
-// at its outer edge. Near the eye, where the max-pyramid's square tiles
+// Rings widen 1.5x outwards ([0, 8 L), [8 L, 12 L), [12 L, 18 L), ... with
+// L the larger cell side); each has enough directions for about one cell of
+// arc at its outer edge. Near the eye, where the max-pyramid's square tiles
 // span wide angles and so bound little, this bound follows the sight line:
 // the exact sweep skips a whole ring of a sight line when the ring's bound
 // in its direction is below the slope to beat.
