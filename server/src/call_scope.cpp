@@ -59,8 +59,13 @@ Status CallScope::reserve(std::uint64_t bytes, const std::string& what) {
   return Status::Ok();
 }
 
+bool cancel_reads_as_deadline(std::chrono::steady_clock::time_point now,
+                              std::optional<std::chrono::steady_clock::time_point> deadline) {
+  return deadline && now + kDeadlineRace >= *deadline;
+}
+
 grpc::Status CallScope::status_of(const Error& error) const {
-  if (error.code == ErrorCode::kCancelled && control_.deadline && std::chrono::steady_clock::now() >= *control_.deadline)
+  if (error.code == ErrorCode::kCancelled && cancel_reads_as_deadline(std::chrono::steady_clock::now(), control_.deadline))
     return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED, "the request's deadline passed before it finished");
   return to_grpc_status(error);
 }

@@ -26,6 +26,17 @@
 
 namespace horizon::server {
 
+// How long before the daemon's copy of a deadline a client's cancel still
+// reads as that deadline. A client's own timer cancels the call at its
+// deadline; the daemon's copy is the same instant shifted by the header's
+// trip, and the cancel takes that same trip, so it lands at the daemon's
+// deadline give or take scheduling. It landed 0.45 ms early in one CI run.
+inline constexpr std::chrono::milliseconds kDeadlineRace{50};
+
+// True when a cancellation seen at `now` is the deadline passing (or about to).
+bool cancel_reads_as_deadline(std::chrono::steady_clock::time_point now,
+                              std::optional<std::chrono::steady_clock::time_point> deadline);
+
 class CallScope {
  public:
   CallScope(ServerEnv& env, grpc::CallbackServerContext* context, std::string_view method);
@@ -49,8 +60,9 @@ class CallScope {
   // fallback on the request's log line, and in the backend metrics.
   void ohf_computed(const visibility::WorkStats& stats);
 
-  // An engine error as the status to send. A cancellation after the deadline
-  // reads DEADLINE_EXCEEDED: gRPC cancels a call whose deadline passed.
+  // An engine error as the status to send. A cancellation at the deadline
+  // (within kDeadlineRace of it) reads DEADLINE_EXCEEDED: gRPC cancels a call
+  // whose deadline passed, and so does the client's own timer.
   grpc::Status status_of(const Error& error) const;
   // Logs and counts the call. Once; later calls do nothing.
   void finish(const grpc::Status& status);
