@@ -226,17 +226,28 @@ void expect_same(Checker& ck, const Result<ViewshedResult>& a, const Result<View
   ck.record(d.cells > 0 || gap > tolerance, double(d.cells), detail);
 }
 
-// Counts answered cells of `result` (window-sized) for which `bad` holds.
-std::uint64_t count_cells(const ViewshedResult& result, const std::function<bool(int, int, std::uint8_t)>& bad,
-                          int& first_c, int& first_r) {
-  const auto mask = visibility::visibility_mask(result, result.target_height);
+// One case: the viewshed from `s`, and the answered cells for which
+// `bad(col, row, mask)` holds (DEM coordinates). Records a failure to compute,
+// or "<where><label>: N <what>, first cell (...)" when any cell is bad.
+void expect_cells(Checker& ck, const Context& ctx, const Dem& dem, const geodesy::PointSpec& s,
+                  const ViewshedOptions& o, const std::string& label, const std::string& what,
+                  const std::function<bool(int, int, std::uint8_t)>& bad) {
+  const auto v = viewshed(ctx, dem, s, o);
+  if (!v.ok()) {
+    ck.record(true, 1, where(dem, s, o) + label + ": " + v.error().message);
+    return;
+  }
+  const auto mask = visibility::visibility_mask(*v, v->target_height);
+  const int col0 = v->frame.window.col0, row0 = v->frame.window.row0;
   std::uint64_t n = 0;
-  first_c = first_r = -1;
+  int first_c = -1, first_r = -1;
   for (int r = 0; r < mask.height(); ++r)
     for (int c = 0; c < mask.width(); ++c)
-      if (bad(c + result.frame.window.col0, r + result.frame.window.row0, mask.at(c, r)) && n++ == 0)
-        first_c = c, first_r = r;
-  return n;
+      if (bad(c + col0, r + row0, mask.at(c, r)) && n++ == 0) first_c = c, first_r = r;
+  ck.record(n > 0, double(n),
+            n ? where(dem, s, o) + label + ": " + std::to_string(n) + " " + what + ", first " +
+                    cell_text(*v, first_c, first_r)
+              : std::string());
 }
 
 // --- Synthetic checks ---------------------------------------------------------
@@ -427,24 +438,11 @@ void wall_1000m(Checker& ck, const Context& ctx) {
                  std::to_string(wall) + ", " + fmt("%g", cell) + " m cells";
     ViewshedOptions o = base_options(ctx);
     o.curvature_coefficient = 0;
-    const auto s = at_cell(dem, wall / 3, n / 2, 2);
-    auto v = viewshed(ctx, dem, s, o);
-    if (!v.ok()) {
-      ck.record(true, 1, where(dem, s, o) + ": " + v.error().message);
-      continue;
-    }
-    int fc = 0, fr = 0;
-    const std::uint64_t bad = count_cells(
-        *v,
-        [&](int c, int, std::uint8_t m) {
-          if (c < wall) return m != visibility::kVisible;
-          if (c == wall) return false;  // wall face cells at a grazing angle: either answer
-          return m != visibility::kHidden;
-        },
-        fc, fr);
-    ck.record(bad > 0, double(bad),
-              bad ? where(dem, s, o) + ": " + std::to_string(bad) + " cells wrong, first " + cell_text(*v, fc, fr)
-                  : std::string());
+    expect_cells(ck, ctx, dem, at_cell(dem, wall / 3, n / 2, 2), o, "", "cells wrong", [&](int c, int, std::uint8_t m) {
+      if (c < wall) return m != visibility::kVisible;
+      if (c == wall) return false;  // wall face cells at a grazing angle: either answer
+      return m != visibility::kHidden;
+    });
   }
 }
 
@@ -457,21 +455,9 @@ void flat_all_visible(Checker& ck, const Context& ctx) {
       const Dem dem = flat_dem(n + 7, n - 5, z, 30);
       ViewshedOptions o = base_options(ctx);
       o.curvature_coefficient = 0;
-      for (auto [c, r] : {std::pair{0.37 * n, 0.61 * n}, std::pair{0.0, 0.0}, std::pair{n * 0.5 + 0.5, n * 0.25}}) {
-        const auto s = at_cell(dem, c, r, h);
-        auto v = viewshed(ctx, dem, s, o);
-        if (!v.ok()) {
-          ck.record(true, 1, where(dem, s, o) + ": " + v.error().message);
-          continue;
-        }
-        int fc = 0, fr = 0;
-        const std::uint64_t bad = count_cells(
-            *v, [](int, int, std::uint8_t m) { return m != visibility::kVisible; }, fc, fr);
-        ck.record(
-            bad > 0, double(bad),
-            bad ? where(dem, s, o) + ": " + std::to_string(bad) + " cells not visible, first " + cell_text(*v, fc, fr)
-                : std::string());
-      }
+      for (auto [c, r] : {std::pair{0.37 * n, 0.61 * n}, std::pair{0.0, 0.0}, std::pair{n * 0.5 + 0.5, n * 0.25}})
+        expect_cells(ck, ctx, dem, at_cell(dem, c, r, h), o, "", "cells not visible",
+                     [](int, int, std::uint8_t m) { return m != visibility::kVisible; });
     }
 }
 
@@ -489,25 +475,12 @@ void plateau(Checker& ck, const Context& ctx) {
                std::to_string(half) + " cells, 10 m cells";
   ViewshedOptions o = base_options(ctx);
   o.curvature_coefficient = 0;
-  const auto s = at_cell(dem, mid, mid, 2);
-  auto v = viewshed(ctx, dem, s, o);
-  if (!v.ok()) {
-    ck.record(true, 1, where(dem, s, o) + ": " + v.error().message);
-    return;
-  }
-  int fc = 0, fr = 0;
-  const std::uint64_t bad = count_cells(
-      *v,
-      [&](int c, int r, std::uint8_t m) {
-        const int dc = std::abs(c - mid), dr = std::abs(r - mid);
-        if (dc <= half && dr <= half) return m != visibility::kVisible;                                 // the top
-        if ((dr == 0 && dc > half + 1) || (dc == 0 && dr > half + 1)) return m != visibility::kHidden;  // axes below
-        return false;
-      },
-      fc, fr);
-  ck.record(bad > 0, double(bad),
-            bad ? where(dem, s, o) + ": " + std::to_string(bad) + " cells wrong, first " + cell_text(*v, fc, fr)
-                : std::string());
+  expect_cells(ck, ctx, dem, at_cell(dem, mid, mid, 2), o, "", "cells wrong", [&](int c, int r, std::uint8_t m) {
+    const int dc = std::abs(c - mid), dr = std::abs(r - mid);
+    if (dc <= half && dr <= half) return m != visibility::kVisible;                                 // the top
+    if ((dr == 0 && dc > half + 1) || (dc == 0 && dr > half + 1)) return m != visibility::kHidden;  // axes below
+    return false;
+  });
 }
 
 // The observer on a cell centre, a cell edge, a cell corner, on the border
@@ -532,18 +505,8 @@ void observer_positions(Checker& ck, const Context& ctx) {
                                               {n - 1.0 + 0.5, n - 1.0 + 0.5}};
   for (auto [c, r] : inside) {
     const auto s = at_cell(flat, c, r, 2);
-    auto v = viewshed(ctx, flat, s, o);
-    if (!v.ok()) {
-      ck.record(true, 1, where(flat, s, o) + ": " + v.error().message);
-      continue;
-    }
-    int fc = 0, fr = 0;
-    const std::uint64_t bad = count_cells(
-        *v, [](int, int, std::uint8_t m) { return m != visibility::kVisible; }, fc, fr);
-    ck.record(bad > 0, double(bad),
-              bad ? where(flat, s, o) + ": " + std::to_string(bad) + " cells not visible on flat terrain, first " +
-                        cell_text(*v, fc, fr)
-                  : std::string());
+    expect_cells(ck, ctx, flat, s, o, "", "cells not visible on flat terrain",
+                 [](int, int, std::uint8_t m) { return m != visibility::kVisible; });
     auto w = viewshed(ctx, rough, at_cell(rough, c, r, 2), o);
     ck.record(!w.ok(), w.ok() ? 0 : 1, w.ok() ? std::string() : where(rough, s, o) + ": " + w.error().message);
   }
@@ -632,33 +595,13 @@ void nodata_on_sight_line(Checker& ck, const Context& ctx) {
   ViewshedOptions o = base_options(ctx);
   o.curvature_coefficient = 0;
   const auto s = at_cell(dem, hole / 3, n / 2, 2);
-  auto v = viewshed(ctx, dem, s, o);
-  if (!v.ok()) {
-    ck.record(true, 1, where(dem, s, o) + ": " + v.error().message);
-    return;
-  }
-  int fc = 0, fr = 0;
-  std::uint64_t bad = count_cells(
-      *v,
-      [&](int c, int, std::uint8_t m) { return c == hole ? m != visibility::kNoAnswer : m != visibility::kVisible; },
-      fc, fr);
-  ck.record(bad > 0, double(bad),
-            bad ? where(dem, s, o) + ", voids transparent: " + std::to_string(bad) + " cells wrong, first " +
-                      cell_text(*v, fc, fr)
-                : std::string());
+  expect_cells(ck, ctx, dem, s, o, ", voids transparent", "cells wrong", [&](int c, int, std::uint8_t m) {
+    return c == hole ? m != visibility::kNoAnswer : m != visibility::kVisible;
+  });
   o.nodata = visibility::NodataPolicy::kFill;
   o.nodata_fill_height = 1000;
-  auto f = viewshed(ctx, dem, s, o);
-  if (!f.ok()) {
-    ck.record(true, 1, where(dem, s, o) + ": " + f.error().message);
-    return;
-  }
-  bad = count_cells(
-      *f, [&](int c, int, std::uint8_t m) { return c > hole ? m != visibility::kHidden : false; }, fc, fr);
-  ck.record(bad > 0, double(bad),
-            bad ? where(dem, s, o) + ", voids filled at 1000 m: " + std::to_string(bad) +
-                      " cells behind not hidden, first " + cell_text(*f, fc, fr)
-                : std::string());
+  expect_cells(ck, ctx, dem, s, o, ", voids filled at 1000 m", "cells behind not hidden",
+               [&](int c, int, std::uint8_t m) { return c > hole ? m != visibility::kHidden : false; });
 }
 
 // The observer on a void: height above ground is a clean kDataError naming
@@ -797,10 +740,9 @@ void dem_properties(DemChecks& out, const Context& ctx, const std::string& path,
         // The target cell, in the DEM as read.
         const int tc = w.col0 + static_cast<int>(i % m.width()), tr = w.row0 + static_cast<int>(i / m.width());
         // R3 from the lower eye, at this cell only (the default transparent voids: the DEM as read).
-        const bool r3_sees = !exact_answers &&
-                             0.0f >= visibility::min_target_height_at(
-                                         visibility::r3_ohf_at(dem->elevation, base->frame, tc, tr),
-                                         dem->elevation.at(tc, tr));
+        const bool r3_sees = !exact_answers && 0.0f >= visibility::min_target_height_at(
+                                                           visibility::r3_ohf_at(dem->elevation, base->frame, tc, tr),
+                                                           dem->elevation.at(tc, tr));
         if (exact_answers || r3_sees) {
           if (bad++ == 0) first_bad = static_cast<int>(i);
         } else if (explained++ == 0) {
@@ -812,9 +754,8 @@ void dem_properties(DemChecks& out, const Context& ctx, const std::string& path,
                cell_text(*base, at % m.width(), at / m.width());
       };
       out.raise_observer.record(bad > 0, double(bad), bad ? text(bad, first_bad, "") : std::string());
-      out.raise_observer.explain(explained,
-                                 explained ? text(explained, first_explained, " that R3 hides from the lower eye")
-                                           : std::string());
+      out.raise_observer.explain(
+          explained, explained ? text(explained, first_explained, " that R3 hides from the lower eye") : std::string());
     }
 
     // Raising the target (1 m, 10 m) never hides; min height is >= 0 and
