@@ -33,4 +33,20 @@ void parallel_for(std::size_t count, unsigned threads, const std::function<void(
   run();
 }  // jthreads join here
 
+Status parallel_for(std::size_t count, unsigned threads, const RunControl* control,
+                    const std::function<void(std::size_t)>& body, double from, double to) {
+  std::atomic<bool> stop{false};
+  std::atomic<std::size_t> done{0};
+  parallel_for(count, threads, [&](std::size_t i) {
+    if (stop.load(std::memory_order_relaxed)) return;
+    if (!check_control(control).ok()) {
+      stop = true;
+      return;
+    }
+    body(i);
+    report_progress(control, from + (to - from) * double(++done) / double(count));
+  });
+  return check_control(control);
+}
+
 }  // namespace horizon

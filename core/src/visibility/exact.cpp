@@ -287,14 +287,7 @@ Status exact_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const Radial
   const terrain::Window& win = f.window;
 
   std::atomic<std::uint64_t> evaluated{0}, samples{0};
-  std::atomic<bool> stop{false};
-  std::atomic<int> rows_done{0};
-  parallel_for(static_cast<std::size_t>(win.height()), threads, [&](std::size_t i) {
-    if (stop.load(std::memory_order_relaxed)) return;
-    if (!check_control(control).ok()) {
-      stop = true;
-      return;
-    }
+  const auto search_row = [&](std::size_t i) {
     const int row = win.row0 + static_cast<int>(i);
     float* out = ohf.row(static_cast<int>(i));
     std::uint64_t n = 0, s = 0;
@@ -346,9 +339,9 @@ Status exact_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const Radial
     }
     evaluated += n;
     samples += s;
-    report_progress(control, kBoundShare + (1.0 - kBoundShare) * double(++rows_done) / win.height());
-  });
-  HORIZON_RETURN_IF_ERROR(check_control(control));
+  };
+  HORIZON_RETURN_IF_ERROR(
+      parallel_for(static_cast<std::size_t>(win.height()), threads, control, search_row, kBoundShare, 1.0));
   stats.cells_evaluated = evaluated;
   stats.rays = radial_stats.rays;
   stats.terrain_samples = radial_stats.terrain_samples + samples;

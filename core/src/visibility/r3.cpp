@@ -40,15 +40,7 @@ Status r3_ohf(const terrain::Grid<float>& z, const ViewFrame& f, unsigned thread
   const terrain::Window& win = f.window;
   reset_output(ohf, win, threads);
   std::atomic<std::uint64_t> evaluated{0}, samples{0};
-  std::atomic<bool> stop{false};
-  std::atomic<int> rows_done{0};
-
-  parallel_for(static_cast<std::size_t>(win.height()), threads, [&](std::size_t i) {
-    if (stop.load(std::memory_order_relaxed)) return;
-    if (!check_control(control).ok()) {
-      stop = true;
-      return;
-    }
+  const Status run = parallel_for(static_cast<std::size_t>(win.height()), threads, control, [&](std::size_t i) {
     const int row = win.row0 + static_cast<int>(i);
     std::uint64_t n = 0, s = 0;
     for (int col = win.col0; col < win.col1; ++col) {
@@ -60,9 +52,8 @@ Status r3_ohf(const terrain::Grid<float>& z, const ViewFrame& f, unsigned thread
     }
     evaluated += n;
     samples += s;
-    report_progress(control, double(++rows_done) / win.height());
   });
-  HORIZON_RETURN_IF_ERROR(check_control(control));
+  HORIZON_RETURN_IF_ERROR(run);
   stats.cells_evaluated = evaluated;
   stats.rays = evaluated;
   stats.terrain_samples = samples;

@@ -8,6 +8,8 @@
 #include <cstddef>
 #include <functional>
 
+#include "horizon/common/control.hpp"
+
 namespace horizon {
 
 // Number of worker threads for `requested` (0 = all hardware threads, >= 1).
@@ -17,5 +19,13 @@ unsigned resolve_thread_count(unsigned requested);
 // `threads` threads (the calling thread is one of them). Returns when all are
 // done. body must not throw. Work items should be coarse (>= ~50 us each).
 void parallel_for(std::size_t count, unsigned threads, const std::function<void(std::size_t)>& body);
+
+// parallel_for under a RunControl (may be null): before each item it polls the
+// control, and once that says stop (cancelled, deadline passed) every item not
+// yet begun is skipped. After each item, progress moves linearly from `from`
+// to `to`. Returns Ok, or the control's kCancelled / kDeadlineExceeded; on an
+// error the caller discards its partial output.
+Status parallel_for(std::size_t count, unsigned threads, const RunControl* control,
+                    const std::function<void(std::size_t)>& body, double from = 0.0, double to = 1.0);
 
 }  // namespace horizon
