@@ -53,6 +53,11 @@ class DaemonProcess {
   int signal(int signal, std::chrono::seconds wait = std::chrono::seconds(30));
   // Waits until the log holds `text` (true) or `timeout` passes (false).
   bool wait_for_log(const std::string& text, std::chrono::milliseconds timeout = std::chrono::seconds(10)) const;
+  // The Prometheus text it serves on 127.0.0.1:metrics_port/metrics ("" when it cannot be had).
+  std::string metrics() const;
+  // Waits until at least `calls` requests are in flight (horizon_requests_in_flight): the
+  // moment to cancel, reload or stop under a call, on a machine of any speed.
+  bool wait_for_in_flight(int calls, std::chrono::milliseconds timeout = std::chrono::seconds(10)) const;
   // Peak resident set size (VmHWM) in bytes, while running.
   std::uint64_t peak_rss_bytes() const;
 
@@ -63,6 +68,10 @@ class DaemonProcess {
   int port_ = 0, metrics_port_ = 0;
   mutable bool exited_ = false;
 };
+
+// The value of the sample line of Prometheus `text` that starts with `series`
+// (name and labels), or -1 when there is none.
+double metric(const std::string& text, const std::string& series);
 
 // Writes `config_json` into the daemon's config file (for reload tests).
 void write_file(const std::string& path, const std::string& text);

@@ -6,11 +6,6 @@
 // `horizon viewshed --server` carries the backend flags both ways.
 #include <gtest/gtest.h>
 
-#include <arpa/inet.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <unistd.h>
-
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -28,33 +23,6 @@ using Json = nlohmann::json;
 
 // Rainier (EPSG:4326, 3" cells): a viewpoint near the summit.
 constexpr double kRainierLon = -121.7604, kRainierLat = 46.8529;
-
-// The Prometheus text served on 127.0.0.1:port/metrics ("" when it cannot be had).
-std::string scrape_metrics(int port) {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  if (fd < 0) return "";
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_port = htons(static_cast<std::uint16_t>(port));
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  std::string text;
-  if (::connect(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) == 0) {
-    const std::string request = "GET /metrics HTTP/1.0\r\nHost: 127.0.0.1\r\n\r\n";
-    if (::write(fd, request.data(), request.size()) == static_cast<ssize_t>(request.size())) {
-      char buffer[4096];
-      for (ssize_t n; (n = ::read(fd, buffer, sizeof buffer)) > 0;) text.append(buffer, static_cast<std::size_t>(n));
-    }
-  }
-  ::close(fd);
-  return text;
-}
-
-// The value of the sample line starting with `series` (name and labels), or -1.
-double metric(const std::string& text, const std::string& series) {
-  for (std::size_t at = text.find(series + " "); at != std::string::npos; at = text.find(series + " ", at + 1))
-    if (at == 0 || text[at - 1] == '\n') return std::stod(text.substr(at + series.size() + 1));
-  return -1;
-}
 
 struct Viewshed {
   grpc::Status status;
@@ -126,7 +94,7 @@ TEST_F(ServerGpu, StartsWithTheContextsItWasGiven) {
 }
 
 TEST_F(ServerGpu, FastOnTheGpuEqualsTheCpuAndIsCounted) {
-  const std::string before = scrape_metrics(with_gpu().metrics_port());
+  const std::string before = with_gpu().metrics();
   const Viewshed gpu = run(with_gpu(), rainier(v1::BACKEND_GPU));
   ASSERT_TRUE(gpu.status.ok()) << gpu.status.error_message();
   EXPECT_EQ(gpu.summary.stats().backend(), "gpu");
@@ -165,7 +133,7 @@ TEST_F(ServerGpu, FastOnTheGpuEqualsTheCpuAndIsCounted) {
   EXPECT_NE(gpu_line.find("\"level\":\"info\""), std::string::npos) << gpu_line;
   EXPECT_NE(gpu_line.find("\"backend\":\"gpu\",\"gpu_fallback\":\"\""), std::string::npos) << gpu_line;
   EXPECT_NE(lines.back().find("\"backend\":\"cpu\",\"gpu_fallback\":\"\""), std::string::npos) << lines.back();
-  const std::string after = scrape_metrics(with_gpu().metrics_port());
+  const std::string after = with_gpu().metrics();
   const std::string on_gpu = R"(horizon_backend_requests_total{backend="gpu"})";
   const std::string on_cpu = R"(horizon_backend_requests_total{backend="cpu"})";
   EXPECT_EQ(metric(after, on_gpu) - metric(before, on_gpu), 1.0) << after;
@@ -190,7 +158,7 @@ TEST_F(ServerGpu, GpuWithAnotherAlgorithmOrAnUnknownValueNamesTheField) {
 }
 
 TEST_F(ServerGpu, WithoutContextsTheCpuAnswersAndSaysWhy) {
-  const std::string before = scrape_metrics(cpu_only().metrics_port());
+  const std::string before = cpu_only().metrics();
   v1::ViewshedRequest request = rainier(v1::BACKEND_GPU);
   request.mutable_options()->set_gpu_method(v1::GPU_METHOD_COMPUTE);
   request.mutable_options()->set_gpu_log_step(false);
@@ -207,7 +175,7 @@ TEST_F(ServerGpu, WithoutContextsTheCpuAnswersAndSaysWhy) {
   EXPECT_NE(lines.back().find("\"gpu_fallback\":\"" + answer.summary.stats().gpu_fallback() + "\""), std::string::npos)
       << lines.back();
   EXPECT_NE(lines.back().find("\"status\":\"OK\""), std::string::npos) << lines.back();
-  const std::string after = scrape_metrics(cpu_only().metrics_port());
+  const std::string after = cpu_only().metrics();
   EXPECT_EQ(metric(after, "horizon_gpu_fallbacks_total") - metric(before, "horizon_gpu_fallbacks_total"), 1.0) << after;
   const std::string on_cpu = R"(horizon_backend_requests_total{backend="cpu"})";
   EXPECT_EQ(metric(after, on_cpu) - metric(before, on_cpu), 1.0) << after;

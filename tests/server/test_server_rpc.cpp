@@ -10,10 +10,9 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <future>
 #include <optional>
 #include <sstream>
-#include <future>
-#include <thread>
 
 #include "daemon_process.hpp"
 #include "horizon/geodesy/observer.hpp"
@@ -38,8 +37,8 @@ class ServerRpc : public ::testing::Test {
   static void SetUpTestSuite() {
     data_ = new TempDir();
     namespace fs = std::filesystem;
-    for (const char* f : {"rainier_summit_srtm3_400x400.tif", "ecuador_andes_utm17s_10m_383x415.tif",
-                          "zion_canyon_srtm3_465x457.tif"})
+    for (const char* f :
+         {"rainier_summit_srtm3_400x400.tif", "ecuador_andes_utm17s_10m_383x415.tif", "zion_canyon_srtm3_465x457.tif"})
       fs::copy_file(bundled_dem(f), data_->path() / f);
     const terrain::Dem big = make_dem(2000, 2000, [](int c, int r) {
       return 500.0 + 200.0 * std::sin(c * 0.013) * std::cos(r * 0.017) + 30.0 * std::sin(c * 0.21 + r * 0.17);
@@ -134,7 +133,8 @@ TEST_F(ServerRpc, StreamedRasterEqualsTheEngineAndIsGeoreferenced) {
   // The engine, in this process, on the same file.
   auto dem = terrain::read_dem(bundled_dem("rainier_summit_srtm3_400x400.tif"));
   ASSERT_TRUE(dem.ok());
-  geodesy::PointSpec spec{geodesy::PointFrame::kWgs84, kRainierLon, kRainierLat, 2.0, geodesy::HeightMode::kAboveGround};
+  geodesy::PointSpec spec{geodesy::PointFrame::kWgs84, kRainierLon, kRainierLat, 2.0,
+                          geodesy::HeightMode::kAboveGround};
   auto eye = geodesy::resolve_point(*dem, spec, "observer");
   ASSERT_TRUE(eye.ok());
   visibility::ViewshedOptions options;
@@ -311,7 +311,7 @@ TEST_F(ServerRpc, DeadlineAndCancellationStopTheComputation) {
   // Client cancels while the daemon computes.
   grpc::ClientContext context;
   auto reader = visibility_->ComputeViewshed(&context, slow_viewshed());
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  ASSERT_TRUE(daemon_->wait_for_in_flight(1)) << daemon_->metrics();
   context.TryCancel();
   v1::ViewshedResponse message;
   while (reader->Read(&message)) {
@@ -355,7 +355,7 @@ TEST_F(ServerRpc, SighupReloadsDatasetsWithoutDroppingACall) {
   auto slow = std::async(std::launch::async, [&] {
     return run_viewshed(slow_viewshed(3500)).error_code();  // about a second
   });
-  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  ASSERT_TRUE(daemon_->wait_for_in_flight(1)) << daemon_->metrics();
   std::string config;
   {
     std::ifstream in(daemon_->config_path());
@@ -381,7 +381,7 @@ TEST_F(ServerRpc, SigtermDrainsCallsInFlightThenExitsZero) {
   auto slow = std::async(std::launch::async, [&] {
     return run_viewshed(slow_viewshed(3500)).error_code();  // about a second
   });
-  std::this_thread::sleep_for(std::chrono::milliseconds(150));
+  ASSERT_TRUE(daemon_->wait_for_in_flight(1)) << daemon_->metrics();
   EXPECT_EQ(daemon_->signal(SIGTERM), 0);
   EXPECT_EQ(slow.get(), grpc::StatusCode::OK);
   const std::string log = daemon_->log();
