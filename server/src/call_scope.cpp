@@ -13,7 +13,8 @@ CallScope::CallScope(ServerEnv& env, grpc::CallbackServerContext* context, std::
   const auto system_now = std::chrono::system_clock::now();
   const auto deadline = context->deadline();
   if (deadline < system_now + std::chrono::hours(24 * 365))
-    control_.deadline = started_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(deadline - system_now);
+    control_.deadline =
+        started_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(deadline - system_now);
   else
     control_.deadline = started_ + env.config.default_deadline;
 }
@@ -29,7 +30,8 @@ std::optional<grpc::Status> CallScope::admit() {
   admitted_ = true;
   if (before >= env_.config.limits.max_pending)
     return to_grpc_status(make_error(ErrorCode::kResourceExhausted,
-                                     "horizond has " + std::to_string(before) + " requests in flight (limits.max_pending = " +
+                                     "horizond has " + std::to_string(before) +
+                                         " requests in flight (limits.max_pending = " +
                                          std::to_string(env_.config.limits.max_pending) + "); retry later",
                                      "limits.max_pending"));
   datasets_ = env_.datasets.snapshot();
@@ -65,7 +67,8 @@ bool cancel_reads_as_deadline(std::chrono::steady_clock::time_point now,
 }
 
 grpc::Status CallScope::status_of(const Error& error) const {
-  if (error.code == ErrorCode::kCancelled && cancel_reads_as_deadline(std::chrono::steady_clock::now(), control_.deadline))
+  if (error.code == ErrorCode::kCancelled &&
+      cancel_reads_as_deadline(std::chrono::steady_clock::now(), control_.deadline))
     return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED, "the request's deadline passed before it finished");
   return to_grpc_status(error);
 }
