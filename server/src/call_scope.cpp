@@ -88,11 +88,13 @@ void CallScope::finish(const grpc::Status& status) {
   record_.status = grpc_code_name(status.error_code());
   record_.message = status.error_message();
   record_.server_fault = is_server_fault(status.error_code());
-  log_request(record_);
+  // The books first, the log line last: whoever reads the line finds the
+  // call counted, out of flight and its memory back.
   env_.metrics.request_finished(record_.method, record_.status, seconds, record_.cells, record_.boxes);
   if (admitted_) env_.pending.fetch_sub(1);
   memory_.release();
   env_.metrics.set_memory_reserved(env_.memory.reserved());
+  log_request(record_);
 }
 
 }  // namespace horizon::server
