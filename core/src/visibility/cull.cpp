@@ -133,14 +133,7 @@ double cull_reach(const ViewFrame& frame, std::span<const BoxFootprint> footprin
   // Squared metres, one square root at the end (hypot per corner was 5 % of a
   // 10 000-box call).
   double reach2 = 0.0;
-  for (const BoxFootprint& f : footprints) {
-    // The farthest covered centre is one of the window's corner centres.
-    const double dx0 = (f.cells.col0 - frame.observer_col) * frame.metres_per_col;
-    const double dx1 = (f.cells.col1 - 1 - frame.observer_col) * frame.metres_per_col;
-    const double dy0 = (f.cells.row0 - frame.observer_row) * frame.metres_per_row;
-    const double dy1 = (f.cells.row1 - 1 - frame.observer_row) * frame.metres_per_row;
-    reach2 = std::max(reach2, std::max(dx0 * dx0, dx1 * dx1) + std::max(dy0 * dy0, dy1 * dy1));
-  }
+  for (const BoxFootprint& f : footprints) reach2 = std::max(reach2, frame.farthest_distance2(f.cells));
   return std::sqrt(reach2);
 }
 

@@ -278,9 +278,7 @@ Status exact_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const Radial
   // the target's own sight line already prunes the near stretches.
   std::optional<detail::PolarBounds> polar;
   if (!visibility_only_at) {
-    const terrain::Window& w = f.window;
-    const double farthest = std::max({f.distance(w.col0, w.row0), f.distance(w.col1 - 1, w.row0),
-                                      f.distance(w.col0, w.row1 - 1), f.distance(w.col1 - 1, w.row1 - 1)});
+    const double farthest = std::sqrt(f.farthest_distance2(f.window));
     polar.emplace(z, f, std::min(farthest, kPolarReach * std::max(f.metres_per_col, f.metres_per_row)), threads);
   }
   const detail::PolarBounds* rings = polar ? &*polar : nullptr;

@@ -14,6 +14,14 @@ double ViewFrame::distance(double col, double row) const {
   return std::hypot((col - observer_col) * metres_per_col, (row - observer_row) * metres_per_row);
 }
 
+double ViewFrame::farthest_distance2(const terrain::Window& cells) const {
+  const double dx0 = (cells.col0 - observer_col) * metres_per_col;
+  const double dx1 = (cells.col1 - 1 - observer_col) * metres_per_col;
+  const double dy0 = (cells.row0 - observer_row) * metres_per_row;
+  const double dy1 = (cells.row1 - 1 - observer_row) * metres_per_row;
+  return std::max(dx0 * dx0, dx1 * dx1) + std::max(dy0 * dy0, dy1 * dy1);
+}
+
 bool ViewFrame::in_range(int col, int row) const {
   if (!std::isfinite(max_distance)) return true;
   const double dx = (col - observer_col) * metres_per_col;

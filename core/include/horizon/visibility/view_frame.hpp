@@ -31,6 +31,9 @@ struct ViewFrame {
   double distance(double col, double row) const;
   // True when cell (col, row)'s centre lies within max_distance.
   bool in_range(int col, int row) const;
+  // Squared ground distance in metres from the eye to the farthest cell
+  // centre of the non-empty window `cells`: one of its corner centres.
+  double farthest_distance2(const terrain::Window& cells) const;
 };
 
 // Sizes `ohf` to the frame's window and fills it with NaN ("no answer") on
