@@ -18,6 +18,10 @@ constexpr int kTasks = 16;
 // (on the 12 M-cell Everest case, 1.5 left 0.69 G crossings to screen, 2
 // left 0.80 G, 1.25 left 0.67 G in more rings).
 constexpr double kFirstRing = 8, kRingGrowth = 1.5;
+// Within kNearCells cells of the eye, where one cell spans a wide angle, a
+// grid segment is cut into kNearPieces pieces, each with its own bound.
+constexpr double kNearCells = 8;
+constexpr int kNearPieces = 8;
 
 // The double rounded up to a float.
 float round_up(double s) {
@@ -91,12 +95,11 @@ struct Builder {
   // or a half-cell stub past the grid's edge (R3 clamps positions there, so
   // the edge cell's height holds along it).
   void segment(bool column, double line, double p0, double p1, double za, double zb) {
-    // Short pieces near the eye, where one cell spans a wide angle.
     const double mid = (p0 + p1) / 2;
     const double dx = ((column ? line : mid) - f.observer_col) * f.metres_per_col;
     const double dy = ((column ? mid : line) - f.observer_row) * f.metres_per_row;
-    const double near = 8 * std::max(f.metres_per_col, f.metres_per_row);
-    const int pieces = dx * dx + dy * dy < near * near ? 8 : 1;
+    const double near = kNearCells * std::max(f.metres_per_col, f.metres_per_row);
+    const int pieces = dx * dx + dy * dy < near * near ? kNearPieces : 1;
     for (int j = 0; j < pieces; ++j) {
       const double w0 = double(j) / pieces, w1 = double(j + 1) / pieces;
       const double q0 = p0 + w0 * (p1 - p0), q1 = p0 + w1 * (p1 - p0);
