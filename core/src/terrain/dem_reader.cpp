@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cassert>
 #include <cctype>
 #include <cerrno>
 #include <chrono>
@@ -121,7 +122,55 @@ Result<Dem> read_whole(const std::string& path, Format format, const ReadOptions
   return dem;
 }
 
+// A small raster held decoded (terrain-RGB tiles: 256x256 cells).
+class DecodedFile final : public RasterFile {
+ public:
+  DecodedFile(DemHeader header, Grid<float> cells) : RasterFile(std::move(header)), cells_(std::move(cells)) {}
+
+  Result<Grid<float>> read_cells(const Window& window, unsigned /*threads*/, ReadStats* stats) const override {
+    assert(!window.empty() && window.col0 >= 0 && window.row0 >= 0 && window.col1 <= cells_.width() &&
+           window.row1 <= cells_.height());
+    Grid<float> out(window.width(), window.height(), kUninitialized);
+    for (int r = window.row0; r < window.row1; ++r)
+      std::copy_n(cells_.row(r) + window.col0, window.width(), out.row(r - window.row0));
+    if (stats) {
+      *stats = ReadStats{};
+      stats->file_width = cells_.width();
+      stats->file_height = cells_.height();
+      stats->window = window;
+      stats->block_width = cells_.width();
+      stats->block_height = cells_.height();
+      stats->blocks_total = stats->blocks_read = 1;
+      stats->cells_decoded = window.cell_count();
+    }
+    return out;
+  }
+
+ private:
+  Grid<float> cells_;
+};
+
 }  // namespace
+
+Result<std::unique_ptr<RasterFile>> open_raster(const std::string& path, const ReadOptions& options) {
+  auto format = sniff(path, options);
+  if (!format.ok()) return format.error();
+  if (*format == Format::kGeoTiff) return open_geotiff(path, options);
+  if (*format == Format::kHgt) return open_hgt(path);
+  auto dem = read_terrain_rgb(path, options);
+  if (!dem.ok()) return dem.error();
+  DemHeader h;
+  h.width = dem->width();
+  h.height = dem->height();
+  h.georef = dem->georef;
+  h.nodata = dem->nodata;
+  h.source = dem->source;
+  h.format = dem->format;
+  h.block_width = h.width;
+  h.block_height = h.height;
+  h.blocks_total = 1;
+  return std::unique_ptr<RasterFile>(std::make_unique<DecodedFile>(std::move(h), std::move(dem->elevation)));
+}
 
 Result<Window> clip_read_window(const Window& window, int width, int height, const std::string& path) {
   const Window clipped{std::max(window.col0, 0), std::max(window.row0, 0), std::min(window.col1, width),

@@ -29,6 +29,7 @@
 #include <sys/stat.h>
 
 #include <algorithm>
+#include <cassert>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -541,24 +542,68 @@ Result<Dem> read_geotiff_window(const std::string& path, const ReadOptions& opti
   return dem;
 }
 
+DemHeader header_of(const std::string& path, const TiffFacts& facts) {
+  DemHeader h;
+  h.width = facts.width;
+  h.height = facts.height;
+  h.georef = facts.georef;
+  h.nodata = facts.nodata;
+  h.source = path;
+  h.format = format_name(facts, facts.type, facts.channel);
+  h.tiled = facts.tiled;
+  h.block_width = facts.block_width;
+  h.block_height = facts.block_height;
+  h.blocks_total = facts.blocks_per_plane;
+  return h;
+}
+
+// The facts are read once; each read_cells() opens its own libtiff handles
+// (a handle is not thread-safe), so reads on several threads do not wait on
+// each other.
+class GeoTiffFile final : public RasterFile {
+ public:
+  GeoTiffFile(std::string path, TiffFacts facts)
+      : RasterFile(header_of(path, facts)), path_(std::move(path)), facts_(std::move(facts)) {}
+
+  Result<Grid<float>> read_cells(const Window& window, unsigned threads, ReadStats* stats) const override {
+    const auto start = std::chrono::steady_clock::now();
+    assert(!window.empty() && window.col0 >= 0 && window.row0 >= 0 && window.col1 <= facts_.width &&
+           window.row1 <= facts_.height);
+    ReadStats local;
+    local.file_width = facts_.width;
+    local.file_height = facts_.height;
+    local.window = window;
+    local.tiled = facts_.tiled;
+    local.block_width = facts_.block_width;
+    local.block_height = facts_.block_height;
+    local.blocks_total = facts_.blocks_per_plane;
+    Grid<float> cells(window.width(), window.height(), kUninitialized);  // every block writes its cells
+    HORIZON_RETURN_IF_ERROR(read_window_with_libtiff(path_, facts_, facts_.channel, window,
+                                                     pixel_type_size(facts_.type), threads, cells, local));
+    local.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (stats) *stats = local;
+    return cells;
+  }
+
+ private:
+  std::string path_;
+  TiffFacts facts_;
+};
+
 }  // namespace
 
 Result<DemHeader> read_geotiff_header(const std::string& path, const ReadOptions& options) {
   HORIZON_RETURN_IF_ERROR(check_path(path, options));
   auto facts = read_tiff_facts(path, options);
   if (!facts.ok()) return facts.error();
-  DemHeader h;
-  h.width = facts->width;
-  h.height = facts->height;
-  h.georef = facts->georef;
-  h.nodata = facts->nodata;
-  h.source = path;
-  h.format = format_name(*facts, facts->type, facts->channel);
-  h.tiled = facts->tiled;
-  h.block_width = facts->block_width;
-  h.block_height = facts->block_height;
-  h.blocks_total = facts->blocks_per_plane;
-  return h;
+  return header_of(path, *facts);
+}
+
+Result<std::unique_ptr<RasterFile>> open_geotiff(const std::string& path, const ReadOptions& options) {
+  HORIZON_RETURN_IF_ERROR(check_path(path, options));
+  auto facts = read_tiff_facts(path, options);
+  if (!facts.ok()) return facts.error();
+  return std::unique_ptr<RasterFile>(std::make_unique<GeoTiffFile>(path, std::move(*facts)));
 }
 
 Result<Dem> read_geotiff(const std::string& path, const ReadOptions& options, ReadStats* stats) {

@@ -16,8 +16,10 @@
 // lat_north + step/2), exactly as GDAL's SRTMHGT driver reports.
 #include <sys/stat.h>
 
+#include <cassert>
 #include <cctype>
 #include <cerrno>
+#include <chrono>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
@@ -65,9 +67,8 @@ bool parse_tile_name(const std::string& path, TileCorner& corner) {
   return corner.lat_south >= -90 && corner.lat_south <= 89 && corner.lon_west >= -180 && corner.lon_west <= 179;
 }
 
-}  // namespace
-
-Result<Dem> read_hgt(const std::string& path) {
+// Checks the name and size of an .hgt file; its header says the rest.
+Result<DemHeader> hgt_header(const std::string& path) {
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0) {
     if (errno == ENOENT || errno == ENOTDIR) return hgt_error(ErrorCode::kNotFound, path, "no such file");
@@ -91,26 +92,85 @@ Result<Dem> read_hgt(const std::string& path) {
                      "has " + std::to_string(size) +
                          " bytes; an SRTM .hgt tile has 2884802 (1201x1201, 3\") or 25934402 (3601x3601, 1\")");
 
-  std::vector<unsigned char> raw(static_cast<std::size_t>(size));
-  std::ifstream in(path, std::ios::binary);
-  if (!in || !in.read(reinterpret_cast<char*>(raw.data()), static_cast<std::streamsize>(raw.size())))
-    return hgt_error(ErrorCode::kIoError, path, std::string("cannot read: ") + std::strerror(errno));
-
-  Dem dem;
-  dem.elevation = Grid<float>(n, n);
-  float* dst = dem.elevation.data();
-  for (std::size_t i = 0, cells = dem.elevation.size(); i < cells; ++i) {
-    const auto v = static_cast<std::int16_t>(static_cast<std::uint16_t>((raw[2 * i] << 8) | raw[2 * i + 1]));
-    dst[i] = v == kVoid ? std::numeric_limits<float>::quiet_NaN() : static_cast<float>(v);
-  }
-
+  DemHeader h;
+  h.width = h.height = n;
   const double step = 1.0 / (n - 1);
-  dem.georef.transform = GeoTransform{corner.lon_west - 0.5 * step, step, corner.lat_south + 1.0 + 0.5 * step, -step};
-  dem.georef.epsg = 4326;
-  dem.nodata = static_cast<double>(kVoid);
-  dem.source = path;
-  dem.format = std::string("SRTM HGT ") + (n == 1201 ? "3" : "1") + " arc-second (" + std::to_string(n) + "x" +
-               std::to_string(n) + ")";
+  h.georef.transform = GeoTransform{corner.lon_west - 0.5 * step, step, corner.lat_south + 1.0 + 0.5 * step, -step};
+  h.georef.epsg = 4326;
+  h.nodata = static_cast<double>(kVoid);
+  h.source = path;
+  h.format = std::string("SRTM HGT ") + (n == 1201 ? "3" : "1") + " arc-second (" + std::to_string(n) + "x" +
+             std::to_string(n) + ")";
+  // No internal blocks: rows are read directly, so a window reads its rows only.
+  h.block_width = n;
+  h.block_height = n;
+  h.blocks_total = 1;
+  return h;
+}
+
+// The rows of a window are one contiguous run of the file: one read, then
+// the window's columns converted from big-endian int16.
+class HgtFile final : public RasterFile {
+ public:
+  explicit HgtFile(DemHeader header) : RasterFile(std::move(header)) {}
+
+  Result<Grid<float>> read_cells(const Window& window, unsigned /*threads*/, ReadStats* stats) const override {
+    const auto start = std::chrono::steady_clock::now();
+    const DemHeader& h = header();
+    const int n = h.width;
+    assert(!window.empty() && window.col0 >= 0 && window.row0 >= 0 && window.col1 <= n && window.row1 <= n);
+    const std::size_t row_bytes = static_cast<std::size_t>(n) * 2;
+    std::vector<unsigned char> raw(row_bytes * static_cast<std::size_t>(window.height()));
+    std::ifstream in(h.source, std::ios::binary);
+    if (!in) return hgt_error(ErrorCode::kIoError, h.source, std::string("cannot open: ") + std::strerror(errno));
+    in.seekg(static_cast<std::streamoff>(row_bytes * static_cast<std::size_t>(window.row0)));
+    if (!in.read(reinterpret_cast<char*>(raw.data()), static_cast<std::streamsize>(raw.size())))
+      return hgt_error(ErrorCode::kIoError, h.source,
+                       "cannot read rows " + std::to_string(window.row0) + ".." + std::to_string(window.row1 - 1) +
+                           " (the file is shorter than an .hgt tile, or unreadable)");
+    Grid<float> cells(window.width(), window.height(), kUninitialized);
+    for (int r = 0; r < window.height(); ++r) {
+      const unsigned char* src =
+          raw.data() + static_cast<std::size_t>(r) * row_bytes + 2 * static_cast<std::size_t>(window.col0);
+      float* dst = cells.row(r);
+      for (int c = 0; c < window.width(); ++c) {
+        const auto v = static_cast<std::int16_t>(static_cast<std::uint16_t>((src[2 * c] << 8) | src[2 * c + 1]));
+        dst[c] = v == kVoid ? std::numeric_limits<float>::quiet_NaN() : static_cast<float>(v);
+      }
+    }
+    if (stats) {
+      *stats = ReadStats{};
+      stats->file_width = stats->file_height = n;
+      stats->window = window;
+      stats->block_width = stats->block_height = n;
+      stats->blocks_total = stats->blocks_read = 1;
+      stats->cells_decoded = window.cell_count();
+      stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    }
+    return cells;
+  }
+};
+
+}  // namespace
+
+Result<std::unique_ptr<RasterFile>> open_hgt(const std::string& path) {
+  auto header = hgt_header(path);
+  if (!header.ok()) return header.error();
+  return std::unique_ptr<RasterFile>(std::make_unique<HgtFile>(std::move(*header)));
+}
+
+Result<Dem> read_hgt(const std::string& path) {
+  auto file = open_hgt(path);
+  if (!file.ok()) return file.error();
+  const DemHeader& h = (*file)->header();
+  auto cells = (*file)->read_cells(Window{0, 0, h.width, h.height}, 1);
+  if (!cells.ok()) return cells.error();
+  Dem dem;
+  dem.elevation = std::move(*cells);
+  dem.georef = h.georef;
+  dem.nodata = h.nodata;
+  dem.source = h.source;
+  dem.format = h.format;
   return dem;
 }
 

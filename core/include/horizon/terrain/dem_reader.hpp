@@ -32,8 +32,10 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include "horizon/common/error.hpp"
 #include "horizon/terrain/dem.hpp"
@@ -63,14 +65,14 @@ struct ReadOptions {
 // What a read decoded. A "block" is the file's unit of storage and decoding:
 // a tile of a tiled TIFF, a strip of a striped one, the whole file otherwise.
 struct ReadStats {
-  int file_width = 0, file_height = 0;  // the raster's size in cells
-  Window window;                        // the cells returned, in the file's grid
-  bool tiled = false;                   // blocks are tiles (else strips, or the whole file)
+  int file_width = 0, file_height = 0;    // the raster's size in cells
+  Window window;                          // the cells returned, in the file's grid
+  bool tiled = false;                     // blocks are tiles (else strips, or the whole file)
   int block_width = 0, block_height = 0;  // cells per block (a strip: the width x rows per strip)
-  std::uint64_t blocks_total = 0;       // blocks of the band read
-  std::uint64_t blocks_read = 0;        // blocks decoded (0 for a header read)
-  std::uint64_t cells_decoded = 0;      // cells in the blocks decoded (whole blocks count)
-  double seconds = 0.0;                 // wall time of the read
+  std::uint64_t blocks_total = 0;         // blocks of the band read
+  std::uint64_t blocks_read = 0;          // blocks decoded (0 for a header read)
+  std::uint64_t cells_decoded = 0;        // cells in the blocks decoded (whole blocks count)
+  double seconds = 0.0;                   // wall time of the read
 };
 
 // A raster's facts without its pixels.
@@ -84,6 +86,30 @@ struct DemHeader {
   int block_width = 0, block_height = 0;
   std::uint64_t blocks_total = 0;
 };
+
+// An opened raster whose cells can be read many times, window by window,
+// from any thread at once, without parsing its header again: what a tiled
+// source (source.hpp) holds for each of its files. GeoTIFF windows decode
+// only the blocks under them; .hgt windows read only their rows; the other
+// formats are held decoded (they are small).
+class RasterFile {
+ public:
+  virtual ~RasterFile() = default;
+  const DemHeader& header() const { return header_; }
+  // Cells of `window` (the file's grid, inside the raster: callers clip),
+  // nodata as NaN, decoded on `threads` threads (0 = all cores). Errors name
+  // the file and the block that failed to decode. Thread-safe.
+  virtual Result<Grid<float>> read_cells(const Window& window, unsigned threads, ReadStats* stats = nullptr) const = 0;
+
+ protected:
+  explicit RasterFile(DemHeader header) : header_(std::move(header)) {}
+
+ private:
+  DemHeader header_;
+};
+
+// Opens any supported format; same checks and errors as read_dem_header().
+Result<std::unique_ptr<RasterFile>> open_raster(const std::string& path, const ReadOptions& options = {});
 
 // Reads any supported format. `stats`, when given, receives what was decoded.
 Result<Dem> read_dem(const std::string& path, const ReadOptions& options = {}, ReadStats* stats = nullptr);
@@ -101,6 +127,8 @@ Result<Window> clip_read_window(const Window& window, int width, int height, con
 Result<Dem> read_geotiff(const std::string& path, const ReadOptions& options, ReadStats* stats = nullptr);
 Result<DemHeader> read_geotiff_header(const std::string& path, const ReadOptions& options);
 Result<Dem> read_hgt(const std::string& path);
+Result<std::unique_ptr<RasterFile>> open_geotiff(const std::string& path, const ReadOptions& options);
+Result<std::unique_ptr<RasterFile>> open_hgt(const std::string& path);
 Result<Dem> read_terrain_rgb(const std::string& path, const ReadOptions& options);
 
 }  // namespace horizon::terrain
