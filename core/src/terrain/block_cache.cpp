@@ -1,0 +1,176 @@
+// The shared block cache: an LRU map of decoded blocks under a byte budget,
+// with decoding on a Boost.Asio thread pool and in-flight decodes joined.
+#include "horizon/terrain/block_cache.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <boost/asio/post.hpp>
+#include <boost/asio/thread_pool.hpp>
+#include <chrono>
+#include <future>
+#include <list>
+#include <mutex>
+#include <optional>
+#include <unordered_map>
+#include <utility>
+
+namespace horizon::terrain {
+namespace {
+
+struct KeyHash {
+  std::size_t operator()(const BlockKey& k) const {
+    return std::hash<std::uint64_t>{}(k.source * 0x9E3779B97F4A7C15ull ^ k.block);
+  }
+};
+
+std::uint64_t bytes_of(const Grid<float>& cells) {
+  return static_cast<std::uint64_t>(cells.size()) * sizeof(float);
+}
+
+using Pending = std::shared_future<Result<Block>>;
+
+}  // namespace
+
+struct BlockCache::State {
+  explicit State(const Options& o) : budget(o.budget_bytes), pool(std::max(1u, o.io_threads)) {}
+
+  struct Entry {
+    Block block;                        // set once resident
+    std::list<BlockKey>::iterator lru;  // position in `lru` while resident
+  };
+
+  const std::uint64_t budget;
+  mutable std::mutex mutex;
+  std::unordered_map<BlockKey, Entry, KeyHash> resident;
+  std::unordered_map<BlockKey, Pending, KeyHash> decoding;
+  std::list<BlockKey> lru;  // front = most recently used
+  BlockCacheStats counters;
+  // Bytes of every decoded block alive anywhere (the cache's and the evicted
+  // ones requests still hold); updated by the blocks' deleters.
+  std::atomic<std::uint64_t> live_bytes{0};
+  boost::asio::thread_pool pool;
+
+  // Keeps `block` while the budget allows, evicting from the back. Mutex held.
+  void keep(const BlockKey& key, const Block& block) {
+    const std::uint64_t bytes = bytes_of(*block);
+    if (bytes > budget) return;  // handed to its requesters only
+    while (counters.resident_bytes + bytes > budget && !lru.empty()) {
+      const BlockKey victim = lru.back();
+      lru.pop_back();
+      auto it = resident.find(victim);
+      counters.resident_bytes -= bytes_of(*it->second.block);
+      resident.erase(it);
+      ++counters.evictions;
+    }
+    lru.push_front(key);
+    resident.emplace(key, Entry{block, lru.begin()});
+    counters.resident_bytes += bytes;
+    counters.peak_resident_bytes = std::max(counters.peak_resident_bytes, counters.resident_bytes);
+  }
+};
+
+BlockCache::BlockCache(Options options) : state_(std::make_shared<State>(options)) {}
+
+BlockCache::~BlockCache() {
+  state_->pool.join();
+}
+
+std::uint64_t BlockCache::next_source_id() {
+  static std::atomic<std::uint64_t> next{1};
+  return next.fetch_add(1);
+}
+
+std::uint64_t BlockCache::budget_bytes() const {
+  return state_->budget;
+}
+
+BlockCacheStats BlockCache::stats() const {
+  std::lock_guard lock(state_->mutex);
+  BlockCacheStats s = state_->counters;
+  s.budget_bytes = state_->budget;
+  s.resident_blocks = state_->resident.size();
+  const std::uint64_t live = state_->live_bytes.load();
+  s.held_bytes = live > s.resident_bytes ? live - s.resident_bytes : 0;
+  return s;
+}
+
+Result<std::vector<Block>> BlockCache::fetch(std::span<const Want> wants, const RunControl* control,
+                                             FetchStats* stats) {
+  FetchStats local;
+  local.blocks = wants.size();
+  std::vector<Block> blocks(wants.size());
+  std::vector<std::optional<Pending>> pending(wants.size());
+  std::vector<bool> own(wants.size(), false);  // this fetch started the decode
+  {
+    std::lock_guard lock(state_->mutex);
+    for (std::size_t i = 0; i < wants.size(); ++i) {
+      const BlockKey key = wants[i].key;
+      if (auto it = state_->resident.find(key); it != state_->resident.end()) {
+        state_->lru.splice(state_->lru.begin(), state_->lru, it->second.lru);
+        blocks[i] = it->second.block;
+        ++local.hits;
+        continue;
+      }
+      if (auto it = state_->decoding.find(key); it != state_->decoding.end()) {
+        pending[i] = it->second;
+        ++local.joins;
+        continue;
+      }
+      // A decode of our own, posted once the map knows it (so a second want
+      // of the same key, in this fetch or another, joins it).
+      auto promise = std::make_shared<std::promise<Result<Block>>>();
+      Pending future = promise->get_future().share();
+      state_->decoding.emplace(key, future);
+      pending[i] = future;
+      own[i] = true;
+      ++local.misses;
+      std::weak_ptr<State> weak = state_;
+      boost::asio::post(state_->pool, [weak, key, load = wants[i].load, promise] {
+        std::shared_ptr<State> state = weak.lock();
+        if (!state) return promise->set_value(make_error(ErrorCode::kCancelled, "the block cache was closed"));
+        Result<Grid<float>> cells = load();
+        std::lock_guard inner(state->mutex);
+        state->decoding.erase(key);
+        if (!cells.ok()) {
+          ++state->counters.failures;
+          return promise->set_value(cells.error());
+        }
+        const std::uint64_t bytes = bytes_of(*cells);
+        state->counters.bytes_decoded += bytes;
+        state->live_bytes.fetch_add(bytes);
+        // The deleter holds the state weakly: a block may outlive its cache.
+        Block block(new Grid<float>(std::move(*cells)), [weak, bytes](const Grid<float>* g) {
+          if (auto s = weak.lock()) s->live_bytes.fetch_sub(bytes);
+          delete g;
+        });
+        state->keep(key, block);
+        promise->set_value(std::move(block));
+      });
+    }
+    state_->counters.hits += local.hits;
+    state_->counters.joins += local.joins;
+    state_->counters.misses += local.misses;
+  }
+
+  // Wait for every pending block, in order, polling the control.
+  const auto start = std::chrono::steady_clock::now();
+  std::optional<Error> failure;
+  for (std::size_t i = 0; i < wants.size(); ++i) {
+    if (!pending[i]) continue;
+    while (pending[i]->wait_for(std::chrono::milliseconds(5)) != std::future_status::ready)
+      if (auto s = check_control(control); !s.ok()) return s.error();
+    const Result<Block>& got = pending[i]->get();
+    if (!got.ok()) {
+      if (!failure) failure = got.error();
+      continue;
+    }
+    blocks[i] = *got;
+    if (own[i]) local.bytes_decoded += bytes_of(*blocks[i]);
+  }
+  local.wait_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (stats) *stats = local;
+  if (failure) return *failure;
+  return blocks;
+}
+
+}  // namespace horizon::terrain
