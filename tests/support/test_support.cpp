@@ -1,15 +1,17 @@
 #include "test_support.hpp"
 
+#include "horizon/terrain/geotiff_writer.hpp"
+
 #include <sys/wait.h>
 
+#include <unistd.h>
 #include <array>
-#include <cmath>
-#include <vector>
 #include <atomic>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <random>
-#include <unistd.h>
+#include <vector>
 
 namespace horizon::testing {
 
@@ -52,8 +54,7 @@ TempDir::TempDir() {
   static std::atomic<int> counter{0};
   std::random_device rd;
   path_ = std::filesystem::temp_directory_path() /
-          ("horizon-test-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + "-" +
-           std::to_string(rd()));
+          ("horizon-test-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + "-" + std::to_string(rd()));
   std::filesystem::create_directories(path_);
 }
 
@@ -87,6 +88,25 @@ CommandResult run_command(const std::string& command) {
   const int status = ::pclose(pipe);
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return result;
+}
+
+std::vector<std::string> write_tiles(const terrain::Dem& dem, int nx, int ny, const std::string& dir) {
+  std::vector<std::string> paths;
+  const int tw = dem.width() / nx, th = dem.height() / ny;
+  for (int ty = 0; ty < ny; ++ty)
+    for (int tx = 0; tx < nx; ++tx) {
+      const int c0 = tx * tw, r0 = ty * th;
+      const int c1 = tx == nx - 1 ? dem.width() : c0 + tw, r1 = ty == ny - 1 ? dem.height() : r0 + th;
+      terrain::Grid<float> cells(c1 - c0, r1 - r0);
+      for (int r = r0; r < r1; ++r)
+        for (int c = c0; c < c1; ++c) cells.at(c - c0, r - r0) = dem.elevation.at(c, r);
+      terrain::Georeference georef = dem.georef;
+      georef.transform = dem.georef.transform.shifted(c0, r0);
+      const std::string path = dir + "/tile_" + std::to_string(ty) + "_" + std::to_string(tx) + ".tif";
+      if (!terrain::write_geotiff(path, cells, georef, dem.nodata).ok()) return {};
+      paths.push_back(path);
+    }
+  return paths;
 }
 
 }  // namespace horizon::testing

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "horizon/terrain/dem.hpp"
 
@@ -13,14 +14,13 @@ namespace horizon::testing {
 // A DEM of width x height cells whose elevation at cell (col, row) is
 // height(col, row). Projected metres (EPSG:32633, UTM 33N) with square cells
 // of `cell_size` metres, origin at (500000, 5000000) so it is georeferenced.
-terrain::Dem make_dem(int width, int height, const std::function<double(int, int)>& height_fn,
-                      double cell_size = 10.0, int epsg = 32633);
+terrain::Dem make_dem(int width, int height, const std::function<double(int, int)>& height_fn, double cell_size = 10.0,
+                      int epsg = 32633);
 
 // Rough synthetic terrain for property tests: a fixed-seed sum of Gaussian
 // hills and pits (heights in [0, ~relief] metres) over value noise. No CRS
 // (epsg 0): grid units are plain metres, so distances are exactly cells x size.
-terrain::Dem make_random_terrain(int width, int height, unsigned seed, double relief = 200.0,
-                                 double cell_size = 30.0);
+terrain::Dem make_random_terrain(int width, int height, unsigned seed, double relief = 200.0, double cell_size = 30.0);
 
 // A fresh empty directory under the system temp dir, removed on destruction.
 class TempDir {
@@ -35,6 +35,12 @@ class TempDir {
  private:
   std::filesystem::path path_;
 };
+
+// Cuts `dem` into nx x ny tiles of near-equal size (the last row and column
+// take the remainder) and writes each as a GeoTIFF "<dir>/tile_<r>_<c>.tif"
+// with its own georeference (the DEM's, shifted to the tile's corner), as
+// gdal_translate -srcwin would. Returns the paths, row by row.
+std::vector<std::string> write_tiles(const terrain::Dem& dem, int nx, int ny, const std::string& dir);
 
 // Path of a DEM bundled in data/dem (always present), or in
 // $HORIZON_TEST_DATA_DIR when that is set.

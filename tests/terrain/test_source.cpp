@@ -1,0 +1,310 @@
+// Elevation sources: a mosaic of tiles reads the same cells as the raster it
+// was cut from, with or without the block cache; SRTM .hgt folders; missing,
+// mismatched and corrupt tiles named in errors.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <vector>
+
+#include "horizon/terrain/dem_reader.hpp"
+#include "horizon/terrain/geotiff_writer.hpp"
+#include "horizon/terrain/source.hpp"
+#include "test_support.hpp"
+
+namespace horizon::terrain {
+namespace {
+
+using testing::TempDir;
+
+bool same_cells(const Grid<float>& a, const Grid<float>& b) {
+  if (a.width() != b.width() || a.height() != b.height()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const float x = a.values()[i], y = b.values()[i];
+    if (!(x == y || (std::isnan(x) && std::isnan(y)))) return false;
+  }
+  return true;
+}
+
+BlockCache::Options cache_of(std::uint64_t budget, unsigned io_threads = 2) {
+  BlockCache::Options o;
+  o.budget_bytes = budget;
+  o.io_threads = io_threads;
+  return o;
+}
+
+SourceOptions blocks_of(std::uint64_t cells) {
+  SourceOptions o;
+  o.block_cells = cells;
+  return o;
+}
+
+SourceOptions missing_as_nodata() {
+  SourceOptions o;
+  o.missing_as_nodata = true;
+  return o;
+}
+
+std::string numbered(const char* prefix, int n) {
+  std::string s(prefix);
+  s += std::to_string(n);
+  return s;
+}
+
+Dem georeferenced_terrain(int width, int height, unsigned seed) {
+  Dem dem = testing::make_random_terrain(width, height, seed, 400.0, 10.0);
+  dem.georef.epsg = 32633;
+  dem.georef.transform = {500000.0, 10.0, 5000000.0, -10.0};
+  return dem;
+}
+
+TEST(ElevationSource, AMosaicHasTheGeoreferenceOfTheRasterItWasCutFrom) {
+  TempDir dir;
+  const Dem dem = georeferenced_terrain(301, 257, 3);
+  for (int n : {2, 3, 4}) {
+    const auto sub = dir.file(numbered("m", n));
+    std::filesystem::create_directory(sub);
+    ASSERT_EQ(testing::write_tiles(dem, n, n, sub).size(), static_cast<std::size_t>(n * n));
+    auto source = ElevationSource::open(sub);
+    ASSERT_TRUE(source.ok()) << source.error().message;
+    const DemHeader& h = (*source)->header();
+    EXPECT_TRUE((*source)->is_mosaic());
+    EXPECT_EQ(h.width, 301);
+    EXPECT_EQ(h.height, 257);
+    EXPECT_EQ(h.georef.epsg, 32633);
+    EXPECT_EQ(h.georef.transform, dem.georef.transform);  // bit for bit
+    EXPECT_EQ((*source)->files().size(), static_cast<std::size_t>(n * n));
+    EXPECT_NE(h.format.find("mosaic of " + std::to_string(n * n) + " files"), std::string::npos) << h.format;
+  }
+}
+
+TEST(ElevationSource, TiledEqualsUntiledForEveryWindowWithAndWithoutTheCache) {
+  TempDir dir;
+  const Dem dem = georeferenced_terrain(301, 257, 5);
+  const std::string merged = dir.file("merged.tif");
+  ASSERT_TRUE(write_geotiff(merged, dem.elevation, dem.georef, std::nullopt).ok());
+  auto whole = ElevationSource::open(merged);
+  ASSERT_TRUE(whole.ok());
+  std::mt19937 rng(11);
+  for (int n : {2, 3, 4}) {
+    const auto sub = dir.file(numbered("t", n));
+    std::filesystem::create_directory(sub);
+    testing::write_tiles(dem, n, n, sub);
+    // Small blocks so that windows cross many of them.
+    auto tiled = ElevationSource::open(sub, blocks_of(900));
+    ASSERT_TRUE(tiled.ok()) << tiled.error().message;
+    BlockCache cache(cache_of(1 << 20, 2));
+    std::uniform_int_distribution<int> col(-20, 300), row(-20, 256), size(1, 200);
+    for (int i = 0; i < 25; ++i) {
+      const int c0 = col(rng), r0 = row(rng);
+      const Window w{c0, r0, c0 + size(rng), r0 + size(rng)};
+      ReadOptions window_only;
+      window_only.window = w;
+      auto expect = read_dem(merged, window_only);
+      if (!expect.ok()) continue;  // outside: both refuse
+      for (BlockCache* c : {static_cast<BlockCache*>(nullptr), &cache}) {
+        SourceReadStats stats;
+        auto got = (*tiled)->read(w, c, nullptr, &stats);
+        ASSERT_TRUE(got.ok()) << got.error().message;
+        EXPECT_TRUE(same_cells(got->elevation, expect->elevation)) << n << " tiles, window " << i;
+        EXPECT_EQ(got->georef.transform, expect->georef.transform);
+        EXPECT_EQ(stats.blocks, (*tiled)->blocks_in(stats.window).size());
+        auto single = (*whole)->read(w, c);
+        ASSERT_TRUE(single.ok());
+        EXPECT_TRUE(same_cells(single->elevation, expect->elevation));
+      }
+    }
+    const BlockCacheStats s = cache.stats();
+    EXPECT_GT(s.hits, 0u);
+    EXPECT_LE(s.peak_resident_bytes, 1u << 20);
+  }
+}
+
+TEST(ElevationSource, BlocksUnderAWindowAreExactlyThoseThatMeetIt) {
+  TempDir dir;
+  const Dem dem = georeferenced_terrain(300, 200, 1);
+  testing::write_tiles(dem, 3, 2, dir.path().string());
+  auto source = ElevationSource::open(dir.path().string(), blocks_of(1000));
+  ASSERT_TRUE(source.ok());
+  const ElevationSource& s = **source;
+  const Window w{95, 40, 213, 171};
+  const auto blocks = s.blocks_in(w);
+  std::uint64_t cells = 0;
+  std::vector<bool> named(s.block_count(), false);
+  for (std::uint64_t b : blocks) named[b] = true;
+  for (std::uint64_t b = 0; b < s.block_count(); ++b) {
+    const Window c = s.block_cells(b);
+    const bool meets =
+        std::max(c.col0, w.col0) < std::min(c.col1, w.col1) && std::max(c.row0, w.row0) < std::min(c.row1, w.row1);
+    EXPECT_EQ(named[b], meets) << "block " << b;
+    cells += c.cell_count();
+  }
+  EXPECT_EQ(cells, 300u * 200u);  // the blocks tile the mosaic
+}
+
+// Writes an SRTM tile named by its corner, big-endian int16, height z(lon, lat) on whole-degree-aligned samples.
+void write_hgt(const std::string& dir, int lat, int lon, int n) {
+  char name[32];
+  std::snprintf(name, sizeof name, "%c%02d%c%03d.hgt", lat >= 0 ? 'N' : 'S', std::abs(lat), lon >= 0 ? 'E' : 'W',
+                std::abs(lon));
+  std::ofstream out(dir + "/" + name, std::ios::binary);
+  for (int r = 0; r < n; ++r)
+    for (int c = 0; c < n; ++c) {
+      // A function of the global sample position, so shared edges agree.
+      const long gc = static_cast<long>(lon) * (n - 1) + c, gr = static_cast<long>(-lat) * (n - 1) + r;
+      auto v = static_cast<std::int16_t>((gc * 7 + gr * 13) % 3000 - 200);
+      if ((gc + gr) % 997 == 0) v = -32768;  // a void now and then
+      const unsigned char bytes[2] = {static_cast<unsigned char>(static_cast<std::uint16_t>(v) >> 8),
+                                      static_cast<unsigned char>(v & 0xff)};
+      out.write(reinterpret_cast<const char*>(bytes), 2);
+    }
+}
+
+TEST(ElevationSource, AFolderOfHgtTilesIsOneRasterWithSharedEdgesOnce) {
+  TempDir dir;
+  for (int lat : {46, 47})
+    for (int lon : {-122, -121}) write_hgt(dir.path().string(), lat, lon, 1201);
+  auto source = ElevationSource::open(dir.path().string());
+  ASSERT_TRUE(source.ok()) << source.error().message;
+  const DemHeader& h = (*source)->header();
+  EXPECT_EQ(h.width, 2401);
+  EXPECT_EQ(h.height, 2401);
+  EXPECT_EQ(h.georef.epsg, 4326);
+  EXPECT_DOUBLE_EQ(h.georef.transform.x_at(0), -122.0);
+  EXPECT_DOUBLE_EQ(h.georef.transform.y_at(0), 48.0);
+  // Every cell, through the cache, is the tile's own sample.
+  BlockCache cache(cache_of(64 << 20));
+  auto all = (*source)->read({0, 0, 2401, 2401}, &cache);
+  ASSERT_TRUE(all.ok()) << all.error().message;
+  auto nw = read_hgt(dir.file("N47W122.hgt"));
+  auto se = read_hgt(dir.file("N46W121.hgt"));
+  ASSERT_TRUE(nw.ok() && se.ok());
+  for (int r = 0; r < 1201; r += 37)
+    for (int c = 0; c < 1201; c += 41) {
+      const float a = all->elevation.at(c, r), b = nw->elevation.at(c, r);
+      EXPECT_TRUE(a == b || (std::isnan(a) && std::isnan(b))) << c << "," << r;
+      const float d = all->elevation.at(1200 + c, 1200 + r), e = se->elevation.at(c, r);
+      EXPECT_TRUE(d == e || (std::isnan(d) && std::isnan(e))) << c << "," << r;
+    }
+  // The uncached read of a window across all four tiles gives the same cells.
+  auto direct = (*source)->read({1100, 1150, 1300, 1260}, nullptr);
+  auto cached = (*source)->read({1100, 1150, 1300, 1260}, &cache);
+  ASSERT_TRUE(direct.ok() && cached.ok());
+  EXPECT_TRUE(same_cells(direct->elevation, cached->elevation));
+}
+
+TEST(ElevationSource, RejectsAMissingTileByDefaultAndReadsItAsVoidsWhenAsked) {
+  TempDir dir;
+  const Dem dem = georeferenced_terrain(90, 90, 2);
+  const auto tiles = testing::write_tiles(dem, 3, 3, dir.path().string());
+  std::filesystem::remove(tiles[4]);  // the centre tile, cells 30..59 (the window below meets 30..49)
+  auto source = ElevationSource::open(dir.path().string());
+  ASSERT_TRUE(source.ok());
+  auto away = (*source)->read({0, 0, 25, 25}, nullptr);
+  EXPECT_TRUE(away.ok());  // a window that does not need it is served
+  auto over = (*source)->read({20, 20, 50, 50}, nullptr);
+  ASSERT_FALSE(over.ok());
+  EXPECT_EQ(over.error().code, ErrorCode::kNotFound);
+  EXPECT_NE(over.error().message.find("no file covers cols 30..49, rows 30..49"), std::string::npos)
+      << over.error().message;
+  auto lenient = ElevationSource::open(dir.path().string(), missing_as_nodata());
+  ASSERT_TRUE(lenient.ok());
+  BlockCache cache(cache_of(1 << 20));
+  for (BlockCache* c : {static_cast<BlockCache*>(nullptr), &cache}) {
+    auto got = (*lenient)->read({20, 20, 50, 50}, c);
+    ASSERT_TRUE(got.ok()) << got.error().message;
+    EXPECT_TRUE(std::isnan(got->elevation.at(15, 15)));            // cell (35, 35)
+    EXPECT_EQ(got->elevation.at(0, 0), dem.elevation.at(20, 20));  // cell (20, 20)
+  }
+}
+
+TEST(ElevationSource, ATileThatVanishedAfterOpenFailsTheReadNamingIt) {
+  TempDir dir;
+  const Dem dem = georeferenced_terrain(60, 60, 4);
+  const auto tiles = testing::write_tiles(dem, 2, 2, dir.path().string());
+  auto source = ElevationSource::open(dir.path().string());
+  ASSERT_TRUE(source.ok());
+  std::filesystem::remove(tiles[3]);
+  BlockCache cache(cache_of(1 << 20));
+  auto got = (*source)->read({0, 0, 60, 60}, &cache);
+  ASSERT_FALSE(got.ok());
+  EXPECT_NE(got.error().message.find("tile_1_1.tif"), std::string::npos) << got.error().message;
+  EXPECT_NE(got.error().message.find("block"), std::string::npos) << got.error().message;
+  EXPECT_TRUE((*source)->read({0, 0, 25, 25}, &cache).ok());  // the other tiles still serve
+}
+
+TEST(ElevationSource, ACorruptTileFailsTheReadNamingTheFileAndBlock) {
+  TempDir dir;
+  const Dem dem = georeferenced_terrain(600, 300, 6);
+  const auto tiles = testing::write_tiles(dem, 2, 1, dir.path().string());
+  // Overwrite the middle of the east tile's compressed pixels.
+  const auto size = std::filesystem::file_size(tiles[1]);
+  {
+    std::fstream f(tiles[1], std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(static_cast<std::streamoff>(size / 2));
+    const std::string junk(512, '\xA5');
+    f.write(junk.data(), static_cast<std::streamsize>(junk.size()));
+  }
+  auto source = ElevationSource::open(dir.path().string());
+  ASSERT_TRUE(source.ok()) << source.error().message;
+  BlockCache cache(cache_of(4 << 20));
+  auto got = (*source)->read({0, 0, 600, 300}, &cache);
+  ASSERT_FALSE(got.ok());
+  EXPECT_EQ(got.error().code, ErrorCode::kDataError);
+  EXPECT_NE(got.error().message.find("tile_0_1.tif"), std::string::npos) << got.error().message;
+  EXPECT_NE(got.error().message.find("block"), std::string::npos) << got.error().message;
+  EXPECT_TRUE((*source)->read({0, 0, 250, 300}, &cache).ok());  // the west tile is fine
+}
+
+TEST(ElevationSource, RejectsFilesNotOnOneGrid) {
+  const Dem dem = georeferenced_terrain(40, 40, 8);
+  {
+    TempDir dir;
+    testing::write_tiles(dem, 2, 1, dir.path().string());
+    Georeference off = dem.georef;
+    off.transform.origin_x += 3.5;  // a third of a cell off the grid
+    ASSERT_TRUE(write_geotiff(dir.file("z_off.tif"), dem.elevation, off, std::nullopt).ok());
+    auto s = ElevationSource::open(dir.path().string());
+    ASSERT_FALSE(s.ok());
+    EXPECT_NE(s.error().message.find("z_off.tif"), std::string::npos) << s.error().message;
+    EXPECT_NE(s.error().message.find("one grid"), std::string::npos) << s.error().message;
+  }
+  {
+    TempDir dir;
+    testing::write_tiles(dem, 2, 1, dir.path().string());
+    Georeference coarse = dem.georef;
+    coarse.transform.pixel_width = 20.0;
+    ASSERT_TRUE(write_geotiff(dir.file("z_coarse.tif"), dem.elevation, coarse, std::nullopt).ok());
+    auto s = ElevationSource::open(dir.path().string());
+    ASSERT_FALSE(s.ok());
+    EXPECT_NE(s.error().message.find("z_coarse.tif"), std::string::npos);
+    EXPECT_NE(s.error().message.find("cell size"), std::string::npos) << s.error().message;
+  }
+  {
+    TempDir dir;
+    testing::write_tiles(dem, 2, 1, dir.path().string());
+    Georeference other = dem.georef;
+    other.epsg = 32634;
+    ASSERT_TRUE(write_geotiff(dir.file("z_crs.tif"), dem.elevation, other, std::nullopt).ok());
+    auto s = ElevationSource::open(dir.path().string());
+    ASSERT_FALSE(s.ok());
+    EXPECT_NE(s.error().message.find("EPSG:32634"), std::string::npos) << s.error().message;
+  }
+}
+
+TEST(ElevationSource, RejectsAnEmptyFolderAndAMissingPath) {
+  TempDir dir;
+  std::ofstream(dir.file("README.txt")) << "not a raster";
+  auto empty = ElevationSource::open(dir.path().string());
+  ASSERT_FALSE(empty.ok());
+  EXPECT_NE(empty.error().message.find("no .tif, .tiff or .hgt file"), std::string::npos);
+  auto missing = ElevationSource::open(dir.file("nope"));
+  ASSERT_FALSE(missing.ok());
+  EXPECT_EQ(missing.error().code, ErrorCode::kNotFound);
+}
+
+}  // namespace
+}  // namespace horizon::terrain
