@@ -78,9 +78,14 @@ Result<Rect> to_dataset_crs(const geodesy::Crs& crs, const BoxSpec& b, std::size
 }  // namespace
 
 Result<std::vector<BoxFootprint>> resolve_boxes(const terrain::Dem& dem, std::span<const BoxSpec> boxes) {
+  return resolve_boxes(dem.georef, dem.width(), dem.height(), dem.source, boxes);
+}
+
+Result<std::vector<BoxFootprint>> resolve_boxes(const terrain::Georeference& georef, int width, int height,
+                                                const std::string& source, std::span<const BoxSpec> boxes) {
   std::optional<geodesy::Crs> crs;
-  const auto& t = dem.georef.transform;
-  const double w = dem.width(), h = dem.height();
+  const auto& t = georef.transform;
+  const double w = width, h = height;
   std::vector<BoxFootprint> out;
   out.reserve(boxes.size());
   for (std::size_t i = 0; i < boxes.size(); ++i) {
@@ -89,12 +94,12 @@ Result<std::vector<BoxFootprint>> resolve_boxes(const terrain::Dem& dem, std::sp
     Rect r{b.x_min, b.y_min, b.x_max, b.y_max};
     if (b.frame == geodesy::PointFrame::kWgs84) {
       if (!crs) {
-        if (dem.georef.epsg == 0)
+        if (georef.epsg == 0)
           return make_error(ErrorCode::kUnsupported,
-                            box_field(i, "frame") + ": WGS84 boxes need a dataset with a CRS; '" + dem.source +
+                            box_field(i, "frame") + ": WGS84 boxes need a dataset with a CRS; '" + source +
                                 "' has none",
                             box_field(i, "frame"));
-        auto c = geodesy::Crs::from_epsg(dem.georef.epsg);
+        auto c = geodesy::Crs::from_epsg(georef.epsg);
         if (!c.ok()) return c.error();
         crs = *c;
       }
@@ -115,13 +120,13 @@ Result<std::vector<BoxFootprint>> resolve_boxes(const terrain::Dem& dem, std::sp
     // Inside the raster's outer extent: grid coordinates [-0.5, size - 0.5].
     if (c0 < -0.5 || r0 < -0.5 || c1 > w - 0.5 || r1 > h - 0.5)
       return make_error(ErrorCode::kOutOfRange,
-                        box_field(i, "") + ": footprint lies (partly) outside the dataset '" + dem.source + "'",
+                        box_field(i, "") + ": footprint lies (partly) outside the dataset '" + source + "'",
                         box_field(i, ""));
     BoxFootprint f;
     f.cells.col0 = std::max(0, static_cast<int>(std::floor(c0)));
     f.cells.row0 = std::max(0, static_cast<int>(std::floor(r0)));
-    f.cells.col1 = std::min(dem.width(), static_cast<int>(std::ceil(c1)) + 1);
-    f.cells.row1 = std::min(dem.height(), static_cast<int>(std::ceil(r1)) + 1);
+    f.cells.col1 = std::min(width, static_cast<int>(std::ceil(c1)) + 1);
+    f.cells.row1 = std::min(height, static_cast<int>(std::ceil(r1)) + 1);
     f.z_min = b.z_min;
     f.z_max = b.z_max;
     out.push_back(f);

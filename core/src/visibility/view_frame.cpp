@@ -41,6 +41,21 @@ void reset_output(terrain::Grid<float>& ohf, const terrain::Window& window, unsi
   });
 }
 
+Result<CellSizeMetres> metric_cell_size(const terrain::Georeference& georef, double x, double y,
+                                        const std::string& source) {
+  const auto& t = georef.transform;
+  geodesy::GroundScale scale;  // metres per CRS unit; 1 when the DEM has no CRS
+  if (georef.epsg != 0) {
+    auto crs = geodesy::Crs::from_epsg(georef.epsg);
+    if (!crs.ok()) return crs.error();
+    scale = crs->ground_scale({x, y});
+  }
+  CellSizeMetres m{std::abs(t.pixel_width) * scale.metres_per_x, std::abs(t.pixel_height) * scale.metres_per_y};
+  if (!(m.per_col > 0) || !(m.per_row > 0) || !std::isfinite(m.per_col) || !std::isfinite(m.per_row))
+    return make_error(ErrorCode::kDataError, "dem '" + source + "': cell size is not a positive finite length", "dem");
+  return m;
+}
+
 Result<ViewFrame> make_view_frame(const terrain::Dem& dem, const geodesy::GridPoint& observer,
                                   const ViewshedOptions& options) {
   HORIZON_RETURN_IF_ERROR(validate_options(options));
@@ -62,19 +77,10 @@ Result<ViewFrame> make_view_frame(const terrain::Dem& dem, const geodesy::GridPo
   f.curvature = options.curvature_coefficient / (2.0 * geodesy::kEarthRadiusMetres);
   f.max_distance = options.max_distance;
 
-  const auto& t = dem.georef.transform;
-  geodesy::GroundScale scale;  // metres per CRS unit; 1 when the DEM has no CRS
-  if (dem.georef.epsg != 0) {
-    auto crs = geodesy::Crs::from_epsg(dem.georef.epsg);
-    if (!crs.ok()) return crs.error();
-    scale = crs->ground_scale({observer.x, observer.y});
-  }
-  f.metres_per_col = std::abs(t.pixel_width) * scale.metres_per_x;
-  f.metres_per_row = std::abs(t.pixel_height) * scale.metres_per_y;
-  if (!(f.metres_per_col > 0) || !(f.metres_per_row > 0) || !std::isfinite(f.metres_per_col) ||
-      !std::isfinite(f.metres_per_row))
-    return make_error(ErrorCode::kDataError, "dem '" + dem.source + "': cell size is not a positive finite length",
-                      "dem");
+  auto cell = metric_cell_size(dem.georef, observer.x, observer.y, dem.source);
+  if (!cell.ok()) return cell.error();
+  f.metres_per_col = cell->per_col;
+  f.metres_per_row = cell->per_row;
 
   // Bounding box of the max-distance circle, clipped to the DEM; always holds
   // the cell nearest the observer.

@@ -34,6 +34,7 @@
 
 #include <cstdint>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "horizon/common/control.hpp"
@@ -89,6 +90,10 @@ struct CullResult {
 // kInvalidArgument "boxes[3].z_max", kOutOfRange "boxes[7]",
 // kUnsupported for WGS84 boxes on a DEM without a CRS.
 Result<std::vector<BoxFootprint>> resolve_boxes(const terrain::Dem& dem, std::span<const BoxSpec> boxes);
+// The same against a raster's georeference and size alone (a source's
+// header; `source` names it in messages).
+Result<std::vector<BoxFootprint>> resolve_boxes(const terrain::Georeference& georef, int width, int height,
+                                                const std::string& source, std::span<const BoxSpec> boxes);
 
 // Ground metres from the eye to the farthest cell centre any footprint covers:
 // the max distance a viewshed needs to answer these boxes.

@@ -10,6 +10,7 @@
 // varies by ~1 %, which is far inside the distances where curvature matters).
 // Curvature and refraction lower a point at distance d by curvature * d^2.
 #pragma once
+#include <string>
 
 #include "horizon/common/error.hpp"
 #include "horizon/geodesy/observer.hpp"
@@ -20,11 +21,11 @@ namespace horizon::visibility {
 
 struct ViewFrame {
   double observer_col = 0.0, observer_row = 0.0;  // grid coordinates of the eye
-  double eye = 0.0;                                // absolute eye elevation, metres
+  double eye = 0.0;                               // absolute eye elevation, metres
   double metres_per_col = 1.0, metres_per_row = 1.0;
-  double curvature = 0.0;      // metres of drop per metre^2 of distance: coefficient / (2 R)
-  double max_distance = 0.0;   // metres (may be +infinity)
-  terrain::Window window;      // cells within max_distance, clipped to the DEM
+  double curvature = 0.0;     // metres of drop per metre^2 of distance: coefficient / (2 R)
+  double max_distance = 0.0;  // metres (may be +infinity)
+  terrain::Window window;     // cells within max_distance, clipped to the DEM
   int dem_width = 0, dem_height = 0;
 
   // Ground distance in metres from the eye to the centre of cell (col, row).
@@ -41,6 +42,15 @@ struct ViewFrame {
 // has that size: a caller computing many viewsheds of one size (a daemon, a
 // benchmark) then pays no page faults.
 void reset_output(terrain::Grid<float>& ohf, const terrain::Window& window, unsigned threads = 1);
+
+// Ground metres per column and per row at CRS point (x, y): the cell size
+// times the CRS's point scale there (1 m per unit without a CRS). kDataError
+// naming `source` when not a positive finite length.
+struct CellSizeMetres {
+  double per_col = 1.0, per_row = 1.0;
+};
+Result<CellSizeMetres> metric_cell_size(const terrain::Georeference& georef, double x, double y,
+                                        const std::string& source);
 
 // Builds the frame for an observer already resolved against `dem`.
 Result<ViewFrame> make_view_frame(const terrain::Dem& dem, const geodesy::GridPoint& observer,

@@ -1,0 +1,158 @@
+// horizon/visibility/plan.hpp — a query validated once into a plan, then run.
+//
+//   auto source = terrain::ElevationSource::open("dem.tif");
+//   auto plan = visibility::plan_viewshed(**source, {.observer = spec, .options = options});
+//   if (plan->cost.bytes > budget) ...                         // refuse before any work
+//   auto run = visibility::run_viewshed(*plan, **source, &cache, &control, gpu);
+//
+// Planning reads no pixel: from the source's header alone it checks every
+// option, places the observer (or the boxes, or the sight line's ends) in the
+// source's grid, and finds the cells the query needs: the max-distance
+// window (the boxes' reach, the line's bounding box) plus a 2-cell margin,
+// clipped to the source. The plan names those cells, the source blocks under
+// them, and the cost, so a caller (the daemon's admission, the CLI) decides
+// before anything is read or allocated.
+//
+// Running reads exactly the planned cells (through the block cache when one
+// is given), puts the observer on the ground there, and runs the engine on
+// that window as on a whole DEM. Shifting a located point by the window's
+// integer corner is exact in floating point and every algorithm works
+// relative to the eye, so a run gives bit-identical answers to the same
+// query on the whole raster, and a mosaic's answers equal those of the
+// merged file (tests/visibility/test_plan.cpp holds both).
+//
+// Frames. Plans and runs say where things are in the *source's* grid
+// (ViewshedRun::window, CullRun boxes); the engine structs inside a run
+// (ViewshedResult::frame, the run's dem) are in the read window's grid.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "horizon/common/control.hpp"
+#include "horizon/common/error.hpp"
+#include "horizon/geodesy/observer.hpp"
+#include "horizon/gpu/context_pool.hpp"
+#include "horizon/terrain/block_cache.hpp"
+#include "horizon/terrain/source.hpp"
+#include "horizon/visibility/cull.hpp"
+#include "horizon/visibility/line_of_sight.hpp"
+#include "horizon/visibility/viewshed.hpp"
+
+namespace horizon::visibility {
+
+// What a plan will cost, known before it runs.
+struct Cost {
+  std::uint64_t cells = 0;        // cells the algorithm answers (the output window)
+  std::uint64_t read_cells = 0;   // source cells read (the window and its margin)
+  std::uint64_t blocks = 0;       // source blocks under them
+  std::uint64_t block_bytes = 0;  // their decoded size (what a cold cache decodes)
+  // Engine working memory: the cells read, the OHF and the terrain crop, the
+  // algorithm's own tables (exact: pyramid and ring bounds; cull: the
+  // min-pyramid), per box and per profile sample. Not the caller's encodings.
+  std::uint64_t bytes = 0;
+  // Rough compute time on one core, seconds (from the measured cost per cell
+  // of each algorithm on the 12 M-cell benchmark; within a factor of ~3).
+  double seconds = 0.0;
+};
+
+// The cells a query reads and what is under them.
+struct ReadPlan {
+  terrain::Window read;               // source cells
+  std::vector<std::uint64_t> blocks;  // ElevationSource::blocks_in(read)
+};
+
+// ---- viewsheds ----------------------------------------------------------
+
+struct ViewshedQuery {
+  geodesy::PointSpec observer;
+  ViewshedOptions options;
+};
+
+struct ViewshedPlan {
+  ViewshedQuery query;
+  geodesy::GridPoint observer;  // located in the source's grid (ground and elevation not yet known)
+  terrain::Window output;       // the cells the OHF will cover, in the source's grid
+  ReadPlan read;
+  Cost cost;
+};
+
+// Errors: the options' (validate_options: field named), the observer's
+// (locate_point: "observer.lon", kOutOfRange outside the source).
+Result<ViewshedPlan> plan_viewshed(const terrain::ElevationSource& source, const ViewshedQuery& query);
+
+struct ViewshedRun {
+  terrain::Dem dem;             // the cells read (elevations released after the run: result.terrain holds the crop)
+  geodesy::GridPoint observer;  // on the ground, in dem's grid
+  ViewshedResult result;        // frame in dem's grid; stats.dem_cells = the source's cells
+  terrain::Window window;       // result.frame.window in the source's grid
+  terrain::SourceReadStats read;
+  // observer in the source's grid.
+  geodesy::GridPoint observer_in_source() const;
+};
+
+// Reads the planned cells (`cache` may be null: read the files directly),
+// places the observer (kDataError on a void under an above-ground eye) and
+// computes. NodataPolicy::kFill fills the run's own cells in place (the
+// source is never copied). `gpu` as compute_viewshed.
+Result<ViewshedRun> run_viewshed(const ViewshedPlan& plan, const terrain::ElevationSource& source,
+                                 terrain::BlockCache* cache, const RunControl* control = nullptr,
+                                 gpu::ContextPool* gpu = nullptr);
+
+// ---- culling ------------------------------------------------------------
+
+struct CullQuery {
+  geodesy::PointSpec observer;
+  std::vector<BoxSpec> boxes;
+  CullOptions options;
+};
+
+struct CullBoxesPlan {
+  CullQuery query;
+  geodesy::GridPoint observer;           // located in the source's grid
+  std::vector<BoxFootprint> footprints;  // in the source's grid
+  ViewshedOptions viewshed;              // algorithm chosen, max_distance = the boxes' reach
+  ReadPlan read;
+  Cost cost;
+};
+
+// Errors as plan_cull (boxes named by index) and plan_viewshed (observer).
+Result<CullBoxesPlan> plan_cull_boxes(const terrain::ElevationSource& source, CullQuery query);
+
+struct CullBoxesRun {
+  CullResult result;            // result.window in the source's grid
+  geodesy::GridPoint observer;  // on the ground, in the source's grid
+  terrain::SourceReadStats read;
+};
+
+Result<CullBoxesRun> run_cull_boxes(const CullBoxesPlan& plan, const terrain::ElevationSource& source,
+                                    terrain::BlockCache* cache, const RunControl* control = nullptr,
+                                    gpu::ContextPool* gpu = nullptr);
+
+// ---- one sight line -----------------------------------------------------
+
+struct LineQuery {
+  geodesy::PointSpec from, to;
+  LosOptions options;
+};
+
+struct LinePlan {
+  LineQuery query;
+  geodesy::GridPoint from, to;  // located in the source's grid
+  ReadPlan read;                // the line's bounding box and margin
+  Cost cost;
+};
+
+Result<LinePlan> plan_line(const terrain::ElevationSource& source, const LineQuery& query);
+
+struct LineRun {
+  LosResult result;             // profile positions in the source's grid
+  geodesy::GridPoint from, to;  // on the ground, in the source's grid
+  terrain::SourceReadStats read;
+};
+
+Result<LineRun> run_line(const LinePlan& plan, const terrain::ElevationSource& source, terrain::BlockCache* cache,
+                         const RunControl* control = nullptr);
+
+}  // namespace horizon::visibility

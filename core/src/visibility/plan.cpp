@@ -1,0 +1,265 @@
+// Plans: a query checked and placed on a source's header, its cells and cost
+// known; runs: the planned cells read and the engine run on them.
+#include "horizon/visibility/plan.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <utility>
+
+namespace horizon::visibility {
+namespace {
+
+// Cells beyond the window that a read adds, so that the window the engine
+// finds on the read cells equals the one it would find on the whole source
+// (cells_within and make_view_frame round the disc's edge separately).
+constexpr int kReadMargin = 2;
+
+// Measured single-core costs per answered cell (docs/benchmarks.md, the
+// 12 M-cell case): estimates for admission, not promises.
+constexpr double kFastSecondsPerCell = 16e-9;
+constexpr double kConservativeSecondsPerCell = 140e-9;
+constexpr double kExactSecondsPerCell = 1.2e-6;
+constexpr double kR3SecondsPerCellPerCrossing = 12e-9;  // R3 walks ~ the distance in cells per target
+constexpr double kLineSecondsPerCrossing = 20e-9;
+
+// Fixed tables of exact (the ring bounds near the eye), bytes.
+constexpr std::uint64_t kExactFixedBytes = 16ull << 20;
+
+ReadPlan plan_read(const terrain::ElevationSource& source, const terrain::Window& read) {
+  return {read, source.blocks_in(read)};
+}
+
+void add_read_cost(const terrain::ElevationSource& source, const ReadPlan& read, Cost& cost) {
+  cost.read_cells = read.read.cell_count();
+  cost.blocks = read.blocks.size();
+  for (std::uint64_t b : read.blocks) cost.block_bytes += source.block_bytes(b);
+  cost.bytes += cost.read_cells * sizeof(float);
+}
+
+// The OHF and the terrain crop per answered cell, and what the algorithm adds.
+void add_ohf_cost(const ViewshedOptions& o, const terrain::Window& output, double radius_cells, Cost& cost) {
+  const auto cells = static_cast<double>(output.cell_count());
+  cost.cells = output.cell_count();
+  cost.bytes += cost.cells * 2 * sizeof(float);
+  switch (o.algorithm) {
+    case Algorithm::kRadial:
+      cost.seconds += cells * kFastSecondsPerCell;
+      break;
+    case Algorithm::kConservative:
+      cost.seconds += cells * kConservativeSecondsPerCell;
+      break;
+    case Algorithm::kExact:
+      cost.bytes += cost.cells + kExactFixedBytes;  // the max-pyramid (~1 B a cell) and the ring bounds
+      cost.seconds += cells * kExactSecondsPerCell;
+      break;
+    case Algorithm::kR3:
+      cost.seconds += cells * radius_cells * kR3SecondsPerCellPerCrossing;
+      break;
+  }
+}
+
+// Puts a located point on the ground of a window read from the source: the
+// exact integer shift, then place_on_ground (its messages in the source's grid).
+Result<geodesy::GridPoint> on_ground(const terrain::Dem& dem, const terrain::Window& read, geodesy::GridPoint located,
+                                     const geodesy::PointSpec& spec, const char* what) {
+  located.col -= read.col0;
+  located.row -= read.row0;
+  return geodesy::place_on_ground(dem, located, spec, what);
+}
+
+geodesy::GridPoint to_source(geodesy::GridPoint p, const terrain::Window& read) {
+  p.col += read.col0;
+  p.row += read.row0;
+  return p;
+}
+
+terrain::Window shifted(const terrain::Window& w, int dc, int dr) {
+  return {w.col0 + dc, w.row0 + dr, w.col1 + dc, w.row1 + dr};
+}
+
+Result<geodesy::GridPoint> locate(const terrain::ElevationSource& source, const geodesy::PointSpec& spec,
+                                  const char* what) {
+  const terrain::DemHeader& h = source.header();
+  return geodesy::locate_point(h.georef, h.width, h.height, spec, what, h.source);
+}
+
+}  // namespace
+
+geodesy::GridPoint ViewshedRun::observer_in_source() const {
+  return to_source(observer, read.window);
+}
+
+Result<ViewshedPlan> plan_viewshed(const terrain::ElevationSource& source, const ViewshedQuery& query) {
+  HORIZON_RETURN_IF_ERROR(validate_options(query.options));
+  const terrain::DemHeader& h = source.header();
+  if (h.width < 2 || h.height < 2)
+    return make_error(ErrorCode::kDataError,
+                      "dem '" + h.source + "': a viewshed needs at least 2x2 cells, the DEM has " +
+                          std::to_string(h.width) + "x" + std::to_string(h.height),
+                      "dem");
+  ViewshedPlan plan;
+  plan.query = query;
+  auto located = locate(source, query.observer, "observer");
+  if (!located.ok()) return located.error();
+  plan.observer = *located;
+  const double radius = query.options.max_distance;
+  plan.output = geodesy::cells_within(h.georef, h.width, h.height, plan.observer, radius, 0);
+  plan.read = plan_read(source, geodesy::cells_within(h.georef, h.width, h.height, plan.observer, radius, kReadMargin));
+  add_read_cost(source, plan.read, plan.cost);
+  auto cell = metric_cell_size(h.georef, plan.observer.x, plan.observer.y, h.source);
+  if (!cell.ok()) return cell.error();
+  const double radius_cells =
+      0.5 * std::hypot(plan.output.width(), plan.output.height());  // the farthest a target may be, in cells
+  add_ohf_cost(query.options, plan.output, radius_cells, plan.cost);
+  return plan;
+}
+
+Result<ViewshedRun> run_viewshed(const ViewshedPlan& plan, const terrain::ElevationSource& source,
+                                 terrain::BlockCache* cache, const RunControl* control, gpu::ContextPool* gpu) {
+  ViewshedRun run;
+  auto dem = source.read(plan.read.read, cache, control, &run.read, plan.query.options.threads);
+  if (!dem.ok()) return dem.error();
+  run.dem = std::move(*dem);
+  auto observer = on_ground(run.dem, run.read.window, plan.observer, plan.query.observer, "observer");
+  if (!observer.ok()) return observer.error();
+  run.observer = *observer;
+  ViewshedOptions options = plan.query.options;
+  if (options.nodata == NodataPolicy::kFill) {
+    // The run's cells are its own: fill them in place.
+    const float fill = static_cast<float>(options.nodata_fill_height);
+    for (float& v : run.dem.elevation.values())
+      if (std::isnan(v)) v = fill;
+  }
+  auto result = compute_viewshed_taking_elevation(run.dem, run.observer, options, control, gpu);
+  if (!result.ok()) return result.error();
+  run.result = std::move(*result);
+  run.result.stats.dem_cells = static_cast<std::uint64_t>(source.width()) * static_cast<std::uint64_t>(source.height());
+  run.window = shifted(run.result.frame.window, run.read.window.col0, run.read.window.row0);
+  run.dem.elevation = terrain::Grid<float>();  // result.terrain holds the window's crop
+  return run;
+}
+
+Result<CullBoxesPlan> plan_cull_boxes(const terrain::ElevationSource& source, CullQuery query) {
+  if (query.boxes.empty()) return make_error(ErrorCode::kInvalidArgument, "boxes: at least one box is needed", "boxes");
+  const terrain::DemHeader& h = source.header();
+  CullBoxesPlan plan;
+  auto located = locate(source, query.observer, "observer");
+  if (!located.ok()) return located.error();
+  plan.observer = *located;
+  auto footprints = resolve_boxes(h.georef, h.width, h.height, h.source, query.boxes);
+  if (!footprints.ok()) return footprints.error();
+  plan.footprints = std::move(*footprints);
+
+  ViewshedOptions& vs = plan.viewshed;
+  vs = query.options.viewshed;
+  vs.target_height = 0.0;
+  vs.max_distance = std::numeric_limits<double>::infinity();
+  if (query.options.conservative) vs.algorithm = Algorithm::kConservative;
+  HORIZON_RETURN_IF_ERROR(validate_options(vs));
+  // The boxes' reach from the eye, as plan_cull finds it on a whole DEM.
+  auto cell = metric_cell_size(h.georef, plan.observer.x, plan.observer.y, h.source);
+  if (!cell.ok()) return cell.error();
+  ViewFrame at_eye;
+  at_eye.observer_col = plan.observer.col;
+  at_eye.observer_row = plan.observer.row;
+  at_eye.metres_per_col = cell->per_col;
+  at_eye.metres_per_row = cell->per_row;
+  const double reach = cull_reach(at_eye, plan.footprints);
+  vs.max_distance = std::max(reach * (1.0 + 1e-9) + 1e-6, std::min(cell->per_col, cell->per_row));
+
+  const terrain::Window output = geodesy::cells_within(h.georef, h.width, h.height, plan.observer, vs.max_distance, 0);
+  plan.read = plan_read(
+      source, geodesy::cells_within(h.georef, h.width, h.height, plan.observer, vs.max_distance, kReadMargin));
+  add_read_cost(source, plan.read, plan.cost);
+  add_ohf_cost(vs, output, 0.5 * std::hypot(output.width(), output.height()), plan.cost);
+  // The min-pyramid (~4/3 of the OHF) and, per box, its spec, footprint and answer.
+  plan.cost.bytes += plan.cost.cells * sizeof(float) * 4 / 3 +
+                     plan.footprints.size() * (sizeof(BoxSpec) + sizeof(BoxFootprint) + sizeof(BoxVisibility));
+  plan.query = std::move(query);
+  return plan;
+}
+
+Result<CullBoxesRun> run_cull_boxes(const CullBoxesPlan& plan, const terrain::ElevationSource& source,
+                                    terrain::BlockCache* cache, const RunControl* control, gpu::ContextPool* gpu) {
+  CullBoxesRun run;
+  const terrain::Window& read = plan.read.read;
+  auto dem = source.read(read, cache, control, &run.read, plan.viewshed.threads);
+  if (!dem.ok()) return dem.error();
+  const terrain::Window& got = run.read.window;
+  auto observer = on_ground(*dem, got, plan.observer, plan.query.observer, "observer");
+  if (!observer.ok()) return observer.error();
+  // The footprints were resolved on the source's grid: shift them (integers)
+  // rather than resolve them again on the window's georeference.
+  CullPlan local;
+  local.viewshed = plan.viewshed;
+  local.footprints.reserve(plan.footprints.size());
+  for (BoxFootprint f : plan.footprints) {
+    f.cells = shifted(f.cells, -got.col0, -got.row0);
+    local.footprints.push_back(f);
+  }
+  auto frame = make_view_frame(*dem, *observer, local.viewshed);
+  if (!frame.ok()) return frame.error();
+  local.frame = *frame;
+  auto result = run_cull(*dem, *observer, local, control, gpu);
+  if (!result.ok()) return result.error();
+  run.result = std::move(*result);
+  run.result.window = shifted(run.result.window, got.col0, got.row0);
+  run.result.stats.dem_cells = static_cast<std::uint64_t>(source.width()) * static_cast<std::uint64_t>(source.height());
+  run.observer = to_source(*observer, got);
+  return run;
+}
+
+Result<LinePlan> plan_line(const terrain::ElevationSource& source, const LineQuery& query) {
+  LinePlan plan;
+  plan.query = query;
+  auto from = locate(source, query.from, "from");
+  if (!from.ok()) return from.error();
+  auto to = locate(source, query.to, "to");
+  if (!to.ok()) return to.error();
+  plan.from = *from;
+  plan.to = *to;
+  const terrain::DemHeader& h = source.header();
+  const terrain::Window read{
+      std::max(0, static_cast<int>(std::floor(std::min(from->col, to->col))) - kReadMargin),
+      std::max(0, static_cast<int>(std::floor(std::min(from->row, to->row))) - kReadMargin),
+      std::min(h.width, static_cast<int>(std::ceil(std::max(from->col, to->col))) + 1 + kReadMargin),
+      std::min(h.height, static_cast<int>(std::ceil(std::max(from->row, to->row))) + 1 + kReadMargin)};
+  plan.read = plan_read(source, read);
+  add_read_cost(source, plan.read, plan.cost);
+  const std::uint64_t crossings = static_cast<std::uint64_t>(read.width() + read.height());
+  plan.cost.bytes += crossings * sizeof(ProfileSample);
+  plan.cost.seconds = static_cast<double>(crossings) * kLineSecondsPerCrossing;
+  return plan;
+}
+
+Result<LineRun> run_line(const LinePlan& plan, const terrain::ElevationSource& source, terrain::BlockCache* cache,
+                         const RunControl* control) {
+  LineRun run;
+  auto dem = source.read(plan.read.read, cache, control, &run.read, 1);
+  if (!dem.ok()) return dem.error();
+  const terrain::Window& got = run.read.window;
+  auto from = on_ground(*dem, got, plan.from, plan.query.from, "from");
+  if (!from.ok()) return from.error();
+  auto to = on_ground(*dem, got, plan.to, plan.query.to, "to");
+  if (!to.ok()) return to.error();
+  auto los = line_of_sight(*dem, *from, *to, plan.query.options);
+  if (!los.ok()) return los.error();
+  run.result = std::move(*los);
+  // Positions back in the source's grid, x/y from the source's own transform
+  // (the window's shifted origin would round differently).
+  const terrain::GeoTransform& t = source.header().georef.transform;
+  auto back = [&](ProfileSample& s) {
+    s.col += got.col0;
+    s.row += got.row0;
+    s.x = t.x_at(s.col);
+    s.y = t.y_at(s.row);
+  };
+  for (ProfileSample& s : run.result.profile) back(s);
+  if (run.result.first_block) back(*run.result.first_block);
+  run.from = to_source(*from, got);
+  run.to = to_source(*to, got);
+  return run;
+}
+
+}  // namespace horizon::visibility

@@ -1,0 +1,295 @@
+// Plans and runs: a planned query on a window of the source answers as the
+// same query on the whole raster, a mosaic answers as the raster it was cut
+// from (observers on tile borders and corners), the plan names its cost
+// before any pixel is read, and bad queries are refused at planning.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "horizon/terrain/dem_reader.hpp"
+#include "horizon/visibility/plan.hpp"
+#include "test_support.hpp"
+
+namespace horizon::visibility {
+namespace {
+
+using testing::TempDir;
+
+bool same_grid(const terrain::Grid<float>& a, const terrain::Grid<float>& b) {
+  if (a.width() != b.width() || a.height() != b.height()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const float x = a.values()[i], y = b.values()[i];
+    if (!(x == y || (std::isnan(x) && std::isnan(y)))) return false;
+  }
+  return true;
+}
+
+std::shared_ptr<const terrain::ElevationSource> open(const std::string& path) {
+  auto s = terrain::ElevationSource::open(path);
+  EXPECT_TRUE(s.ok()) << (s.ok() ? "" : s.error().message);
+  return s.ok() ? *s : nullptr;
+}
+
+// A point at grid position (col, row) of a raster, in its CRS.
+geodesy::PointSpec at_cell(const terrain::DemHeader& h, double col, double row, double height = 10.0) {
+  geodesy::PointSpec p;
+  p.x = h.georef.transform.x_at(col);
+  p.y = h.georef.transform.y_at(row);
+  p.height = height;
+  return p;
+}
+
+ViewshedQuery query(const geodesy::PointSpec& observer, Algorithm algorithm, double max_distance) {
+  ViewshedQuery q;
+  q.observer = observer;
+  q.options.algorithm = algorithm;
+  q.options.max_distance = max_distance;
+  q.options.threads = 2;
+  return q;
+}
+
+terrain::BlockCache::Options cache_of(std::uint64_t budget) {
+  terrain::BlockCache::Options o;
+  o.budget_bytes = budget;
+  o.io_threads = 2;
+  return o;
+}
+
+constexpr Algorithm kAlgorithms[] = {Algorithm::kRadial, Algorithm::kConservative, Algorithm::kExact};
+
+TEST(Plan, ARunOnTheReadWindowEqualsTheViewshedOfTheWholeRaster) {
+  const std::string path = testing::bundled_dem("zion_canyon_srtm3_465x457.tif");
+  auto source = open(path);
+  ASSERT_TRUE(source);
+  auto dem = terrain::read_dem(path);
+  ASSERT_TRUE(dem.ok());
+  const terrain::DemHeader& h = source->header();
+  terrain::BlockCache cache(cache_of(16 << 20));
+  for (Algorithm algorithm : kAlgorithms)
+    for (double max_distance : {2500.0, 6000.0, std::numeric_limits<double>::infinity()}) {
+      const ViewshedQuery q = query(at_cell(h, 201.3, 170.6), algorithm, max_distance);
+      auto plan = plan_viewshed(*source, q);
+      ASSERT_TRUE(plan.ok()) << plan.error().message;
+      auto run = run_viewshed(*plan, *source, &cache);
+      ASSERT_TRUE(run.ok()) << run.error().message;
+      auto observer = geodesy::resolve_point(*dem, q.observer, "observer");
+      ASSERT_TRUE(observer.ok());
+      auto whole = compute_viewshed(*dem, *observer, q.options);
+      ASSERT_TRUE(whole.ok());
+      EXPECT_EQ(run->window, whole->frame.window);
+      EXPECT_TRUE(same_grid(run->result.ohf, whole->ohf)) << algorithm_name(algorithm) << " " << max_distance;
+      EXPECT_EQ(run->observer_in_source().col, observer->col);
+      EXPECT_EQ(run->observer.elevation, observer->elevation);
+      EXPECT_EQ(run->result.stats.dem_cells, 465u * 457u);
+      // The plan knew the window before reading: the run's lies inside what it read.
+      EXPECT_GE(plan->cost.cells, run->window.cell_count());
+      EXPECT_LE(run->window.col0 - plan->read.read.col0, 3);
+    }
+}
+
+TEST(Plan, FillingVoidsInTheRunsOwnCellsEqualsFillingACopy) {
+  const std::string path = testing::bundled_dem("everest_summit_voids_srtm3_300x300.tif");
+  auto source = open(path);
+  ASSERT_TRUE(source);
+  auto dem = terrain::read_dem(path);
+  ASSERT_TRUE(dem.ok());
+  ViewshedQuery q = query(at_cell(source->header(), 209, 12, 2.0), Algorithm::kRadial, 8000.0);
+  q.options.nodata = NodataPolicy::kFill;
+  q.options.nodata_fill_height = 5000.0;
+  auto plan = plan_viewshed(*source, q);
+  ASSERT_TRUE(plan.ok());
+  auto run = run_viewshed(*plan, *source, nullptr);
+  ASSERT_TRUE(run.ok()) << run.error().message;
+  auto observer = geodesy::resolve_point(*dem, q.observer, "observer");
+  ASSERT_TRUE(observer.ok());
+  auto whole = compute_viewshed(*dem, *observer, q.options);
+  ASSERT_TRUE(whole.ok());
+  EXPECT_TRUE(same_grid(run->result.ohf, whole->ohf));
+  EXPECT_TRUE(same_grid(run->result.terrain, whole->terrain));
+}
+
+// Cuts the bundled Zion DEM into n x n tiles: the mosaic must answer every
+// query as the file does, for observers inside tiles, on their borders and corners.
+class TiledEqualsUntiled : public ::testing::TestWithParam<int> {};
+
+TEST_P(TiledEqualsUntiled, ViewshedsCullingAndLinesOfSight) {
+  const int n = GetParam();
+  const std::string path = testing::bundled_dem("zion_canyon_srtm3_465x457.tif");
+  auto dem = terrain::read_dem(path);
+  ASSERT_TRUE(dem.ok());
+  TempDir dir;
+  ASSERT_EQ(testing::write_tiles(*dem, n, n, dir.path().string()).size(), static_cast<std::size_t>(n * n));
+  auto merged = open(path);
+  auto tiled = open(dir.path().string());
+  ASSERT_TRUE(merged && tiled);
+  const terrain::DemHeader& h = merged->header();
+  terrain::BlockCache cache(cache_of(8 << 20));
+  const int tw = 465 / n, th = 457 / n;
+  // Inside a tile, on a vertical border, between two cells across it, on a corner.
+  const std::vector<std::pair<double, double>> cells{
+      {tw * 0.5, th * 0.4}, {tw, th * 0.5}, {tw - 0.5, th + 0.25}, {tw, th}};
+  for (const auto& [col, row] : cells) {
+    const geodesy::PointSpec eye = at_cell(h, col, row);
+    for (Algorithm algorithm : kAlgorithms)
+      for (double reach : {3000.0, std::numeric_limits<double>::infinity()}) {
+        const ViewshedQuery q = query(eye, algorithm, reach);
+        auto pa = plan_viewshed(*merged, q);
+        auto pb = plan_viewshed(*tiled, q);
+        ASSERT_TRUE(pa.ok() && pb.ok());
+        EXPECT_EQ(pa->read.read, pb->read.read);
+        auto a = run_viewshed(*pa, *merged, nullptr);
+        auto b = run_viewshed(*pb, *tiled, &cache);
+        ASSERT_TRUE(a.ok() && b.ok()) << (a.ok() ? b.error().message : a.error().message);
+        EXPECT_EQ(a->window, b->window);
+        EXPECT_TRUE(same_grid(a->result.ohf, b->result.ohf))
+            << n << "x" << n << " " << algorithm_name(algorithm) << " at " << col << "," << row;
+      }
+    // Culling: boxes all around, some across tile borders.
+    CullQuery cq;
+    cq.observer = eye;
+    cq.options.viewshed.threads = 2;
+    cq.options.conservative = true;
+    for (int i = 0; i < 40; ++i) {
+      const double bc = 20 + (i * 37) % 420, br = 15 + (i * 53) % 425;
+      visibility::BoxSpec b;
+      b.x_min = h.georef.transform.x_at(bc);
+      b.x_max = h.georef.transform.x_at(bc + 3);
+      b.y_max = h.georef.transform.y_at(br);
+      b.y_min = h.georef.transform.y_at(br + 2);
+      b.z_min = 1000;
+      b.z_max = 1500 + 40 * i;
+      cq.boxes.push_back(b);
+    }
+    auto ca = plan_cull_boxes(*merged, cq);
+    auto cb = plan_cull_boxes(*tiled, cq);
+    ASSERT_TRUE(ca.ok() && cb.ok());
+    auto ra = run_cull_boxes(*ca, *merged, nullptr);
+    auto rb = run_cull_boxes(*cb, *tiled, &cache);
+    ASSERT_TRUE(ra.ok() && rb.ok()) << (ra.ok() ? rb.error().message : ra.error().message);
+    EXPECT_EQ(ra->result.window, rb->result.window);
+    ASSERT_EQ(ra->result.boxes.size(), rb->result.boxes.size());
+    for (std::size_t i = 0; i < ra->result.boxes.size(); ++i) {
+      EXPECT_EQ(ra->result.boxes[i].visible, rb->result.boxes[i].visible) << i;
+      EXPECT_EQ(ra->result.boxes[i].ohf_min, rb->result.boxes[i].ohf_min) << i;
+    }
+    // Lines of sight from the eye to far cells.
+    for (const auto& [tc, tr] : std::vector<std::pair<double, double>>{{460, 450}, {3, 440}, {tw + 1.0, 2}}) {
+      LineQuery lq;
+      lq.from = eye;
+      lq.to = at_cell(h, tc, tr, 1.0);
+      auto la = plan_line(*merged, lq);
+      auto lb = plan_line(*tiled, lq);
+      ASSERT_TRUE(la.ok() && lb.ok());
+      auto xa = run_line(*la, *merged, nullptr);
+      auto xb = run_line(*lb, *tiled, &cache);
+      ASSERT_TRUE(xa.ok() && xb.ok());
+      EXPECT_EQ(xa->result.visible, xb->result.visible);
+      EXPECT_EQ(xa->result.distance, xb->result.distance);
+      EXPECT_EQ(xa->result.clearance, xb->result.clearance);
+      EXPECT_EQ(xa->result.profile.size(), xb->result.profile.size());
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Cuts, TiledEqualsUntiled, ::testing::Values(2, 3, 4),
+                         [](const ::testing::TestParamInfo<int>& cut) {
+                           return std::to_string(cut.param) + "x" + std::to_string(cut.param) + "Tiles";
+                         });
+
+TEST(Plan, ALineOnAWindowEqualsTheLineOnTheWholeRaster) {
+  const std::string path = testing::bundled_dem("rainier_summit_srtm3_400x400.tif");
+  auto source = open(path);
+  auto dem = terrain::read_dem(path);
+  ASSERT_TRUE(source && dem.ok());
+  const terrain::DemHeader& h = source->header();
+  for (const auto& [c0, r0, c1, r1] :
+       std::vector<std::array<double, 4>>{{199, 177, 20, 380}, {10.5, 10.5, 390.2, 33.7}, {250, 100, 251, 300}}) {
+    LineQuery q;
+    q.from = at_cell(h, c0, r0, 2.0);
+    q.to = at_cell(h, c1, r1, 2.0);
+    auto plan = plan_line(*source, q);
+    ASSERT_TRUE(plan.ok());
+    EXPECT_LT(plan->read.read.cell_count(), 400u * 400u + 1);
+    auto run = run_line(*plan, *source, nullptr);
+    ASSERT_TRUE(run.ok()) << run.error().message;
+    auto from = geodesy::resolve_point(*dem, q.from, "from");
+    auto to = geodesy::resolve_point(*dem, q.to, "to");
+    auto whole = line_of_sight(*dem, *from, *to, q.options);
+    ASSERT_TRUE(whole.ok());
+    EXPECT_EQ(run->result.visible, whole->visible);
+    EXPECT_DOUBLE_EQ(run->result.distance, whole->distance);
+    EXPECT_NEAR(run->result.clearance, whole->clearance, 1e-9);
+    ASSERT_EQ(run->result.profile.size(), whole->profile.size());
+    for (std::size_t i = 0; i < whole->profile.size(); i += 17) {
+      EXPECT_NEAR(run->result.profile[i].col, whole->profile[i].col, 1e-9);
+      EXPECT_NEAR(run->result.profile[i].x, whole->profile[i].x, 1e-9);
+      const double a = run->result.profile[i].terrain, b = whole->profile[i].terrain;
+      if (std::isnan(b))
+        EXPECT_TRUE(std::isnan(a)) << i;  // a void
+      else
+        EXPECT_NEAR(a, b, 1e-9) << i;
+    }
+  }
+}
+
+TEST(Plan, NamesItsBlocksAndCostBeforeReadingAPixel) {
+  const std::string path = testing::bundled_dem("zion_canyon_srtm3_465x457.tif");
+  auto dem = terrain::read_dem(path);
+  ASSERT_TRUE(dem.ok());
+  TempDir dir;
+  const auto tiles = testing::write_tiles(*dem, 4, 4, dir.path().string());
+  auto source = open(dir.path().string());
+  ASSERT_TRUE(source);
+  const ViewshedQuery q = query(at_cell(source->header(), 230, 228), Algorithm::kRadial, 2000.0);
+  // Every file gone: planning still works, from the headers alone.
+  for (const auto& t : tiles) std::filesystem::rename(t, t + ".away");
+  auto plan = plan_viewshed(*source, q);
+  ASSERT_TRUE(plan.ok()) << plan.error().message;
+  EXPECT_EQ(plan->read.blocks, source->blocks_in(plan->read.read));
+  EXPECT_EQ(plan->cost.blocks, plan->read.blocks.size());
+  EXPECT_GT(plan->cost.blocks, 1u);
+  EXPECT_LT(plan->cost.blocks, source->block_count());  // 2 km of a 465-cell-wide mosaic
+  EXPECT_EQ(plan->cost.read_cells, plan->read.read.cell_count());
+  EXPECT_GE(plan->cost.bytes, plan->cost.read_cells * 4 + plan->cost.cells * 8);
+  EXPECT_GT(plan->cost.seconds, 0.0);
+  for (const auto& t : tiles) std::filesystem::rename(t + ".away", t);
+  // Cold: every named block is decoded; warm: every one is a hit.
+  terrain::BlockCache cache(cache_of(8 << 20));
+  auto cold = run_viewshed(*plan, *source, &cache);
+  ASSERT_TRUE(cold.ok()) << cold.error().message;
+  EXPECT_EQ(cold->read.cache.misses, plan->cost.blocks);
+  EXPECT_EQ(cold->read.cache.bytes_decoded, plan->cost.block_bytes);
+  auto warm = run_viewshed(*plan, *source, &cache);
+  ASSERT_TRUE(warm.ok());
+  EXPECT_EQ(warm->read.cache.hits, plan->cost.blocks);
+  EXPECT_EQ(warm->read.cells_decoded, 0u);
+  EXPECT_TRUE(same_grid(cold->result.ohf, warm->result.ohf));
+}
+
+TEST(Plan, RejectsBadQueriesAtPlanningNamingTheField) {
+  auto source = open(testing::bundled_dem("zion_canyon_srtm3_465x457.tif"));
+  ASSERT_TRUE(source);
+  const terrain::DemHeader& h = source->header();
+  ViewshedQuery q = query(at_cell(h, 100, 100), Algorithm::kRadial, 1000.0);
+  q.options.radial.ray_spacing = 0.0;
+  auto bad = plan_viewshed(*source, q);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.error().field, "ray_spacing");
+  ViewshedQuery outside = query(at_cell(h, -40, 100), Algorithm::kRadial, 1000.0);
+  auto off = plan_viewshed(*source, outside);
+  ASSERT_FALSE(off.ok());
+  EXPECT_EQ(off.error().code, ErrorCode::kOutOfRange);
+  CullQuery none;
+  none.observer = at_cell(h, 100, 100);
+  auto empty = plan_cull_boxes(*source, none);
+  ASSERT_FALSE(empty.ok());
+  EXPECT_EQ(empty.error().field, "boxes");
+}
+
+}  // namespace
+}  // namespace horizon::visibility
