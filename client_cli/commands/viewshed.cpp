@@ -10,6 +10,8 @@
 #include "horizon/terrain/dem_reader.hpp"
 #include "horizon/terrain/geotiff_writer.hpp"
 #include "horizon/terrain/preview.hpp"
+#include "horizon/terrain/source.hpp"
+#include "horizon/visibility/plan.hpp"
 #include "horizon/visibility/viewshed.hpp"
 #include "inputs.hpp"
 #include "interrupt.hpp"
@@ -160,48 +162,17 @@ Status write_preview(const std::string& path, const visibility::ViewshedResult& 
   return terrain::write_viewshed_preview(path, result.terrain, mask, visibility::preview_options(result));
 }
 
-// The DEM cells a request needs, the observer resolved on them, and what the read cost.
-struct Loaded {
-  terrain::Dem dem;  // the whole file, or with --max-distance only the window around the observer
-  geodesy::GridPoint observer;
-  terrain::ReadStats read;
-};
-
-// With a finite --max-distance only the cells within reach of the observer
-// (plus a 2-cell margin) are read: the header places the observer, then only
-// the tiles or strips under that window are decoded. The observer's grid
-// position is shifted by the window's integer corner, which is exact, so the
-// result is bit-identical to a whole-file read.
-Result<Loaded> load_for_viewshed(const Request& r, const Args& args) {
-  terrain::ReadOptions read_options;
-  read_options.band = args.positive_integer("--band").value_or(0);
-  Loaded loaded;
-  if (std::isfinite(r.options.max_distance) && !r.full_read) {
-    auto header = terrain::read_dem_header(r.dem_path, read_options);
-    if (!header.ok()) return header.error();
-    auto located =
-        geodesy::locate_point(header->georef, header->width, header->height, r.observer, "observer", r.dem_path);
-    if (!located.ok()) return located.error();
-    const terrain::Window window = geodesy::cells_within(header->georef, header->width, header->height, *located,
-                                                         r.options.max_distance, /*margin=*/2);
-    read_options.window = window;
-    auto dem = terrain::read_dem(r.dem_path, read_options, &loaded.read);
-    if (!dem.ok()) return dem.error();
-    located->col -= loaded.read.window.col0;
-    located->row -= loaded.read.window.row0;
-    auto observer = geodesy::place_on_ground(*dem, *located, r.observer, "observer");
-    if (!observer.ok()) return observer.error();
-    loaded.dem = std::move(dem).value();
-    loaded.observer = *observer;
-    return loaded;
+// The request planned on the DEM's header (nothing decoded yet): with a
+// finite --max-distance only the cells within reach (and a 2-cell margin)
+// will be read, only the tiles or strips under them (--full-read: all).
+Result<visibility::ViewshedPlan> plan_for(const Request& r, const terrain::ElevationSource& source) {
+  auto plan = visibility::plan_viewshed(source, {r.observer, r.options});
+  if (!plan.ok()) return plan.error();
+  if (r.full_read) {
+    plan->read.read = terrain::Window{0, 0, source.width(), source.height()};
+    plan->read.blocks = source.blocks_in(plan->read.read);
   }
-  auto dem = terrain::read_dem(r.dem_path, read_options, &loaded.read);
-  if (!dem.ok()) return dem.error();
-  auto observer = geodesy::resolve_point(*dem, r.observer, "observer");
-  if (!observer.ok()) return observer.error();
-  loaded.dem = std::move(dem).value();
-  loaded.observer = *observer;
-  return loaded;
+  return plan;
 }
 
 // The GL context the fast algorithm may run on, or why there is none.
@@ -239,11 +210,12 @@ int run_viewshed(const Args& args) {
         args, {r.dem_path, r.out_path, r.png_path, r.observer, r.options, r.output_name, r.algorithm_name, r.json});
 
   const auto started = std::chrono::steady_clock::now();
-  auto loaded = load_for_viewshed(r, args);
-  if (!loaded.ok()) return report_error(loaded.error());
-  const terrain::Dem* const dem = &loaded->dem;
-  const geodesy::GridPoint* const observer = &loaded->observer;
-  const terrain::ReadStats& read = loaded->read;
+  terrain::SourceOptions source_options;
+  source_options.band = args.positive_integer("--band").value_or(0);
+  auto source = terrain::ElevationSource::open(r.dem_path, source_options);
+  if (!source.ok()) return report_error(source.error());
+  auto plan = plan_for(r, **source);
+  if (!plan.ok()) return report_error(plan.error());
 
   const Gpu gpu = open_gpu(r.options);
   InterruptScope interrupt;  // Ctrl-C cancels the computation; nothing is written
@@ -251,11 +223,14 @@ int run_viewshed(const Args& args) {
   control.cancel = &interrupt.token();
   ProgressBar progress("horizon viewshed");
   control.progress = progress.callback();
-  // The CLI is done with the elevations once computed: the result may take them.
-  auto result =
-      visibility::compute_viewshed_taking_elevation(loaded->dem, *observer, r.options, &control, gpu.pool.get());
+  // No cache: a one-shot run reads the planned cells straight from the file.
+  auto run = visibility::run_viewshed(*plan, **source, nullptr, &control, gpu.pool.get());
   progress.finish();
-  if (!result.ok()) return report_error(result.error());
+  if (!run.ok()) return report_error(run.error());
+  const terrain::Dem* const dem = &run->dem;
+  const geodesy::GridPoint observer = run->observer_in_source();
+  const terrain::SourceReadStats& read = run->read;
+  visibility::ViewshedResult* const result = &run->result;
   // No pool: the engine only knows it had none; say why there was none.
   if (!gpu.unavailable.empty()) result->stats.gpu_fallback = gpu.unavailable;
   warn_gpu_fallback(result->stats);
@@ -273,14 +248,18 @@ int run_viewshed(const Args& args) {
   }
   const std::uint64_t evaluated = visible + hidden;
   const visibility::ViewFrame& f = result->frame;
-  // The engine saw the window read; report in the file's grid.
-  visibility::WorkStats stats = result->stats;
-  stats.dem_cells = static_cast<std::uint64_t>(read.file_width) * static_cast<std::uint64_t>(read.file_height);
-  const terrain::Window window{f.window.col0 + read.window.col0, f.window.row0 + read.window.row0,
-                               f.window.col1 + read.window.col0, f.window.row1 + read.window.row0};
+  const visibility::WorkStats& stats = result->stats;
+  const terrain::Window& window = run->window;  // in the file's grid
+  // A single file reports its own tiles or strips; a mosaic its blocks.
+  const bool one_file = read.file.blocks_total > 0;
+  const std::uint64_t blocks_read = one_file ? read.file.blocks_read : read.blocks;
+  const std::uint64_t blocks_total = one_file ? read.file.blocks_total : read.blocks_total;
+  const std::string block_kind = !one_file ? "block" : read.file.tiled ? "tile" : "strip";
+  const int block_width = one_file ? read.file.block_width : (*source)->files().front().block_width;
+  const int block_height = one_file ? read.file.block_height : (*source)->files().front().block_height;
   const double area_km2 = static_cast<double>(visible) * f.metres_per_col * f.metres_per_row / 1e6;
   const double percent = evaluated ? 100.0 * static_cast<double>(visible) / static_cast<double>(evaluated) : 0.0;
-  const auto observer_lonlat = lonlat_of(*dem, observer->x, observer->y);
+  const auto observer_lonlat = lonlat_of(*dem, observer.x, observer.y);
 
   if (r.json) {
     Json j;
@@ -289,10 +268,7 @@ int run_viewshed(const Args& args) {
     j["output_kind"] = r.output_name;
     j["png"] = r.png_path ? Json(*r.png_path) : Json(nullptr);
     j["algorithm"] = r.algorithm_name;
-    geodesy::GridPoint observer_in_file = *observer;  // grid position in the file, not the window read
-    observer_in_file.col += read.window.col0;
-    observer_in_file.row += read.window.row0;
-    j["observer"] = to_json(observer_in_file, observer_lonlat);
+    j["observer"] = to_json(observer, observer_lonlat);
     j["options"] = viewshed_options_json(r.observer, r.options, args.text("--nodata").value_or("transparent"));
     j["window"] = to_json(window);
     j["cell_size_m"] = {{"x", f.metres_per_col}, {"y", f.metres_per_row}};
@@ -303,10 +279,11 @@ int run_viewshed(const Args& args) {
     j["visible_percent"] = percent;
     j["stats"] = to_json(stats);
     j["read"] = {{"window", to_json(read.window)},
-                 {"block", read.tiled ? "tile" : "strip"},
-                 {"block_size", {read.block_width, read.block_height}},
-                 {"blocks_read", read.blocks_read},
-                 {"blocks_total", read.blocks_total},
+                 {"block", block_kind},
+                 {"block_size", {block_width, block_height}},
+                 {"blocks_read", blocks_read},
+                 {"blocks_total", blocks_total},
+                 {"files", read.files},
                  {"cells_decoded", read.cells_decoded},
                  {"seconds", read.seconds}};
     j["total_seconds"] = total_seconds;
@@ -316,23 +293,21 @@ int run_viewshed(const Args& args) {
 
   const bool geographic = is_geographic(*dem);
   std::cout << "Viewshed of " << r.dem_path << '\n'
-            << "  observer:   x " << coordinate(observer->x, geographic) << ", y "
-            << coordinate(observer->y, geographic);
+            << "  observer:   x " << coordinate(observer.x, geographic) << ", y " << coordinate(observer.y, geographic);
   if (observer_lonlat && !geographic)
     std::cout << " (lon " << fixed(observer_lonlat->lon, 6) << ", lat " << fixed(observer_lonlat->lat, 6) << ")";
-  std::cout << ", eye " << fixed(observer->elevation, 1) << " m ("
-            << (std::isnan(observer->ground) ? std::string("ground: no data")
-                                             : "ground " + fixed(observer->ground, 1) + " m")
+  std::cout << ", eye " << fixed(observer.elevation, 1) << " m ("
+            << (std::isnan(observer.ground) ? std::string("ground: no data")
+                                            : "ground " + fixed(observer.ground, 1) + " m")
             << ")\n"
             << "  visible:    " << with_separators(visible) << " cells, " << fixed(area_km2, 3) << " km² ("
             << fixed(percent, 1) << " % of " << with_separators(evaluated) << " evaluated)\n"
             << "  evaluated:  " << with_separators(stats.cells_evaluated) << " cells of "
             << with_separators(stats.dem_cells) << " in the DEM (window " << f.window.width() << "x"
             << f.window.height() << ")\n"
-            << "  read:       " << read.blocks_read << " of " << read.blocks_total
-            << (read.tiled ? " tiles" : " strips") << " (" << read.block_width << "x" << read.block_height
-            << "), cells " << read.window.col0 << ".." << read.window.col1 << " x " << read.window.row0 << ".."
-            << read.window.row1 << ", " << fixed(read.seconds, 3) << " s\n"
+            << "  read:       " << blocks_read << " of " << blocks_total << " " << block_kind << "s (" << block_width
+            << "x" << block_height << "), cells " << read.window.col0 << ".." << read.window.col1 << " x "
+            << read.window.row0 << ".." << read.window.row1 << ", " << fixed(read.seconds, 3) << " s\n"
             << "  algorithm:  " << r.algorithm_name
             << (r.options.algorithm == visibility::Algorithm::kRadial
                     ? " (radial occlusion height field, ray spacing " + fixed(r.options.radial.ray_spacing, 2) + ")"
