@@ -14,7 +14,7 @@
 #include "datasets.hpp"
 #include "horizon/gpu/calibrate.hpp"
 #include "horizon/gpu/context_pool.hpp"
-#include "horizon/gpu/gpu_ohf.hpp"
+#include "horizon/visibility/radial_sweep_gl.hpp"
 #include "memory_budget.hpp"
 #include "metrics.hpp"
 #include "request_log.hpp"
@@ -49,7 +49,7 @@ std::unique_ptr<gpu::ContextPool> open_gpu(const Config& config, unsigned worker
     return nullptr;
   }
   // Shaders built on every context now, not by the first requests.
-  if (auto prepared = gpu::prepare_contexts(**pool); !prepared.ok())
+  if (auto prepared = visibility::prepare_radial_gl(**pool); !prepared.ok())
     log_event("warn", "gpu_prepare_failed",
               {{"message", prepared.error().message + "; requests on that context run on the CPU"}});
   auto calibration = gpu::calibrate(**pool, {.threads = config.engine_threads});

@@ -1,4 +1,4 @@
-// The GL path of the fast algorithm (gpu/gpu_ohf.hpp) on whatever EGL device
+// The GL form of the fast algorithm (visibility/radial_sweep_gl.hpp) on whatever EGL device
 // this machine has: Mesa llvmpipe in CI, so the GPU code runs in every test
 // run. Each GPU result is held against the CPU sweep at the same knobs and,
 // on the bundled DEMs, against R3 with the bar of issue #2.
@@ -14,9 +14,9 @@
 
 #include "horizon/gpu/calibrate.hpp"
 #include "horizon/gpu/context_pool.hpp"
-#include "horizon/gpu/gpu_ohf.hpp"
 #include "horizon/terrain/dem_reader.hpp"
 #include "horizon/visibility/agreement.hpp"
+#include "horizon/visibility/radial_sweep_gl.hpp"
 #include "horizon/visibility/viewshed.hpp"
 #include "observer_picks.hpp"
 #include "test_support.hpp"
@@ -283,11 +283,11 @@ TEST(GpuOhf, AFailedContextIsReplacedAndTheNextRequestSucceeds) {
   expect_agreement(compare(*g, c, 0.0), "after replacement");
 }
 
-// prepare_contexts builds the programs on every context before any request.
+// prepare_radial_gl builds the programs on every context before any request.
 TEST(GpuPool, PrepareBuildsEveryContext) {
   auto p = gpu::ContextPool::create({.contexts = 3});
   ASSERT_TRUE(p.ok()) << p.error().message;
-  ASSERT_TRUE(gpu::prepare_contexts(**p).ok());
+  ASSERT_TRUE(visibility::prepare_radial_gl(**p).ok());
   // Hold all three at once: each already has its resources.
   std::vector<std::thread> threads;
   std::mutex m;

@@ -6,10 +6,10 @@
 #include <cmath>
 #include <limits>
 
-#include "horizon/gpu/gpu_ohf.hpp"
 #include "horizon/visibility/exact.hpp"
 #include "horizon/visibility/r3.hpp"
 #include "horizon/visibility/radial_sweep.hpp"
+#include "horizon/visibility/radial_sweep_gl.hpp"
 
 namespace horizon::visibility {
 namespace {
@@ -52,7 +52,7 @@ bool try_gpu(const terrain::Grid<float>& elevation, const ViewFrame& frame, cons
     return false;
   }
   const GpuOptions variant = options.gpu.value_or(pool->preferred_variant());
-  status = gpu::gpu_radial_ohf(*lease, elevation, frame, options.radial, variant, control, result.ohf, result.stats);
+  status = radial_ohf_gl(*lease, elevation, frame, options.radial, variant, control, result.ohf, result.stats);
   if (status.ok()) {
     result.stats.backend = "gpu";
     result.stats.gpu_variant = gpu_variant_name(variant);

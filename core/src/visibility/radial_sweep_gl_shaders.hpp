@@ -1,4 +1,4 @@
-// GLSL sources of the GPU occlusion height field (see gpu_ohf.hpp), one
+// GLSL sources of the GL form of the fast OHF (radial_sweep_gl.hpp), one
 // function per pass, shared by the fragment and the compute form:
 //   vec2 modulate(ivec2 texel)  - the disk texel (step, ray): (sample, where)
 //   vec2 propagate(ivec2 texel) - the larger of texel n and texel n - u_shift
@@ -8,7 +8,7 @@
 // these functions mirror line for line (its comments explain them).
 #pragma once
 
-namespace horizon::gpu::shaders {
+namespace horizon::visibility::gl_shaders {
 
 // Shared declarations and the sampling functions.
 inline constexpr const char* kCommon = R"GLSL(
@@ -240,4 +240,4 @@ void main() {
 }
 )GLSL";
 
-}  // namespace horizon::gpu::shaders
+}  // namespace horizon::visibility::gl_shaders

@@ -1,30 +1,33 @@
-// The fast occlusion height field on an EGL context (see gpu_ohf.hpp).
-#include "horizon/gpu/gpu_ohf.hpp"
-
-#define GL_GLEXT_PROTOTYPES 1
-#include <GL/glcorearb.h>
+// The fast occlusion height field as GL passes on an EGL context (see
+// radial_sweep_gl.hpp), after US patent 7,027,046 (Benton et al., "Occlusion
+// height field"): the GPU form of radial_sweep.cpp.
+#include "horizon/visibility/radial_sweep_gl.hpp"
 
 #include <algorithm>
 #include <barrier>
-#include <thread>
 #include <cmath>
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <thread>
 #include <vector>
 
+#include "gpu/gl_helpers.hpp"
 #include "horizon/common/parallel.hpp"
-#include "shaders.hpp"
+#include "radial_sweep_gl_shaders.hpp"
 
-namespace horizon::gpu {
+namespace horizon::visibility {
 namespace {
 
-using visibility::ViewFrame;
+using gpu::compile_shader;
+using gpu::gl_status;
+using gpu::link_program;
+using gpu::set_uniform;
 
 constexpr float kNoHorizon = -1.0e30f;  // as radial_sweep.cpp
-constexpr float kVoid = -3.0e38f;        // a void in the terrain texture
+constexpr float kVoid = -3.0e38f;       // a void in the terrain texture
 
-// Mirrors `struct Sector` in shaders::kCommon (std430: 4-byte scalars only).
+// Mirrors `struct Sector` in gl_shaders::kCommon (std430: 4-byte scalars only).
 struct GpuSector {
   std::int32_t rows, dir, line0, lines, ray_half, base, u_count, v_count, j_max, steps_at, dv_at, d_at;
   float k0, eye_v, v_min, v_max, curvature, mu2, mv2, pad1;
@@ -83,113 +86,42 @@ std::vector<SectorGeometry> plan_sectors(const ViewFrame& f, double ray_spacing)
   return out;
 }
 
-// `object` when its compile (shader) or link (program) status is good;
-// otherwise 0, with its info log in `log` and the object deleted.
-GLuint checked(GLuint object, bool program, std::string& log) {
-  GLint ok = 0;
-  program ? glGetProgramiv(object, GL_LINK_STATUS, &ok) : glGetShaderiv(object, GL_COMPILE_STATUS, &ok);
-  if (ok) return object;
-  char buffer[4096] = {};
-  program ? glGetProgramInfoLog(object, sizeof buffer, nullptr, buffer)
-          : glGetShaderInfoLog(object, sizeof buffer, nullptr, buffer);
-  log = buffer;
-  program ? glDeleteProgram(object) : glDeleteShader(object);
-  return 0;
-}
-
-GLuint compile(GLenum type, const std::string& source, std::string& log) {
-  GLuint shader = glCreateShader(type);
-  const char* text = source.c_str();
-  glShaderSource(shader, 1, &text, nullptr);
-  glCompileShader(shader);
-  return checked(shader, false, log);
-}
-
-GLuint link(std::initializer_list<GLuint> shaders, std::string& log) {
-  GLuint program = glCreateProgram();
-  for (GLuint s : shaders) glAttachShader(program, s);
-  glLinkProgram(program);
-  for (GLuint s : shaders) glDeleteShader(s);
-  return checked(program, true, log);
-}
-
 std::string with_pass(const char* main, const char* pass) {
-  std::string source = std::string(shaders::kCommon) + "#define PASS " + pass + "\n" + main;
+  std::string source = std::string(gl_shaders::kCommon) + "#define PASS " + pass + "\n" + main;
   return source;
 }
 
-// A 2D texture that only grows (glTexStorage2D is immutable: growing
-// re-creates it); requests of the size seen before reuse it.
-struct Image {
-  GLuint texture = 0;
-  GLenum format = GL_R32F;
-  int width = 0, height = 0;
-
-  void ensure(int w, int h) {
-    if (texture != 0 && w <= width && h <= height) return;
-    if (texture != 0) glDeleteTextures(1, &texture);
-    width = std::max(w, width);
-    height = std::max(h, height);
-    glGenTextures(1, &texture);
-    glBindTexture(GL_TEXTURE_2D, texture);
-    glTexStorage2D(GL_TEXTURE_2D, 1, format, width, height);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-  }
-  ~Image() {
-    if (texture != 0) glDeleteTextures(1, &texture);
-  }
-};
-
-// A shader storage buffer that only grows; a request that fits reuses it.
-struct StorageBuffer {
-  GLuint id = 0;
-  std::size_t capacity = 0;  // bytes
-
-  void upload(GLuint binding, const void* data, std::size_t bytes) {
-    if (id == 0) glGenBuffers(1, &id);
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, binding, id);
-    if (bytes > capacity) {
-      capacity = std::max(bytes, 2 * capacity);
-      glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(capacity), nullptr, GL_DYNAMIC_DRAW);
-    }
-    glBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, static_cast<GLsizeiptr>(bytes), data);
-  }
-  ~StorageBuffer() {
-    if (id != 0) glDeleteBuffers(1, &id);
-  }
-};
-
 // The GL objects of one context: compiled once, grown on demand.
-struct OhfResources final : ContextResources {
+struct OhfResources final : gpu::ContextResources {
   GLuint fragment[4] = {};  // modulate, propagate, resolve, shifted (fragment only)
   GLuint compute[3] = {};
   GLuint scan = 0;
   GLuint vao = 0, fbo = 0, timers[2] = {};
-  StorageBuffer sectors, table, doubles;  // bindings 0, 1, 2 of shaders::kCommon
-  Image terrain{0, GL_R32F}, disk[2]{{0, GL_RG32F}, {0, GL_RG32F}}, out{0, GL_RG32F};
+  gpu::StorageBuffer sectors, table, doubles;  // bindings 0, 1, 2 of gl_shaders::kCommon
+  gpu::Texture2D terrain{GL_R32F}, disk[2]{gpu::Texture2D{GL_RG32F}, gpu::Texture2D{GL_RG32F}}, out{GL_RG32F};
   std::string error;  // set when a program failed to build
 
   OhfResources() {
     const char* passes[3] = {"modulate", "propagate", "resolve"};
     std::string log;
     for (int i = 0; i < 3 && error.empty(); ++i) {
-      GLuint vs = compile(GL_VERTEX_SHADER, shaders::kVertex, log);
-      GLuint fs = vs ? compile(GL_FRAGMENT_SHADER, with_pass(shaders::kFragmentMain, passes[i]), log) : 0;
-      fragment[i] = fs ? link({vs, fs}, log) : 0;
-      GLuint cs = fragment[i] ? compile(GL_COMPUTE_SHADER, with_pass(shaders::kComputeMain, passes[i]), log) : 0;
-      compute[i] = cs ? link({cs}, log) : 0;
+      GLuint vs = compile_shader(GL_VERTEX_SHADER, gl_shaders::kVertex, log);
+      GLuint fs = vs ? compile_shader(GL_FRAGMENT_SHADER, with_pass(gl_shaders::kFragmentMain, passes[i]), log) : 0;
+      fragment[i] = fs ? link_program({vs, fs}, log) : 0;
+      GLuint cs =
+          fragment[i] ? compile_shader(GL_COMPUTE_SHADER, with_pass(gl_shaders::kComputeMain, passes[i]), log) : 0;
+      compute[i] = cs ? link_program({cs}, log) : 0;
       if (!compute[i]) error = std::string("gpu: the ") + passes[i] + " shader does not build: " + log;
     }
     if (error.empty()) {
-      GLuint vs = compile(GL_VERTEX_SHADER, shaders::kVertex, log);
-      GLuint fs = vs ? compile(GL_FRAGMENT_SHADER, with_pass(shaders::kFragmentMain, "shifted"), log) : 0;
-      fragment[3] = fs ? link({vs, fs}, log) : 0;
+      GLuint vs = compile_shader(GL_VERTEX_SHADER, gl_shaders::kVertex, log);
+      GLuint fs = vs ? compile_shader(GL_FRAGMENT_SHADER, with_pass(gl_shaders::kFragmentMain, "shifted"), log) : 0;
+      fragment[3] = fs ? link_program({vs, fs}, log) : 0;
       if (!fragment[3]) error = "gpu: the shift shader does not build: " + log;
     }
     if (error.empty()) {
-      GLuint cs = compile(GL_COMPUTE_SHADER, std::string(shaders::kCommon) + shaders::kComputeScan, log);
-      scan = cs ? link({cs}, log) : 0;
+      GLuint cs = compile_shader(GL_COMPUTE_SHADER, std::string(gl_shaders::kCommon) + gl_shaders::kComputeScan, log);
+      scan = cs ? link_program({cs}, log) : 0;
       if (!scan) error = "gpu: the scan shader does not build: " + log;
     }
     glGenVertexArrays(1, &vao);
@@ -206,40 +138,9 @@ struct OhfResources final : ContextResources {
   }
 };
 
-std::string gl_error_name(GLenum e) {
-  switch (e) {
-    case GL_OUT_OF_MEMORY: return "GL_OUT_OF_MEMORY";
-    case GL_INVALID_OPERATION: return "GL_INVALID_OPERATION";
-    case GL_INVALID_VALUE: return "GL_INVALID_VALUE";
-    case GL_INVALID_ENUM: return "GL_INVALID_ENUM";
-    case GL_INVALID_FRAMEBUFFER_OPERATION: return "GL_INVALID_FRAMEBUFFER_OPERATION";
-    case GL_CONTEXT_LOST: return "GL_CONTEXT_LOST";
-    default: {
-      char buffer[32];
-      std::snprintf(buffer, sizeof buffer, "GL error 0x%04X", e);
-      return buffer;
-    }
-  }
-}
-
-// Ok, or the first GL error / a lost context, as an error naming `stage`.
-Status gl_status(const char* stage) {
-  if (glGetGraphicsResetStatus() != GL_NO_ERROR)
-    return make_error(ErrorCode::kInternal, std::string("gpu: the GL context was lost during ") + stage, "gpu");
-  const GLenum e = glGetError();
-  if (e == GL_NO_ERROR) return Status::Ok();
-  while (glGetError() != GL_NO_ERROR) {
-  }
-  return make_error(e == GL_OUT_OF_MEMORY ? ErrorCode::kResourceExhausted : ErrorCode::kInternal,
-                    "gpu: " + gl_error_name(e) + " during " + stage, "gpu");
-}
-
-void set_uniform(GLuint program, const char* name, int v) { glUniform1i(glGetUniformLocation(program, name), v); }
-void set_uniform(GLuint program, const char* name, float v) { glUniform1f(glGetUniformLocation(program, name), v); }
-
 }  // namespace
 
-Status prepare_contexts(ContextPool& pool) {
+Status prepare_radial_gl(gpu::ContextPool& pool) {
   // One thread per context, each holding its lease until all have one, so
   // that every context (not one of them n times) is prepared.
   const int n = pool.size();
@@ -264,9 +165,9 @@ Status prepare_contexts(ContextPool& pool) {
   return Status::Ok();
 }
 
-Status gpu_radial_ohf(Lease& lease, const terrain::Grid<float>& z, const ViewFrame& f,
-                      const visibility::RadialOptions& radial, const visibility::GpuOptions& options,
-                      const RunControl* control, terrain::Grid<float>& ohf, visibility::WorkStats& stats) {
+Status radial_ohf_gl(gpu::Lease& lease, const terrain::Grid<float>& z, const ViewFrame& f, const RadialOptions& radial,
+                     const GpuOptions& options, const RunControl* control, terrain::Grid<float>& ohf,
+                     WorkStats& stats) {
   // Every failure below marks the context failed: it is replaced on return.
   auto fail = [&lease](Status status) {
     lease.fail();
@@ -283,11 +184,10 @@ Status gpu_radial_ohf(Lease& lease, const terrain::Grid<float>& z, const ViewFra
   if (w.width() > limit || w.height() > limit || disk_width > limit || disk_rows > limit)
     return make_error(ErrorCode::kResourceExhausted,
                       "gpu: a window of " + std::to_string(w.width()) + "x" + std::to_string(w.height()) +
-                          " cells needs a ray disk of " + std::to_string(disk_width) + "x" +
-                          std::to_string(disk_rows) + " texels; this device's limit is " + std::to_string(limit) +
-                          " per side",
+                          " cells needs a ray disk of " + std::to_string(disk_width) + "x" + std::to_string(disk_rows) +
+                          " texels; this device's limit is " + std::to_string(limit) + " per side",
                       "gpu");
-  visibility::reset_output(ohf, w);
+  reset_output(ohf, w);
   if (sectors.empty()) return Status::Ok();  // a one-cell window: only the eye's cell, below
 
   auto& slot = lease.resources();
@@ -345,8 +245,7 @@ Status gpu_radial_ohf(Lease& lease, const terrain::Grid<float>& z, const ViewFra
       doubles.push_back(1.0 / k);
     }
     g.dv_at = static_cast<std::int32_t>(table.size());
-    for (int v = 0; v < s.v_count; ++v)
-      table.push_back(v == s.eye_v ? 0.0f : static_cast<float>(1.0 / (v - s.eye_v)));
+    for (int v = 0; v < s.v_count; ++v) table.push_back(v == s.eye_v ? 0.0f : static_cast<float>(1.0 / (v - s.eye_v)));
     gpu_sectors.push_back(g);
   }
 
@@ -373,8 +272,8 @@ Status gpu_radial_ohf(Lease& lease, const terrain::Grid<float>& z, const ViewFra
 
   const float eye_hi = static_cast<float>(f.eye);
   const float eye_lo = static_cast<float>(f.eye - static_cast<double>(eye_hi));
-  const int blend = radial.blend == visibility::RayBlend::kLinear ? 0 : radial.blend == visibility::RayBlend::kMin ? 1 : 2;
-  const bool compute = options.method == visibility::GpuMethod::kCompute;
+  const int blend = radial.blend == RayBlend::kLinear ? 0 : radial.blend == RayBlend::kMin ? 1 : 2;
+  const bool compute = options.method == GpuMethod::kCompute;
   auto bind_common = [&](GLuint program, GLuint disk_texture) {
     glUseProgram(program);
     glActiveTexture(GL_TEXTURE0);
@@ -392,7 +291,7 @@ Status gpu_radial_ohf(Lease& lease, const terrain::Grid<float>& z, const ViewFra
     set_uniform(program, "u_eye_y", static_cast<float>(f.observer_row - w.row0));
   };
   // One pass of `which` (0 modulate, 1 propagate, 2 resolve, 3 shifted) into `target`.
-  auto run_pass = [&](int which, const Image& target, int width, int height, GLuint disk_texture, int shift) {
+  auto run_pass = [&](int which, const gpu::Texture2D& target, int width, int height, GLuint disk_texture, int shift) {
     const GLuint program = compute ? gl.compute[which] : gl.fragment[which];
     bind_common(program, disk_texture);
     set_uniform(program, "u_shift", shift);
@@ -457,8 +356,7 @@ Status gpu_radial_ohf(Lease& lease, const terrain::Grid<float>& z, const ViewFra
   } else {
     // The larger of each texel and the one `shift` inward, with where it lies, in the shader.
     for (int shift = 1; shift < disk_width; shift = options.log_step ? 2 * shift : shift + 1) {
-      run_pass(1, gl.disk[1 - current], disk_width, disk_rows, gl.disk[current].texture,
-               options.log_step ? shift : 1);
+      run_pass(1, gl.disk[1 - current], disk_width, disk_rows, gl.disk[current].texture, options.log_step ? shift : 1);
       current = 1 - current;
       HORIZON_RETURN_IF_ERROR(poll());
     }
@@ -521,4 +419,4 @@ Status gpu_radial_ohf(Lease& lease, const terrain::Grid<float>& z, const ViewFra
   return Status::Ok();
 }
 
-}  // namespace horizon::gpu
+}  // namespace horizon::visibility

@@ -1,6 +1,6 @@
-// horizon/gpu/gpu_ohf.hpp — the fast occlusion height field on an EGL context.
+// horizon/visibility/radial_sweep_gl.hpp — the fast occlusion height field as GL passes.
 //
-// The same rays as the CPU radial sweep (radial_sweep.hpp), as patent
+// The GL form of the CPU radial sweep (radial_sweep.hpp): the same rays, as patent
 // 7,027,046 does them on graphics hardware, in three kinds of pass over a
 // "disk" image whose rows are the rays of the four sweep sectors and whose
 // columns are the steps outward from the eye:
@@ -40,24 +40,24 @@
 #include "horizon/visibility/view_frame.hpp"
 #include "horizon/visibility/work_stats.hpp"
 
-namespace horizon::gpu {
+namespace horizon::visibility {
 
-// Same contract as visibility::radial_ohf(): fills `ohf` (sized frame.window)
+// Same contract as radial_ohf(): fills `ohf` (sized frame.window)
 // with the OHF of every in-range cell, NaN out of range or on a transparent
 // void, -inf where nothing can block. The lease's context must be current.
 // On a GL failure the lease is marked failed and the error returned
 // (kResourceExhausted for sizes past the device's limits, kInternal for GL
 // errors), for the caller to answer on the CPU.
-Status gpu_radial_ohf(Lease& lease, const terrain::Grid<float>& elevation, const visibility::ViewFrame& frame,
-                      const visibility::RadialOptions& radial, const visibility::GpuOptions& options,
-                      const RunControl* control, terrain::Grid<float>& ohf, visibility::WorkStats& stats);
+Status radial_ohf_gl(gpu::Lease& lease, const terrain::Grid<float>& elevation, const ViewFrame& frame,
+                     const RadialOptions& radial, const GpuOptions& options, const RunControl* control,
+                     terrain::Grid<float>& ohf, WorkStats& stats);
 
-// Builds the programs and objects of gpu_radial_ohf() on every context of the
+// Builds the programs and objects of radial_ohf_gl() on every context of the
 // pool now (11-21 ms for two contexts on llvmpipe, measured; a driver may
 // still finish some work at a program's first draw), so that no request pays
 // for compiling. Borrows all contexts at once: call it before
 // serving. A context whose programs do not build is reported, not fatal:
 // its requests will fall back to the CPU.
-Status prepare_contexts(ContextPool& pool);
+Status prepare_radial_gl(gpu::ContextPool& pool);
 
-}  // namespace horizon::gpu
+}  // namespace horizon::visibility

@@ -1,0 +1,64 @@
+// Private to horizon_core: generic OpenGL 4.3 helpers for code that runs on a
+// context borrowed from gpu::ContextPool (the GL forms of the algorithms,
+// e.g. visibility/radial_sweep_gl.cpp). Nothing here knows what is drawn:
+// shader compile and link with their logs, textures and storage buffers that
+// only grow (so that requests of a size seen before allocate nothing), and
+// GL errors turned into Status. Every call needs a current context.
+#pragma once
+
+#define GL_GLEXT_PROTOTYPES 1
+#include <GL/glcorearb.h>
+
+#include <cstddef>
+#include <initializer_list>
+#include <string>
+
+#include "horizon/common/error.hpp"
+
+namespace horizon::gpu {
+
+// A compiled shader of `type`, or 0 with the compiler's log in `log`.
+GLuint compile_shader(GLenum type, const std::string& source, std::string& log);
+
+// The program linked from `shaders` (which are deleted either way), or 0 with
+// the linker's log in `log`.
+GLuint link_program(std::initializer_list<GLuint> shaders, std::string& log);
+
+// A 2D texture of one level that only grows: glTexStorage2D is immutable, so
+// growing re-creates it; a request of a size seen before reuses it. Nearest
+// filtering (texels are read with texelFetch or as images).
+struct Texture2D {
+  GLuint texture = 0;
+  GLenum format = GL_R32F;
+  int width = 0, height = 0;
+
+  explicit Texture2D(GLenum internal_format) : format(internal_format) {}
+  Texture2D(const Texture2D&) = delete;
+  Texture2D& operator=(const Texture2D&) = delete;
+  ~Texture2D();
+  // At least w x h texels (contents undefined after a growth).
+  void ensure(int w, int h);
+};
+
+// A shader storage buffer that only grows; an upload that fits reuses it.
+struct StorageBuffer {
+  GLuint id = 0;
+  std::size_t capacity = 0;  // bytes
+
+  StorageBuffer() = default;
+  StorageBuffer(const StorageBuffer&) = delete;
+  StorageBuffer& operator=(const StorageBuffer&) = delete;
+  ~StorageBuffer();
+  // Binds the buffer to `binding` of GL_SHADER_STORAGE_BUFFER and copies `bytes` in.
+  void upload(GLuint binding, const void* data, std::size_t bytes);
+};
+
+// Ok, or the first pending GL error (the rest are drained) or a lost context,
+// as an error naming `stage`: kResourceExhausted for GL_OUT_OF_MEMORY,
+// kInternal otherwise.
+Status gl_status(const char* stage);
+
+void set_uniform(GLuint program, const char* name, int v);
+void set_uniform(GLuint program, const char* name, float v);
+
+}  // namespace horizon::gpu
