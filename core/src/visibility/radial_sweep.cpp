@@ -54,6 +54,7 @@
 #include "horizon/common/parallel.hpp"
 #include "ray_steps.hpp"
 #include "resample_cells.hpp"
+#include "sweep_geometry.hpp"
 #include "sweep_samples.hpp"
 
 namespace horizon::visibility {
@@ -89,11 +90,7 @@ struct SweepConstants {
 
 // Per-sector ray set and the nested per-line ranges of rays and cells.
 struct SectorPlan {
-  int ray_half = 0;                   // rays r in [-ray_half, ray_half]
-  double ray_step = 0.0;              // slope spacing between neighbouring rays
-  std::vector<float> slope;           // m_r, index r + ray_half
-  std::vector<float> inv_slope;       // 1 / m_r, 0 for m_r == 0
-  std::vector<float> curv_k;          // curvature * (ground metres per unit step along ray r)^2
+  sweep::RayTable rays;               // rays r in [-rays.half, rays.half] (sweep_geometry.hpp)
   std::vector<int> cell_lo, cell_hi;  // per line: target cells j in [lo, hi], empty if lo > hi
   std::vector<int> ray_lo, ray_hi;    // per line: rays to update (nested: shrinking outward)
   double k0 = 1.0, level_far = 0.0;   // first step; the far step that thinning levels are measured from
@@ -118,26 +115,12 @@ SectorPlan plan_sector(const Sector& s, const SweepConstants& c, double ray_spac
   // survive thinning (tasks start kRaysPerTask apart from -ray_half).
   p.max_level = std::clamp(thinning_levels, 0, kMaxThinning);
   const int quantum = std::max(1, (1 << p.max_level) / 2);
-  p.ray_half = quantum * std::max(1, static_cast<int>(std::ceil(k_far / ray_spacing / quantum)));
-  p.ray_step = 1.0 / p.ray_half;
-  const int rays = 2 * p.ray_half + 1;
-  p.slope.resize(rays);
-  p.inv_slope.resize(rays);
-  p.curv_k.resize(rays);
-  for (int r = -p.ray_half; r <= p.ray_half; ++r) {
-    const double m = std::clamp(r * p.ray_step, -1.0, 1.0);
-    p.slope[r + p.ray_half] = static_cast<float>(m);
-    p.inv_slope[r + p.ray_half] = m == 0 ? 0.0f : static_cast<float>(1.0 / m);
-    const double metres_per_k = std::hypot(s.metres_u, m * s.metres_v);
-    p.curv_k[r + p.ray_half] = static_cast<float>(c.curvature * metres_per_k * metres_per_k);
-  }
+  p.rays = sweep::ray_table(sweep::ray_half(k_far, ray_spacing, quantum), s.metres_u, s.metres_v, c.curvature);
 
   p.k0 = s.k0;
   p.level_far = k_far;
-  p.inv_step.resize(s.lines);
-  for (int n = 0; n < s.lines; ++n) p.inv_step[n] = static_cast<float>(1.0 / step_of(s, n));
-  p.inv_dv.resize(s.v_count);
-  for (int cv = 0; cv < s.v_count; ++cv) p.inv_dv[cv] = cv == s.eye_v ? 0.0f : static_cast<float>(1.0 / (cv - s.eye_v));
+  p.inv_step = sweep::inv_steps(s.k0, s.lines);
+  p.inv_dv = sweep::inv_dvs(s.eye_v, s.v_count);
   p.cell_lo.assign(s.lines, 0);
   p.cell_hi.assign(s.lines, -1);
   p.ray_lo.assign(s.lines, 0);
@@ -145,14 +128,9 @@ SectorPlan plan_sector(const Sector& s, const SweepConstants& c, double ray_spac
   for (int n = 0; n < s.lines; ++n) {
     const double k = step_of(s, n);
     // Sector wedge: |j - v_eye| <= k (or < k), inside the window along v.
-    double lo = s.eye_v - k, hi = s.eye_v + k;
-    int jlo = static_cast<int>(std::ceil(lo)), jhi = static_cast<int>(std::floor(hi));
-    if (!s.include_diagonal) {
-      if (jlo == lo) ++jlo;
-      if (jhi == hi) --jhi;
-    }
-    jlo = std::max(jlo, s.win_v0);
-    jhi = std::min(jhi, s.win_v1 - 1);
+    const sweep::CellSpan wedge = sweep::wedge(s.eye_v, k, s.include_diagonal);
+    int jlo = std::max(wedge.lo, s.win_v0);
+    int jhi = std::min(wedge.hi, s.win_v1 - 1);
     // Max-distance disc (exact test per cell happens in the kernel; this only bounds the loop).
     if (std::isfinite(c.max_distance)) {
       const double du = k * s.metres_u;
@@ -171,13 +149,13 @@ SectorPlan plan_sector(const Sector& s, const SweepConstants& c, double ray_spac
       // Rays bracketing the first and last cell: a cell at ray coordinate rho
       // blends rays floor(rho) and floor(rho) + 1 (even when rho is a whole
       // number); one ray of slack each side absorbs rounding differences.
-      const double rl = std::floor((jlo - s.eye_v) / k / p.ray_step) - 1;
-      const double rh = std::floor((jhi - s.eye_v) / k / p.ray_step) + 2;
-      p.ray_lo[n] = std::clamp(static_cast<int>(rl), -p.ray_half, p.ray_half);
-      p.ray_hi[n] = std::clamp(static_cast<int>(rh), -p.ray_half, p.ray_half);
+      const double rl = std::floor((jlo - s.eye_v) / k / p.rays.step) - 1;
+      const double rh = std::floor((jhi - s.eye_v) / k / p.rays.step) + 2;
+      p.ray_lo[n] = std::clamp(static_cast<int>(rl), -p.rays.half, p.rays.half);
+      p.ray_hi[n] = std::clamp(static_cast<int>(rh), -p.rays.half, p.rays.half);
     } else {
-      p.ray_lo[n] = p.ray_half + 1;
-      p.ray_hi[n] = -p.ray_half - 1;
+      p.ray_lo[n] = p.rays.half + 1;
+      p.ray_hi[n] = -p.rays.half - 1;
     }
   }
   // A ray needed at line n must have been marched through every earlier line.
@@ -249,10 +227,10 @@ void load_rays(RayScratch& s, const SectorPlan& p, int ra, int stride) {
   s.curv_k.resize(count);
   s.code.resize(count);
   for (int i = 0; i < count; ++i) {
-    const int q = ra + i * stride + p.ray_half;
-    s.slope[i] = p.slope[q];
-    s.inv_slope[i] = p.inv_slope[q];
-    s.curv_k[i] = p.curv_k[q];
+    const int q = ra + i * stride + p.rays.half;
+    s.slope[i] = p.rays.slope[q];
+    s.inv_slope[i] = p.rays.inv_slope[q];
+    s.curv_k[i] = p.rays.curv_k[q];
   }
 }
 
@@ -435,16 +413,15 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
       const double inv_k = 1.0 / k;
       // This task's cells lie between its first and last ray; the exact owner
       // test below settles the borders.
-      const int j_first = std::max(p.cell_lo[n], static_cast<int>(std::floor(s.eye_v + k * ra * p.ray_step)));
-      const int j_last = std::min(p.cell_hi[n], static_cast<int>(std::ceil(s.eye_v + k * rb * p.ray_step)));
+      const int j_first = std::max(p.cell_lo[n], static_cast<int>(std::floor(s.eye_v + k * ra * p.rays.step)));
+      const int j_last = std::min(p.cell_hi[n], static_cast<int>(std::ceil(s.eye_v + k * rb * p.rays.step)));
       const double du2 = (k * s.metres_u) * (k * s.metres_u);
       const CellLine cl = cell_line(kf);
       // The cells this task owns (bracketing pair r in [ra, rb)) inside max
       // distance: each condition holds on an interval of j, so trimming the
       // ends finds their intersection.
       auto answers = [&](int j) {
-        const double rho = (j - s.eye_v) * inv_k * p.ray_half;
-        const int r = std::clamp(static_cast<int>(std::floor(rho)), -p.ray_half, p.ray_half - 1);
+        const int r = sweep::lower_ray(sweep::ray_coordinate(j, s.eye_v, inv_k, p.rays.half), p.rays.half);
         const double dv = (j - s.eye_v) * s.metres_v;
         return r >= ra && r < rb && du2 + dv * dv <= max_d2;
       };
@@ -455,13 +432,13 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
       if (c.blend == RayBlend::kResample && !c.precise) {
         // Where each ray's horizon lies, this step's crossing counted (step 1).
         const int* code = scratch.code.data();
-        const sweep::ResampleLine rl{&cl, code,  n,           ra,  level,      p.ray_half, s.eye_v,  inv_k,
-                                     k,   c.eye, c.curvature, du2, s.metres_v, cur,        out_line, s.o_v};
+        const sweep::ResampleLine rl{&cl, code,  n,           ra,  level,      p.rays.half, s.eye_v,  inv_k,
+                                     k,   c.eye, c.curvature, du2, s.metres_v, cur,         out_line, s.o_v};
         if (j_begin <= j_end) evaluated += sweep::resample_cells(rl, j_begin, j_end);
       } else {
         for (int j = j_begin; j <= j_end; ++j) {
-          const double rho = (j - s.eye_v) * inv_k * p.ray_half;
-          const int r = std::clamp(static_cast<int>(std::floor(rho)), -p.ray_half, p.ray_half - 1);
+          const double rho = sweep::ray_coordinate(j, s.eye_v, inv_k, p.rays.half);
+          const int r = sweep::lower_ray(rho, p.rays.half);
           const double dv = (j - s.eye_v) * s.metres_v;
           const double d2 = du2 + dv * dv;
           const float zc = cur[j * zv];
@@ -524,12 +501,13 @@ Status radial_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const Radia
   // The four sectors. North/south step rows (v = column, contiguous); east/west
   // step columns (v = row, stride = pitch).
   std::vector<Sector> sectors;
-  auto add = [&](bool rows, int dir) {
+  for (const sweep::SectorAxis axis : sweep::kSectorOrder) {
+    const sweep::SectorLines g = sweep::sector_lines(f, axis);  // lines, k0 and eye_v (sweep_geometry.hpp)
+    if (g.lines <= 0) continue;
+    const bool rows = axis.rows;
     Sector s;
     s.z = z.data();
     s.out = ohf.data();
-    const double eye_u = rows ? f.observer_row : f.observer_col;
-    s.eye_v = rows ? f.observer_col : f.observer_row;
     s.z_line = rows ? pitch : 1;
     s.z_v = rows ? 1 : pitch;
     s.o_line = rows ? win.width() : 1;
@@ -540,35 +518,24 @@ Status radial_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const Radia
     s.win_v1 = rows ? win.col1 : win.row1;
     s.v_count = rows ? z.width() : z.height();
     s.line_count = rows ? z.height() : z.width();
-    s.metres_u = rows ? f.metres_per_row : f.metres_per_col;
-    s.metres_v = rows ? f.metres_per_col : f.metres_per_row;
-    s.include_diagonal = rows;
+    s.metres_u = g.metres_u;
+    s.metres_v = g.metres_v;
+    s.include_diagonal = g.include_diagonal;
     s.rows = rows;
-    s.dir = dir;
-    const int u0 = rows ? win.row0 : win.col0, u1 = rows ? win.row1 : win.col1;  // window along u
-    if (dir > 0) {
-      s.line0 = std::max(static_cast<int>(std::floor(eye_u)) + 1, u0);
-      s.lines = u1 - s.line0;
-      s.k0 = s.line0 - eye_u;
-    } else {
-      s.line0 = std::min(static_cast<int>(std::ceil(eye_u)) - 1, u1 - 1);
-      s.lines = s.line0 - u0 + 1;
-      s.k0 = eye_u - s.line0;
-    }
+    s.dir = axis.dir;
+    s.line0 = g.line0;
+    s.lines = g.lines;
+    s.k0 = g.k0;
     // Re-base v on the window (see Sector::v_offset).
-    s.v_offset = s.win_v0;
+    s.v_offset = g.v0;
+    s.eye_v = g.eye_v;
     s.z += s.v_offset * s.z_v;
-    s.eye_v -= s.v_offset;
     s.win_v1 -= s.v_offset;
     s.win_v0 = 0;
     s.out_v0 -= s.v_offset;
     s.v_count -= s.v_offset;
-    if (s.lines > 0) sectors.push_back(s);
-  };
-  add(true, -1);   // north
-  add(true, +1);   // south
-  add(false, +1);  // east
-  add(false, -1);  // west
+    sectors.push_back(s);
+  }
 
   std::vector<SectorPlan> plans;
   struct Task {
@@ -577,7 +544,7 @@ Status radial_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const Radia
   std::vector<Task> tasks;
   for (std::size_t si = 0; si < sectors.size(); ++si) {
     plans.push_back(plan_sector(sectors[si], c, options.ray_spacing, options.thinning_levels));
-    const int half = plans.back().ray_half;
+    const int half = plans.back().rays.half;
     for (int ra = -half; ra < half; ra += kRaysPerTask)
       tasks.push_back({static_cast<int>(si), ra, std::min(ra + kRaysPerTask, half)});
   }
@@ -607,7 +574,7 @@ Status radial_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const Radia
   }
   stats.cells_evaluated = evaluated;
   stats.rays = 0;
-  for (const SectorPlan& p : plans) stats.rays += static_cast<std::uint64_t>(2 * p.ray_half + 1);
+  for (const SectorPlan& p : plans) stats.rays += static_cast<std::uint64_t>(2 * p.rays.half + 1);
   stats.terrain_samples = 2 * steps.load();
   return Status::Ok();
 }

@@ -14,7 +14,9 @@
 
 #include "gpu/gl_helpers.hpp"
 #include "horizon/common/parallel.hpp"
+#include "radial_sweep_gl_disk.hpp"
 #include "radial_sweep_gl_shaders.hpp"
+#include "sweep_geometry.hpp"
 
 namespace horizon::visibility {
 namespace {
@@ -26,65 +28,6 @@ using gpu::set_uniform;
 
 constexpr float kNoHorizon = -1.0e30f;  // as radial_sweep.cpp
 constexpr float kVoid = -3.0e38f;       // a void in the terrain texture
-
-// Mirrors `struct Sector` in gl_shaders::kCommon (std430: 4-byte scalars only).
-struct GpuSector {
-  std::int32_t rows, dir, line0, lines, ray_half, base, u_count, v_count, j_max, steps_at, dv_at, d_at;
-  float k0, eye_v, v_min, v_max, curvature, mu2, mv2, pad1;
-};
-static_assert(sizeof(GpuSector) == 80);
-
-// One sweep sector in window coordinates, with the double-precision values
-// the CPU sweep uses (radial_ohf's `add`), kept for the read-back.
-struct SectorGeometry {
-  bool rows = true;
-  int dir = 1, line0 = 0, lines = 0, ray_half = 0, base = 0, u_count = 0, v_count = 0;
-  double k0 = 1.0, eye_v = 0.0, metres_u = 1.0, metres_v = 1.0;
-};
-
-std::vector<SectorGeometry> plan_sectors(const ViewFrame& f, double ray_spacing) {
-  const terrain::Window& w = f.window;
-  std::vector<SectorGeometry> out;
-  int base = 0;
-  auto add = [&](bool rows, int dir) {
-    SectorGeometry s;
-    s.rows = rows;
-    s.dir = dir;
-    // Window-relative: line 0 is the window's first row (or column).
-    const double eye_u = rows ? f.observer_row - w.row0 : f.observer_col - w.col0;
-    s.eye_v = rows ? f.observer_col - w.col0 : f.observer_row - w.row0;
-    s.u_count = rows ? w.height() : w.width();
-    s.v_count = rows ? w.width() : w.height();
-    s.metres_u = rows ? f.metres_per_row : f.metres_per_col;
-    s.metres_v = rows ? f.metres_per_col : f.metres_per_row;
-    // k0 as the CPU forms it from DEM line numbers (the same double).
-    const double eye_u_dem = rows ? f.observer_row : f.observer_col;
-    const int u0 = rows ? w.row0 : w.col0, u1 = rows ? w.row1 : w.col1;
-    int line0_dem;
-    if (dir > 0) {
-      line0_dem = std::max(static_cast<int>(std::floor(eye_u_dem)) + 1, u0);
-      s.lines = u1 - line0_dem;
-      s.k0 = line0_dem - eye_u_dem;
-    } else {
-      line0_dem = std::min(static_cast<int>(std::ceil(eye_u_dem)) - 1, u1 - 1);
-      s.lines = line0_dem - u0 + 1;
-      s.k0 = eye_u_dem - line0_dem;
-    }
-    (void)eye_u;
-    s.line0 = line0_dem - u0;
-    if (s.lines <= 0) return;
-    const double k_far = s.k0 + (s.lines - 1);
-    s.ray_half = std::max(1, static_cast<int>(std::ceil(k_far / ray_spacing)));
-    s.base = base;
-    base += 2 * s.ray_half + 1;
-    out.push_back(s);
-  };
-  add(true, -1);   // north
-  add(true, +1);   // south
-  add(false, +1);  // east
-  add(false, -1);  // west
-  return out;
-}
 
 std::string with_pass(const char* main, const char* pass) {
   std::string source = std::string(gl_shaders::kCommon) + "#define PASS " + pass + "\n" + main;
@@ -140,6 +83,78 @@ struct OhfResources final : gpu::ContextResources {
 
 }  // namespace
 
+namespace gl {
+
+DiskPlan plan_disk(const ViewFrame& f, double ray_spacing) {
+  const terrain::Window& w = f.window;
+  DiskPlan plan;
+  for (const sweep::SectorAxis axis : sweep::kSectorOrder) {
+    DiskSector s;
+    s.lines = sweep::sector_lines(f, axis);
+    if (s.lines.lines <= 0) continue;
+    s.ray_half = sweep::ray_half(s.lines.step(s.lines.lines - 1), ray_spacing);
+    s.base = plan.rows;
+    s.u_count = axis.rows ? w.height() : w.width();
+    s.v_count = axis.rows ? w.width() : w.height();
+    plan.rows += 2 * s.ray_half + 1;
+    plan.width = std::max(plan.width, s.lines.lines);
+    plan.sectors.push_back(s);
+  }
+
+  // Per disk row: the sector's ray table (the CPU sweep's, sweep_geometry.hpp).
+  const double curvature = f.curvature;
+  std::vector<float>& table = plan.table;
+  std::vector<double>& doubles = plan.doubles;
+  table.assign(3 * static_cast<std::size_t>(plan.rows), 0.0f);
+  for (const DiskSector& s : plan.sectors) {
+    const sweep::SectorLines& g = s.lines;
+    const sweep::RayTable rays = sweep::ray_table(s.ray_half, g.metres_u, g.metres_v, curvature);
+    const std::size_t base = static_cast<std::size_t>(s.base);
+    std::copy(rays.slope.begin(), rays.slope.end(), table.begin() + base);
+    std::copy(rays.inv_slope.begin(), rays.inv_slope.end(), table.begin() + plan.rows + base);
+    std::copy(rays.curv_k.begin(), rays.curv_k.end(), table.begin() + 2 * plan.rows + base);
+  }
+  for (const DiskSector& s : plan.sectors) {
+    const sweep::SectorLines& g = s.lines;
+    GpuSector gs{};
+    gs.rows = g.axis.rows;
+    gs.dir = g.axis.dir;
+    gs.line0 = g.line0 - g.u0;  // window-relative: line 0 is the window's first row (or column)
+    gs.lines = g.lines;
+    gs.ray_half = s.ray_half;
+    gs.base = s.base;
+    gs.u_count = s.u_count;
+    gs.v_count = s.v_count;
+    gs.j_max = std::max(0, s.v_count - 2);
+    gs.k0 = static_cast<float>(g.k0);
+    gs.eye_v = static_cast<float>(g.eye_v);
+    gs.v_min = 0.0f;
+    gs.v_max = static_cast<float>(s.v_count - 1);
+    gs.curvature = static_cast<float>(curvature);
+    gs.mu2 = static_cast<float>(g.metres_u * g.metres_u);
+    gs.mv2 = static_cast<float>(g.metres_v * g.metres_v);
+    gs.steps_at = static_cast<std::int32_t>(table.size());
+    gs.d_at = static_cast<std::int32_t>(doubles.size());
+    doubles.push_back(g.eye_v);
+    const std::vector<float> inv_step = sweep::inv_steps(g.k0, g.lines);
+    for (int n = 0; n < g.lines; ++n) {
+      const double k = g.step(n);
+      const float kf = static_cast<float>(k);
+      const sweep::CellSpan wedge = sweep::wedge(g.eye_v, k, g.include_diagonal);
+      table.insert(table.end(), {kf, static_cast<float>(k - 1.0), 1.0f / kf, inv_step[static_cast<std::size_t>(n)],
+                                 static_cast<float>(wedge.lo), static_cast<float>(wedge.hi)});
+      doubles.push_back(1.0 / k);
+    }
+    gs.dv_at = static_cast<std::int32_t>(table.size());
+    const std::vector<float> inv_dv = sweep::inv_dvs(g.eye_v, s.v_count);
+    table.insert(table.end(), inv_dv.begin(), inv_dv.end());
+    plan.gpu_sectors.push_back(gs);
+  }
+  return plan;
+}
+
+}  // namespace gl
+
 Status prepare_radial_gl(gpu::ContextPool& pool) {
   // One thread per context, each holding its lease until all have one, so
   // that every context (not one of them n times) is prepared.
@@ -174,12 +189,11 @@ Status radial_ohf_gl(gpu::Lease& lease, const terrain::Grid<float>& z, const Vie
     return status;
   };
   const terrain::Window& w = f.window;
-  const std::vector<SectorGeometry> sectors = plan_sectors(f, radial.ray_spacing);
-  int disk_width = 1, disk_rows = 0;
-  for (const SectorGeometry& s : sectors) {
-    disk_width = std::max(disk_width, s.lines);
-    disk_rows += 2 * s.ray_half + 1;
-  }
+  // The disk and its tables, the CPU sweep's geometry (sweep_geometry.hpp):
+  // float values of double formulas.
+  gl::DiskPlan disk = gl::plan_disk(f, radial.ray_spacing);
+  const std::vector<gl::DiskSector>& sectors = disk.sectors;
+  const int disk_width = disk.width, disk_rows = disk.rows;
   const int limit = lease.device().max_texture_size;
   if (w.width() > limit || w.height() > limit || disk_width > limit || disk_rows > limit)
     return make_error(ErrorCode::kResourceExhausted,
@@ -195,59 +209,8 @@ Status radial_ohf_gl(gpu::Lease& lease, const terrain::Grid<float>& z, const Vie
   auto& gl = static_cast<OhfResources&>(*slot);
   if (!gl.error.empty()) return fail(make_error(ErrorCode::kInternal, gl.error, "gpu"));
 
-  // Tables, as the CPU sweep computes them (float values of double formulas).
   const double curvature = f.curvature;
-  std::vector<GpuSector> gpu_sectors;
-  std::vector<float> table(3 * static_cast<std::size_t>(disk_rows));
-  std::vector<double> doubles;
-  for (const SectorGeometry& s : sectors) {
-    GpuSector g{};
-    g.rows = s.rows;
-    g.dir = s.dir;
-    g.line0 = s.line0;
-    g.lines = s.lines;
-    g.ray_half = s.ray_half;
-    g.base = s.base;
-    g.u_count = s.u_count;
-    g.v_count = s.v_count;
-    g.j_max = std::max(0, s.v_count - 2);
-    g.k0 = static_cast<float>(s.k0);
-    g.eye_v = static_cast<float>(s.eye_v);
-    g.v_min = 0.0f;
-    g.v_max = static_cast<float>(s.v_count - 1);
-    g.curvature = static_cast<float>(curvature);
-    g.mu2 = static_cast<float>(s.metres_u * s.metres_u);
-    g.mv2 = static_cast<float>(s.metres_v * s.metres_v);
-    const double ray_step = 1.0 / s.ray_half;
-    for (int r = -s.ray_half; r <= s.ray_half; ++r) {
-      const double m = std::clamp(r * ray_step, -1.0, 1.0);
-      const std::size_t row = static_cast<std::size_t>(s.base + r + s.ray_half);
-      table[row] = static_cast<float>(m);
-      table[disk_rows + row] = m == 0 ? 0.0f : static_cast<float>(1.0 / m);
-      const double metres_per_k = std::hypot(s.metres_u, m * s.metres_v);
-      table[2 * disk_rows + row] = static_cast<float>(curvature * metres_per_k * metres_per_k);
-    }
-    g.steps_at = static_cast<std::int32_t>(table.size());
-    g.d_at = static_cast<std::int32_t>(doubles.size());
-    doubles.push_back(s.eye_v);
-    for (int n = 0; n < s.lines; ++n) {
-      const double k = s.k0 + n;
-      const float kf = static_cast<float>(k);
-      // The sector's wedge on this line: |v - eye_v| <= k for north/south, < k for east/west.
-      const double lo = s.eye_v - k, hi = s.eye_v + k;
-      int jlo = static_cast<int>(std::ceil(lo)), jhi = static_cast<int>(std::floor(hi));
-      if (!s.rows) {
-        if (jlo == lo) ++jlo;
-        if (jhi == hi) --jhi;
-      }
-      table.insert(table.end(), {kf, static_cast<float>(k - 1.0), 1.0f / kf, static_cast<float>(1.0 / k),
-                                 static_cast<float>(jlo), static_cast<float>(jhi)});
-      doubles.push_back(1.0 / k);
-    }
-    g.dv_at = static_cast<std::int32_t>(table.size());
-    for (int v = 0; v < s.v_count; ++v) table.push_back(v == s.eye_v ? 0.0f : static_cast<float>(1.0 / (v - s.eye_v)));
-    gpu_sectors.push_back(g);
-  }
+  std::vector<gl::GpuSector>& gpu_sectors = disk.gpu_sectors;
 
   // Terrain: the window, voids as kVoid.
   std::vector<float> staging(w.cell_count());
@@ -264,10 +227,10 @@ Status radial_ohf_gl(gpu::Lease& lease, const terrain::Grid<float>& z, const Vie
   gl.disk[1].ensure(disk_width, disk_rows);
   gl.out.ensure(w.width(), w.height());
   const int sector_count = static_cast<int>(gpu_sectors.size());
-  gpu_sectors.resize(4, GpuSector{});  // the shader declares four
-  gl.sectors.upload(0, gpu_sectors.data(), gpu_sectors.size() * sizeof(GpuSector));
-  gl.table.upload(1, table.data(), table.size() * sizeof(float));
-  gl.doubles.upload(2, doubles.data(), doubles.size() * sizeof(double));
+  gpu_sectors.resize(4, gl::GpuSector{});  // the shader declares four
+  gl.sectors.upload(0, gpu_sectors.data(), gpu_sectors.size() * sizeof(gl::GpuSector));
+  gl.table.upload(1, disk.table.data(), disk.table.size() * sizeof(float));
+  gl.doubles.upload(2, disk.doubles.data(), disk.doubles.size() * sizeof(double));
   if (auto s = gl_status("upload"); !s.ok()) return fail(s);
 
   const float eye_hi = static_cast<float>(f.eye);
@@ -389,9 +352,10 @@ Status radial_ohf_gl(gpu::Lease& lease, const terrain::Grid<float>& z, const Vie
     for (int x = 0; x < w.width(); ++x) {
       const int si = static_cast<int>(src[2 * x + 1]);
       if (si < 0 || si >= static_cast<int>(sectors.size()) || std::isnan(zr[x])) continue;
-      const SectorGeometry& s = sectors[static_cast<std::size_t>(si)];
-      const int line = s.rows ? static_cast<int>(y) : x, j = s.rows ? x : static_cast<int>(y);
-      const double k = s.k0 + (line - s.line0) * s.dir;
+      const sweep::SectorLines& s = sectors[static_cast<std::size_t>(si)].lines;
+      const bool rows = s.axis.rows;
+      const int line = rows ? static_cast<int>(y) : x, j = rows ? x : static_cast<int>(y);  // window-relative
+      const double k = s.k0 + (line - (s.line0 - s.u0)) * s.axis.dir;
       const double du = k * s.metres_u, dv = (j - s.eye_v) * s.metres_v;
       const double d2 = du * du + dv * dv;
       if (d2 > max_d2) continue;
@@ -412,7 +376,7 @@ Status radial_ohf_gl(gpu::Lease& lease, const terrain::Grid<float>& z, const Vie
     ++evaluated;
   }
   std::uint64_t disk_texels = 0;
-  for (const SectorGeometry& s : sectors) disk_texels += static_cast<std::uint64_t>(2 * s.ray_half + 1) * s.lines;
+  for (const gl::DiskSector& s : sectors) disk_texels += static_cast<std::uint64_t>(2 * s.ray_half + 1) * s.lines.lines;
   stats.cells_evaluated = evaluated;
   stats.rays = static_cast<std::uint64_t>(disk_rows);
   stats.terrain_samples = 2 * disk_texels;
