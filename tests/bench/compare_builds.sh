@@ -2,7 +2,7 @@
 # Do two builds of `horizon` give the same answers? For a change meant to
 # make the engine faster without changing what it computes.
 #
-#   [ALGORITHMS=fast,conservative] tests/bench/compare_builds.sh OLD_HORIZON NEW_HORIZON DEM...
+#   [ALGORITHMS=fast,conservative] [BACKEND=cpu|gpu|auto] tests/bench/compare_builds.sh OLD_HORIZON NEW_HORIZON DEM...
 #
 # ALGORITHMS: comma-separated, default "fast,conservative". For every DEM it
 # writes the OHF raster (`--output ohf`, float32) of each algorithm with both
@@ -11,7 +11,8 @@
 # writer is deterministic). A run that fails with both binaries (e.g. an
 # observer on nodata) is counted as such, not as a difference. Prints one
 # line per difference or failure and a summary; exits 1 when any output
-# differs or only one binary fails.
+# differs or only one binary fails. BACKEND, when set, is passed as
+# `--backend` (gpu: the fast algorithm's GL form, on llvmpipe without a GPU).
 #
 # Needs gdalinfo (gdal-bin) for the DEM's extent. Example, old build in a
 # worktree:
@@ -21,13 +22,15 @@
 set -euo pipefail
 
 if (($# < 3)); then
-  sed -n '2,21p' "$0" >&2
+  sed -n '2,22p' "$0" >&2
   exit 2
 fi
 old=$1
 new=$2
 shift 2
 algorithms=${ALGORITHMS:-fast,conservative}
+backend_args=()
+[[ -n "${BACKEND:-}" ]] && backend_args=(--backend "$BACKEND")
 for tool in "$old" "$new" gdalinfo; do
   command -v "$tool" >/dev/null || { echo "compare_builds: '$tool' not found" >&2; exit 2; }
 done
@@ -50,7 +53,7 @@ print(c['center'][0], c['center'][1], c['upperRight'][0] - c['upperLeft'][0], c[
     x=$(python3 -c "print($cx + $fx * $w)")
     y=$(python3 -c "print($cy + $fy * $h)")
     for algorithm in ${algorithms//,/ }; do
-      args=(viewshed "$dem" --observer "$x,$y" --height 2 --algorithm "$algorithm" --output ohf)
+      args=(viewshed "$dem" --observer "$x,$y" --height 2 --algorithm "$algorithm" --output ohf "${backend_args[@]}")
       rc_old=0 rc_new=0
       "$old" "${args[@]}" -o "$work/old.tif" >/dev/null 2>&1 || rc_old=$?
       "$new" "${args[@]}" -o "$work/new.tif" >/dev/null 2>&1 || rc_new=$?
