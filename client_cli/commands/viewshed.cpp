@@ -183,7 +183,7 @@ struct Gpu {
 
 // One context when fast is asked to run on the GPU (--backend gpu). Auto
 // stays on the CPU here: it takes the GPU only from the size at which the
-// GPU was measured faster (gpu::calibrate, about a second, which horizond
+// GPU was measured faster (visibility::calibrate, about a second, which horizond
 // pays once at start), and a one-shot command has no such measurement.
 Gpu open_gpu(const visibility::ViewshedOptions& o) {
   Gpu gpu;

@@ -31,7 +31,7 @@
 //
 // GPU. With contexts > 0 the daemon opens a headless EGL display at start
 // (gpu/context_pool.hpp: ~30 ms plus ~6 ms a context), on a hardware device
-// measures from which window size the GPU beats the CPU (gpu/calibrate.hpp),
+// measures from which window size the GPU beats the CPU (visibility/backend_policy.hpp),
 // and logs the device ("gpu_ready"). A request with backend GPU (or auto, on a
 // hardware GPU, from that size) borrows a context for its computation,
 // waiting when all are lent. No EGL display, or no OpenGL 4.3, is a warning

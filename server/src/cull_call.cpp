@@ -65,7 +65,7 @@ grpc::Status run_cull_boxes(CallScope& scope, const v1::CullBoxesRequest& reques
     return scope.status_of(s.error());
 
   // The daemon's GPU contexts are lent to the OHF (backend auto: a hardware GPU for large windows).
-  auto result = visibility::run_cull(d.dem, *observer, *plan, scope.control(), env.gpu);
+  auto result = visibility::run_cull(d.dem, *observer, *plan, scope.control(), env.gpu, env.backend);
   if (!result.ok()) return scope.status_of(rename_field(result.error(), ""));
   const visibility::WorkStats& stats = result->stats;
   scope.ohf_computed(stats);

@@ -12,8 +12,8 @@
 
 #include "dataset_service.hpp"
 #include "datasets.hpp"
-#include "horizon/gpu/calibrate.hpp"
 #include "horizon/gpu/context_pool.hpp"
+#include "horizon/visibility/backend_policy.hpp"
 #include "horizon/visibility/radial_sweep_gl.hpp"
 #include "memory_budget.hpp"
 #include "metrics.hpp"
@@ -36,9 +36,10 @@ int max_receive_bytes(const Limits& limits) {
 
 // The GPU contexts config.gpu asks for (absent: one per worker thread), or
 // null: none asked for, or no EGL display (a warning; the CPU answers all).
-// On a hardware device the CPU/GPU crossover for backend auto is measured
-// here (gpu/calibrate.hpp; a software rasteriser is not timed).
-std::unique_ptr<gpu::ContextPool> open_gpu(const Config& config, unsigned workers) {
+// On a hardware device the CPU/GPU crossover for backend auto and the
+// fastest GL variant are measured here into `policy`
+// (visibility/backend_policy.hpp; a software rasteriser is not timed).
+std::unique_ptr<gpu::ContextPool> open_gpu(const Config& config, unsigned workers, visibility::BackendPolicy& policy) {
   const std::uint32_t contexts = config.gpu.contexts.value_or(std::min(workers, 64u));
   if (contexts == 0) return nullptr;
   auto pool = gpu::ContextPool::create({.contexts = static_cast<int>(contexts)});
@@ -52,12 +53,12 @@ std::unique_ptr<gpu::ContextPool> open_gpu(const Config& config, unsigned worker
   if (auto prepared = visibility::prepare_radial_gl(**pool); !prepared.ok())
     log_event("warn", "gpu_prepare_failed",
               {{"message", prepared.error().message + "; requests on that context run on the CPU"}});
-  auto calibration = gpu::calibrate(**pool, {.threads = config.engine_threads});
+  auto calibration = visibility::calibrate(**pool, policy, {.threads = config.engine_threads});
   if (!calibration.ok())
     log_event("warn", "gpu_calibration_failed",
               {{"message", calibration.error().message + "; backend auto keeps the default crossover"}});
   const gpu::DeviceInfo& device = (*pool)->device();
-  const std::uint64_t crossover = (*pool)->crossover_cells();
+  const std::uint64_t crossover = policy.crossover_cells();
   log_event("info", "gpu_ready",
             {{"platform", device.platform},
              {"renderer", device.renderer},
@@ -67,7 +68,7 @@ std::unique_ptr<gpu::ContextPool> open_gpu(const Config& config, unsigned worker
              // Backend auto's threshold; null: auto never picks this device.
              {"auto_from_cells", crossover == UINT64_MAX ? "null" : std::to_string(crossover), true},
              // The GL variant for requests that name none (measured fastest on a hardware device).
-             {"variant", visibility::gpu_variant_name((*pool)->preferred_variant())}});
+             {"variant", visibility::gpu_variant_name(policy.preferred_variant())}});
   return std::move(pool).value();
 }
 
@@ -94,6 +95,7 @@ struct Daemon::Impl {
   Metrics metrics;
   DatasetRegistry datasets;
   std::unique_ptr<gpu::ContextPool> gpu;  // outlives the workers that borrow from it
+  visibility::BackendPolicy backend;      // when requests use `gpu`; likewise
   WorkerPool pool;
   ServerEnv env;
   DatasetService dataset_service;
@@ -104,7 +106,9 @@ struct Daemon::Impl {
 };
 
 Daemon::Daemon(Config config) : impl_(std::make_unique<Impl>(std::move(config))) {}
-Daemon::~Daemon() { shutdown(); }
+Daemon::~Daemon() {
+  shutdown();
+}
 
 Status Daemon::start() {
   Impl& d = *impl_;
@@ -114,13 +118,15 @@ Status Daemon::start() {
       metrics_port = d.metrics.serve(d.config.metrics_listen);
     } catch (const std::exception& e) {
       return make_error(ErrorCode::kIoError,
-                        "metrics_listen '" + d.config.metrics_listen + "': cannot listen: " + e.what(), "metrics_listen");
+                        "metrics_listen '" + d.config.metrics_listen + "': cannot listen: " + e.what(),
+                        "metrics_listen");
     }
   }
 
   // Before the first call can arrive: env.gpu is read without a lock.
-  d.gpu = open_gpu(d.config, d.pool.threads());
+  d.gpu = open_gpu(d.config, d.pool.threads(), d.backend);
   d.env.gpu = d.gpu.get();
+  d.env.backend = &d.backend;
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
@@ -154,10 +160,12 @@ Status Daemon::load_datasets() {
   d.metrics.set_datasets(set->size(), d.datasets.resident_bytes());
   d.metrics.set_memory_reserved(d.memory.reserved());
   d.set_serving(true);
-  log_event("info", "datasets_loaded",
-            {{"datasets", std::to_string(set->size()), true},
-             {"resident_bytes", std::to_string(d.datasets.resident_bytes()), true},
-             {"seconds", std::to_string(std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count()), true}});
+  log_event(
+      "info", "datasets_loaded",
+      {{"datasets", std::to_string(set->size()), true},
+       {"resident_bytes", std::to_string(d.datasets.resident_bytes()), true},
+       {"seconds", std::to_string(std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count()),
+        true}});
   return Status::Ok();
 }
 
@@ -173,7 +181,9 @@ Status Daemon::reload(const Config& config) {
   return Status::Ok();
 }
 
-int Daemon::port() const { return impl_->port; }
+int Daemon::port() const {
+  return impl_->port;
+}
 
 void Daemon::shutdown() {
   Impl& d = *impl_;

@@ -9,6 +9,7 @@
 #include "config.hpp"
 #include "datasets.hpp"
 #include "horizon/gpu/context_pool.hpp"
+#include "horizon/visibility/backend_policy.hpp"
 #include "memory_budget.hpp"
 #include "metrics.hpp"
 #include "worker_pool.hpp"
@@ -24,6 +25,9 @@ struct ServerEnv {
   // Set once at start, before the first call; null when config gpu.contexts is
   // 0 or no EGL display could be had (every request then runs on the CPU).
   gpu::ContextPool* gpu = nullptr;
+  // When requests run there (backend auto) and with which GL variant,
+  // measured at start (visibility/backend_policy.hpp); set with `gpu`.
+  const visibility::BackendPolicy* backend = nullptr;
   std::atomic<std::uint32_t> pending{0};  // admitted and not finished
 };
 

@@ -116,7 +116,7 @@ grpc::Status ViewshedCall::compute() {
     bytes += d.dem.elevation.size() * sizeof(float);  // the engine fills a copy of the DEM
   if (auto s = scope_.reserve(bytes, "this viewshed"); !s.ok()) return scope_.status_of(s.error());
 
-  auto result = visibility::compute_viewshed(d.dem, *observer, *options, scope_.control(), env.gpu);
+  auto result = visibility::compute_viewshed(d.dem, *observer, *options, scope_.control(), env.gpu, env.backend);
   if (!result.ok()) return scope_.status_of(rename_field(result.error(), "options."));
   const visibility::WorkStats& stats = result->stats;
   scope_.ohf_computed(stats);

@@ -195,7 +195,7 @@ void BM_AlgorithmDem(benchmark::State& state) {
 }
 BENCHMARK(BM_AlgorithmDem)->DenseRange(0, 3)->Unit(benchmark::kMillisecond)->UseRealTime();
 
-// The fast OHF on the GL path (gpu/gpu_ohf.hpp) on $HORIZON_BENCH_DEM, whole
+// The fast OHF on the GL path (visibility/radial_sweep_gl.hpp) on $HORIZON_BENCH_DEM, whole
 // DEM, eye at the centre: (method 0 fragment / 1 compute) x (log-step 1 / 0).
 // "device ms" is the passes alone (GL timestamps); the time also covers the
 // upload, the read-back and the OHF's multiply on the CPU. One-step fragment

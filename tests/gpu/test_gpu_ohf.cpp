@@ -5,17 +5,17 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <cmath>
 #include <barrier>
+#include <cmath>
 #include <mutex>
 #include <thread>
 #include <utility>
 #include <vector>
 
-#include "horizon/gpu/calibrate.hpp"
 #include "horizon/gpu/context_pool.hpp"
 #include "horizon/terrain/dem_reader.hpp"
 #include "horizon/visibility/agreement.hpp"
+#include "horizon/visibility/backend_policy.hpp"
 #include "horizon/visibility/radial_sweep_gl.hpp"
 #include "horizon/visibility/viewshed.hpp"
 #include "observer_picks.hpp"
@@ -95,7 +95,7 @@ TEST(GpuPool, OpensAHeadlessDisplayAndReportsTheDevice) {
   EXPECT_EQ(pool().size(), 8);
   // auto never picks a software rasteriser: the CPU sweep is faster there.
   if (d.software) {
-    EXPECT_FALSE(pool().prefers_gpu(1ull << 40));
+    EXPECT_FALSE(visibility::BackendPolicy().prefers_gpu(d, 1ull << 40));
   }
 }
 
@@ -105,8 +105,8 @@ TEST(GpuPool, BothHeadlessPlatformsWork) {
   const auto dem = testing::make_random_terrain(80, 70, 8, 150.0);
   const auto eye = eye_at(dem, 40.4, 30.7);
   const auto c = run(dem, eye, {}, Backend::kCpu);
-  for (auto [platform, name] : {std::pair{gpu::EglPlatform::kDevice, "device"},
-                                std::pair{gpu::EglPlatform::kSurfaceless, "surfaceless"}}) {
+  for (auto [platform, name] :
+       {std::pair{gpu::EglPlatform::kDevice, "device"}, std::pair{gpu::EglPlatform::kSurfaceless, "surfaceless"}}) {
     auto p = gpu::ContextPool::create({.contexts = 1, .platform = platform});
     if (!p.ok()) {
       ADD_FAILURE() << name << ": " << p.error().message;
@@ -195,9 +195,9 @@ TEST(GpuOhf, TreatsVoidsAsTheCpuDoes) {
 // The accuracy bar of the CPU path, held by the GPU path against R3 on every
 // bundled DEM (pooled over the four observers, as test_accuracy_bundled).
 TEST(GpuOhf, MeetsTheAccuracyBarAgainstR3OnTheBundledDems) {
-  for (const char* name : {"ecuador_andes_utm17s_10m_383x415.tif", "everest_summit_voids_srtm3_300x300.tif",
-                           "olinda_coast_utm25s_111x111.tif", "rainier_summit_srtm3_400x400.tif",
-                           "zion_canyon_srtm3_465x457.tif"}) {
+  for (const char* name :
+       {"ecuador_andes_utm17s_10m_383x415.tif", "everest_summit_voids_srtm3_300x300.tif",
+        "olinda_coast_utm25s_111x111.tif", "rainier_summit_srtm3_400x400.tif", "zion_canyon_srtm3_465x457.tif"}) {
     auto dem = terrain::read_dem(testing::bundled_dem(name));
     ASSERT_TRUE(dem.ok()) << dem.error().message;
     std::uint64_t both = 0, missed = 0, extra = 0, ref_visible = 0;
@@ -336,7 +336,8 @@ TEST(GpuBackend, AutoUsesTheCpuOnASoftwareRasteriser) {
 TEST(GpuCalibration, SetsTheCrossoverFromTheTimings) {
   auto own = gpu::ContextPool::create({.contexts = 1});
   ASSERT_TRUE(own.ok()) << own.error().message;
-  auto c = gpu::calibrate(**own, {.threads = 0, .max_side = 256, .time_software = true});
+  visibility::BackendPolicy policy;
+  auto c = visibility::calibrate(**own, policy, {.threads = 0, .max_side = 256, .time_software = true});
   ASSERT_TRUE(c.ok()) << c.error().message;
   ASSERT_EQ(c->points.size(), 2u);
   EXPECT_EQ(c->points[0].cells, 128u * 128u);
@@ -346,28 +347,28 @@ TEST(GpuCalibration, SetsTheCrossoverFromTheTimings) {
     expected = it->cells;
   for (const auto& p : c->points) EXPECT_GT(p.cpu_seconds * p.gpu_seconds, 0.0);
   EXPECT_EQ(c->crossover_cells, expected);
-  EXPECT_EQ((*own)->crossover_cells(), expected);
-  // Every variant timed at the largest size; the fastest is the pool's default.
+  EXPECT_EQ(policy.crossover_cells(), expected);
+  // Every variant timed at the largest size; the fastest is the policy's default.
   ASSERT_EQ(c->variants.size(), 4u);
   const auto fastest = std::min_element(c->variants.begin(), c->variants.end(),
                                         [](const auto& a, const auto& b) { return a.seconds < b.seconds; });
   EXPECT_EQ(c->preferred.method, fastest->variant.method);
   EXPECT_EQ(c->preferred.log_step, fastest->variant.log_step);
-  EXPECT_EQ((*own)->preferred_variant().method, fastest->variant.method);
-  EXPECT_EQ((*own)->preferred_variant().log_step, fastest->variant.log_step);
+  EXPECT_EQ(policy.preferred_variant().method, fastest->variant.method);
+  EXPECT_EQ(policy.preferred_variant().log_step, fastest->variant.log_step);
   // A request naming no variant runs the preferred one.
   const auto dem = testing::make_random_terrain(60, 60, 2);
   ViewshedOptions o;
   o.backend = Backend::kGpu;
-  auto r = visibility::compute_viewshed(dem, eye_at(dem, 30.5, 20.5), o, nullptr, own->get());
+  auto r = visibility::compute_viewshed(dem, eye_at(dem, 30.5, 20.5), o, nullptr, own->get(), &policy);
   ASSERT_TRUE(r.ok());
   EXPECT_EQ(r->stats.gpu_variant, visibility::gpu_variant_name(fastest->variant));
   // Without time_software a software rasteriser is not timed and never preferred.
   if ((*own)->device().software) {
-    auto plain = gpu::calibrate(**own);
+    auto plain = visibility::calibrate(**own, policy);
     ASSERT_TRUE(plain.ok());
     EXPECT_TRUE(plain->points.empty());
-    EXPECT_FALSE((*own)->prefers_gpu(UINT64_MAX - 1));
+    EXPECT_FALSE(policy.prefers_gpu((*own)->device(), UINT64_MAX - 1));
   }
 }
 

@@ -51,7 +51,7 @@ constexpr KnobSetting kKnobTable[] = {
     {"fast", "spacing 1, min", [](ViewshedOptions& o) { spacing_blend(o, 1.0, RayBlend::kMin); }},
     {"fast", "spacing 0.5, min", [](ViewshedOptions& o) { spacing_blend(o, 0.5, RayBlend::kMin); }},
     {"fast", "spacing 0.25, min", [](ViewshedOptions& o) { spacing_blend(o, 0.25, RayBlend::kMin); }},
-    // The same rays on the GL path (gpu/gpu_ohf.hpp), at the default spacing
+    // The same rays on the GL path (visibility/radial_sweep_gl.hpp), at the default spacing
     // and blend; run only when the bench has an EGL context (BenchConfig::gpu).
     {"fast", "gpu fragment, log-step", [](ViewshedOptions& o) { gpu_knobs(o, visibility::GpuMethod::kFragment, true); }},
     {"fast", "gpu compute, log-step", [](ViewshedOptions& o) { gpu_knobs(o, visibility::GpuMethod::kCompute, true); }},

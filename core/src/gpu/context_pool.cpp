@@ -107,7 +107,8 @@ Result<Display> open_display(EglPlatform platform) {
     EGLDisplay display = eglGetPlatformDisplay(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
     EGLint major = 0, minor = 0;
     // Software or not is read from the renderer once a context exists.
-    if (display != EGL_NO_DISPLAY && eglInitialize(display, &major, &minor)) return Display{display, "surfaceless", false};
+    if (display != EGL_NO_DISPLAY && eglInitialize(display, &major, &minor))
+      return Display{display, "surfaceless", false};
     tried += "surfaceless: " + egl_error_text(eglGetError()) + "; ";
   }
   if (tried.empty())
@@ -133,7 +134,8 @@ Result<EGLContext> create_context(EGLDisplay display) {
     return make_error(ErrorCode::kUnsupported, "gpu: EGL cannot bind the desktop OpenGL API", "gpu");
   // A reset (a lost context) reported rather than fatal, where the driver
   // offers it (EGL 1.5 / KHR_create_context); without it, plainly.
-  const EGLint base[] = {EGL_CONTEXT_MAJOR_VERSION, 4, EGL_CONTEXT_MINOR_VERSION, 3,
+  const EGLint base[] = {EGL_CONTEXT_MAJOR_VERSION,       4,
+                         EGL_CONTEXT_MINOR_VERSION,       3,
                          EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT};
   std::vector<EGLint> robust(std::begin(base), std::end(base));
   robust.insert(robust.end(), {EGL_CONTEXT_OPENGL_RESET_NOTIFICATION_STRATEGY, EGL_LOSE_CONTEXT_ON_RESET, EGL_NONE});
@@ -161,8 +163,6 @@ struct ContextPool::Impl {
   mutable std::mutex mutex;
   std::condition_variable returned;
   Counters counters;
-  std::uint64_t crossover = UINT64_MAX;  // until gpu::calibrate measures it
-  visibility::GpuOptions preferred;
 
   // Destroys a slot's context, its resources first with the context current.
   void destroy(Slot& slot) {
@@ -179,8 +179,8 @@ struct ContextPool::Impl {
   ~Impl() {
     for (Slot& slot : slots) destroy(slot);
     if (display.display == EGL_NO_DISPLAY || !remove_display_user(display.display)) return;
-    // Mesa's driver unload leaks a few hundred bytes that LeakSanitizer
-    // reports; under ASan the display stays initialised (process exit frees it).
+      // Mesa's driver unload leaks a few hundred bytes that LeakSanitizer
+      // reports; under ASan the display stays initialised (process exit frees it).
 #if !defined(__SANITIZE_ADDRESS__)
     eglTerminate(display.display);
 #endif
@@ -207,8 +207,8 @@ Result<std::unique_ptr<ContextPool>> ContextPool::create(const PoolOptions& opti
   // Facts about the device, read on the first context.
   EGLContext first = impl->slots.front().context;
   if (!eglMakeCurrent(impl->display.display, EGL_NO_SURFACE, EGL_NO_SURFACE, first))
-    return make_error(ErrorCode::kUnsupported, "gpu: cannot make a context current (" + egl_error_text(eglGetError()) + ")",
-                      "gpu");
+    return make_error(ErrorCode::kUnsupported,
+                      "gpu: cannot make a context current (" + egl_error_text(eglGetError()) + ")", "gpu");
   auto text = [](GLenum name) {
     const auto* s = reinterpret_cast<const char*>(glGetString(name));
     return std::string(s ? s : "");
@@ -228,8 +228,12 @@ Result<std::unique_ptr<ContextPool>> ContextPool::create(const PoolOptions& opti
 ContextPool::ContextPool(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 ContextPool::~ContextPool() = default;
 
-const DeviceInfo& ContextPool::device() const { return impl_->info; }
-int ContextPool::size() const { return static_cast<int>(impl_->slots.size()); }
+const DeviceInfo& ContextPool::device() const {
+  return impl_->info;
+}
+int ContextPool::size() const {
+  return static_cast<int>(impl_->slots.size());
+}
 
 Result<Lease> ContextPool::borrow() {
   std::unique_lock lock(impl_->mutex);
@@ -246,10 +250,10 @@ Result<Lease> ContextPool::borrow() {
     ++impl_->counters.replaced;
   }
   if (!eglMakeCurrent(impl_->display.display, EGL_NO_SURFACE, EGL_NO_SURFACE, slot.context))
-    return make_error(ErrorCode::kInternal,
-                      "gpu: cannot make context " + std::to_string(index) + " current (" +
-                          egl_error_text(eglGetError()) + ")",
-                      "gpu");
+    return make_error(
+        ErrorCode::kInternal,
+        "gpu: cannot make context " + std::to_string(index) + " current (" + egl_error_text(eglGetError()) + ")",
+        "gpu");
   slot.lent = true;
   ++impl_->counters.leases;
   return Lease(this, index);
@@ -279,32 +283,6 @@ ContextPool::Counters ContextPool::counters() const {
   return impl_->counters;
 }
 
-bool ContextPool::prefers_gpu(std::uint64_t cells) const {
-  if (impl_->info.software) return false;
-  std::lock_guard lock(impl_->mutex);
-  return cells >= impl_->crossover;
-}
-
-void ContextPool::set_crossover_cells(std::uint64_t cells) {
-  std::lock_guard lock(impl_->mutex);
-  impl_->crossover = cells;
-}
-
-std::uint64_t ContextPool::crossover_cells() const {
-  std::lock_guard lock(impl_->mutex);
-  return impl_->crossover;
-}
-
-visibility::GpuOptions ContextPool::preferred_variant() const {
-  std::lock_guard lock(impl_->mutex);
-  return impl_->preferred;
-}
-
-void ContextPool::set_preferred_variant(const visibility::GpuOptions& variant) {
-  std::lock_guard lock(impl_->mutex);
-  impl_->preferred = variant;
-}
-
 Lease::Lease(Lease&& other) noexcept
     : pool_(std::exchange(other.pool_, nullptr)), index_(other.index_), failed_(other.failed_) {}
 
@@ -312,12 +290,16 @@ Lease::~Lease() {
   if (pool_) pool_->give_back(index_, failed_);
 }
 
-const DeviceInfo& Lease::device() const { return pool_->device(); }
+const DeviceInfo& Lease::device() const {
+  return pool_->device();
+}
 
 std::unique_ptr<ContextResources>& Lease::resources() {
   return pool_->impl_->slots[static_cast<std::size_t>(index_)].resources;
 }
 
-void Lease::fail() { failed_ = true; }
+void Lease::fail() {
+  failed_ = true;
+}
 
 }  // namespace horizon::gpu

@@ -195,8 +195,8 @@ Result<CullPlan> plan_cull(const terrain::Dem& dem, const geodesy::GridPoint& ob
 }
 
 Result<CullResult> run_cull(const terrain::Dem& dem, const geodesy::GridPoint& observer, const CullPlan& plan,
-                            const RunControl* control, gpu::ContextPool* gpu) {
-  auto ohf = compute_viewshed(dem, observer, plan.viewshed, control, gpu);
+                            const RunControl* control, gpu::ContextPool* gpu, const BackendPolicy* policy) {
+  auto ohf = compute_viewshed(dem, observer, plan.viewshed, control, gpu, policy);
   if (!ohf.ok()) return ohf.error();
 
   CullResult result;
@@ -211,10 +211,10 @@ Result<CullResult> run_cull(const terrain::Dem& dem, const geodesy::GridPoint& o
 
 Result<CullResult> cull_boxes(const terrain::Dem& dem, const geodesy::GridPoint& observer,
                               std::span<const BoxSpec> boxes, const CullOptions& options, const RunControl* control,
-                              gpu::ContextPool* gpu) {
+                              gpu::ContextPool* gpu, const BackendPolicy* policy) {
   auto plan = plan_cull(dem, observer, boxes, options);
   if (!plan.ok()) return plan.error();
-  return run_cull(dem, observer, *plan, control, gpu);
+  return run_cull(dem, observer, *plan, control, gpu, policy);
 }
 
 }  // namespace horizon::visibility

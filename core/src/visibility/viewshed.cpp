@@ -34,24 +34,27 @@ terrain::Grid<float> per_answered_cell(const ViewshedResult& result, F&& f) {
   return out;
 }
 
-// The fast OHF on the GPU when the options and the pool ask for it. Returns
+// The fast OHF on the GPU when the options and the policy ask for it. Returns
 // true when the GPU answered (or the caller's control stopped it: `status`
 // then holds that error); false leaves the work to the CPU, with
 // stats.gpu_fallback saying why when the GPU was asked for.
 bool try_gpu(const terrain::Grid<float>& elevation, const ViewFrame& frame, const ViewshedOptions& options,
-             const RunControl* control, gpu::ContextPool* pool, ViewshedResult& result, Status& status) {
+             const RunControl* control, gpu::ContextPool* pool, const BackendPolicy* policy, ViewshedResult& result,
+             Status& status) {
   if (options.algorithm != Algorithm::kRadial || options.backend == Backend::kCpu) return false;
   if (pool == nullptr) {
     if (options.backend == Backend::kGpu) result.stats.gpu_fallback = "no EGL context in this process";
     return false;
   }
-  if (options.backend == Backend::kAuto && !pool->prefers_gpu(frame.window.cell_count())) return false;
+  if (options.backend == Backend::kAuto &&
+      (policy == nullptr || !policy->prefers_gpu(pool->device(), frame.window.cell_count())))
+    return false;
   auto lease = pool->borrow();
   if (!lease.ok()) {
     result.stats.gpu_fallback = lease.error().message;
     return false;
   }
-  const GpuOptions variant = options.gpu.value_or(pool->preferred_variant());
+  const GpuOptions variant = options.gpu.value_or(policy ? policy->preferred_variant() : GpuOptions{});
   status = radial_ohf_gl(*lease, elevation, frame, options.radial, variant, control, result.ohf, result.stats);
   if (status.ok()) {
     result.stats.backend = "gpu";
@@ -72,7 +75,8 @@ bool has_voids(const terrain::Grid<float>& z) {
 // compute_viewshed, with `spare` (dem.elevation itself, or null) free to be
 // taken as result.terrain.
 Result<ViewshedResult> compute(const terrain::Dem& dem, terrain::Grid<float>* spare, const geodesy::GridPoint& observer,
-                               const ViewshedOptions& options, const RunControl* control, gpu::ContextPool* gpu) {
+                               const ViewshedOptions& options, const RunControl* control, gpu::ContextPool* gpu,
+                               const BackendPolicy* policy) {
   auto frame = make_view_frame(dem, observer, options);
   if (!frame.ok()) return frame.error();
 
@@ -96,7 +100,7 @@ Result<ViewshedResult> compute(const terrain::Dem& dem, terrain::Grid<float>* sp
 
   const auto start = std::chrono::steady_clock::now();
   Status status;
-  if (!try_gpu(*elevation, *frame, options, control, gpu, result, status)) switch (options.algorithm) {
+  if (!try_gpu(*elevation, *frame, options, control, gpu, policy, result, status)) switch (options.algorithm) {
       case Algorithm::kRadial:
         status = radial_ohf(*elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats);
         break;
@@ -132,14 +136,14 @@ Result<ViewshedResult> compute(const terrain::Dem& dem, terrain::Grid<float>* sp
 
 Result<ViewshedResult> compute_viewshed(const terrain::Dem& dem, const geodesy::GridPoint& observer,
                                         const ViewshedOptions& options, const RunControl* control,
-                                        gpu::ContextPool* gpu) {
-  return compute(dem, nullptr, observer, options, control, gpu);
+                                        gpu::ContextPool* gpu, const BackendPolicy* policy) {
+  return compute(dem, nullptr, observer, options, control, gpu, policy);
 }
 
 Result<ViewshedResult> compute_viewshed_taking_elevation(terrain::Dem& dem, const geodesy::GridPoint& observer,
                                                          const ViewshedOptions& options, const RunControl* control,
-                                                         gpu::ContextPool* gpu) {
-  return compute(dem, &dem.elevation, observer, options, control, gpu);
+                                                         gpu::ContextPool* gpu, const BackendPolicy* policy) {
+  return compute(dem, &dem.elevation, observer, options, control, gpu, policy);
 }
 
 terrain::Grid<float> min_target_height(const ViewshedResult& result) {
@@ -148,7 +152,8 @@ terrain::Grid<float> min_target_height(const ViewshedResult& result) {
 
 terrain::Grid<std::uint8_t> visibility_mask(const ViewshedResult& result, double target_height) {
   // The rule of min_target_height(), cell by cell, so the two rasters can never disagree.
-  terrain::Grid<std::uint8_t> out(result.ohf.width(), result.ohf.height(), terrain::kUninitialized);  // all written below
+  terrain::Grid<std::uint8_t> out(result.ohf.width(), result.ohf.height(),
+                                  terrain::kUninitialized);  // all written below
   const float th = static_cast<float>(target_height);
   const auto ohf = result.ohf.values();
   const auto z = result.terrain.values();

@@ -23,6 +23,9 @@
 // context) destroys that context and its resources on return and creates a
 // fresh one, so one bad request never poisons later ones. counters() tells
 // an operator how often that happened.
+//
+// The pool lends contexts and nothing more: which requests run on the GPU
+// (and which GL variant) is engine policy (visibility/backend_policy.hpp).
 #pragma once
 
 #include <cstdint>
@@ -30,15 +33,14 @@
 #include <string>
 
 #include "horizon/common/error.hpp"
-#include "horizon/visibility/options.hpp"
 
 namespace horizon::gpu {
 
 struct DeviceInfo {
   std::string platform;  // "device" (EGL_EXT_platform_device) or "surfaceless" (EGL_MESA_platform_surfaceless)
   std::string vendor, renderer, version;  // GL_VENDOR, GL_RENDERER, GL_VERSION
-  bool software = false;  // a CPU rasteriser (llvmpipe, softpipe): the CPU path is faster
-  int max_texture_size = 0;  // GL_MAX_TEXTURE_SIZE, texels per side
+  bool software = false;                  // a CPU rasteriser (llvmpipe, softpipe): the CPU path is faster
+  int max_texture_size = 0;               // GL_MAX_TEXTURE_SIZE, texels per side
 };
 
 enum class EglPlatform {
@@ -109,20 +111,6 @@ class ContextPool {
     std::uint64_t replaced = 0;  // contexts re-created after a failure
   };
   Counters counters() const;
-
-  // auto backend: true when requests of `cells` cells should run here. A
-  // software rasteriser never; a hardware GPU from the size at which it was
-  // measured faster than the CPU (set_crossover_cells, from gpu::calibrate),
-  // and never until measured.
-  bool prefers_gpu(std::uint64_t cells) const;
-  void set_crossover_cells(std::uint64_t cells);
-  std::uint64_t crossover_cells() const;
-
-  // The GL variant used when a request names none (ViewshedOptions::gpu
-  // absent): the fastest gpu::calibrate measured on this device, fragment
-  // with log-step until then.
-  visibility::GpuOptions preferred_variant() const;
-  void set_preferred_variant(const visibility::GpuOptions& variant);
 
  private:
   friend class Lease;

@@ -122,14 +122,16 @@ Result<CullPlan> plan_cull(const terrain::Dem& dem, const geodesy::GridPoint& ob
 
 // Computes the planned OHF, builds the pyramid and tests every box. Honours
 // `control` (cancel, deadline) inside the OHF computation. `gpu` (may be
-// null) is lent to the OHF computation as compute_viewshed() describes: the
-// fast algorithm may run there; the stats say where it ran.
+// null) and `policy` are lent to the OHF computation as compute_viewshed()
+// describes: the fast algorithm may run there; the stats say where it ran.
 Result<CullResult> run_cull(const terrain::Dem& dem, const geodesy::GridPoint& observer, const CullPlan& plan,
-                            const RunControl* control = nullptr, gpu::ContextPool* gpu = nullptr);
+                            const RunControl* control = nullptr, gpu::ContextPool* gpu = nullptr,
+                            const BackendPolicy* policy = nullptr);
 
 // plan_cull + run_cull.
 Result<CullResult> cull_boxes(const terrain::Dem& dem, const geodesy::GridPoint& observer,
                               std::span<const BoxSpec> boxes, const CullOptions& options,
-                              const RunControl* control = nullptr, gpu::ContextPool* gpu = nullptr);
+                              const RunControl* control = nullptr, gpu::ContextPool* gpu = nullptr,
+                              const BackendPolicy* policy = nullptr);
 
 }  // namespace horizon::visibility

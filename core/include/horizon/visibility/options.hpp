@@ -53,10 +53,10 @@ struct RadialOptions {
 enum class Backend {
   kAuto,  // the GPU when a hardware one is present and measured faster for the request's size, else the CPU
   kCpu,   // the radial sweep on the CPU (radial_sweep.hpp)
-  kGpu,   // the same rays on an EGL context (gpu/gpu_ohf.hpp); a GL failure is answered by the CPU path
+  kGpu,   // the same rays on an EGL context (visibility/radial_sweep_gl.hpp); a GL failure is answered by the CPU path
 };
 
-// The GL formulation of the fast algorithm (gpu/gpu_ohf.hpp).
+// The GL formulation of the fast algorithm (visibility/radial_sweep_gl.hpp).
 enum class GpuMethod {
   kFragment,  // render passes into R32F/RG32F targets (the patent's modulation and shift disks)
   kCompute,   // compute-shader passes over the same images
@@ -88,8 +88,9 @@ struct ViewshedOptions {
   RadialOptions radial;
   unsigned threads = 0;  // worker threads; 0 = all hardware threads
   Backend backend = Backend::kAuto;
-  // The GL variant; absent: the one the context pool measured fastest on its
-  // device (gpu::calibrate), fragment with log-step until measured.
+  // The GL variant; absent: the backend policy's preferred one, measured
+  // fastest on the device (visibility::calibrate), fragment with log-step
+  // until measured (backend_policy.hpp).
   std::optional<GpuOptions> gpu;
   // The caller needs the visible/hidden answer at target_height only (the
   // viewshed raster), not the OHF or the minimum visible target height.

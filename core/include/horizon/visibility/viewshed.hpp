@@ -25,6 +25,7 @@
 #include "horizon/gpu/context_pool.hpp"
 #include "horizon/terrain/dem.hpp"
 #include "horizon/terrain/preview.hpp"
+#include "horizon/visibility/backend_policy.hpp"
 #include "horizon/visibility/options.hpp"
 #include "horizon/visibility/view_frame.hpp"
 #include "horizon/visibility/work_stats.hpp"
@@ -41,12 +42,14 @@ struct ViewshedResult {
 
 // Validates the options, builds the frame and runs the chosen algorithm.
 // Algorithm fast runs on `gpu` (may be null: no GPU) when options.backend is
-// kGpu, or kAuto and the pool prefers the GPU for the window's size; a GPU
-// failure, or kGpu without a pool, is answered on the CPU with
-// stats.gpu_fallback saying why. stats.backend says where it ran.
+// kGpu, or kAuto and `policy` prefers the GPU for the window's size (null:
+// an unmeasured policy, so auto stays on the CPU); a request naming no GL
+// variant runs the policy's preferred one. A GPU failure, or kGpu without a
+// pool, is answered on the CPU with stats.gpu_fallback saying why.
+// stats.backend says where it ran.
 Result<ViewshedResult> compute_viewshed(const terrain::Dem& dem, const geodesy::GridPoint& observer,
                                         const ViewshedOptions& options, const RunControl* control = nullptr,
-                                        gpu::ContextPool* gpu = nullptr);
+                                        gpu::ContextPool* gpu = nullptr, const BackendPolicy* policy = nullptr);
 
 // The same for a caller done with the DEM's elevations (the one-shot CLI):
 // when the window covers the whole grid, result.terrain takes over
@@ -55,7 +58,8 @@ Result<ViewshedResult> compute_viewshed(const terrain::Dem& dem, const geodesy::
 Result<ViewshedResult> compute_viewshed_taking_elevation(terrain::Dem& dem, const geodesy::GridPoint& observer,
                                                          const ViewshedOptions& options,
                                                          const RunControl* control = nullptr,
-                                                         gpu::ContextPool* gpu = nullptr);
+                                                         gpu::ContextPool* gpu = nullptr,
+                                                         const BackendPolicy* policy = nullptr);
 
 // Metres: an occlusion height at most this far above the ground counts as the ground itself.
 inline constexpr float kTieTolerance = 1.0e-3f;
