@@ -3,6 +3,14 @@
 // The engine is called from the CLI (one request, use every core) and from the
 // daemon (many requests on an Asio pool, each using few threads). Callers pass
 // the thread count they want; 0 means std::thread::hardware_concurrency().
+//
+// Every call runs on one process-wide executor: hardware_concurrency - 1
+// worker threads, started on the first parallel_for that wants more than one
+// thread and kept for the life of the process, so a call costs a few wake-ups,
+// not thread starts. The calling thread always works on its own call, so a
+// call never waits for a free worker to make progress; when the workers are
+// busy with other calls it simply gets fewer of them. A body may itself call
+// parallel_for (nested calls complete; they share the same workers).
 #pragma once
 
 #include <cstddef>
@@ -16,8 +24,11 @@ namespace horizon {
 unsigned resolve_thread_count(unsigned requested);
 
 // Runs body(i) for every i in [0, count), distributing indices dynamically over
-// `threads` threads (the calling thread is one of them). Returns when all are
-// done. body must not throw. Work items should be coarse (>= ~50 us each).
+// at most `threads` threads (the calling thread is one of them, and the others
+// are executor workers; never more than hardware_concurrency in all, and fewer
+// while other calls hold workers). Returns when all are done. body must not
+// throw: an exception out of body terminates the process. Work items should be
+// coarse (>= ~10 us each; waking a worker costs a few microseconds).
 void parallel_for(std::size_t count, unsigned threads, const std::function<void(std::size_t)>& body);
 
 // parallel_for under a RunControl (may be null): before each item it polls the
