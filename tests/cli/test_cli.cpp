@@ -131,6 +131,13 @@ void PrintTo(const UsageCase& c, std::ostream* os) {
 
 class CliRejectsUsage : public ::testing::TestWithParam<UsageCase> {};
 
+// "viewshed_DEM_o_OUT_lat_95_lon_121_76": the command line, readable.
+std::string usage_name(const ::testing::TestParamInfo<UsageCase>& info) {
+  std::string line;
+  for (const auto& a : info.param.args) line += a + ' ';
+  return readable_name(line);
+}
+
 TEST_P(CliRejectsUsage, ExitsTwoNamingTheFlagAndWritesNothing) {
   TempDir dir;
   std::vector<std::string> args;
@@ -188,7 +195,8 @@ INSTANTIATE_TEST_SUITE_P(
                       UsageCase{concat(concat(V, kSummit), {"--json=yes"}), "--json"},
                       UsageCase{concat({"viewshed", "DEM", "-o", "x.png"}, kSummit), "-o"},
                       UsageCase{concat(concat(V, kSummit), {"--png", "preview.jpg"}), "--png"},
-                      UsageCase{concat(concat(V, kSummit), {"--png", "OUT"}), "--png"}));
+                      UsageCase{concat(concat(V, kSummit), {"--png", "OUT"}), "--png"}),
+    usage_name);
 
 INSTANTIATE_TEST_SUITE_P(
     InfoAndLos, CliRejectsUsage,
@@ -201,7 +209,8 @@ INSTANTIATE_TEST_SUITE_P(
                       UsageCase{{"los", "DEM", "--from", "1,2", "--to", "3,4", "--from-height", "nan"},
                                 "--from-height"},
                       UsageCase{{"los", "DEM", "--from", "1,2", "--to", "3,4", "--to-height", "-1"}, "--to-height"},
-                      UsageCase{{"los", "DEM", "--from", "1,2", "--to", "3,4", "--curvature", "5"}, "--curvature"}));
+                      UsageCase{{"los", "DEM", "--from", "1,2", "--to", "3,4", "--curvature", "5"}, "--curvature"}),
+    usage_name);
 
 TEST(CliUsage, RefusesToOverwriteTheInputDem) {
   TempDir dir;
@@ -277,8 +286,8 @@ TEST(CliFailure, MissingImagePluginIsNamedAndNothingIsWritten) {
     }
     return run_command(command);
   };
-  const auto r =
-      with_env(concat({"viewshed", bundled_dem(kRainier), "-o", dir.file("out.tif"), "--png", dir.file("p.png")}, kSummit));
+  const auto r = with_env(
+      concat({"viewshed", bundled_dem(kRainier), "-o", dir.file("out.tif"), "--png", dir.file("p.png")}, kSummit));
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find("libhorizon_imageio.so"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("/nonexistent/libhorizon_imageio.so (absent)"), std::string::npos) << r.output;

@@ -4,7 +4,9 @@
 // directory).
 #include <gtest/gtest.h>
 
+#include <cctype>
 #include <filesystem>
+#include <ostream>
 #include <string>
 
 #include "config.hpp"
@@ -52,6 +54,10 @@ struct BadCase {
   const char* field;
 };
 
+void PrintTo(const BadCase& b, std::ostream* os) {
+  *os << b.what << ": " << b.text;
+}
+
 class BadConfig : public ::testing::TestWithParam<BadCase> {};
 
 TEST_P(BadConfig, IsRefusedNamingTheKey) {
@@ -71,10 +77,8 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(
         BadCase{"not JSON", "{\"listen\": ", ""}, BadCase{"not an object", "[1, 2]", "(document)"},
         BadCase{"unknown key", document(R"("listne": "x:1")"), "listne"},
-        BadCase{"missing listen",
-                R"({"data_root": "/", "datasets": {}, "memory_budget_mb": 256})", "listen"},
-        BadCase{"missing datasets",
-                R"({"listen": "a:1", "data_root": "/", "memory_budget_mb": 256})", "datasets"},
+        BadCase{"missing listen", R"({"data_root": "/", "datasets": {}, "memory_budget_mb": 256})", "listen"},
+        BadCase{"missing datasets", R"({"listen": "a:1", "data_root": "/", "memory_budget_mb": 256})", "datasets"},
         BadCase{"listen without port", document(R"("listen": "localhost")"), "listen"},
         BadCase{"listen port too large", document(R"("listen": "localhost:70000")"), "listen"},
         BadCase{"listen not a string", document(R"("listen": 50051)"), "listen"},
@@ -85,8 +89,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"dataset empty file", document(R"("datasets": {"a": ""})"), "datasets.a"},
         BadCase{"dataset number", document(R"("datasets": {"a": 3})"), "datasets.a"},
         BadCase{"dataset object without file", document(R"("datasets": {"a": {"band": 1}})"), "datasets.a.file"},
-        BadCase{"dataset band 0", document(R"("datasets": {"a": {"file": "x.tif", "band": 0}})"),
-                "datasets.a.band"},
+        BadCase{"dataset band 0", document(R"("datasets": {"a": {"file": "x.tif", "band": 0}})"), "datasets.a.band"},
         BadCase{"dataset unknown key", document(R"("datasets": {"a": {"file": "x.tif", "bands": 2}})"),
                 "datasets.a.bands"},
         BadCase{"budget too small", document(R"("memory_budget_mb": 10)"), "memory_budget_mb"},
@@ -108,14 +111,21 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"gpu contexts 65", document(R"("gpu": {"contexts": 65})"), "gpu.contexts"},
         BadCase{"deadline 0", document(R"("default_deadline_ms": 0)"), "default_deadline_ms"},
         BadCase{"grace too long", document(R"("shutdown_grace_ms": 700000)"), "shutdown_grace_ms"},
-        BadCase{"scratch_dir missing", document(R"("scratch_dir": "/no/such/dir")"), "scratch_dir"}));
+        BadCase{"scratch_dir missing", document(R"("scratch_dir": "/no/such/dir")"), "scratch_dir"}),
+    [](const ::testing::TestParamInfo<BadCase>& test) {
+      // "listen port too large" -> "listen_port_too_large"
+      std::string name;
+      for (const char* p = test.param.what; *p; ++p) name += std::isalnum(static_cast<unsigned char>(*p)) ? *p : '_';
+      return name;
+    });
 
 TEST(ServerConfig, GpuContextsDefaultToOnePerWorkerAndZeroTurnsTheGpuOff) {
   auto absent = parse_config(document(""), "test.json", "/");
   ASSERT_TRUE(absent.ok()) << absent.error().message;
   EXPECT_FALSE(absent->gpu.contexts.has_value());  // the daemon opens one per worker thread
-  for (const auto& [text, contexts] : {std::pair{R"("gpu": {"contexts": 0})", 0u}, std::pair{R"("gpu": {"contexts": 64})", 64u},
-                                       std::pair{R"("gpu": {"contexts": 3}, "worker_threads": 8)", 3u}}) {
+  for (const auto& [text, contexts] :
+       {std::pair{R"("gpu": {"contexts": 0})", 0u}, std::pair{R"("gpu": {"contexts": 64})", 64u},
+        std::pair{R"("gpu": {"contexts": 3}, "worker_threads": 8)", 3u}}) {
     auto c = parse_config(document(text), "test.json", "/");
     ASSERT_TRUE(c.ok()) << c.error().message;
     ASSERT_TRUE(c->gpu.contexts.has_value()) << text;

@@ -7,9 +7,11 @@
 #include <unistd.h>
 #include <array>
 #include <atomic>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <random>
 #include <vector>
 
@@ -107,6 +109,22 @@ std::vector<std::string> write_tiles(const terrain::Dem& dem, int nx, int ny, co
       paths.push_back(path);
     }
   return paths;
+}
+
+std::string readable_name(const std::string& text) {
+  std::string name;
+  for (const char ch : text) {
+    if (std::isalnum(static_cast<unsigned char>(ch)))
+      name += ch;
+    else if (!name.empty() && name.back() != '_')
+      name += '_';
+  }
+  if (!name.empty() && name.back() == '_') name.pop_back();
+  return name;
+}
+
+std::string dem_name(const std::string& file) {
+  return readable_name(std::filesystem::path(file).stem().string());
 }
 
 }  // namespace horizon::testing

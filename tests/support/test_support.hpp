@@ -55,4 +55,10 @@ struct CommandResult {
 };
 CommandResult run_command(const std::string& command);
 
+// A parameterised test's name from free text: letters and digits kept, every
+// run of anything else one '_' (none at the ends), as gtest requires.
+std::string readable_name(const std::string& text);
+// The name of a test run on the DEM `file`: its stem ("rainier_summit_srtm3_400x400").
+std::string dem_name(const std::string& file);
+
 }  // namespace horizon::testing

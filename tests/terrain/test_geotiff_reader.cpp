@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <ostream>
 #include <string>
 
 #include "horizon/terrain/dem_reader.hpp"
@@ -178,6 +179,10 @@ struct TypeCase {
   bool bigtiff;
 };
 
+void PrintTo(const TypeCase& tc, std::ostream* os) {
+  *os << tc.name << ", " << tc.compression << (tc.tiled ? ", tiled" : ", striped") << (tc.bigtiff ? ", BigTIFF" : "");
+}
+
 class GeoTiffPixelTypes : public ::testing::TestWithParam<TypeCase> {};
 
 TEST_P(GeoTiffPixelTypes, ReadsValuesUnnormalised) {
@@ -209,7 +214,12 @@ INSTANTIATE_TEST_SUITE_P(Types, GeoTiffPixelTypes,
                                            TypeCase{OIIO::TypeDesc::INT32, "Int32", "none", false, false},
                                            TypeCase{OIIO::TypeDesc::FLOAT, "Float32", "zip", true, true},
                                            TypeCase{OIIO::TypeDesc::DOUBLE, "Float64", "none", true, false},
-                                           TypeCase{OIIO::TypeDesc::UINT8, "UInt8", "zip", false, false}));
+                                           TypeCase{OIIO::TypeDesc::UINT8, "UInt8", "zip", false, false}),
+                         [](const ::testing::TestParamInfo<TypeCase>& test) {
+                           const TypeCase& tc = test.param;
+                           return std::string(tc.name) + "_" + tc.compression + (tc.tiled ? "_tiled" : "_striped") +
+                                  (tc.bigtiff ? "_BigTIFF" : "");
+                         });
 
 TEST(GeoTiffReader, ChoosesBandOfMultiBandFile) {
   TempDir dir;

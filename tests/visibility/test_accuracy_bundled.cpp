@@ -47,7 +47,10 @@ TEST_P(BundledAccuracy, FastMeetsTheBarAgainstR3) {
 INSTANTIATE_TEST_SUITE_P(DataDem, BundledAccuracy,
                          ::testing::Values("ecuador_andes_utm17s_10m_383x415.tif",
                                            "everest_summit_voids_srtm3_300x300.tif", "olinda_coast_utm25s_111x111.tif",
-                                           "rainier_summit_srtm3_400x400.tif", "zion_canyon_srtm3_465x457.tif"));
+                                           "rainier_summit_srtm3_400x400.tif", "zion_canyon_srtm3_465x457.tif"),
+                         [](const ::testing::TestParamInfo<const char*>& test) {
+                           return testing::dem_name(test.param);
+                         });
 
 }  // namespace
 }  // namespace horizon

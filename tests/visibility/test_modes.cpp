@@ -151,7 +151,10 @@ TEST_P(BundledModes, ExactMatchesAndConservativeNeverMisses) {
 
 INSTANTIATE_TEST_SUITE_P(DataDem, BundledModes,
                          ::testing::Values("everest_summit_voids_srtm3_300x300.tif", "olinda_coast_utm25s_111x111.tif",
-                                           "rainier_summit_srtm3_400x400.tif"));
+                                           "rainier_summit_srtm3_400x400.tif"),
+                         [](const ::testing::TestParamInfo<const char*>& test) {
+                           return testing::dem_name(test.param);
+                         });
 
 // ViewshedOptions::visibility_only: exact decides each cell as R3 does at the
 // requested target height, without finding R3's OHF, and samples less.

@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <ostream>
 #include <random>
+#include <sstream>
 
 #include "horizon/visibility/agreement.hpp"
 #include "horizon/visibility/viewshed.hpp"
@@ -55,7 +57,8 @@ TEST(RadialSweep, RidgeMatchesTheAnalyticLine) {
 }
 
 TEST(RadialSweep, PyramidPeakIsAllVisible) {
-  const auto peak = grid_dem(65, 65, [](int c, int r) { return 900.0 - 7.0 * std::max(std::abs(c - 32), std::abs(r - 32)); });
+  const auto peak =
+      grid_dem(65, 65, [](int c, int r) { return 900.0 - 7.0 * std::max(std::abs(c - 32), std::abs(r - 32)); });
   auto vs = visibility::compute_viewshed(peak, eye_at(peak, 32, 32, 0.5), flat_earth(Algorithm::kRadial));
   ASSERT_TRUE(vs.ok());
   const auto mask = visibility::visibility_mask(*vs, 0.0);
@@ -66,6 +69,10 @@ struct Case {
   unsigned seed;
   double col, row, height;
 };
+
+void PrintTo(const Case& c, std::ostream* os) {
+  *os << "seed " << c.seed << ", eye at (" << c.col << ", " << c.row << "), " << c.height << " m up";
+}
 
 class RadialVsR3 : public ::testing::TestWithParam<Case> {};
 
@@ -90,7 +97,13 @@ TEST_P(RadialVsR3, MeetsTheAccuracyBar) {
 
 INSTANTIATE_TEST_SUITE_P(Terrains, RadialVsR3,
                          ::testing::Values(Case{1, 90, 71, 2.0}, Case{2, 10.5, 130.25, 10.0}, Case{3, 180, 0, 2.0},
-                                           Case{4, 47.3, 88.8, 50.0}, Case{5, 120, 20, 0.0}));
+                                           Case{4, 47.3, 88.8, 50.0}, Case{5, 120, 20, 0.0}),
+                         [](const ::testing::TestParamInfo<Case>& test) {
+                           const Case& c = test.param;
+                           std::ostringstream name;
+                           name << "seed" << c.seed << "_eye_" << c.col << "_" << c.row << "_up_" << c.height;
+                           return testing::readable_name(name.str());
+                         });
 
 TEST(RadialSweep, RaisingTheObserverNeverHidesACell) {
   const auto dem = testing::make_random_terrain(150, 120, 11);
