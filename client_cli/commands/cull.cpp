@@ -57,7 +57,8 @@ std::vector<visibility::BoxSpec> read_boxes(const std::string& path, bool lonlat
     bool numeric = true;
     while (std::getline(fields, field, ',')) {
       const auto first = field.find_first_not_of(" \t\r"), last = field.find_last_not_of(" \t\r");
-      const auto value = first == std::string::npos ? std::nullopt : parse_finite(field.substr(first, last - first + 1));
+      const auto value =
+          first == std::string::npos ? std::nullopt : parse_finite(field.substr(first, last - first + 1));
       if (!value || n >= 6) {
         numeric = false;
         break;
@@ -69,8 +70,8 @@ std::vector<visibility::BoxSpec> read_boxes(const std::string& path, bool lonlat
       throw UsageError("--boxes: '" + path + "' line " + std::to_string(number) +
                        ": expected six numbers x_min,y_min,x_max,y_max,z_min,z_max");
     }
-    boxes.push_back({lonlat ? geodesy::PointFrame::kWgs84 : geodesy::PointFrame::kDatasetCrs, v[0], v[1], v[2], v[3],
-                     v[4], v[5]});
+    boxes.push_back(
+        {lonlat ? geodesy::PointFrame::kWgs84 : geodesy::PointFrame::kDatasetCrs, v[0], v[1], v[2], v[3], v[4], v[5]});
   }
   if (boxes.empty()) throw UsageError("--boxes: '" + path + "' holds no boxes");
   return boxes;
@@ -143,7 +144,9 @@ void print_cull(const CullReport& report, const std::vector<visibility::BoxSpec>
     j["pyramid_cells_read"] = r.pyramid_cells_read;
     Json list = Json::array();
     for (const visibility::BoxVisibility& b : r.boxes)
-      list.push_back({{"visible", b.visible}, {"ohf_min", finite_or_null(b.ohf_min)}});
+      list.push_back({{"visible", b.state != visibility::Visibility::kOccluded},
+                      {"state", std::string(visibility::visibility_name(b.state))},
+                      {"ohf_min", finite_or_null(b.ohf_min)}});
     j["boxes"] = std::move(list);
     j["total_seconds"] = report.total_seconds;
     print_json(j);
@@ -165,9 +168,11 @@ void print_cull(const CullReport& report, const std::vector<visibility::BoxSpec>
             << " s in all)\n";
   for (std::size_t i = 0; i < r.boxes.size(); ++i) {
     const visibility::BoxVisibility& b = r.boxes[i];
-    std::cout << "  " << i << "  " << (b.visible ? "visible" : "hidden ") << "  ohf_min "
-              << fixed(b.ohf_min, 2) << " m";
-    if (!b.visible) std::cout << "  (" << fixed(b.ohf_min - boxes[i].z_max, 2) << " m short)";
+    std::cout << "  " << i << "  " << (b.state == visibility::Visibility::kOccluded ? "hidden " : "visible")
+              << "  ohf_min " << fixed(b.ohf_min, 2) << " m";
+    if (b.state == visibility::Visibility::kUndetermined) std::cout << "  (undetermined)";
+    if (b.state == visibility::Visibility::kOccluded)
+      std::cout << "  (" << fixed(b.ohf_min - boxes[i].z_max, 2) << " m short)";
     std::cout << '\n';
   }
 }

@@ -8,6 +8,24 @@
 #include "remote/remote.hpp"
 
 namespace horizon::cli::remote {
+namespace {
+
+// The box's state as the server answered it; a server older than the state
+// field leaves it unspecified, and then `visible` says visible or hidden.
+visibility::Visibility box_state(const v1::BoxVisibility& b) {
+  switch (b.state()) {
+    case v1::BOX_STATE_VISIBLE:
+      return visibility::Visibility::kSeen;
+    case v1::BOX_STATE_HIDDEN:
+      return visibility::Visibility::kOccluded;
+    case v1::BOX_STATE_UNDETERMINED:
+      return visibility::Visibility::kUndetermined;
+    default:
+      return b.visible() ? visibility::Visibility::kSeen : visibility::Visibility::kOccluded;
+  }
+}
+
+}  // namespace
 
 int run_cull(const Args& args, const std::string& dataset, const geodesy::PointSpec& observer,
              const std::vector<visibility::BoxSpec>& boxes, const visibility::CullOptions& options, bool json) {
@@ -56,7 +74,7 @@ int run_cull(const Args& args, const std::string& dataset, const geodesy::PointS
   r.visible_count = response.visible_count();
   r.boxes.reserve(boxes.size());
   for (const v1::BoxVisibility& b : response.boxes())
-    r.boxes.push_back({b.visible(), static_cast<float>(b.ohf_min())});
+    r.boxes.push_back({box_state(b), static_cast<float>(b.ohf_min())});
   report.total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   print_cull(report, boxes, json);
   return kExitOk;

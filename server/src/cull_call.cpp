@@ -73,8 +73,9 @@ grpc::Status run_cull_boxes(CallScope& scope, const v1::CullBoxesRequest& reques
   response.mutable_boxes()->Reserve(n);
   for (const visibility::BoxVisibility& b : result->boxes) {
     v1::BoxVisibility* out = response.add_boxes();
-    out->set_visible(b.visible);
+    out->set_visible(b.state != visibility::Visibility::kOccluded);
     out->set_ohf_min(b.ohf_min);
+    out->set_state(to_proto_box_state(b.state));
   }
   response.set_visible_count(static_cast<std::uint32_t>(result->visible_count));
   fill_window(result->window, *response.mutable_window());

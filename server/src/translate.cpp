@@ -66,6 +66,15 @@ v1::Algorithm to_proto_algorithm(visibility::Algorithm algorithm) {
   return v1::ALGORITHM_UNSPECIFIED;
 }
 
+v1::BoxState to_proto_box_state(visibility::Visibility state) {
+  switch (state) {
+    case visibility::Visibility::kSeen: return v1::BOX_STATE_VISIBLE;
+    case visibility::Visibility::kOccluded: return v1::BOX_STATE_HIDDEN;
+    case visibility::Visibility::kUndetermined: return v1::BOX_STATE_UNDETERMINED;
+  }
+  return v1::BOX_STATE_UNSPECIFIED;
+}
+
 Result<visibility::Backend> to_backend(v1::Backend backend, const std::string& field) {
   switch (backend) {
     case v1::BACKEND_UNSPECIFIED:

@@ -11,12 +11,12 @@
 #include "datasets.hpp"
 #include "horizon/common/error.hpp"
 #include "horizon/geodesy/observer.hpp"
+#include "horizon/v1/datasets.pb.h"
+#include "horizon/v1/visibility.pb.h"
 #include "horizon/visibility/cull.hpp"
 #include "horizon/visibility/line_of_sight.hpp"
 #include "horizon/visibility/options.hpp"
 #include "horizon/visibility/viewshed.hpp"
-#include "horizon/v1/datasets.pb.h"
-#include "horizon/v1/visibility.pb.h"
 
 namespace horizon::server {
 
@@ -25,6 +25,7 @@ Result<geodesy::PointSpec> to_point_spec(const v1::Point& point, const std::stri
 Result<geodesy::PointFrame> to_frame(v1::Frame frame, const std::string& field);
 Result<visibility::Algorithm> to_algorithm(v1::Algorithm algorithm, const std::string& field);
 v1::Algorithm to_proto_algorithm(visibility::Algorithm algorithm);
+v1::BoxState to_proto_box_state(visibility::Visibility state);
 // Unspecified reads as the default (auto, fragment); an unknown value is kInvalidArgument naming `field`.
 Result<visibility::Backend> to_backend(v1::Backend backend, const std::string& field);
 Result<visibility::GpuMethod> to_gpu_method(v1::GpuMethod method, const std::string& field);

@@ -22,7 +22,9 @@ std::string read_bytes(const std::string& path) {
   return s.str();
 }
 
-CommandResult horizon(const std::string& args) { return run_command(std::string(HORIZON_CLI_PATH) + " " + args); }
+CommandResult horizon(const std::string& args) {
+  return run_command(std::string(HORIZON_CLI_PATH) + " " + args);
+}
 
 Json json_of(const CommandResult& r) {
   // stderr is merged in; the document is the first '{' on.
@@ -66,7 +68,8 @@ TEST_F(ServerCli, ViewshedGeoTiffAndPngAreByteIdenticalToEmbedded) {
     const std::string tif = read_bytes(full);
     ASSERT_GT(tif.size(), 1000u);
     EXPECT_TRUE(tif == read_bytes(remote)) << "GeoTIFFs differ for" << flags;
-    EXPECT_TRUE(read_bytes(dir_.file("local.png")) == read_bytes(dir_.file("remote.png"))) << "PNGs differ for" << flags;
+    EXPECT_TRUE(read_bytes(dir_.file("local.png")) == read_bytes(dir_.file("remote.png")))
+        << "PNGs differ for" << flags;
     const Json ja = json_of(a), jb = json_of(b);
     for (const char* key : {"visible_cells", "hidden_cells", "evaluated_cells", "window", "algorithm", "output_kind"})
       EXPECT_EQ(ja[key], jb[key]) << key << flags;
@@ -128,6 +131,8 @@ TEST_F(ServerCli, CullEqualsEmbeddedAndHidesSomething) {
     EXPECT_EQ(ja, jb) << mode;
     EXPECT_GT(ja["visible_count"].get<int>(), 0);
     EXPECT_LT(ja["visible_count"].get<int>(), 40) << mode;
+    for (const Json& box : jb["boxes"])  // the state as a word, agreeing with `visible`
+      EXPECT_EQ(box["state"], box["visible"].get<bool>() ? "visible" : "hidden") << mode << ": " << box;
   }
 }
 
@@ -151,8 +156,8 @@ TEST_F(ServerCli, DaemonErrorsAreReportedWithTheirCodeAndField) {
   EXPECT_NE(outside.output.find("OUT_OF_RANGE"), std::string::npos) << outside.output;
   EXPECT_NE(outside.output.find("field observer"), std::string::npos) << outside.output;
   EXPECT_FALSE(std::ifstream(dir_.file("x.tif")).good());  // a failed run leaves nothing behind
-  const auto slow = horizon("viewshed ecuador" + server() + " --observer 713877,9558936 --algorithm r3 --deadline 0.05 -o " +
-                            dir_.file("y.tif"));
+  const auto slow = horizon("viewshed ecuador" + server() +
+                            " --observer 713877,9558936 --algorithm r3 --deadline 0.05 -o " + dir_.file("y.tif"));
   EXPECT_EQ(slow.exit_code, 1);
   EXPECT_NE(slow.output.find("DEADLINE_EXCEEDED"), std::string::npos) << slow.output;
   const auto down = horizon("info rainier --server 127.0.0.1:1 --deadline 2");

@@ -239,6 +239,11 @@ def run_checks(listening, log_path):
     assert len(culled.boxes) == 100 and culled.algorithm == "conservative"
     assert culled.visible_count == sum(b.visible for b in culled.boxes)
     assert 0 < culled.visible_count < 100, culled.visible_count
+    # Each box's state, by its enum name: one viewpoint answers visible or hidden, as `visible` says.
+    box_states = culled.boxes[0].DESCRIPTOR.fields_by_name["state"].enum_type.values_by_number
+    for b in culled.boxes:
+        expected = "BOX_STATE_VISIBLE" if b.visible else "BOX_STATE_HIDDEN"
+        assert box_states[b.state].name == expected, (b.state, b.visible)
 
     # Errors with details.
     def expect(call, request, code, field):

@@ -300,6 +300,40 @@ TEST_F(ServerRpc, LineOfSightBatchAnswersInOrder) {
   }
 }
 
+TEST_F(ServerRpc, CullAnswersEachBoxsStateBesideVisible) {
+  // A row of boxes rising eastwards from the summit: the low ones hidden, the high ones seen.
+  v1::CullBoxesRequest cull;
+  cull.set_dataset("rainier");
+  *cull.mutable_observer() = point(kRainierLon, kRainierLat, 2, v1::FRAME_WGS84);
+  cull.set_conservative(true);
+  for (int i = 0; i < 100; ++i) {
+    v1::Box* b = cull.add_boxes();
+    b->set_frame(v1::FRAME_WGS84);
+    b->set_x_min(-121.85 + 0.002 * i);
+    b->set_x_max(-121.85 + 0.002 * i + 0.0005);
+    b->set_y_min(46.80);
+    b->set_y_max(46.8005);
+    b->set_z_min(0);
+    b->set_z_max(1500 + 30 * i);
+  }
+  v1::CullBoxesResponse response;
+  const grpc::Status s = visibility_->CullBoxes(context_with_deadline().get(), cull, &response);
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  ASSERT_EQ(response.boxes_size(), 100);
+  int visible = 0, hidden = 0;
+  for (int i = 0; i < response.boxes_size(); ++i) {
+    const v1::BoxVisibility& b = response.boxes(i);
+    // One viewpoint: never unspecified, never undetermined, and `visible` keeps its meaning.
+    EXPECT_EQ(b.state(), b.visible() ? v1::BOX_STATE_VISIBLE : v1::BOX_STATE_HIDDEN) << "box " << i;
+    visible += b.state() == v1::BOX_STATE_VISIBLE;
+    hidden += b.state() == v1::BOX_STATE_HIDDEN;
+  }
+  EXPECT_GT(visible, 0);
+  EXPECT_GT(hidden, 0);
+  EXPECT_EQ(visible + hidden, 100);
+  EXPECT_EQ(static_cast<int>(response.visible_count()), visible);
+}
+
 TEST_F(ServerRpc, DeadlineAndCancellationStopTheComputation) {
   // Deadline: the engine stops soon after it passes.
   const auto started = std::chrono::steady_clock::now();

@@ -51,32 +51,42 @@ TEST(Cull, BoxBehindTheWallIsHiddenUnlessItRisesAboveTheSightLine) {
   const terrain::Dem dem = wall_dem();
   const auto eye = eye_at(dem, 2, 4, 10.0);
   const std::vector<BoxSpec> boxes = {
-      box_over(dem, 18, 4, 18, 4, 0, 150),   // below the 190 m OHF
-      box_over(dem, 18, 4, 18, 4, 0, 200),   // above it
-      box_over(dem, 5, 3, 6, 5, 0, 1),       // in front of the wall: the ground is seen
+      box_over(dem, 18, 4, 18, 4, 0, 150),      // below the 190 m OHF
+      box_over(dem, 18, 4, 18, 4, 0, 200),      // above it
+      box_over(dem, 5, 3, 6, 5, 0, 1),          // in front of the wall: the ground is seen
       box_over(dem, 17.2, 4, 17.6, 4, 0, 180),  // between centres 17 and 18: min of both (180 at 17)
   };
   auto result = cull_boxes(dem, eye, boxes, flat(Algorithm::kR3));
   ASSERT_TRUE(result.ok()) << result.error().message;
   ASSERT_EQ(result->boxes.size(), 4u);
-  EXPECT_FALSE(result->boxes[0].visible);
+  EXPECT_EQ(result->boxes[0].state, Visibility::kOccluded);
   EXPECT_NEAR(result->boxes[0].ohf_min, 190.0, 1e-3);
-  EXPECT_TRUE(result->boxes[1].visible);
-  EXPECT_TRUE(result->boxes[2].visible);
+  EXPECT_EQ(result->boxes[1].state, Visibility::kSeen);
+  EXPECT_EQ(result->boxes[2].state, Visibility::kSeen);
   EXPECT_LE(result->boxes[2].ohf_min, 0.0f + kTieTolerance);
   EXPECT_NEAR(result->boxes[3].ohf_min, 10.0 + 15 * 90.0 / 8, 1e-3);
-  EXPECT_TRUE(result->boxes[3].visible);
+  EXPECT_EQ(result->boxes[3].state, Visibility::kSeen);
   EXPECT_EQ(result->visible_count, 3u);
   EXPECT_EQ(result->algorithm, Algorithm::kR3);
 }
 
+TEST(Cull, VisibilityNamesAreTheApiWords) {
+  EXPECT_EQ(visibility_name(Visibility::kSeen), "visible");
+  EXPECT_EQ(visibility_name(Visibility::kOccluded), "hidden");
+  EXPECT_EQ(visibility_name(Visibility::kUndetermined), "undetermined");
+  EXPECT_EQ(BoxVisibility{}.state, Visibility::kSeen);
+}
+
 TEST(Cull, ConservativeFlagUsesTheConservativeAlgorithm) {
   const terrain::Dem dem = wall_dem();
-  auto result = cull_boxes(dem, eye_at(dem, 2, 4, 10.0), std::vector{box_over(dem, 18, 4, 18, 4, 0, 150)},
-                           [] { auto o = flat(Algorithm::kRadial); o.conservative = true; return o; }());
+  auto result = cull_boxes(dem, eye_at(dem, 2, 4, 10.0), std::vector{box_over(dem, 18, 4, 18, 4, 0, 150)}, [] {
+    auto o = flat(Algorithm::kRadial);
+    o.conservative = true;
+    return o;
+  }());
   ASSERT_TRUE(result.ok()) << result.error().message;
   EXPECT_EQ(result->algorithm, Algorithm::kConservative);
-  EXPECT_FALSE(result->boxes[0].visible);
+  EXPECT_EQ(result->boxes[0].state, Visibility::kOccluded);
 }
 
 TEST(Cull, ComputesOnlyTheWindowTheBoxesNeed) {
@@ -103,8 +113,8 @@ TEST(Cull, EqualsBruteForceOverTheWholeDemOhf) {
       const double c0 = col(rng), r0 = row(rng);
       const double c1 = std::min(c0 + size(rng), 119.5), r1 = std::min(r0 + size(rng), 89.5);
       const double z0 = z(rng);
-      boxes.push_back({geodesy::PointFrame::kDatasetCrs, t.x_at(c0), t.y_at(r1), t.x_at(c1), t.y_at(r0), z0,
-                       z0 + size(rng) * 10});
+      boxes.push_back(
+          {geodesy::PointFrame::kDatasetCrs, t.x_at(c0), t.y_at(r1), t.x_at(c1), t.y_at(r0), z0, z0 + size(rng) * 10});
     }
     const CullOptions options = flat(Algorithm::kR3);
     auto culled = cull_boxes(dem, eye, boxes, options);
@@ -122,7 +132,8 @@ TEST(Cull, EqualsBruteForceOverTheWholeDemOhf) {
           m = std::min(m, std::isnan(v) ? kMinusInf : v);
         }
       ASSERT_EQ(culled->boxes[i].ohf_min, m) << "box " << i;
-      ASSERT_EQ(culled->boxes[i].visible, boxes[i].z_max >= m - kTieTolerance) << "box " << i;
+      ASSERT_EQ(culled->boxes[i].state, boxes[i].z_max >= m - kTieTolerance ? Visibility::kSeen : Visibility::kOccluded)
+          << "box " << i;
     }
     EXPECT_GT(culled->visible_count, 0u);
     EXPECT_LT(culled->visible_count, boxes.size());
@@ -139,8 +150,8 @@ TEST(Cull, ConservativeNeverHidesABoxR3Sees) {
   std::vector<BoxSpec> boxes;
   for (int i = 0; i < 1000; ++i) {
     const double c0 = pos(rng), r0 = pos(rng), z0 = z(rng);
-    boxes.push_back({geodesy::PointFrame::kDatasetCrs, t.x_at(c0), t.y_at(r0 + 3), t.x_at(c0 + 3), t.y_at(r0), z0,
-                     z0 + 20});
+    boxes.push_back(
+        {geodesy::PointFrame::kDatasetCrs, t.x_at(c0), t.y_at(r0 + 3), t.x_at(c0 + 3), t.y_at(r0), z0, z0 + 20});
   }
   CullOptions conservative = flat(Algorithm::kRadial);
   conservative.conservative = true;
@@ -148,15 +159,16 @@ TEST(Cull, ConservativeNeverHidesABoxR3Sees) {
   auto r3 = cull_boxes(dem, eye, boxes, flat(Algorithm::kR3));
   ASSERT_TRUE(c.ok() && r3.ok());
   for (std::size_t i = 0; i < boxes.size(); ++i) {
-    if (r3->boxes[i].visible) {
-      ASSERT_TRUE(c->boxes[i].visible) << "box " << i;
+    if (r3->boxes[i].state == Visibility::kSeen) {
+      ASSERT_EQ(c->boxes[i].state, Visibility::kSeen) << "box " << i;
     }
   }
 }
 
 TEST(Cull, WgsBoxesResolveLikeTheirDatasetCrsRectangle) {
   // UTM 33N DEM: a lon/lat box converts to (about) the same footprint.
-  const terrain::Dem dem = horizon::testing::make_dem(50, 50, [](int c, int r) { return c + r; }, 10.0, 32633);
+  const terrain::Dem dem = horizon::testing::make_dem(
+      50, 50, [](int c, int r) { return c + r; }, 10.0, 32633);
   const geodesy::Crs crs = *geodesy::Crs::from_epsg(32633);
   const auto& t = dem.georef.transform;
   const auto sw = *crs.to_lonlat({t.x_at(10.2), t.y_at(20.8)});
@@ -209,8 +221,8 @@ TEST(Cull, HonoursCancellation) {
   token.cancel();
   RunControl control;
   control.cancel = &token;
-  auto r = cull_boxes(dem, eye_at(dem, 32, 32, 2), std::vector{box_over(dem, 1, 1, 2, 2, 0, 1)},
-                      flat(Algorithm::kR3), &control);
+  auto r = cull_boxes(dem, eye_at(dem, 32, 32, 2), std::vector{box_over(dem, 1, 1, 2, 2, 0, 1)}, flat(Algorithm::kR3),
+                      &control);
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.error().code, ErrorCode::kCancelled);
 }

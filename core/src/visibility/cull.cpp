@@ -160,7 +160,7 @@ std::size_t cull_footprints(const ViewshedResult& result, const MinPyramid& pyra
         !local.empty())
       ohf_min = pyramid.min_in(local, &reads);
     const bool is_visible = f.z_max >= static_cast<double>(ohf_min) - kTieTolerance;
-    out[i] = {is_visible, ohf_min};
+    out[i] = {is_visible ? Visibility::kSeen : Visibility::kOccluded, ohf_min};
     visible += is_visible;
   }
   if (cells_read) *cells_read += reads;

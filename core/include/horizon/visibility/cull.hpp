@@ -4,7 +4,7 @@
 //   auto eye = geodesy::resolve_point(dem, {.x = .., .y = .., .height = 2}, "observer");
 //   std::vector<visibility::BoxSpec> boxes = ...;        // dataset CRS (or WGS84) rectangles + z range
 //   auto culled = visibility::cull_boxes(dem, *eye, boxes, {.conservative = true});
-//   for (auto& b : culled->boxes) ... b.visible, b.ohf_min
+//   for (auto& b : culled->boxes) ... b.state, b.ohf_min
 //
 // Rule. A box is the set of points (x, y, z) with (x, y) in its footprint and
 // z in [z_min, z_max] (absolute metres). A point is visible when z reaches the
@@ -35,6 +35,7 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "horizon/common/control.hpp"
@@ -63,9 +64,32 @@ struct BoxFootprint {
   double z_min = 0.0, z_max = 0.0;
 };
 
+// What is known of a box from the viewpoint(s) asked about. The API words are
+// "visible", "hidden", "undetermined" (visibility_name); the enumerators are
+// named apart from the raster codes kVisible / kHidden (viewshed.hpp).
+enum class Visibility {
+  kSeen,          // visible: some point of the box is at or above the OHF (the rule above)
+  kOccluded,      // hidden: every point of it is below the OHF
+  kUndetermined,  // neither can be said: for queries from a region, where a box may be seen
+                  // from some viewpoints and not others; culling from one viewpoint never gives it
+};
+
+// "visible", "hidden", "undetermined".
+constexpr std::string_view visibility_name(Visibility v) {
+  switch (v) {
+    case Visibility::kSeen:
+      return "visible";
+    case Visibility::kOccluded:
+      return "hidden";
+    case Visibility::kUndetermined:
+      return "undetermined";
+  }
+  return "?";
+}
+
 struct BoxVisibility {
-  bool visible = true;
-  float ohf_min = 0.0f;  // absolute metres; -inf when nothing is known to hide some point of it
+  Visibility state = Visibility::kSeen;  // kSeen or kOccluded from cull_footprints
+  float ohf_min = 0.0f;                  // absolute metres; -inf when nothing is known to hide some point of it
 };
 
 struct CullOptions {
@@ -77,8 +101,8 @@ struct CullOptions {
 };
 
 struct CullResult {
-  std::vector<BoxVisibility> boxes;  // one per input box, same order
-  std::size_t visible_count = 0;
+  std::vector<BoxVisibility> boxes;          // one per input box, same order
+  std::size_t visible_count = 0;             // boxes not kHidden
   Algorithm algorithm = Algorithm::kRadial;  // the one that computed the OHF
   terrain::Window window;                    // the DEM cells the OHF covered
   WorkStats stats;                           // of the OHF computation
@@ -117,8 +141,8 @@ struct CullPlan {
 };
 
 // Resolves the boxes and plans the OHF. An empty `boxes` is kInvalidArgument ("boxes").
-Result<CullPlan> plan_cull(const terrain::Dem& dem, const geodesy::GridPoint& observer,
-                           std::span<const BoxSpec> boxes, const CullOptions& options);
+Result<CullPlan> plan_cull(const terrain::Dem& dem, const geodesy::GridPoint& observer, std::span<const BoxSpec> boxes,
+                           const CullOptions& options);
 
 // Computes the planned OHF, builds the pyramid and tests every box. Honours
 // `control` (cancel, deadline) inside the OHF computation. `gpu` (may be
