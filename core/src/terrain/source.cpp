@@ -13,9 +13,12 @@
 #include <cstring>
 #include <filesystem>
 #include <limits>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <utility>
+
+#include "horizon/common/parallel.hpp"
 
 namespace horizon::terrain {
 namespace {
@@ -338,6 +341,32 @@ Result<Dem> ElevationSource::read(const Window& requested, BlockCache* cache, co
   local.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (stats) *stats = local;
   return dem;
+}
+
+Result<ElevationStats> ElevationSource::scan(unsigned threads, const RunControl* control) const {
+  std::mutex mutex;
+  ElevationStats total;
+  std::optional<Error> failure;
+  bool any = false;
+  const Status status = parallel_for(block_count_, threads, control, [&](std::size_t b) {
+    auto cells = load_block(b);
+    std::lock_guard lock(mutex);
+    if (!cells.ok()) {
+      if (!failure) failure = cells.error();
+      return;
+    }
+    const ElevationStats s = elevation_stats(*cells);
+    if (s.valid_cells) {
+      total.min = any ? std::min(total.min, s.min) : s.min;
+      total.max = any ? std::max(total.max, s.max) : s.max;
+      any = true;
+    }
+    total.valid_cells += s.valid_cells;
+    total.nodata_cells += s.nodata_cells;
+  });
+  if (failure) return *failure;
+  if (!status.ok()) return status.error();
+  return total;
 }
 
 }  // namespace horizon::terrain

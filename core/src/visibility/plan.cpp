@@ -116,7 +116,8 @@ Result<ViewshedPlan> plan_viewshed(const terrain::ElevationSource& source, const
 }
 
 Result<ViewshedRun> run_viewshed(const ViewshedPlan& plan, const terrain::ElevationSource& source,
-                                 terrain::BlockCache* cache, const RunControl* control, gpu::ContextPool* gpu) {
+                                 terrain::BlockCache* cache, const RunControl* control, gpu::ContextPool* gpu,
+                                 const BackendPolicy* policy) {
   ViewshedRun run;
   auto dem = source.read(plan.read.read, cache, control, &run.read, plan.query.options.threads);
   if (!dem.ok()) return dem.error();
@@ -131,7 +132,7 @@ Result<ViewshedRun> run_viewshed(const ViewshedPlan& plan, const terrain::Elevat
     for (float& v : run.dem.elevation.values())
       if (std::isnan(v)) v = fill;
   }
-  auto result = compute_viewshed_taking_elevation(run.dem, run.observer, options, control, gpu);
+  auto result = compute_viewshed_taking_elevation(run.dem, run.observer, options, control, gpu, policy);
   if (!result.ok()) return result.error();
   run.result = std::move(*result);
   run.result.stats.dem_cells = static_cast<std::uint64_t>(source.width()) * static_cast<std::uint64_t>(source.height());
@@ -181,7 +182,8 @@ Result<CullBoxesPlan> plan_cull_boxes(const terrain::ElevationSource& source, Cu
 }
 
 Result<CullBoxesRun> run_cull_boxes(const CullBoxesPlan& plan, const terrain::ElevationSource& source,
-                                    terrain::BlockCache* cache, const RunControl* control, gpu::ContextPool* gpu) {
+                                    terrain::BlockCache* cache, const RunControl* control, gpu::ContextPool* gpu,
+                                    const BackendPolicy* policy) {
   CullBoxesRun run;
   const terrain::Window& read = plan.read.read;
   auto dem = source.read(read, cache, control, &run.read, plan.viewshed.threads);
@@ -201,7 +203,7 @@ Result<CullBoxesRun> run_cull_boxes(const CullBoxesPlan& plan, const terrain::El
   auto frame = make_view_frame(*dem, *observer, local.viewshed);
   if (!frame.ok()) return frame.error();
   local.frame = *frame;
-  auto result = run_cull(*dem, *observer, local, control, gpu);
+  auto result = run_cull(*dem, *observer, local, control, gpu, policy);
   if (!result.ok()) return result.error();
   run.result = std::move(*result);
   run.result.window = shifted(run.result.window, got.col0, got.row0);
