@@ -101,14 +101,22 @@ void throw_if_invalid_option(const Status& status) {
 }
 
 bool is_geographic(const terrain::Dem& dem) {
-  if (dem.georef.epsg == 0) return false;
-  auto crs = geodesy::Crs::from_epsg(dem.georef.epsg);
+  return is_geographic(dem.georef);
+}
+
+bool is_geographic(const terrain::Georeference& georef) {
+  if (georef.epsg == 0) return false;
+  auto crs = geodesy::Crs::from_epsg(georef.epsg);
   return crs.ok() && crs->is_geographic();
 }
 
 std::optional<geodesy::LonLat> lonlat_of(const terrain::Dem& dem, double x, double y) {
-  if (dem.georef.epsg == 0) return std::nullopt;
-  auto crs = geodesy::Crs::from_epsg(dem.georef.epsg);
+  return lonlat_of(dem.georef, x, y);
+}
+
+std::optional<geodesy::LonLat> lonlat_of(const terrain::Georeference& georef, double x, double y) {
+  if (georef.epsg == 0) return std::nullopt;
+  auto crs = geodesy::Crs::from_epsg(georef.epsg);
   if (!crs.ok()) return std::nullopt;
   auto ll = crs->to_lonlat({x, y});
   if (!ll.ok()) return std::nullopt;

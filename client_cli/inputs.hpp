@@ -45,8 +45,10 @@ void throw_if_invalid_option(const Status& status);
 
 // True when the DEM's CRS is geographic (coordinates in degrees).
 bool is_geographic(const terrain::Dem& dem);
+bool is_geographic(const terrain::Georeference& georef);
 
 // WGS84 position of a CRS point, when the CRS supports it.
 std::optional<geodesy::LonLat> lonlat_of(const terrain::Dem& dem, double x, double y);
+std::optional<geodesy::LonLat> lonlat_of(const terrain::Georeference& georef, double x, double y);
 
 }  // namespace horizon::cli

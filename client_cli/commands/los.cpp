@@ -3,8 +3,10 @@
 #include <iostream>
 
 #include "commands/command.hpp"
+#include "horizon/terrain/source.hpp"
 #include "horizon/visibility/line_of_sight.hpp"
 #include "horizon/visibility/options.hpp"
+#include "horizon/visibility/plan.hpp"
 #include "inputs.hpp"
 #include "output.hpp"
 #include "remote/remote.hpp"
@@ -46,14 +48,19 @@ int run_los(const Args& args) {
   (void)args.positive_integer("--band");
   if (args.has("--server")) return remote::run_los(args, path, from, to, options, json);  // DEM is a dataset name
 
-  auto dem = load_dem(path, args);
-  if (!dem.ok()) return report_error(dem.error());
-  auto eye = geodesy::resolve_point(*dem, from, "from");
-  if (!eye.ok()) return report_error(eye.error());
-  auto target = geodesy::resolve_point(*dem, to, "to");
-  if (!target.ok()) return report_error(target.error());
-  auto los = visibility::line_of_sight(*dem, *eye, *target, options);
-  if (!los.ok()) return report_error(los.error());
+  // Planned on the header, run on the cells between the two points only.
+  terrain::SourceOptions source_options;
+  source_options.band = args.positive_integer("--band").value_or(0);
+  auto source = terrain::ElevationSource::open(path, source_options);
+  if (!source.ok()) return report_error(source.error());
+  auto plan = visibility::plan_line(**source, {from, to, options});
+  if (!plan.ok()) return report_error(plan.error());
+  auto run = visibility::run_line(*plan, **source, nullptr);
+  if (!run.ok()) return report_error(run.error());
+  const terrain::Georeference& georef = (*source)->header().georef;
+  const geodesy::GridPoint* const eye = &run->from;
+  const geodesy::GridPoint* const target = &run->to;
+  const visibility::LosResult* const los = &run->result;
 
   if (json) {
     Json j;
@@ -62,8 +69,8 @@ int run_los(const Args& args) {
     j["distance"] = los->distance;
     j["clearance"] = finite_or_null(los->clearance);
     j["curvature"] = options.curvature_coefficient;
-    j["from"] = to_json(*eye, lonlat_of(*dem, eye->x, eye->y));
-    j["to"] = to_json(*target, lonlat_of(*dem, target->x, target->y));
+    j["from"] = to_json(*eye, lonlat_of(georef, eye->x, eye->y));
+    j["to"] = to_json(*target, lonlat_of(georef, target->x, target->y));
     j["first_block"] = los->first_block ? to_json(*los->first_block) : Json(nullptr);
     Json profile = Json::array();
     for (const visibility::ProfileSample& s : los->profile) profile.push_back(to_json(s));
@@ -72,7 +79,7 @@ int run_los(const Args& args) {
     return kExitOk;
   }
 
-  const bool geographic = is_geographic(*dem);
+  const bool geographic = is_geographic(georef);
   std::cout << "Line of sight over " << path << '\n'
             << "  from:       x " << coordinate(eye->x, geographic) << ", y " << coordinate(eye->y, geographic)
             << ", eye " << fixed(eye->elevation, 1) << " m\n"

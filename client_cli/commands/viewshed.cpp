@@ -143,9 +143,10 @@ Request parse_request(const Args& args) {
 }
 
 // The raster asked for, written atomically by the engine's writer.
-Status write_output(const Request& r, const terrain::Dem& dem, const visibility::ViewshedResult& result,
+Status write_output(const Request& r, const terrain::Dem& dem, const visibility::ViewshedRun& run,
                     const terrain::Grid<std::uint8_t>& mask) {
-  const terrain::Georeference georef = visibility::window_georef(dem, result);
+  const visibility::ViewshedResult& result = run.result;
+  const terrain::Georeference& georef = run.georef;
   switch (r.output) {
     case OutputKind::kVisible:
       return terrain::write_geotiff(r.out_path, mask, georef, double{visibility::kNoAnswer});
@@ -236,7 +237,7 @@ int run_viewshed(const Args& args) {
   warn_gpu_fallback(result->stats);
 
   const terrain::Grid<std::uint8_t> mask = visibility::visibility_mask(*result, r.options.target_height);
-  if (auto s = write_output(r, *dem, *result, mask); !s.ok()) return report_error(s.error());
+  if (auto s = write_output(r, *dem, *run, mask); !s.ok()) return report_error(s.error());
   if (r.png_path)
     if (auto s = write_preview(*r.png_path, *result, mask); !s.ok()) return report_error(s.error());
   const double total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();

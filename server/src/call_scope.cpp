@@ -94,6 +94,7 @@ void CallScope::finish(const grpc::Status& status) {
   if (admitted_) env_.pending.fetch_sub(1);
   memory_.release();
   env_.metrics.set_memory_reserved(env_.memory.reserved());
+  env_.metrics.set_block_cache(env_.cache.stats());
   log_request(record_);
 }
 

@@ -1,6 +1,8 @@
 // Configuration parsing (nlohmann-json kept to this file).
 #include "config.hpp"
 
+#include "memory_budget.hpp"
+
 #include <unistd.h>
 
 #include <cstdlib>
@@ -76,7 +78,7 @@ Status parse_datasets(const Json& j, const std::string& source, Config& config) 
     if (value.is_string()) {
       d.file = value.get<std::string>();
     } else if (value.is_object()) {
-      HORIZON_RETURN_IF_ERROR(check_keys(value, source, key + ".", {"file", "band"}));
+      HORIZON_RETURN_IF_ERROR(check_keys(value, source, key + ".", {"file", "band", "missing_tiles"}));
       if (!value.contains("file")) return config_error(source, key + ".file", "missing");
       auto file = get_string(value, source, "file", key + ".file", false);
       if (!file.ok()) return file.error();
@@ -86,8 +88,17 @@ Status parse_datasets(const Json& j, const std::string& source, Config& config) 
         if (!band.ok()) return band.error();
         d.band = static_cast<int>(*band);
       }
+      if (value.contains("missing_tiles")) {
+        auto missing = get_string(value, source, "missing_tiles", key + ".missing_tiles", false);
+        if (!missing.ok()) return missing.error();
+        if (*missing != "error" && *missing != "nodata")
+          return config_error(source, key + ".missing_tiles",
+                              "expected \"error\" or \"nodata\", got '" + *missing + "'");
+        d.missing_as_nodata = *missing == "nodata";
+      }
     } else {
-      return config_error(source, key, "expected a file name or {\"file\": ..., \"band\": N}, got " + value.dump());
+      return config_error(source, key,
+                          "expected a file or folder name or {\"file\": ..., \"band\": N}, got " + value.dump());
     }
     if (d.file.empty()) return config_error(source, key, "file name must not be empty");
     config.datasets.push_back(std::move(d));
@@ -152,10 +163,10 @@ Result<Config> parse_config(const std::string& text, const std::string& source, 
   if (!overrides.listen.empty()) j["listen"] = overrides.listen;
   if (!overrides.metrics_listen.empty()) j["metrics_listen"] = overrides.metrics_listen;
   if (!overrides.data_root.empty()) j["data_root"] = fs::absolute(overrides.data_root).string();
-  HORIZON_RETURN_IF_ERROR(
-      check_keys(j, source, "",
-                 {"listen", "metrics_listen", "data_root", "datasets", "memory_budget_mb", "worker_threads",
-                  "engine_threads", "limits", "gpu", "default_deadline_ms", "shutdown_grace_ms", "scratch_dir"}));
+  HORIZON_RETURN_IF_ERROR(check_keys(j, source, "",
+                                     {"listen", "metrics_listen", "data_root", "datasets", "memory_budget_mb",
+                                      "block_cache_mb", "io_threads", "worker_threads", "engine_threads", "limits",
+                                      "gpu", "default_deadline_ms", "shutdown_grace_ms", "scratch_dir"}));
   Config c;
   c.source = source;
   for (const char* required : {"listen", "data_root", "datasets", "memory_budget_mb"})
@@ -185,6 +196,24 @@ Result<Config> parse_config(const std::string& text, const std::string& source, 
   auto budget = get_count(j, source, "memory_budget_mb", "memory_budget_mb", 64, 16u << 20);
   if (!budget.ok()) return budget.error();
   c.memory_budget_bytes = *budget << 20;
+  if (j.contains("block_cache_mb")) {
+    auto v = get_count(j, source, "block_cache_mb", "block_cache_mb", 1, 1u << 20);
+    if (!v.ok()) return v.error();
+    c.block_cache_bytes = *v << 20;
+  } else {
+    // Half of what the budget leaves after the process's own overhead, at most the default.
+    c.block_cache_bytes = std::min<std::uint64_t>(256ull << 20, (c.memory_budget_bytes - MemoryBudget::kBaseBytes) / 2);
+  }
+  if (c.block_cache_bytes + MemoryBudget::kBaseBytes > c.memory_budget_bytes)
+    return config_error(source, "block_cache_mb",
+                        std::to_string(c.block_cache_bytes >> 20) +
+                            " MiB does not fit in memory_budget_mb = " + std::to_string(c.memory_budget_bytes >> 20) +
+                            " (which also holds 48 MiB of process overhead and the requests' working memory)");
+  if (j.contains("io_threads")) {
+    auto v = get_count(j, source, "io_threads", "io_threads", 1, 64);
+    if (!v.ok()) return v.error();
+    c.io_threads = static_cast<unsigned>(*v);
+  }
   if (j.contains("worker_threads")) {
     auto v = get_count(j, source, "worker_threads", "worker_threads", 0, 1024);
     if (!v.ok()) return v.error();
@@ -239,9 +268,10 @@ Result<fs::path> resolve_dataset_file(const Config& config, const DatasetConfig&
     return config_error(config.source, key,
                         "'" + dataset.file + "' resolves to '" + resolved.string() + "', outside data_root '" +
                             config.data_root.string() + "'");
-  if (!fs::is_regular_file(resolved, ec))
+  if (!fs::is_regular_file(resolved, ec) && !fs::is_directory(resolved, ec))
     return make_error(ErrorCode::kNotFound,
-                      "config '" + config.source + "': " + key + ": no such file '" + resolved.string() + "'", key);
+                      "config '" + config.source + "': " + key + ": no such file or folder '" + resolved.string() + "'",
+                      key);
   return resolved;
 }
 

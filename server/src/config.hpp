@@ -5,11 +5,16 @@
 //     "listen": "0.0.0.0:50051",            gRPC address (host:port; port 0 = any free port)
 //     "metrics_listen": "0.0.0.0:9464",     Prometheus /metrics address; "" or absent = off
 //     "data_root": "/srv/horizon/dem",      every dataset file resolves inside it
-//     "datasets": {                         name -> file (relative to data_root), or
-//       "rainier": "rainier.tif",           name -> {"file": "x.tif", "band": 2}
-//       "multi": {"file": "bands.tif", "band": 2}
-//     },
-//     "memory_budget_mb": 2048,             resident datasets + the working memory of requests in flight
+//     "datasets": {                         name -> file or folder (relative to data_root), or
+//       "rainier": "rainier.tif",           name -> {"file": "x.tif", "band": 2, "missing_tiles": "nodata"}
+//       "multi": {"file": "bands.tif", "band": 2},
+//       "alps": "srtm/alps"                 a folder of tiles on one grid (terrain/source.hpp)
+//     },                                    "missing_tiles": "error" (default: a request needing a
+//                                           tile no file covers fails) or "nodata" (read as voids)
+//     "memory_budget_mb": 2048,             the block cache + the working memory of requests in flight
+//     "block_cache_mb": 256,                decoded elevation blocks shared by every request (LRU),
+//                                           reserved in memory_budget_mb at start; [1, 1048576]
+//     "io_threads": 2,                      threads decoding blocks for the cache; [1, 64]
 //     "worker_threads": 2,                  computations run concurrently (Asio pool); 0 = all cores
 //     "engine_threads": 1,                  threads one computation may use; 0 = all cores
 //     "limits": {"max_cells": 25000000,     cells in one viewshed or culling window
@@ -52,9 +57,10 @@
 namespace horizon::server {
 
 struct DatasetConfig {
-  std::string name;  // the key
-  std::string file;  // as written, relative to data_root
-  int band = 0;      // 1-based; 0 = the file's only band
+  std::string name;                // the key
+  std::string file;                // as written, relative to data_root: a raster, or a folder of tiles
+  int band = 0;                    // 1-based; 0 = the file's only band
+  bool missing_as_nodata = false;  // "missing_tiles": "nodata"
 };
 
 struct Limits {
@@ -76,6 +82,8 @@ struct Config {
   std::filesystem::path data_root;
   std::vector<DatasetConfig> datasets;  // in name order
   std::uint64_t memory_budget_bytes = 2048ull << 20;
+  std::uint64_t block_cache_bytes = 256ull << 20;
+  unsigned io_threads = 2;
   unsigned worker_threads = 2;
   unsigned engine_threads = 1;
   Limits limits;
@@ -98,8 +106,8 @@ Result<Config> parse_config(const std::string& text, const std::string& source, 
 // Reads and parses a file.
 Result<Config> load_config(const std::string& path, const ConfigOverrides& overrides = {});
 
-// The dataset's file, resolved (symlinks followed) and checked to lie inside
-// the data root. Errors name "datasets.<name>".
+// The dataset's file or folder, resolved (symlinks followed) and checked to
+// lie inside the data root. Errors name "datasets.<name>".
 Result<std::filesystem::path> resolve_dataset_file(const Config& config, const DatasetConfig& dataset);
 
 }  // namespace horizon::server

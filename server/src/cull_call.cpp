@@ -5,6 +5,7 @@
 
 #include "call_scope.hpp"
 #include "horizon/visibility/cull.hpp"
+#include "horizon/visibility/plan.hpp"
 #include "translate.hpp"
 #include "visibility_service.hpp"
 
@@ -44,29 +45,29 @@ grpc::Status run_cull_boxes(CallScope& scope, const v1::CullBoxesRequest& reques
     const v1::Box& in = request.boxes(i);
     auto frame = to_frame(in.frame(), "boxes[" + std::to_string(i) + "].frame");
     if (!frame.ok()) return scope.status_of(frame.error());
-    boxes[static_cast<std::size_t>(i)] = {*frame, in.x_min(), in.y_min(), in.x_max(), in.y_max(), in.z_min(), in.z_max()};
+    boxes[static_cast<std::size_t>(i)] = {*frame,     in.x_min(), in.y_min(), in.x_max(),
+                                          in.y_max(), in.z_min(), in.z_max()};
   }
 
-  auto observer = geodesy::resolve_point(d.dem, *spec, "observer");
-  if (!observer.ok()) return scope.status_of(rename_field(observer.error(), ""));
-  auto plan = visibility::plan_cull(d.dem, *observer, boxes, options);
+  // The plan: observer and boxes placed on the dataset's header, the reach, cells and cost known.
+  auto plan = visibility::plan_cull_boxes(*d.source, {*spec, std::move(boxes), options});
   if (!plan.ok()) return scope.status_of(rename_field(plan.error(), ""));
-  const std::uint64_t cells = plan->frame.window.cell_count();
+  const std::uint64_t cells = plan->cost.cells;
   if (cells > env.config.limits.max_cells)
-    return scope.status_of(make_error(ErrorCode::kResourceExhausted,
-                                      "boxes: the farthest box needs a window of " + std::to_string(cells) +
-                                          " cells, more than limits.max_cells = " +
-                                          std::to_string(env.config.limits.max_cells),
-                                      "boxes"));
-  if (auto s = scope.reserve(cells * MemoryBudget::kCullBytesPerCell +
-                                 static_cast<std::uint64_t>(n) * MemoryBudget::kCullBytesPerBox,
+    return scope.status_of(
+        make_error(ErrorCode::kResourceExhausted,
+                   "boxes: the farthest box needs a window of " + std::to_string(cells) +
+                       " cells, more than limits.max_cells = " + std::to_string(env.config.limits.max_cells),
+                   "boxes"));
+  if (auto s = scope.reserve(plan->cost.bytes + static_cast<std::uint64_t>(n) * MemoryBudget::kMessageBytesPerBox,
                              "this culling request");
       !s.ok())
     return scope.status_of(s.error());
 
   // The daemon's GPU contexts are lent to the OHF (backend auto: a hardware GPU for large windows).
-  auto result = visibility::run_cull(d.dem, *observer, *plan, scope.control(), env.gpu, env.backend);
-  if (!result.ok()) return scope.status_of(rename_field(result.error(), ""));
+  auto run = visibility::run_cull_boxes(*plan, *d.source, &env.cache, scope.control(), env.gpu, env.backend);
+  if (!run.ok()) return scope.status_of(rename_field(run.error(), ""));
+  const visibility::CullResult* const result = &run->result;
   const visibility::WorkStats& stats = result->stats;
   scope.ohf_computed(stats);
 
@@ -82,7 +83,7 @@ grpc::Status run_cull_boxes(CallScope& scope, const v1::CullBoxesRequest& reques
   fill_stats(stats, *response.mutable_stats());
   response.set_pyramid_cells_read(result->pyramid_cells_read);
   response.set_algorithm(std::string(visibility::algorithm_name(result->algorithm)));
-  fill_point(*observer, d.dem, *response.mutable_observer());
+  fill_point(run->observer, d.header().georef, *response.mutable_observer());
   return grpc::Status::OK;
 }
 

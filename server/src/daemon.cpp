@@ -78,9 +78,10 @@ struct Daemon::Impl {
   explicit Impl(Config c)
       : config(std::move(c)),
         memory(config.memory_budget_bytes),
-        datasets(memory),
+        cache(cache_options(config)),
+        datasets(&cache, config.io_threads),
         pool(config.worker_threads),
-        env{config, datasets, pool, memory, metrics},
+        env{config, datasets, pool, memory, metrics, cache},
         dataset_service(env),
         visibility_service(env) {}
 
@@ -90,9 +91,18 @@ struct Daemon::Impl {
     for (const char* name : kServices) health->SetServingStatus(name, serving);
   }
 
+  static terrain::BlockCache::Options cache_options(const Config& c) {
+    terrain::BlockCache::Options o;
+    o.budget_bytes = c.block_cache_bytes;
+    o.io_threads = c.io_threads;
+    return o;
+  }
+
   Config config;
   MemoryBudget memory;
   Metrics metrics;
+  Reservation cache_memory;   // the block cache's whole budget, held for the daemon's life
+  terrain::BlockCache cache;  // outlives the datasets whose blocks it holds
   DatasetRegistry datasets;
   std::unique_ptr<gpu::ContextPool> gpu;  // outlives the workers that borrow from it
   visibility::BackendPolicy backend;      // when requests use `gpu`; likewise
@@ -123,6 +133,15 @@ Status Daemon::start() {
     }
   }
 
+  // The cache may fill to its budget: reserve all of it now (config checked that it fits).
+  if (!d.memory.try_reserve(d.config.block_cache_bytes, d.cache_memory))
+    return make_error(
+        ErrorCode::kResourceExhausted,
+        "block_cache_mb: " + std::to_string(d.config.block_cache_bytes >> 20) +
+            " MiB does not fit in memory_budget_mb = " + std::to_string(d.config.memory_budget_bytes >> 20),
+        "block_cache_mb");
+  d.metrics.set_memory_reserved(d.memory.reserved());
+
   // Before the first call can arrive: env.gpu is read without a lock.
   d.gpu = open_gpu(d.config, d.pool.threads(), d.backend);
   d.env.gpu = d.gpu.get();
@@ -148,7 +167,8 @@ Status Daemon::start() {
              {"grpc_port", std::to_string(port), true},
              {"metrics_port", std::to_string(metrics_port), true},
              {"workers", std::to_string(d.pool.threads()), true},
-             {"memory_budget_mb", std::to_string(d.config.memory_budget_bytes >> 20), true}});
+             {"memory_budget_mb", std::to_string(d.config.memory_budget_bytes >> 20), true},
+             {"block_cache_mb", std::to_string(d.config.block_cache_bytes >> 20), true}});
   return Status::Ok();
 }
 
@@ -157,13 +177,14 @@ Status Daemon::load_datasets() {
   const auto started = std::chrono::steady_clock::now();
   HORIZON_RETURN_IF_ERROR(d.datasets.load(d.config));
   const auto set = d.datasets.snapshot();
-  d.metrics.set_datasets(set->size(), d.datasets.resident_bytes());
+  d.metrics.set_datasets(set->size());
+  d.metrics.set_block_cache(d.cache.stats());
   d.metrics.set_memory_reserved(d.memory.reserved());
   d.set_serving(true);
   log_event(
       "info", "datasets_loaded",
       {{"datasets", std::to_string(set->size()), true},
-       {"resident_bytes", std::to_string(d.datasets.resident_bytes()), true},
+       {"resident_bytes", std::to_string(d.cache.stats().resident_bytes), true},
        {"seconds", std::to_string(std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count()),
         true}});
   return Status::Ok();
@@ -173,11 +194,12 @@ Status Daemon::reload(const Config& config) {
   Impl& d = *impl_;
   HORIZON_RETURN_IF_ERROR(d.datasets.load(config));
   const auto set = d.datasets.snapshot();
-  d.metrics.set_datasets(set->size(), d.datasets.resident_bytes());
+  d.metrics.set_datasets(set->size());
+  d.metrics.set_block_cache(d.cache.stats());
   d.metrics.set_memory_reserved(d.memory.reserved());
   log_event("info", "datasets_reloaded",
             {{"datasets", std::to_string(set->size()), true},
-             {"resident_bytes", std::to_string(d.datasets.resident_bytes()), true}});
+             {"resident_bytes", std::to_string(d.cache.stats().resident_bytes), true}});
   return Status::Ok();
 }
 

@@ -54,14 +54,15 @@ grpc::ServerUnaryReactor* DatasetService::ListDatasets(grpc::CallbackServerConte
   if (!request->page_token().empty()) {
     auto decoded = decode_page_token(request->page_token());
     if (!decoded)
-      return finish(to_grpc_status(make_error(ErrorCode::kInvalidArgument,
-                                              "page_token: not a token this server issued", "page_token")));
+      return finish(to_grpc_status(
+          make_error(ErrorCode::kInvalidArgument, "page_token: not a token this server issued", "page_token")));
     after = *decoded;
   }
   const auto set = env_.datasets.snapshot();
   response->set_total_size(static_cast<int>(set->size()));
   auto it = request->page_token().empty() ? set->begin() : set->upper_bound(after);
-  for (int n = 0; it != set->end() && n < page_size; ++it, ++n) fill_dataset(*it->second, *response->add_datasets());
+  for (int n = 0; it != set->end() && n < page_size; ++it, ++n)
+    fill_dataset(*it->second, env_.cache, *response->add_datasets());
   if (it != set->end() && response->datasets_size() > 0)
     response->set_next_page_token(encode_page_token(response->datasets(response->datasets_size() - 1).name()));
   return finish(grpc::Status::OK);
@@ -83,7 +84,7 @@ grpc::ServerUnaryReactor* DatasetService::GetDataset(grpc::CallbackServerContext
     if (e.code == ErrorCode::kInvalidArgument) e.field = "name";
     return finish(to_grpc_status(e));
   }
-  fill_dataset(**dataset, *response);
+  fill_dataset(**dataset, env_.cache, *response);
   return finish(grpc::Status::OK);
 }
 

@@ -3,51 +3,73 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
+#include <vector>
 
 #include "horizon/geodesy/crs.hpp"
 #include "horizon/terrain/dem_reader.hpp"
 
 namespace horizon::server {
 
+namespace {
+
+// What a reload compares: for a file its size and modification time, for a
+// folder those of every entry in it (a tile added, removed or rewritten
+// changes it).
+std::string signature_of(const std::filesystem::path& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  auto stamp = [&ec](const fs::path& p) {
+    const auto size = fs::is_regular_file(p, ec) ? fs::file_size(p, ec) : 0;
+    const auto time = fs::last_write_time(p, ec).time_since_epoch().count();
+    return p.filename().string() + ":" + std::to_string(size) + ":" + std::to_string(time) + ";";
+  };
+  if (!fs::is_directory(path, ec)) return stamp(path);
+  std::vector<std::string> entries;
+  for (const auto& entry : fs::directory_iterator(path, ec)) entries.push_back(stamp(entry.path()));
+  std::sort(entries.begin(), entries.end());
+  std::string all;
+  for (const auto& e : entries) all += e;
+  return all;
+}
+
+}  // namespace
+
 Result<std::shared_ptr<const Dataset>> load_dataset(const Config& config, const DatasetConfig& entry,
-                                                    MemoryBudget& budget) {
+                                                    terrain::BlockCache* cache, unsigned scan_threads) {
   const std::string key = "datasets." + entry.name;
   auto path = resolve_dataset_file(config, entry);
   if (!path.ok()) return path.error();
+  auto in_config = [&](Error e) {
+    e.message = "config '" + config.source + "': " + key + ": " + e.message;
+    e.field = key;
+    return e;
+  };
   auto d = std::make_shared<Dataset>();
   d->name = entry.name;
   d->file = entry.file;
   d->path = *path;
   d->band = entry.band;
-  std::error_code ec;
-  d->mtime = std::filesystem::last_write_time(*path, ec);
+  d->missing_as_nodata = entry.missing_as_nodata;
+  d->signature = signature_of(*path);
 
-  terrain::ReadOptions read;
-  read.band = entry.band;
-  auto dem = terrain::read_dem(path->string(), read);
-  if (!dem.ok()) {
-    Error e = dem.error();
-    e.message = "config '" + config.source + "': " + key + ": " + e.message;
-    e.field = key;
-    return e;
-  }
-  d->dem = std::move(*dem);
-  d->resident_bytes = static_cast<std::uint64_t>(d->dem.elevation.size()) * sizeof(float);
-  if (!budget.try_reserve(d->resident_bytes, d->memory))
-    return make_error(ErrorCode::kResourceExhausted,
-                      "config '" + config.source + "': " + key + ": " + std::to_string(d->resident_bytes >> 20) +
-                          " MiB of elevations do not fit in memory_budget_mb (" +
-                          std::to_string(budget.reserved() >> 20) + " MiB already held of " +
-                          std::to_string((budget.total() - MemoryBudget::kBaseBytes) >> 20) + " MiB usable)",
-                      "memory_budget_mb");
-  d->stats = terrain::elevation_stats(d->dem.elevation);
+  terrain::SourceOptions options;
+  options.band = entry.band;
+  options.missing_as_nodata = entry.missing_as_nodata;
+  auto source = terrain::ElevationSource::open(path->string(), options);
+  if (!source.ok()) return in_config(source.error());
+  d->source = std::move(*source);
+  auto stats = d->source->scan(scan_threads, cache);
+  if (!stats.ok()) return in_config(stats.error());
+  d->stats = *stats;
 
-  const auto& t = d->dem.georef.transform;
-  const double x0 = t.origin_x, x1 = t.origin_x + d->dem.width() * t.pixel_width;
-  const double y0 = t.origin_y, y1 = t.origin_y + d->dem.height() * t.pixel_height;
+  const terrain::DemHeader& h = d->header();
+  const auto& t = h.georef.transform;
+  const double x0 = t.origin_x, x1 = t.origin_x + h.width * t.pixel_width;
+  const double y0 = t.origin_y, y1 = t.origin_y + h.height * t.pixel_height;
   geodesy::GroundScale scale;
-  if (d->dem.georef.epsg != 0) {
-    auto crs = geodesy::Crs::from_epsg(d->dem.georef.epsg);
+  if (h.georef.epsg != 0) {
+    auto crs = geodesy::Crs::from_epsg(h.georef.epsg);
     if (!crs.ok()) return crs.error();
     d->crs_name = crs->name();
     d->geographic = crs->is_geographic();
@@ -63,18 +85,17 @@ Status DatasetRegistry::load(const Config& config) {
   const std::shared_ptr<const DatasetSet> old = snapshot();
   auto next = std::make_shared<DatasetSet>();
   for (const DatasetConfig& entry : config.datasets) {
-    // Reuse a dataset whose file, band and modification time are unchanged.
+    // Reuse a dataset whose path, options and files are unchanged.
     if (auto it = old->find(entry.name); it != old->end()) {
       const Dataset& have = *it->second;
       auto path = resolve_dataset_file(config, entry);
-      std::error_code ec;
       if (path.ok() && *path == have.path && entry.band == have.band &&
-          std::filesystem::last_write_time(*path, ec) == have.mtime) {
+          entry.missing_as_nodata == have.missing_as_nodata && signature_of(*path) == have.signature) {
         (*next)[entry.name] = it->second;
         continue;
       }
     }
-    auto d = load_dataset(config, entry, budget_);
+    auto d = load_dataset(config, entry, cache_, scan_threads_);
     if (!d.ok()) return d.error();
     (*next)[entry.name] = std::move(*d);
   }
@@ -92,12 +113,6 @@ std::shared_ptr<const DatasetSet> DatasetRegistry::snapshot() const {
 bool DatasetRegistry::loaded() const {
   std::lock_guard lock(mutex_);
   return loaded_;
-}
-
-std::uint64_t DatasetRegistry::resident_bytes() const {
-  std::uint64_t total = 0;
-  for (const auto& [name, d] : *snapshot()) total += d->resident_bytes;
-  return total;
 }
 
 }  // namespace horizon::server

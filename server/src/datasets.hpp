@@ -1,11 +1,18 @@
-// datasets.hpp — the DEMs a daemon holds resident, swappable on reload.
+// datasets.hpp — the DEMs a daemon serves, swappable on reload.
+//
+// A dataset is an elevation source (terrain/source.hpp): one raster file, or
+// a folder of tiles on one grid. Loading opens it (headers only), then scans
+// every block once through the daemon's shared BlockCache (checking that each
+// decodes, and measuring the elevation statistics), which keeps what fits:
+// requests read the blocks they need through the same cache, so a dataset
+// may be far larger than memory.
 //
 // A DatasetSet is immutable once built. Requests take a snapshot (a
 // shared_ptr) when they start and keep it until they end, so a reload
 // (SIGHUP) swaps in a new set without disturbing any request: the old set's
 // datasets are freed when the last request using them finishes. A reload
-// reuses datasets whose file, band and modification time are unchanged.
-// Each dataset's memory is reserved in the MemoryBudget for as long as it lives.
+// reuses datasets whose path, options and files (names, sizes, modification
+// times) are unchanged.
 #pragma once
 
 #include <filesystem>
@@ -19,7 +26,7 @@
 #include "horizon/common/error.hpp"
 #include "horizon/geodesy/crs.hpp"
 #include "horizon/terrain/dem.hpp"
-#include "memory_budget.hpp"
+#include "horizon/terrain/source.hpp"
 
 namespace horizon::server {
 
@@ -28,22 +35,26 @@ struct Dataset {
   std::string file;  // as configured, relative to the data root
   std::filesystem::path path;
   int band = 0;
-  std::filesystem::file_time_type mtime;
-  terrain::Dem dem;
+  bool missing_as_nodata = false;
+  std::string signature;  // the files' names, sizes and modification times
+  std::shared_ptr<const terrain::ElevationSource> source;
   terrain::ElevationStats stats;
   std::string crs_name;
   bool geographic = false;
   std::optional<geodesy::LonLatBounds> lonlat;  // when the CRS converts
   double cell_size_x_m = 0, cell_size_y_m = 0;  // at the raster's centre
-  std::uint64_t resident_bytes = 0;
-  Reservation memory;
+
+  const terrain::DemHeader& header() const { return source->header(); }
 };
 
 using DatasetSet = std::map<std::string, std::shared_ptr<const Dataset>>;
 
 class DatasetRegistry {
  public:
-  explicit DatasetRegistry(MemoryBudget& budget) : budget_(budget) {}
+  // Loading scans each dataset through `cache` (may be null: nothing kept)
+  // on `scan_threads` threads (0 = all cores).
+  explicit DatasetRegistry(terrain::BlockCache* cache, unsigned scan_threads = 0)
+      : cache_(cache), scan_threads_(scan_threads) {}
 
   // Loads (or reuses) every dataset of `config`, then swaps the set in. On
   // any error nothing changes and the error names the dataset's config key.
@@ -52,17 +63,17 @@ class DatasetRegistry {
   // The current set; empty (not null) before the first successful load.
   std::shared_ptr<const DatasetSet> snapshot() const;
   bool loaded() const;
-  std::uint64_t resident_bytes() const;
 
  private:
-  MemoryBudget& budget_;
+  terrain::BlockCache* cache_;
+  unsigned scan_threads_;
   mutable std::mutex mutex_;
   std::shared_ptr<const DatasetSet> current_ = std::make_shared<const DatasetSet>();
   bool loaded_ = false;
 };
 
-// Loads one dataset: resolve inside the data root, read, describe, reserve memory.
+// Loads one dataset: resolve inside the data root, open, scan, describe.
 Result<std::shared_ptr<const Dataset>> load_dataset(const Config& config, const DatasetConfig& entry,
-                                                    MemoryBudget& budget);
+                                                    terrain::BlockCache* cache, unsigned scan_threads);
 
 }  // namespace horizon::server

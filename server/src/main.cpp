@@ -59,16 +59,21 @@ int check_config(const Options& o) {
     std::fprintf(stderr, "horizond: %s\n", config.error().message.c_str());
     return 1;
   }
-  MemoryBudget budget(config->memory_budget_bytes);
-  DatasetRegistry registry(budget);
+  // Every dataset opened and every block decoded once, nothing kept.
+  DatasetRegistry registry(nullptr, config->io_threads);
   if (auto s = registry.load(*config); !s.ok()) {
     std::fprintf(stderr, "horizond: %s\n", s.error().message.c_str());
     return 1;
   }
-  std::printf("horizond: config '%s' accepted: %zu datasets, %llu MiB resident of a %llu MiB budget, listen %s\n",
-              o.config.c_str(), config->datasets.size(),
-              static_cast<unsigned long long>(registry.resident_bytes() >> 20),
-              static_cast<unsigned long long>(config->memory_budget_bytes >> 20), config->listen.c_str());
+  std::uint64_t cells = 0;
+  for (const auto& [name, d] : *registry.snapshot())
+    cells += static_cast<std::uint64_t>(d->header().width) * static_cast<std::uint64_t>(d->header().height);
+  std::printf(
+      "horizond: config '%s' accepted: %zu datasets, %llu M cells (every block decodes), a %llu MiB block cache of a "
+      "%llu MiB budget, listen %s\n",
+      o.config.c_str(), config->datasets.size(), static_cast<unsigned long long>(cells / 1000000),
+      static_cast<unsigned long long>(config->block_cache_bytes >> 20),
+      static_cast<unsigned long long>(config->memory_budget_bytes >> 20), config->listen.c_str());
   return 0;
 }
 

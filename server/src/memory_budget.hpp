@@ -1,13 +1,15 @@
 // memory_budget.hpp — the daemon's resident-memory budget, enforced.
 //
-// Everything large the daemon holds is reserved here first: each resident
-// dataset (its elevation grid) and each request's working set, estimated from
-// the cells it will compute before any work (MemoryBudget::kViewshedBytesPerCell
-// and friends cover the OHF, the terrain crop, the output raster, its encodings
-// and the copy being streamed). A reservation that does not fit is refused:
-// the request gets RESOURCE_EXHAUSTED, a dataset load fails. What is left
-// outside the accounting (code, gRPC buffers, allocator slack) is the fixed
-// kBaseBytes the budget sets aside at start.
+// Everything large the daemon holds is reserved here first: the shared block
+// cache (its whole budget, at start) and each request's working set before
+// any work: the engine's part from the request's plan (visibility/plan.hpp:
+// the cells read, the OHF, the algorithm's tables, per box and per profile
+// sample), the server's own part from what it will send
+// (kEncodingBytesPerCell for a raster's encodings, kMessageBytesPerBox and
+// kMessageBytesPerLine for the messages). A reservation that does not fit is
+// refused: the request gets RESOURCE_EXHAUSTED. What is left outside the
+// accounting (code, gRPC buffers, allocator slack) is the fixed kBaseBytes
+// the budget sets aside at start.
 #pragma once
 
 #include <atomic>
@@ -41,16 +43,18 @@ class MemoryBudget {
  public:
   // Process overhead outside the accounting: code, libraries, gRPC and allocator slack.
   static constexpr std::uint64_t kBaseBytes = 48ull << 20;
-  // Working set of a viewshed per window cell: OHF + terrain crop (8), the
-  // derived raster (4), the mask (1), the streamed copy (4), GeoTIFF/PNG (<= 7).
-  static constexpr std::uint64_t kViewshedBytesPerCell = 24;
-  // Culling per window cell: OHF + terrain (8) and the min-pyramid (~5.4).
-  static constexpr std::uint64_t kCullBytesPerCell = 14;
-  // Culling per box: request and response messages, spec, footprint, result.
-  static constexpr std::uint64_t kCullBytesPerBox = 256;
+  // A viewshed's encodings per output cell: the derived raster (4), the mask
+  // (1), the streamed copy (4), GeoTIFF/PNG bytes (<= 7).
+  static constexpr std::uint64_t kEncodingBytesPerCell = 16;
+  // Culling per box: the request and response messages.
+  static constexpr std::uint64_t kMessageBytesPerBox = 160;
+  // A sight line's result message, and one profile sample's.
+  static constexpr std::uint64_t kMessageBytesPerLine = 512;
+  static constexpr std::uint64_t kMessageBytesPerSample = 96;
 
   explicit MemoryBudget(std::uint64_t total_bytes)
-      : total_(total_bytes), available_(static_cast<std::int64_t>(total_bytes) - static_cast<std::int64_t>(kBaseBytes)) {}
+      : total_(total_bytes),
+        available_(static_cast<std::int64_t>(total_bytes) - static_cast<std::int64_t>(kBaseBytes)) {}
 
   // A reservation of `bytes`, or an empty one (bytes() == 0 and ok == false) when it does not fit.
   bool try_reserve(std::uint64_t bytes, Reservation& out);

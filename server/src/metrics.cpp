@@ -3,6 +3,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <mutex>
 
@@ -49,17 +50,20 @@ struct Metrics::Impl {
   std::shared_ptr<ProcessCollector> process = std::make_shared<ProcessCollector>();
   std::unique_ptr<prometheus::Exposer> exposer;
 
-  prometheus::Family<prometheus::Counter>& requests =
-      prometheus::BuildCounter().Name("horizon_requests_total").Help("Requests answered, by method and gRPC code").Register(*registry);
-  prometheus::Family<prometheus::Histogram>& durations =
-      prometheus::BuildHistogram().Name("horizon_request_duration_seconds").Help("Request latency, seconds, by method").Register(*registry);
-  prometheus::Family<prometheus::Counter>& cells =
-      prometheus::BuildCounter().Name("horizon_cells_evaluated_total").Help("Cells evaluated, by method").Register(*registry);
-  prometheus::Counter& boxes = prometheus::BuildCounter()
-                                   .Name("horizon_boxes_total")
-                                   .Help("Object boxes culled")
-                                   .Register(*registry)
-                                   .Add({});
+  prometheus::Family<prometheus::Counter>& requests = prometheus::BuildCounter()
+                                                          .Name("horizon_requests_total")
+                                                          .Help("Requests answered, by method and gRPC code")
+                                                          .Register(*registry);
+  prometheus::Family<prometheus::Histogram>& durations = prometheus::BuildHistogram()
+                                                             .Name("horizon_request_duration_seconds")
+                                                             .Help("Request latency, seconds, by method")
+                                                             .Register(*registry);
+  prometheus::Family<prometheus::Counter>& cells = prometheus::BuildCounter()
+                                                       .Name("horizon_cells_evaluated_total")
+                                                       .Help("Cells evaluated, by method")
+                                                       .Register(*registry);
+  prometheus::Counter& boxes =
+      prometheus::BuildCounter().Name("horizon_boxes_total").Help("Object boxes culled").Register(*registry).Add({});
   prometheus::Gauge& in_flight = prometheus::BuildGauge()
                                      .Name("horizon_requests_in_flight")
                                      .Help("Requests admitted and not yet finished")
@@ -75,6 +79,42 @@ struct Metrics::Impl {
                                     .Help("Bytes reserved in the memory budget (datasets and requests)")
                                     .Register(*registry)
                                     .Add({});
+  prometheus::Gauge& cache_budget = prometheus::BuildGauge()
+                                        .Name("horizon_block_cache_budget_bytes")
+                                        .Help("Bytes the block cache may keep")
+                                        .Register(*registry)
+                                        .Add({});
+  prometheus::Gauge& cache_held = prometheus::BuildGauge()
+                                      .Name("horizon_block_cache_held_bytes")
+                                      .Help("Evicted blocks still held by requests, bytes")
+                                      .Register(*registry)
+                                      .Add({});
+  prometheus::Gauge& cache_peak = prometheus::BuildGauge()
+                                      .Name("horizon_block_cache_peak_resident_bytes")
+                                      .Help("Most bytes the block cache has kept at once")
+                                      .Register(*registry)
+                                      .Add({});
+  prometheus::Family<prometheus::Counter>& cache_requests = prometheus::BuildCounter()
+                                                                .Name("horizon_block_cache_requests_total")
+                                                                .Help("Blocks asked for, by result: hit, join, miss")
+                                                                .Register(*registry);
+  prometheus::Counter& cache_evictions = prometheus::BuildCounter()
+                                             .Name("horizon_block_cache_evictions_total")
+                                             .Help("Blocks evicted from the block cache")
+                                             .Register(*registry)
+                                             .Add({});
+  prometheus::Counter& cache_decoded = prometheus::BuildCounter()
+                                           .Name("horizon_block_cache_decoded_bytes_total")
+                                           .Help("Elevation bytes decoded into the block cache")
+                                           .Register(*registry)
+                                           .Add({});
+  prometheus::Counter& cache_failures = prometheus::BuildCounter()
+                                            .Name("horizon_block_cache_failures_total")
+                                            .Help("Blocks that failed to decode")
+                                            .Register(*registry)
+                                            .Add({});
+  std::mutex cache_mutex;
+  terrain::BlockCacheStats cache_seen;  // what the counters have counted so far
   prometheus::Gauge& datasets =
       prometheus::BuildGauge().Name("horizon_datasets").Help("Datasets loaded").Register(*registry).Add({});
   prometheus::Family<prometheus::Counter>& backends = prometheus::BuildCounter()
@@ -102,7 +142,9 @@ int Metrics::serve(const std::string& address) {
   return ports.empty() ? 0 : ports.front();
 }
 
-void Metrics::request_started() { impl_->in_flight.Increment(); }
+void Metrics::request_started() {
+  impl_->in_flight.Increment();
+}
 
 void Metrics::request_finished(std::string_view method, std::string_view code, double seconds, std::uint64_t cells,
                                std::uint64_t boxes) {
@@ -121,11 +163,32 @@ void Metrics::ohf_computed(std::string_view backend, bool gpu_fallback) {
   if (gpu_fallback) impl_->gpu_fallbacks.Increment();
 }
 
-void Metrics::set_datasets(std::size_t count, std::uint64_t resident_bytes) {
+void Metrics::set_datasets(std::size_t count) {
   impl_->datasets.Set(static_cast<double>(count));
-  impl_->resident.Set(static_cast<double>(resident_bytes));
 }
 
-void Metrics::set_memory_reserved(std::uint64_t bytes) { impl_->reserved.Set(static_cast<double>(bytes)); }
+void Metrics::set_block_cache(const terrain::BlockCacheStats& s) {
+  Impl& m = *impl_;
+  std::lock_guard lock(m.cache_mutex);
+  m.resident.Set(static_cast<double>(s.resident_bytes));
+  m.cache_budget.Set(static_cast<double>(s.budget_bytes));
+  m.cache_held.Set(static_cast<double>(s.held_bytes));
+  m.cache_peak.Set(static_cast<double>(s.peak_resident_bytes));
+  // Stats are cumulative and only grow; a caller that read them earlier may call later.
+  auto advance = [](prometheus::Counter& c, std::uint64_t now, std::uint64_t& seen) {
+    if (now > seen) c.Increment(static_cast<double>(now - seen));
+    seen = std::max(seen, now);
+  };
+  advance(m.cache_requests.Add({{"result", "hit"}}), s.hits, m.cache_seen.hits);
+  advance(m.cache_requests.Add({{"result", "join"}}), s.joins, m.cache_seen.joins);
+  advance(m.cache_requests.Add({{"result", "miss"}}), s.misses, m.cache_seen.misses);
+  advance(m.cache_evictions, s.evictions, m.cache_seen.evictions);
+  advance(m.cache_decoded, s.bytes_decoded, m.cache_seen.bytes_decoded);
+  advance(m.cache_failures, s.failures, m.cache_seen.failures);
+}
+
+void Metrics::set_memory_reserved(std::uint64_t bytes) {
+  impl_->reserved.Set(static_cast<double>(bytes));
+}
 
 }  // namespace horizon::server

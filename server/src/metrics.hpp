@@ -5,7 +5,14 @@
 //   horizon_requests_in_flight                      gauge
 //   horizon_cells_evaluated_total{method}           counter (viewshed/culling cells)
 //   horizon_boxes_total                             counter (boxes culled)
-//   horizon_dataset_resident_bytes                  gauge (elevations held)
+//   horizon_dataset_resident_bytes                  gauge (elevation bytes the block cache keeps)
+//   horizon_block_cache_budget_bytes                gauge
+//   horizon_block_cache_held_bytes                  gauge (evicted blocks requests still hold)
+//   horizon_block_cache_peak_resident_bytes         gauge
+//   horizon_block_cache_requests_total{result}      counter (blocks asked for: hit, join, miss)
+//   horizon_block_cache_evictions_total             counter
+//   horizon_block_cache_decoded_bytes_total         counter (float bytes decoded)
+//   horizon_block_cache_failures_total              counter (blocks that failed to decode)
 //   horizon_memory_reserved_bytes                   gauge (datasets + requests, as budgeted)
 //   horizon_process_resident_bytes                  gauge (RSS from /proc/self/statm, read at scrape)
 //   horizon_datasets                                gauge
@@ -20,6 +27,8 @@
 #include <memory>
 #include <string>
 #include <string_view>
+
+#include "horizon/terrain/block_cache.hpp"
 
 namespace horizon::server {
 
@@ -39,7 +48,9 @@ class Metrics {
                         std::uint64_t boxes);
   // One OHF computed on `backend` ("cpu" or "gpu"); `gpu_fallback`: the GPU was asked for and the CPU answered.
   void ohf_computed(std::string_view backend, bool gpu_fallback);
-  void set_datasets(std::size_t count, std::uint64_t resident_bytes);
+  void set_datasets(std::size_t count);
+  // The cache's figures now (counters advance by what changed since the last call).
+  void set_block_cache(const terrain::BlockCacheStats& stats);
   void set_memory_reserved(std::uint64_t bytes);
 
  private:

@@ -1,6 +1,6 @@
 // server_env.hpp — what every RPC handler reaches: the configuration, the
-// resident datasets, the worker pool, the memory budget, the metrics and the
-// GPU contexts. Owned by the Daemon; outlives every call.
+// datasets and their block cache, the worker pool, the memory budget, the
+// metrics and the GPU contexts. Owned by the Daemon; outlives every call.
 #pragma once
 
 #include <atomic>
@@ -9,6 +9,7 @@
 #include "config.hpp"
 #include "datasets.hpp"
 #include "horizon/gpu/context_pool.hpp"
+#include "horizon/terrain/block_cache.hpp"
 #include "horizon/visibility/backend_policy.hpp"
 #include "memory_budget.hpp"
 #include "metrics.hpp"
@@ -22,6 +23,7 @@ struct ServerEnv {
   WorkerPool& pool;
   MemoryBudget& memory;
   Metrics& metrics;
+  terrain::BlockCache& cache;  // decoded blocks of every dataset, shared by every request
   // Set once at start, before the first call; null when config gpu.contexts is
   // 0 or no EGL display could be had (every request then runs on the CPU).
   gpu::ContextPool* gpu = nullptr;

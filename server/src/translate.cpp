@@ -17,9 +17,12 @@ Error invalid(const std::string& field, const std::string& what) {
 Result<geodesy::PointFrame> to_frame(v1::Frame frame, const std::string& field) {
   switch (frame) {
     case v1::FRAME_UNSPECIFIED:
-    case v1::FRAME_DATASET_CRS: return geodesy::PointFrame::kDatasetCrs;
-    case v1::FRAME_WGS84: return geodesy::PointFrame::kWgs84;
-    default: return invalid(field, "unknown frame value " + std::to_string(static_cast<int>(frame)));
+    case v1::FRAME_DATASET_CRS:
+      return geodesy::PointFrame::kDatasetCrs;
+    case v1::FRAME_WGS84:
+      return geodesy::PointFrame::kWgs84;
+    default:
+      return invalid(field, "unknown frame value " + std::to_string(static_cast<int>(frame)));
   }
 }
 
@@ -38,7 +41,9 @@ Result<geodesy::PointSpec> to_point_spec(const v1::Point& point, const std::stri
       if (std::isfinite(spec.height) && spec.height < 0)
         return invalid(field + ".height", "a height above ground must be >= 0 metres");
       break;
-    case v1::HEIGHT_MODE_ABSOLUTE: spec.height_mode = geodesy::HeightMode::kAbsolute; break;
+    case v1::HEIGHT_MODE_ABSOLUTE:
+      spec.height_mode = geodesy::HeightMode::kAbsolute;
+      break;
     default:
       return invalid(field + ".height_mode", "unknown value " + std::to_string(static_cast<int>(point.height_mode())));
   }
@@ -48,29 +53,41 @@ Result<geodesy::PointSpec> to_point_spec(const v1::Point& point, const std::stri
 Result<visibility::Algorithm> to_algorithm(v1::Algorithm algorithm, const std::string& field) {
   switch (algorithm) {
     case v1::ALGORITHM_UNSPECIFIED:
-    case v1::ALGORITHM_FAST: return visibility::Algorithm::kRadial;
-    case v1::ALGORITHM_EXACT: return visibility::Algorithm::kExact;
-    case v1::ALGORITHM_CONSERVATIVE: return visibility::Algorithm::kConservative;
-    case v1::ALGORITHM_R3: return visibility::Algorithm::kR3;
-    default: return invalid(field, "unknown algorithm value " + std::to_string(static_cast<int>(algorithm)));
+    case v1::ALGORITHM_FAST:
+      return visibility::Algorithm::kRadial;
+    case v1::ALGORITHM_EXACT:
+      return visibility::Algorithm::kExact;
+    case v1::ALGORITHM_CONSERVATIVE:
+      return visibility::Algorithm::kConservative;
+    case v1::ALGORITHM_R3:
+      return visibility::Algorithm::kR3;
+    default:
+      return invalid(field, "unknown algorithm value " + std::to_string(static_cast<int>(algorithm)));
   }
 }
 
 v1::Algorithm to_proto_algorithm(visibility::Algorithm algorithm) {
   switch (algorithm) {
-    case visibility::Algorithm::kRadial: return v1::ALGORITHM_FAST;
-    case visibility::Algorithm::kExact: return v1::ALGORITHM_EXACT;
-    case visibility::Algorithm::kConservative: return v1::ALGORITHM_CONSERVATIVE;
-    case visibility::Algorithm::kR3: return v1::ALGORITHM_R3;
+    case visibility::Algorithm::kRadial:
+      return v1::ALGORITHM_FAST;
+    case visibility::Algorithm::kExact:
+      return v1::ALGORITHM_EXACT;
+    case visibility::Algorithm::kConservative:
+      return v1::ALGORITHM_CONSERVATIVE;
+    case visibility::Algorithm::kR3:
+      return v1::ALGORITHM_R3;
   }
   return v1::ALGORITHM_UNSPECIFIED;
 }
 
 v1::BoxState to_proto_box_state(visibility::Visibility state) {
   switch (state) {
-    case visibility::Visibility::kSeen: return v1::BOX_STATE_VISIBLE;
-    case visibility::Visibility::kOccluded: return v1::BOX_STATE_HIDDEN;
-    case visibility::Visibility::kUndetermined: return v1::BOX_STATE_UNDETERMINED;
+    case visibility::Visibility::kSeen:
+      return v1::BOX_STATE_VISIBLE;
+    case visibility::Visibility::kOccluded:
+      return v1::BOX_STATE_HIDDEN;
+    case visibility::Visibility::kUndetermined:
+      return v1::BOX_STATE_UNDETERMINED;
   }
   return v1::BOX_STATE_UNSPECIFIED;
 }
@@ -78,19 +95,26 @@ v1::BoxState to_proto_box_state(visibility::Visibility state) {
 Result<visibility::Backend> to_backend(v1::Backend backend, const std::string& field) {
   switch (backend) {
     case v1::BACKEND_UNSPECIFIED:
-    case v1::BACKEND_AUTO: return visibility::Backend::kAuto;
-    case v1::BACKEND_CPU: return visibility::Backend::kCpu;
-    case v1::BACKEND_GPU: return visibility::Backend::kGpu;
-    default: return invalid(field, "unknown backend value " + std::to_string(static_cast<int>(backend)));
+    case v1::BACKEND_AUTO:
+      return visibility::Backend::kAuto;
+    case v1::BACKEND_CPU:
+      return visibility::Backend::kCpu;
+    case v1::BACKEND_GPU:
+      return visibility::Backend::kGpu;
+    default:
+      return invalid(field, "unknown backend value " + std::to_string(static_cast<int>(backend)));
   }
 }
 
 Result<visibility::GpuMethod> to_gpu_method(v1::GpuMethod method, const std::string& field) {
   switch (method) {
     case v1::GPU_METHOD_UNSPECIFIED:
-    case v1::GPU_METHOD_FRAGMENT: return visibility::GpuMethod::kFragment;
-    case v1::GPU_METHOD_COMPUTE: return visibility::GpuMethod::kCompute;
-    default: return invalid(field, "unknown GPU method value " + std::to_string(static_cast<int>(method)));
+    case v1::GPU_METHOD_FRAGMENT:
+      return visibility::GpuMethod::kFragment;
+    case v1::GPU_METHOD_COMPUTE:
+      return visibility::GpuMethod::kCompute;
+    default:
+      return invalid(field, "unknown GPU method value " + std::to_string(static_cast<int>(method)));
   }
 }
 
@@ -118,9 +142,14 @@ Result<visibility::ViewshedOptions> to_viewshed_options(const v1::ViewshedOption
   if (in.has_curvature()) o.curvature_coefficient = in.curvature();
   switch (in.nodata()) {
     case v1::NODATA_POLICY_UNSPECIFIED:
-    case v1::NODATA_POLICY_TRANSPARENT: o.nodata = visibility::NodataPolicy::kTransparent; break;
-    case v1::NODATA_POLICY_FILL: o.nodata = visibility::NodataPolicy::kFill; break;
-    default: return invalid("options.nodata", "unknown value " + std::to_string(static_cast<int>(in.nodata())));
+    case v1::NODATA_POLICY_TRANSPARENT:
+      o.nodata = visibility::NodataPolicy::kTransparent;
+      break;
+    case v1::NODATA_POLICY_FILL:
+      o.nodata = visibility::NodataPolicy::kFill;
+      break;
+    default:
+      return invalid("options.nodata", "unknown value " + std::to_string(static_cast<int>(in.nodata())));
   }
   o.nodata_fill_height = in.nodata_fill_height();
   auto algorithm = to_algorithm(in.algorithm(), "options.algorithm");
@@ -186,11 +215,11 @@ void fill_sample(const visibility::ProfileSample& s, v1::ProfileSample& out) {
   out.set_sight_line(s.sight_line);
 }
 
-void fill_point(const geodesy::GridPoint& p, const terrain::Dem& dem, v1::ResolvedPoint& out) {
+void fill_point(const geodesy::GridPoint& p, const terrain::Georeference& georef, v1::ResolvedPoint& out) {
   out.set_x(p.x);
   out.set_y(p.y);
-  if (dem.georef.epsg != 0) {
-    if (auto crs = geodesy::Crs::from_epsg(dem.georef.epsg); crs.ok()) {
+  if (georef.epsg != 0) {
+    if (auto crs = geodesy::Crs::from_epsg(georef.epsg); crs.ok()) {
       if (auto ll = crs->to_lonlat({p.x, p.y}); ll.ok()) {
         out.set_lon(ll->lon);
         out.set_lat(ll->lat);
@@ -203,20 +232,20 @@ void fill_point(const geodesy::GridPoint& p, const terrain::Dem& dem, v1::Resolv
   out.set_elevation(p.elevation);
 }
 
-void fill_dataset(const Dataset& d, v1::Dataset& out) {
-  const terrain::Dem& dem = d.dem;
+void fill_dataset(const Dataset& d, const terrain::BlockCache& cache, v1::Dataset& out) {
+  const terrain::DemHeader& dem = d.header();
   out.set_name(d.name);
   out.set_source(d.file);
   out.set_format(dem.format);
-  out.set_width(dem.width());
-  out.set_height(dem.height());
+  out.set_width(dem.width);
+  out.set_height(dem.height);
   out.set_epsg(dem.georef.epsg);
   out.set_crs_name(d.crs_name);
   out.set_geographic(d.geographic);
   const auto& t = dem.georef.transform;
   fill_transform(t, *out.mutable_transform());
-  const double x0 = t.origin_x, x1 = t.origin_x + dem.width() * t.pixel_width;
-  const double y0 = t.origin_y, y1 = t.origin_y + dem.height() * t.pixel_height;
+  const double x0 = t.origin_x, x1 = t.origin_x + dem.width * t.pixel_width;
+  const double y0 = t.origin_y, y1 = t.origin_y + dem.height * t.pixel_height;
   auto* e = out.mutable_extent();
   e->set_x_min(std::min(x0, x1));
   e->set_x_max(std::max(x0, x1));
@@ -238,7 +267,7 @@ void fill_dataset(const Dataset& d, v1::Dataset& out) {
   }
   out.set_valid_cells(d.stats.valid_cells);
   out.set_void_cells(d.stats.nodata_cells);
-  out.set_resident_bytes(d.resident_bytes);
+  out.set_resident_bytes(cache.resident_bytes_of(d.source->id()));
 }
 
 }  // namespace horizon::server

@@ -40,8 +40,9 @@ Result<double> to_curvature(bool has, double value);
 // `prefix` is prepended to point fields ("lines[3].").
 Error rename_field(Error error, std::string_view options_prefix, std::string_view point_prefix = {});
 
-void fill_dataset(const Dataset& d, v1::Dataset& out);
-void fill_point(const geodesy::GridPoint& p, const terrain::Dem& dem, v1::ResolvedPoint& out);
+void fill_dataset(const Dataset& d, const terrain::BlockCache& cache, v1::Dataset& out);
+// `p` in the grid of the raster `georef` describes (col/row as given; lon/lat from its CRS).
+void fill_point(const geodesy::GridPoint& p, const terrain::Georeference& georef, v1::ResolvedPoint& out);
 void fill_transform(const terrain::GeoTransform& t, v1::GeoTransform& out);
 void fill_window(const terrain::Window& w, v1::Window& out);
 void fill_stats(const visibility::WorkStats& s, v1::WorkStats& out);

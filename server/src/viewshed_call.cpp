@@ -9,6 +9,7 @@
 
 #include "call_scope.hpp"
 #include "horizon/geodesy/observer.hpp"
+#include "horizon/visibility/plan.hpp"
 #include "horizon/visibility/viewshed.hpp"
 #include "raster_files.hpp"
 #include "translate.hpp"
@@ -16,7 +17,8 @@
 namespace horizon::server {
 namespace {
 
-static_assert(std::endian::native == std::endian::little, "raster chunks are sent in host order, which must be little-endian");
+static_assert(std::endian::native == std::endian::little,
+              "raster chunks are sent in host order, which must be little-endian");
 
 constexpr int kDefaultChunkBytes = 1 << 20;
 constexpr int kMinChunkBytes = 4 << 10;
@@ -95,49 +97,48 @@ grpc::Status ViewshedCall::compute() {
   // Only the visible/hidden raster goes back: exact may skip finding R3's OHF.
   options->visibility_only = kind == v1::RASTER_KIND_VISIBLE;
   if (req.max_chunk_bytes() < 0)
-    return scope_.status_of(make_error(ErrorCode::kInvalidArgument, "max_chunk_bytes: must be >= 0", "max_chunk_bytes"));
+    return scope_.status_of(
+        make_error(ErrorCode::kInvalidArgument, "max_chunk_bytes: must be >= 0", "max_chunk_bytes"));
   if (req.max_chunk_bytes() > 0) chunk_bytes_ = std::clamp(req.max_chunk_bytes(), kMinChunkBytes, kMaxChunkBytes);
 
-  auto observer = geodesy::resolve_point(d.dem, *spec, "observer");
-  if (!observer.ok()) return scope_.status_of(rename_field(observer.error(), "options."));
-
-  // Limits and memory before any work.
-  auto frame = visibility::make_view_frame(d.dem, *observer, *options);
-  if (!frame.ok()) return scope_.status_of(rename_field(frame.error(), "options."));
-  const std::uint64_t cells = frame->window.cell_count();
+  // The plan: options and observer checked, the cells and blocks to read and the cost known.
+  auto plan = visibility::plan_viewshed(*d.source, {*spec, *options});
+  if (!plan.ok()) return scope_.status_of(rename_field(plan.error(), "options."));
+  const std::uint64_t cells = plan->cost.cells;
   if (cells > env.config.limits.max_cells)
-    return scope_.status_of(make_error(
-        ErrorCode::kResourceExhausted,
-        "options.max_distance: the viewshed window has " + std::to_string(cells) + " cells, more than limits.max_cells = " +
-            std::to_string(env.config.limits.max_cells) + "; give a smaller max_distance",
-        "options.max_distance"));
-  std::uint64_t bytes = cells * MemoryBudget::kViewshedBytesPerCell;
-  if (options->nodata == visibility::NodataPolicy::kFill && d.stats.nodata_cells > 0)
-    bytes += d.dem.elevation.size() * sizeof(float);  // the engine fills a copy of the DEM
-  if (auto s = scope_.reserve(bytes, "this viewshed"); !s.ok()) return scope_.status_of(s.error());
+    return scope_.status_of(
+        make_error(ErrorCode::kResourceExhausted,
+                   "options.max_distance: the viewshed window has " + std::to_string(cells) +
+                       " cells, more than limits.max_cells = " + std::to_string(env.config.limits.max_cells) +
+                       "; give a smaller max_distance",
+                   "options.max_distance"));
+  if (auto s = scope_.reserve(plan->cost.bytes + cells * MemoryBudget::kEncodingBytesPerCell, "this viewshed"); !s.ok())
+    return scope_.status_of(s.error());
 
-  auto result = visibility::compute_viewshed(d.dem, *observer, *options, scope_.control(), env.gpu, env.backend);
-  if (!result.ok()) return scope_.status_of(rename_field(result.error(), "options."));
+  auto run = visibility::run_viewshed(*plan, *d.source, &env.cache, scope_.control(), env.gpu, env.backend);
+  if (!run.ok()) return scope_.status_of(rename_field(run.error(), "options."));
+  const visibility::ViewshedResult* const result = &run->result;
   const visibility::WorkStats& stats = result->stats;
   scope_.ohf_computed(stats);
 
   // The raster asked for, derived from the one OHF (as the CLI does).
   const auto mask = visibility::visibility_mask(*result, options->target_height);
-  const terrain::Georeference georef = visibility::window_georef(d.dem, *result);
+  const terrain::Georeference& georef = run->georef;
   std::optional<double> nodata;
   terrain::Grid<float> values;
   if (kind == v1::RASTER_KIND_VISIBLE) {
     nodata = double{visibility::kNoAnswer};
   } else {
     values = kind == v1::RASTER_KIND_OHF ? visibility::ohf_raster(*result) : visibility::min_target_height(*result);
-    nodata = d.dem.nodata;
+    nodata = d.header().nodata;
   }
   const bool is_mask = kind == v1::RASTER_KIND_VISIBLE;
   const int width = result->ohf.width(), height = result->ohf.height();
   row_bytes_ = static_cast<std::size_t>(width) * (is_mask ? 1 : sizeof(float));
   if (req.include_raster()) {
     raster_.resize(row_bytes_ * static_cast<std::size_t>(height));
-    if (!raster_.empty()) std::memcpy(raster_.data(), is_mask ? static_cast<const void*>(mask.data()) : values.data(), raster_.size());
+    if (!raster_.empty())
+      std::memcpy(raster_.data(), is_mask ? static_cast<const void*>(mask.data()) : values.data(), raster_.size());
   }
   if (req.include_geotiff()) {
     auto bytes_or = is_mask ? geotiff_bytes(env.config.scratch_dir, mask, georef, nodata)
@@ -155,13 +156,13 @@ grpc::Status ViewshedCall::compute() {
   const visibility::ViewFrame& f = result->frame;
   header_.set_width(width);
   header_.set_height(height);
-  fill_window(f.window, *header_.mutable_window());
+  fill_window(run->window, *header_.mutable_window());
   fill_transform(georef.transform, *header_.mutable_transform());
   header_.set_epsg(georef.epsg);
   header_.set_raster(kind);
   header_.set_sample_type(is_mask ? v1::SAMPLE_TYPE_UINT8 : v1::SAMPLE_TYPE_FLOAT32);
   if (nodata) header_.set_nodata(*nodata);
-  fill_point(*observer, d.dem, *header_.mutable_observer());
+  fill_point(run->observer_in_source(), d.header().georef, *header_.mutable_observer());
   header_.set_cell_size_x_m(f.metres_per_col);
   header_.set_cell_size_y_m(f.metres_per_row);
   header_.set_algorithm(scope_.record().algorithm);
@@ -182,7 +183,8 @@ grpc::Status ViewshedCall::compute() {
 
 void ViewshedCall::write_next() {
   message_.Clear();
-  const int rows_per_chunk = static_cast<int>(std::max<std::size_t>(1, chunk_bytes_ / std::max<std::size_t>(1, row_bytes_)));
+  const int rows_per_chunk =
+      static_cast<int>(std::max<std::size_t>(1, chunk_bytes_ / std::max<std::size_t>(1, row_bytes_)));
   while (true) {
     switch (stage_) {
       case Stage::kHeader:
@@ -204,7 +206,8 @@ void ViewshedCall::write_next() {
         auto* chunk = message_.mutable_raster_chunk();
         chunk->set_row0(row0);
         chunk->set_rows(rows);
-        chunk->set_data(raster_.data() + static_cast<std::size_t>(row0) * row_bytes_, static_cast<std::size_t>(rows) * row_bytes_);
+        chunk->set_data(raster_.data() + static_cast<std::size_t>(row0) * row_bytes_,
+                        static_cast<std::size_t>(rows) * row_bytes_);
         cursor_ += static_cast<std::size_t>(rows);
         return StartWrite(&message_);
       }

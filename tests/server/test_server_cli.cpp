@@ -49,10 +49,9 @@ DaemonProcess* ServerCli::daemon_ = nullptr;
 
 const std::string kRainierEye = " --lat 46.8529 --lon -121.7604";
 
-// Byte-identical to embedded mode reading the whole file (--full-read), as the
-// daemon holds whole files. (Embedded mode's default windowed read, in
-// progress at the time of writing, differs in the last bit of the origin and,
-// for the fast OHF, in some pixels; see the issue #4 report.)
+// Byte-identical to embedded mode reading the whole file (--full-read): the
+// daemon reads only the window's blocks through its cache, and a run's
+// output georeference is the source's transform shifted once to the window.
 TEST_F(ServerCli, ViewshedGeoTiffAndPngAreByteIdenticalToEmbedded) {
   for (const char* flags : {" --max-distance 8000", " --max-distance 6000 --output ohf --target-height 3",
                             " --max-distance 2500 --algorithm r3 --output min-target-height",

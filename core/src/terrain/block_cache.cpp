@@ -43,7 +43,8 @@ struct BlockCache::State {
   mutable std::mutex mutex;
   std::unordered_map<BlockKey, Entry, KeyHash> resident;
   std::unordered_map<BlockKey, Pending, KeyHash> decoding;
-  std::list<BlockKey> lru;  // front = most recently used
+  std::list<BlockKey> lru;                                     // front = most recently used
+  std::unordered_map<std::uint64_t, std::uint64_t> by_source;  // resident bytes per source
   BlockCacheStats counters;
   // Bytes of every decoded block alive anywhere (the cache's and the evicted
   // ones requests still hold); updated by the blocks' deleters.
@@ -58,13 +59,16 @@ struct BlockCache::State {
       const BlockKey victim = lru.back();
       lru.pop_back();
       auto it = resident.find(victim);
-      counters.resident_bytes -= bytes_of(*it->second.block);
+      const std::uint64_t freed = bytes_of(*it->second.block);
+      counters.resident_bytes -= freed;
+      if ((by_source[victim.source] -= freed) == 0) by_source.erase(victim.source);
       resident.erase(it);
       ++counters.evictions;
     }
     lru.push_front(key);
     resident.emplace(key, Entry{block, lru.begin()});
     counters.resident_bytes += bytes;
+    by_source[key.source] += bytes;
     counters.peak_resident_bytes = std::max(counters.peak_resident_bytes, counters.resident_bytes);
   }
 };
@@ -82,6 +86,12 @@ std::uint64_t BlockCache::next_source_id() {
 
 std::uint64_t BlockCache::budget_bytes() const {
   return state_->budget;
+}
+
+std::uint64_t BlockCache::resident_bytes_of(std::uint64_t source) const {
+  std::lock_guard lock(state_->mutex);
+  auto it = state_->by_source.find(source);
+  return it == state_->by_source.end() ? 0 : it->second;
 }
 
 BlockCacheStats BlockCache::stats() const {

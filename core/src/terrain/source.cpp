@@ -343,19 +343,30 @@ Result<Dem> ElevationSource::read(const Window& requested, BlockCache* cache, co
   return dem;
 }
 
-Result<ElevationStats> ElevationSource::scan(unsigned threads, const RunControl* control) const {
+Result<ElevationStats> ElevationSource::scan(unsigned threads, BlockCache* cache, const RunControl* control) const {
   std::mutex mutex;
   ElevationStats total;
   std::optional<Error> failure;
   bool any = false;
+  std::shared_ptr<const ElevationSource> self = shared_from_this();
   const Status status = parallel_for(block_count_, threads, control, [&](std::size_t b) {
-    auto cells = load_block(b);
-    std::lock_guard lock(mutex);
-    if (!cells.ok()) {
-      if (!failure) failure = cells.error();
+    Result<Block> block = Error{};
+    if (cache) {
+      const BlockCache::Want want{{id_, b}, [self, b] { return self->load_block(b); }};
+      auto got = cache->fetch(std::span(&want, 1));
+      block = got.ok() ? Result<Block>(got->front()) : Result<Block>(got.error());
+    } else {
+      auto cells = load_block(b);
+      block = cells.ok() ? Result<Block>(std::make_shared<const Grid<float>>(std::move(*cells)))
+                         : Result<Block>(cells.error());
+    }
+    if (!block.ok()) {
+      std::lock_guard lock(mutex);
+      if (!failure) failure = block.error();
       return;
     }
-    const ElevationStats s = elevation_stats(*cells);
+    const ElevationStats s = elevation_stats(**block);
+    std::lock_guard lock(mutex);
     if (s.valid_cells) {
       total.min = any ? std::min(total.min, s.min) : s.min;
       total.max = any ? std::max(total.max, s.max) : s.max;

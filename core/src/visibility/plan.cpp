@@ -137,6 +137,8 @@ Result<ViewshedRun> run_viewshed(const ViewshedPlan& plan, const terrain::Elevat
   run.result = std::move(*result);
   run.result.stats.dem_cells = static_cast<std::uint64_t>(source.width()) * static_cast<std::uint64_t>(source.height());
   run.window = shifted(run.result.frame.window, run.read.window.col0, run.read.window.row0);
+  run.georef = source.header().georef;
+  run.georef.transform = source.header().georef.transform.shifted(run.window.col0, run.window.row0);
   run.dem.elevation = terrain::Grid<float>();  // result.terrain holds the window's crop
   return run;
 }

@@ -101,6 +101,8 @@ class BlockCache {
 
   BlockCacheStats stats() const;
   std::uint64_t budget_bytes() const;
+  // Bytes of one source's blocks the cache keeps now.
+  std::uint64_t resident_bytes_of(std::uint64_t source) const;
 
  private:
   struct State;

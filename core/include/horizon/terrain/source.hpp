@@ -118,10 +118,11 @@ class ElevationSource : public std::enable_shared_from_this<ElevationSource> {
   Result<Dem> read(const Window& window, BlockCache* cache, const RunControl* control = nullptr,
                    SourceReadStats* stats = nullptr, unsigned threads = 0) const;
 
-  // Decodes every block once (nothing is kept) on `threads` threads and
-  // returns the elevation statistics: a load-time check that every file
-  // decodes, naming the first file and block that does not.
-  Result<ElevationStats> scan(unsigned threads, const RunControl* control = nullptr) const;
+  // Decodes every block once on `threads` threads and returns the
+  // elevation statistics: a load-time check that every file decodes,
+  // naming the first file and block that does not. Through `cache` (may be
+  // null: nothing is kept) the blocks stay resident while they fit.
+  Result<ElevationStats> scan(unsigned threads, BlockCache* cache = nullptr, const RunControl* control = nullptr) const;
 
  private:
   ElevationSource() = default;

@@ -87,6 +87,10 @@ struct ViewshedRun {
   geodesy::GridPoint observer;  // on the ground, in dem's grid
   ViewshedResult result;        // frame in dem's grid; stats.dem_cells = the source's cells
   terrain::Window window;       // result.frame.window in the source's grid
+  // The output rasters' georeference: the source's transform shifted once to
+  // `window`'s corner (shifting the read window's origin again would round
+  // differently in the last bit).
+  terrain::Georeference georef;
   terrain::SourceReadStats read;
   // observer in the source's grid.
   geodesy::GridPoint observer_in_source() const;
