@@ -2,7 +2,7 @@
 // The OHF as the culling surface is the method of US patent 7,027,046
 // ("Method, system, and computer program product for visibility culling of
 // terrain"); the per-box test reads a hierarchical minimum of it (Greene et
-// al., "Hierarchical Z-Buffer Visibility", 1993), see min_pyramid.hpp.
+// al., "Hierarchical Z-Buffer Visibility", 1993), see terrain/pyramid.hpp.
 #include "horizon/visibility/cull.hpp"
 
 #include <algorithm>
@@ -142,7 +142,7 @@ double cull_reach(const ViewFrame& frame, std::span<const BoxFootprint> footprin
   return std::sqrt(reach2);
 }
 
-std::size_t cull_footprints(const ViewshedResult& result, const MinPyramid& pyramid,
+std::size_t cull_footprints(const ViewshedResult& result, const terrain::Pyramid& pyramid,
                             std::span<const BoxFootprint> footprints, std::span<BoxVisibility> out,
                             std::uint64_t* cells_read) {
   assert(out.size() == footprints.size());
@@ -203,7 +203,8 @@ Result<CullResult> run_cull(const terrain::Dem& dem, const geodesy::GridPoint& o
   result.algorithm = plan.viewshed.algorithm;
   result.window = ohf->frame.window;
   result.stats = ohf->stats;
-  const MinPyramid pyramid(ohf->ohf);
+  // 2x2 levels; the blocks are built as the boxes' queries reach them.
+  const terrain::Pyramid pyramid(ohf->ohf, terrain::Reduction::kMin);
   result.boxes.resize(plan.footprints.size());
   result.visible_count = cull_footprints(*ohf, pyramid, plan.footprints, result.boxes, &result.pyramid_cells_read);
   return result;

@@ -22,8 +22,10 @@
 //
 // Work. Only the window the boxes need is computed: the OHF's max distance is
 // that of the farthest covered cell centre, so a scene of nearby objects on a
-// huge DEM costs a small viewshed. A MinPyramid of that OHF then answers each
-// box in O(1)-O(log) cells whatever its footprint (see min_pyramid.hpp).
+// huge DEM costs a small viewshed. A min-pyramid of that OHF (terrain::Pyramid,
+// Reduction::kMin, 2x2 levels) then answers each box in O(1)-O(log) cells
+// whatever its footprint, building only the blocks the boxes' cells fall in
+// (see terrain/pyramid.hpp).
 //
 // Accuracy. With `conservative`, the OHF comes from Algorithm::kConservative,
 // which never reports hidden a point R3 sees, so no box R3 sees is reported
@@ -42,7 +44,7 @@
 #include "horizon/common/error.hpp"
 #include "horizon/geodesy/observer.hpp"
 #include "horizon/terrain/dem.hpp"
-#include "horizon/visibility/min_pyramid.hpp"
+#include "horizon/terrain/pyramid.hpp"
 #include "horizon/visibility/options.hpp"
 #include "horizon/visibility/viewshed.hpp"
 
@@ -123,11 +125,11 @@ Result<std::vector<BoxFootprint>> resolve_boxes(const terrain::Georeference& geo
 // the max distance a viewshed needs to answer these boxes.
 double cull_reach(const ViewFrame& frame, std::span<const BoxFootprint> footprints);
 
-// Tests footprints against an OHF already computed (pyramid built over
-// result.ohf). Footprint cells outside result's window count as "no answer"
+// Tests footprints against an OHF already computed (`pyramid`: Reduction::kMin
+// over all of result.ohf). Footprint cells outside result's window count as "no answer"
 // (-inf, visible). `out` must have one element per footprint. Returns the
 // number visible; adds pyramid reads to *cells_read when given.
-std::size_t cull_footprints(const ViewshedResult& result, const MinPyramid& pyramid,
+std::size_t cull_footprints(const ViewshedResult& result, const terrain::Pyramid& pyramid,
                             std::span<const BoxFootprint> footprints, std::span<BoxVisibility> out,
                             std::uint64_t* cells_read = nullptr);
 
