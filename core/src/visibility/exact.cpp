@@ -13,6 +13,7 @@
 #include "crossings.hpp"
 #include "polar_bounds.hpp"
 #include "horizon/common/parallel.hpp"
+#include "horizon/terrain/pyramid.hpp"
 #include "horizon/visibility/radial_sweep.hpp"
 #include "horizon/visibility/viewshed.hpp"
 
@@ -28,87 +29,18 @@ constexpr std::array<int, kLevels> kShift = {3, 6, 9};
 // the same 0.80 G; 1024 cells, 0.43 s.
 constexpr double kPolarReach = 256;
 constexpr std::array<int, kLevels> kTile = {1 << kShift[0], 1 << kShift[1], 1 << kShift[2]};  // cells per tile side = stretch length
-
-// Tile maxima of the window's terrain (voids ignored; -inf for an all-void tile).
-class MaxPyramid {
- public:
-  MaxPyramid(const terrain::Grid<float>& z, const terrain::Window& w) : window_(w) {
-    for (int l = 0; l < kLevels; ++l) {
-      cols_[l] = (w.width() + kTile[l] - 1) / kTile[l];
-      rows_[l] = (w.height() + kTile[l] - 1) / kTile[l];
-      max_[l].assign(static_cast<std::size_t>(cols_[l]) * rows_[l], -std::numeric_limits<float>::infinity());
-    }
-    for (int r = w.row0; r < w.row1; ++r) {
-      float* dst = &max_[0][static_cast<std::size_t>((r - w.row0) / kTile[0]) * cols_[0]];
-      const float* src = z.row(r);
-      for (int c = w.col0; c < w.col1; ++c) {
-        const float v = src[c];
-        float& m = dst[(c - w.col0) / kTile[0]];
-        if (v > m) m = v;  // NaN never wins
-      }
-    }
-    for (int l = 1; l < kLevels; ++l) {
-      const int ratio = kTile[l] / kTile[l - 1];
-      for (int j = 0; j < rows_[l - 1]; ++j)
-        for (int i = 0; i < cols_[l - 1]; ++i) {
-          float& m = max_[l][static_cast<std::size_t>(j / ratio) * cols_[l] + i / ratio];
-          m = std::max(m, max_[l - 1][static_cast<std::size_t>(j) * cols_[l - 1] + i]);
-        }
-    }
-    // Each level again as maxima of tile pairs (tile (i, j) with its east
-    // neighbour, with its south neighbour) and of 2 x 2 tiles: most stretches
-    // span at most two tiles each way, and are then answered by one read.
-    for (int l = 0; l < kLevels; ++l) {
-      const int cols = cols_[l], rows = rows_[l];
-      const auto at = [&](int jj, int ii) { return max_[l][static_cast<std::size_t>(jj) * cols + ii]; };
-      east_[l].resize(max_[l].size());
-      south_[l].resize(max_[l].size());
-      quad_[l].resize(max_[l].size());
-      for (int j = 0; j < rows; ++j)
-        for (int i = 0; i < cols; ++i) {
-          const int i1 = std::min(i + 1, cols - 1), j1 = std::min(j + 1, rows - 1);
-          const std::size_t k = static_cast<std::size_t>(j) * cols + i;
-          east_[l][k] = std::max(at(j, i), at(j, i1));
-          south_[l][k] = std::max(at(j, i), at(j1, i));
-          quad_[l][k] = std::max(east_[l][k], std::max(at(j1, i), at(j1, i1)));
-        }
-    }
-  }
-
-  // Highest terrain over DEM cells [c_lo, c_hi] x [r_lo, r_hi] (clamped to the window), using level l.
-  float box_max(int l, int c_lo, int c_hi, int r_lo, int r_hi) const {
-    const int shift = kShift[l];
-    const int i0 = (std::max(c_lo, window_.col0) - window_.col0) >> shift;
-    const int j0 = (std::max(r_lo, window_.row0) - window_.row0) >> shift;
-    const int i1 = (std::min(c_hi, window_.col1 - 1) - window_.col0) >> shift;
-    const int j1 = (std::min(r_hi, window_.row1 - 1) - window_.row0) >> shift;
-    if (i1 - i0 <= 1 && j1 - j0 <= 1) {
-      const std::size_t k = static_cast<std::size_t>(j0) * cols_[l] + i0;
-      if (i1 == i0) return j1 == j0 ? max_[l][k] : south_[l][k];
-      return j1 == j0 ? east_[l][k] : quad_[l][k];
-    }
-    const float* tiles = max_[l].data();
-    float m = -std::numeric_limits<float>::infinity();
-    for (int j = j0; j <= j1; ++j) {
-      const float* row = tiles + static_cast<std::size_t>(j) * cols_[l];
-      for (int i = i0; i <= i1; ++i) m = row[i] > m ? row[i] : m;
-    }
-    return m;
-  }
-
- private:
-  terrain::Window window_;
-  std::array<int, kLevels> cols_{}, rows_{};
-  std::array<std::vector<float>, kLevels> max_;
-  // Maxima over tiles {i, i + 1} x {j}, {i} x {j, j + 1} and {i, i + 1} x {j, j + 1} (clamped to the level).
-  std::array<std::vector<float>, kLevels> east_, south_, quad_;
-};
+// Tile maxima of the window's terrain: pyramid level l + 1 holds the tiles of
+// kTile[l] cells (voids ignored; -inf for an all-void tile). Blocks of 1024
+// cells hold 2 x 2 of the largest tiles, so that a stretch spanning two tiles
+// is mostly answered by one read of a block's spans.
+constexpr terrain::PyramidShape kMaxShape{8, kLevels};
+constexpr terrain::PyramidOptions kMaxOptions{.block_cells = 1024, .spans = true};
 
 // One target's sight line and the search state.
 struct SightLine {
   const terrain::Grid<float>* z;
   const ViewFrame* f;
-  const MaxPyramid* pyramid;
+  const terrain::Pyramid* pyramid;   // kMax over the window, built
   const detail::PolarBounds* polar;  // null: no ring bounds (visibility only)
   double c0, r0, c1, r1;  // eye and target, grid coordinates
   double total;           // metres
@@ -178,7 +110,8 @@ struct SightLine {
     // Grid coordinates are >= -0.5, so int(x + 1) - 1 is floor(x).
     const int c_lo = static_cast<int>(std::min(ca, cb) + 1.0) - 1, c_hi = static_cast<int>(std::max(ca, cb) + 1.0);
     const int r_lo = static_cast<int>(std::min(ra, rb) + 1.0) - 1, r_hi = static_cast<int>(std::max(ra, rb) + 1.0);
-    const double zmax = pyramid->box_max(l, c_lo, c_hi, r_lo, r_hi);
+    const int wc = f->window.col0, wr = f->window.row0;
+    const double zmax = pyramid->cover_built(l + 1, c_lo - wc, c_hi - wc, r_lo - wr, r_hi - wr);
     // A sample at distance d beats slope T only if its terrain reaches
     // eye + T d + curvature d^2 (convex in d): prune when zmax stays below
     // that height's minimum over [d_lo, d_hi]. The margin outweighs the
@@ -272,7 +205,8 @@ Status exact_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const Radial
   WorkStats radial_stats;
   HORIZON_RETURN_IF_ERROR(radial_ohf(z, f, radial, threads, control ? &bound_control : nullptr, ohf, radial_stats,
                                      RadialBound::kLowerBound));
-  const MaxPyramid pyramid(z, f.window);
+  terrain::Pyramid pyramid(z, f.window, terrain::Reduction::kMax, kMaxShape, kMaxOptions);
+  pyramid.build_all(threads);  // every sight line reads it: built up front, read without checks
   // Near the eye, bounds that follow the sight lines, out to kPolarReach
   // cells or the window's farthest corner. Not for visibility only: there
   // the target's own sight line already prunes the near stretches.

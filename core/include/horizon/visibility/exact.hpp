@@ -7,7 +7,8 @@
 //  1. A lower bound per target: the radial sweep with RadialBound::kLowerBound
 //     (re-sampled R3 samples of each cell's own sight line), usually equal to
 //     the exact horizon or just below it.
-//  2. A max-pyramid of the terrain (tiles of 8, 64 and 512 cells). A stretch
+//  2. A max-pyramid of the terrain (tiles of 8, 64 and 512 cells;
+//     terrain/pyramid.hpp, built whole before the search). A stretch
 //     of a sight line is bounded by the highest vertex of the tiles around
 //     it; its samples' slopes cannot exceed (zmax - eye) / d - curvature d
 //     over its distance range. A stretch whose bound is below the best slope
