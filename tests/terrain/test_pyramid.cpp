@@ -331,6 +331,23 @@ TEST(Pyramid, CoverEqualsTheReductionOfTheCoveringCells) {
     }
 }
 
+// build_all's flat levels follow the source after invalidate(), spans too.
+TEST(Pyramid, CoverAfterInvalidateSeesTheNewSource) {
+  Grid<float> g(700, 300, 1.0f);
+  Pyramid p(g, Reduction::kMax, {8, 3}, {.block_cells = 512, .spans = true});
+  p.build_all(2);
+  ASSERT_EQ(p.block_levels(), 3);
+  const std::size_t built = p.bytes();
+  EXPECT_EQ(p.cover_built(1, 506, 514, 10, 20), 1.0f);
+  g.at(516, 17) = 5.0f;  // level-1 cell (64, 2), in the block east of cell (63, 2)
+  p.invalidate();
+  p.build_all(2);
+  EXPECT_EQ(p.bytes(), built);
+  EXPECT_EQ(p.cover_built(1, 506, 514, 10, 20), 5.0f);  // the quad of (63, 1), across blocks
+  EXPECT_EQ(p.cover_built(1, 504, 511, 16, 23), 1.0f);  // cell (63, 2) alone
+  EXPECT_EQ(p.cover_built(3, 0, 699, 0, 299), 5.0f);    // all of level 3: the east span of (0, 0)
+}
+
 TEST(Pyramid, ConcurrentFirstQueriesAgreeWithBruteForce) {
   std::mt19937 seed_rng(31);
   const Grid<float> g = random_grid(700, 500, seed_rng, 400);

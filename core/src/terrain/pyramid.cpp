@@ -103,6 +103,7 @@ Pyramid::Pyramid(const Grid<float>& source, const Window& window, Reduction redu
 
 void Pyramid::invalidate() {
   slots_ = std::make_unique<Slot[]>(block_count());
+  flat_.clear();
   blocks_built_.store(0, std::memory_order_relaxed);
   upper_.clear();
   for (int l = block_levels_ + 1; l < level_count_; ++l) {
@@ -205,8 +206,6 @@ void Pyramid::fill_block(int bi, int bj, PyramidBlock& out) const {
     for (std::size_t k = 0; k < top.values.size(); ++k)
       top.values[k] = top.counts[k] ? static_cast<float>(sums[k] / top.counts[k]) : std::nanf("");
   }
-  if (spans_)
-    for (PyramidLevel& level : out.levels) fill_spans(reduction_, level);
 }
 
 const PyramidBlock& Pyramid::build_block(int bi, int bj) const {
@@ -406,6 +405,35 @@ void Pyramid::build_all(unsigned threads) {
   for (int l = block_levels_ + 1; l < level_count_; ++l)
     for (int j = 0; j < level_height(l); ++j)
       for (int i = 0; i < level_width(l); ++i) ensure_upper(l, i, j);
+  if (!flat_.empty() || block_levels_ < 1 || reduction_ == Reduction::kMean) return;
+  // The flat levels: each block's rows copied into place (blocks write
+  // disjoint cells), then the spans over the whole level.
+  std::vector<PyramidLevel> flat(static_cast<std::size_t>(block_levels_));
+  for (int l = 1; l <= block_levels_; ++l) {
+    PyramidLevel& f = flat[static_cast<std::size_t>(l - 1)];
+    f.width = level_width(l);
+    f.height = level_height(l);
+    f.values.resize(static_cast<std::size_t>(f.width) * f.height);
+  }
+  parallel_for(block_count(), threads, [&](std::size_t k) {
+    const int bi = static_cast<int>(k % static_cast<std::size_t>(blocks_x_));
+    const int bj = static_cast<int>(k / static_cast<std::size_t>(blocks_x_));
+    const PyramidBlock& b = block(bi, bj);
+    for (int l = 1; l <= block_levels_; ++l) {
+      const PyramidLevel& from = b.levels[static_cast<std::size_t>(l - 1)];
+      PyramidLevel& to = flat[static_cast<std::size_t>(l - 1)];
+      const int shift = log_block_ - l * log_factor_;  // block side in level-l cells: 2^shift
+      const std::size_t i0 = static_cast<std::size_t>(bi) << shift, j0 = static_cast<std::size_t>(bj) << shift;
+      for (int r = 0; r < from.height; ++r) {
+        const std::size_t src = static_cast<std::size_t>(r) * from.width;
+        const std::size_t dst = (j0 + r) * static_cast<std::size_t>(to.width) + i0;
+        std::copy_n(from.values.data() + src, from.width, to.values.data() + dst);
+      }
+    }
+  });
+  if (spans_)
+    for (PyramidLevel& f : flat) fill_spans(reduction_, f);
+  flat_ = std::move(flat);
 }
 
 std::size_t Pyramid::bytes() const {
@@ -413,6 +441,7 @@ std::size_t Pyramid::bytes() const {
   for (std::size_t k = 0; k < block_count(); ++k)
     if (const PyramidBlock* b = slots_[k].ready.load(std::memory_order_acquire)) n += b->bytes();
   for (const UpperLevel& u : upper_) n += u.cells.bytes();
+  for (const PyramidLevel& f : flat_) n += f.bytes();
   return n;
 }
 

@@ -31,8 +31,8 @@ constexpr double kPolarReach = 256;
 constexpr std::array<int, kLevels> kTile = {1 << kShift[0], 1 << kShift[1], 1 << kShift[2]};  // cells per tile side = stretch length
 // Tile maxima of the window's terrain: pyramid level l + 1 holds the tiles of
 // kTile[l] cells (voids ignored; -inf for an all-void tile). Blocks of 1024
-// cells hold 2 x 2 of the largest tiles, so that a stretch spanning two tiles
-// is mostly answered by one read of a block's spans.
+// cells hold all three levels; build_all lays them out flat, with spans, so
+// that a stretch spanning at most two tiles each way is answered by one read.
 constexpr terrain::PyramidShape kMaxShape{8, kLevels};
 constexpr terrain::PyramidOptions kMaxOptions{.block_cells = 1024, .spans = true};
 

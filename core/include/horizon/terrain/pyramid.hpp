@@ -32,7 +32,11 @@
 // Coarser levels (only with blocks smaller than the top cell) are stored
 // once for the whole raster, each cell computed on first use from the level
 // below. build_all(threads) builds every block up front, for a caller that
-// will read everything (exact over its whole window).
+// will read everything (exact over its whole window); for kMin and kMax it
+// then also lays each block level out flat over the whole raster (one
+// row-major array per level, a copy of the blocks' values, with spans when
+// asked for), which is what cover_built reads: one array index per read, no
+// block lookup.
 //
 // Ownership: the pyramid borrows the source grid, which must outlive it and
 // stay unchanged while blocks are built from it (invalidate() after changing
@@ -42,13 +46,16 @@
 //
 // Thread safety: queries may run concurrently from any threads, including
 // the first ones that build blocks (std::call_once per block and per upper
-// cell; a built block is then found with one acquire load). build_all and
-// the *_built reads follow the same rule; invalidate() must not run
+// cell; a built block is then found with one acquire load). build_all may
+// run beside queries, but not beside another build_all or cover_built (it
+// writes the flat levels they read); cover_built may run concurrently with
+// queries and itself once build_all has returned. invalidate() must not run
 // concurrently with anything else.
 //
 // Cost: building a block reads its cells once, O(block cells), and stores
 // 1/(f^2 - 1) of them again (1/3 for factor 2, 1/63 for factor 8), 4 bytes
-// each (plus 4 for mean's counts, times 4 with spans). min_in / max_in are
+// each (plus 4 for mean's counts); build_all's flat levels (kMin, kMax)
+// store them once more (times 4 with spans). min_in / max_in are
 // exact and read O(1) cells for a window aligned to a level, O(log n) when
 // the extremum lies inside, O(perimeter) at worst (an extremum hugging the
 // window's edge); mean_in reads O(perimeter x levels) cells.
@@ -79,20 +86,20 @@ struct PyramidShape {
 
 struct PyramidOptions {
   int block_cells = 512;  // side of a block in level-0 cells, a power of two >= factor
-  // Also store, per block level, each cell's reduction with its east
-  // neighbour, its south neighbour and the 2x2 cells it leads, so that
-  // cover() answers a range of at most 2x2 cells with one read (exact's
-  // stretches). kMin and kMax only; memory x4.
+  // Also store, in build_all's flat levels, each cell's reduction with its
+  // east neighbour, its south neighbour and the 2x2 cells it leads, so that
+  // cover_built answers a range of at most 2x2 cells with one read (exact's
+  // stretches). kMin and kMax only; flat levels' memory x4.
   bool spans = false;
 };
 
-// One level of one block (or an upper level of the whole raster): row-major
-// cells, `width` per row.
+// One level of one block (or an upper or flat level of the whole raster):
+// row-major cells, `width` per row.
 struct PyramidLevel {
   int width = 0, height = 0;
   std::vector<float> values;
   std::vector<std::uint32_t> counts;     // kMean: valid level-0 cells below each cell
-  std::vector<float> east, south, quad;  // spans (PyramidOptions::spans), clamped to the block
+  std::vector<float> east, south, quad;  // flat levels' spans (PyramidOptions::spans), clamped to the level
   std::size_t bytes() const {
     return (values.size() + east.size() + south.size() + quad.size()) * sizeof(float) +
            counts.size() * sizeof(std::uint32_t);
@@ -151,17 +158,18 @@ class Pyramid {
   // The reduction over the level-l cells (l >= 1, a block level) that cover
   // local cells [col_lo, col_hi] x [row_lo, row_hi] (inclusive, clamped to
   // the raster; the clamped range must not be empty): a bound, not exact,
-  // over a superset of the cells. One read for at most 2x2 cells within a
-  // block when built with spans. Blocks must be built (build_all): this is
-  // the hot-path read, with no build check.
+  // over a superset of the cells. One read for at most 2x2 cells when built
+  // with spans. Reads build_all's flat levels (asserted built): this is the
+  // hot-path read, with no build check.
   float cover_built(int l, int col_lo, int col_hi, int row_lo, int row_hi) const;
 
-  // Builds every block and upper cell, on up to `threads` threads (0: all cores).
+  // Builds every block and upper cell, then the flat levels (kMin, kMax), on up to
+  // `threads` threads (0: all cores). Again after that: nothing new.
   void build_all(unsigned threads);
-  // Drops every built block, so that later reads see the source anew.
+  // Drops every built block and flat level, so that later reads see the source anew.
   void invalidate();
 
-  // Blocks built so far and their storage (bytes of reduced levels, blocks and upper levels).
+  // Blocks built so far and their storage (bytes of reduced levels: blocks, upper and flat levels).
   std::size_t blocks_built() const { return blocks_built_.load(std::memory_order_relaxed); }
   std::size_t block_count() const { return static_cast<std::size_t>(blocks_x_) * blocks_y_; }
   int block_levels() const { return block_levels_; }
@@ -207,6 +215,7 @@ class Pyramid {
   std::unique_ptr<Slot[]> slots_;
   mutable std::atomic<std::size_t> blocks_built_{0};
   mutable std::vector<UpperLevel> upper_;  // levels block_levels_ + 1 .. level_count_ - 1
+  std::vector<PyramidLevel> flat_;         // after build_all: levels 1..block_levels_ over the raster
 };
 
 inline const PyramidLevel& Pyramid::block_level(int l, int i, int j, std::size_t& k) const {
@@ -222,27 +231,24 @@ inline const PyramidLevel& Pyramid::block_level(int l, int i, int j, std::size_t
 
 inline float Pyramid::cover_built(int l, int col_lo, int col_hi, int row_lo, int row_hi) const {
   assert(l >= 1 && l <= block_levels_ && reduction_ != Reduction::kMean);
+  assert(flat_.size() == static_cast<std::size_t>(block_levels_));
+  const PyramidLevel& level = flat_[static_cast<std::size_t>(l - 1)];
   const int shift = l * log_factor_;
   const int i0 = (col_lo > 0 ? col_lo : 0) >> shift, j0 = (row_lo > 0 ? row_lo : 0) >> shift;
   const int i1 = (col_hi < width_ - 1 ? col_hi : width_ - 1) >> shift;
   const int j1 = (row_hi < height_ - 1 ? row_hi : height_ - 1) >> shift;
+  const std::size_t width = static_cast<std::size_t>(level.width);
   if (spans_ && i1 - i0 <= 1 && j1 - j0 <= 1) {
-    const int bshift = log_block_ - shift;
-    // Both ends in one block: its spans answer.
-    if ((i0 >> bshift) == (i1 >> bshift) && (j0 >> bshift) == (j1 >> bshift)) {
-      std::size_t k;
-      const PyramidLevel& level = block_level(l, i0, j0, k);
-      if (i1 == i0) return j1 == j0 ? level.values[k] : level.south[k];
-      return j1 == j0 ? level.east[k] : level.quad[k];
-    }
+    const std::size_t k = static_cast<std::size_t>(j0) * width + static_cast<std::size_t>(i0);
+    if (i1 == i0) return j1 == j0 ? level.values[k] : level.south[k];
+    return j1 == j0 ? level.east[k] : level.quad[k];
   }
   const bool is_max = reduction_ == Reduction::kMax;
   float m = is_max ? -std::numeric_limits<float>::infinity() : std::numeric_limits<float>::infinity();
-  for (int j = j0; j <= j1; ++j)
-    for (int i = i0; i <= i1; ++i) {
-      const float v = built_value(l, i, j);
-      m = is_max ? (v > m ? v : m) : (v < m ? v : m);
-    }
+  for (int j = j0; j <= j1; ++j) {
+    const float* row = level.values.data() + static_cast<std::size_t>(j) * width;
+    for (int i = i0; i <= i1; ++i) m = is_max ? (row[i] > m ? row[i] : m) : (row[i] < m ? row[i] : m);
+  }
   return m;
 }
 
