@@ -48,6 +48,26 @@ TEST(ServerConfig, GoodDocumentGivesItsValues) {
   EXPECT_EQ(*file, std::filesystem::canonical(kDataDir / "olinda_coast_utm25s_111x111.tif"));
 }
 
+TEST(ServerConfig, TiledDatasetsAndTheBlockCache) {
+  auto c = parse_config(document(R"("block_cache_mb": 64, "io_threads": 3,
+                                    "datasets": {"t": {"file": ".", "missing_tiles": "nodata"},
+                                                 "f": {"file": "zion_canyon_srtm3_465x457.tif", "missing_tiles": "error"}})"),
+                        "test.json", "/");
+  ASSERT_TRUE(c.ok()) << c.error().message;
+  EXPECT_EQ(c->block_cache_bytes, 64ull << 20);
+  EXPECT_EQ(c->io_threads, 3u);
+  ASSERT_EQ(c->datasets.size(), 2u);
+  EXPECT_FALSE(c->datasets[0].missing_as_nodata);  // "f"
+  EXPECT_TRUE(c->datasets[1].missing_as_nodata);   // "t"
+  auto folder = resolve_dataset_file(*c, c->datasets[1]);
+  ASSERT_TRUE(folder.ok()) << folder.error().message;  // a folder is a dataset too
+  EXPECT_EQ(*folder, std::filesystem::canonical(kDataDir));
+  // Unset, the cache takes half of what the budget leaves, at most 256 MiB.
+  auto d = parse_config(document(""), "test.json", "/");
+  ASSERT_TRUE(d.ok());
+  EXPECT_EQ(d->block_cache_bytes, (256ull - 48) << 19);
+}
+
 struct BadCase {
   const char* what;
   std::string text;
@@ -111,7 +131,12 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"gpu contexts 65", document(R"("gpu": {"contexts": 65})"), "gpu.contexts"},
         BadCase{"deadline 0", document(R"("default_deadline_ms": 0)"), "default_deadline_ms"},
         BadCase{"grace too long", document(R"("shutdown_grace_ms": 700000)"), "shutdown_grace_ms"},
-        BadCase{"scratch_dir missing", document(R"("scratch_dir": "/no/such/dir")"), "scratch_dir"}),
+        BadCase{"scratch_dir missing", document(R"("scratch_dir": "/no/such/dir")"), "scratch_dir"},
+        BadCase{"missing_tiles unknown", document(R"("datasets": {"a": {"file": "x", "missing_tiles": "zero"}})"),
+                "datasets.a.missing_tiles"},
+        BadCase{"block_cache_mb 0", document(R"("block_cache_mb": 0)"), "block_cache_mb"},
+        BadCase{"block_cache_mb over the budget", document(R"("block_cache_mb": 300)"), "block_cache_mb"},
+        BadCase{"io_threads 0", document(R"("io_threads": 0)"), "io_threads"}),
     [](const ::testing::TestParamInfo<BadCase>& test) {
       // "listen port too large" -> "listen_port_too_large"
       std::string name;
