@@ -2,10 +2,11 @@
 //
 //   load_horizond --server 127.0.0.1:50051 --dataset everest --mode viewshed|cull
 //                 --x X --y Y [--clients 2] [--requests 200] [--max-distance 10000]
-//                 [--boxes 10000] [--scene-radius 3000] [--seed 1]
+//                 [--boxes 10000] [--scene-radius 3000] [--spread 500] [--seed 1]
 //
-// viewshed: each request a 10 km (--max-distance) viewshed of the resident DEM,
-//   the raw uint8 raster streamed back, from a viewpoint jittered within 500 m.
+// viewshed: each request a 10 km (--max-distance) viewshed of the dataset,
+//   the raw uint8 raster streamed back, from a viewpoint drawn within
+//   --spread metres of X,Y (each axis).
 // cull: each request a new viewpoint (within --scene-radius/2 of X,Y) and
 //   --boxes object boxes (5-40 m wide, 5-30 m tall, on the ground) scattered
 //   within --scene-radius of X,Y, conservative flag off (fast OHF).
@@ -34,7 +35,7 @@ using Clock = std::chrono::steady_clock;
 
 struct Options {
   std::string server = "127.0.0.1:50051", dataset = "everest", mode = "cull";
-  double x = 0, y = 0, max_distance = 10000, scene_radius = 3000;
+  double x = 0, y = 0, max_distance = 10000, scene_radius = 3000, spread = 500;
   int clients = 2, requests = 200, boxes = 10000;
   unsigned seed = 1;
 };
@@ -43,17 +44,30 @@ Options parse(int argc, char** argv) {
   Options o;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
-    if (k == "--server") o.server = v;
-    else if (k == "--dataset") o.dataset = v;
-    else if (k == "--mode") o.mode = v;
-    else if (k == "--x") o.x = std::atof(v.c_str());
-    else if (k == "--y") o.y = std::atof(v.c_str());
-    else if (k == "--max-distance") o.max_distance = std::atof(v.c_str());
-    else if (k == "--scene-radius") o.scene_radius = std::atof(v.c_str());
-    else if (k == "--clients") o.clients = std::max(1, std::atoi(v.c_str()));
-    else if (k == "--requests") o.requests = std::clamp(std::atoi(v.c_str()), 1, 100000);
-    else if (k == "--boxes") o.boxes = std::clamp(std::atoi(v.c_str()), 1, 100000);
-    else if (k == "--seed") o.seed = static_cast<unsigned>(std::atoi(v.c_str()));
+    if (k == "--server")
+      o.server = v;
+    else if (k == "--dataset")
+      o.dataset = v;
+    else if (k == "--mode")
+      o.mode = v;
+    else if (k == "--x")
+      o.x = std::atof(v.c_str());
+    else if (k == "--y")
+      o.y = std::atof(v.c_str());
+    else if (k == "--max-distance")
+      o.max_distance = std::atof(v.c_str());
+    else if (k == "--scene-radius")
+      o.scene_radius = std::atof(v.c_str());
+    else if (k == "--spread")
+      o.spread = std::atof(v.c_str());
+    else if (k == "--clients")
+      o.clients = std::max(1, std::atoi(v.c_str()));
+    else if (k == "--requests")
+      o.requests = std::clamp(std::atoi(v.c_str()), 1, 100000);
+    else if (k == "--boxes")
+      o.boxes = std::clamp(std::atoi(v.c_str()), 1, 100000);
+    else if (k == "--seed")
+      o.seed = static_cast<unsigned>(std::atoi(v.c_str()));
     else {
       std::fprintf(stderr, "load_horizond: unknown flag %s\n", k.c_str());
       std::exit(2);
@@ -101,7 +115,7 @@ int main(int argc, char** argv) {
         if (o.mode == "viewshed") {
           horizon::v1::ViewshedRequest r;
           r.set_dataset(o.dataset);
-          *r.mutable_observer() = eye(o.x + 500 * unit(rng), o.y + 500 * unit(rng));
+          *r.mutable_observer() = eye(o.x + o.spread * unit(rng), o.y + o.spread * unit(rng));
           r.mutable_options()->set_max_distance(o.max_distance);
           r.set_include_raster(true);
           auto reader = stub->ComputeViewshed(&context, r);
@@ -131,7 +145,8 @@ int main(int argc, char** argv) {
           if (errors.fetch_add(1) == 0) std::fprintf(stderr, "load_horizond: %s\n", status.error_message().c_str());
           continue;
         }
-        latencies[static_cast<std::size_t>(c)].push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+        latencies[static_cast<std::size_t>(c)].push_back(
+            std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
       }
     });
   }
@@ -140,9 +155,12 @@ int main(int argc, char** argv) {
   std::vector<double> all;
   for (auto& l : latencies) all.insert(all.end(), l.begin(), l.end());
   std::sort(all.begin(), all.end());
-  auto pct = [&](double p) { return all.empty() ? 0.0 : all[std::min(all.size() - 1, static_cast<std::size_t>(p * all.size()))]; };
-  std::printf("mode %s: %zu ok, %d errors, %d clients, %.2f s: %.1f req/s; latency ms p50 %.2f p90 %.2f p99 %.2f max %.2f\n",
-              o.mode.c_str(), all.size(), errors.load(), o.clients, seconds, static_cast<double>(all.size()) / seconds,
-              pct(0.50), pct(0.90), pct(0.99), all.empty() ? 0.0 : all.back());
+  auto pct = [&](double p) {
+    return all.empty() ? 0.0 : all[std::min(all.size() - 1, static_cast<std::size_t>(p * all.size()))];
+  };
+  std::printf(
+      "mode %s: %zu ok, %d errors, %d clients, %.2f s: %.1f req/s; latency ms p50 %.2f p90 %.2f p99 %.2f max %.2f\n",
+      o.mode.c_str(), all.size(), errors.load(), o.clients, seconds, static_cast<double>(all.size()) / seconds,
+      pct(0.50), pct(0.90), pct(0.99), all.empty() ? 0.0 : all.back());
   return errors.load() == 0 ? 0 : 1;
 }
