@@ -274,6 +274,19 @@ TEST(Plan, NamesItsBlocksAndCostBeforeReadingAPixel) {
   EXPECT_TRUE(same_grid(cold->result.ohf, warm->result.ohf));
 }
 
+TEST(Plan, AnEyeOnAVoidIsNamedAtItsCellOfTheSource) {
+  auto source = open(testing::bundled_dem("everest_summit_voids_srtm3_300x300.tif"));
+  ASSERT_TRUE(source);
+  // The summit's cell (209, 14) is an SRTM void; a 1 km read window starts far from (0, 0).
+  auto plan = plan_viewshed(*source, query(at_cell(source->header(), 209, 14, 2.0), Algorithm::kRadial, 1000.0));
+  ASSERT_TRUE(plan.ok());
+  ASSERT_GT(plan->read.read.col0, 100);
+  auto run = run_viewshed(*plan, *source, nullptr);
+  ASSERT_FALSE(run.ok());
+  EXPECT_EQ(run.error().code, ErrorCode::kDataError);
+  EXPECT_NE(run.error().message.find("(col 209.00, row 14.00)"), std::string::npos) << run.error().message;
+}
+
 TEST(Plan, RejectsBadQueriesAtPlanningNamingTheField) {
   auto source = open(testing::bundled_dem("zion_canyon_srtm3_465x457.tif"));
   ASSERT_TRUE(source);

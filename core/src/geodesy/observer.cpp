@@ -129,14 +129,15 @@ Result<GridPoint> locate_point(const terrain::Georeference& georef, int width, i
   return point;
 }
 
-Result<GridPoint> place_on_ground(const terrain::Dem& dem, GridPoint point, const PointSpec& spec, const char* what) {
+Result<GridPoint> place_on_ground(const terrain::Dem& dem, GridPoint point, const PointSpec& spec, const char* what,
+                                  int col_offset, int row_offset) {
   const std::string name = what ? what : "point";
   // 4. The ground under the point.
   point.ground = terrain::sample_bilinear(dem.elevation, point.col, point.row);
   if (spec.height_mode == HeightMode::kAboveGround) {
     if (std::isnan(point.ground))
       return make_error(ErrorCode::kDataError,
-                        name + " is on a no-data cell" + fmt(" (col %.2f, row %.2f)", point.col, point.row) + " of " +
+                        name + " is on a no-data cell" + fmt(" (col %.2f, row %.2f)", point.col + col_offset, point.row + row_offset) + " of " +
                             dem_name(dem) + "; give an absolute height or move it",
                         name);
     point.elevation = point.ground + spec.height;

@@ -47,7 +47,10 @@ Result<GridPoint> resolve_point(const terrain::Dem& dem, const PointSpec& spec, 
 // `source` is the file named in messages.
 Result<GridPoint> locate_point(const terrain::Georeference& georef, int width, int height, const PointSpec& spec,
                                const char* what, const std::string& source);
-Result<GridPoint> place_on_ground(const terrain::Dem& dem, GridPoint point, const PointSpec& spec, const char* what);
+// `col_offset`/`row_offset`: where `dem`'s cell (0, 0) lies in the raster the
+// caller names, so a message gives the cell in the user's grid.
+Result<GridPoint> place_on_ground(const terrain::Dem& dem, GridPoint point, const PointSpec& spec, const char* what,
+                                  int col_offset = 0, int row_offset = 0);
 
 // The cells whose centres may lie within `radius_metres` of a located point
 // (the bounding box of that ground disc, metric cell sizes taken at the point
