@@ -65,7 +65,7 @@ grpc::Status run_cull_boxes(CallScope& scope, const v1::CullBoxesRequest& reques
     return scope.status_of(s.error());
 
   // The daemon's GPU contexts are lent to the OHF (backend auto: a hardware GPU for large windows).
-  auto run = visibility::run_cull_boxes(*plan, *d.source, &env.cache, scope.control(), env.gpu, env.backend);
+  auto run = visibility::run_cull_boxes(*plan, *d.source, &env.cache, scope.control(), env.gpu, env.backend, &worker_workspace());
   if (!run.ok()) return scope.status_of(rename_field(run.error(), ""));
   const visibility::CullResult* const result = &run->result;
   const visibility::WorkStats& stats = result->stats;

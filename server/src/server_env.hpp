@@ -10,6 +10,7 @@
 #include "datasets.hpp"
 #include "horizon/gpu/context_pool.hpp"
 #include "horizon/terrain/block_cache.hpp"
+#include "horizon/visibility/plan.hpp"
 #include "horizon/visibility/backend_policy.hpp"
 #include "memory_budget.hpp"
 #include "metrics.hpp"
@@ -32,5 +33,14 @@ struct ServerEnv {
   const visibility::BackendPolicy* backend = nullptr;
   std::atomic<std::uint32_t> pending{0};  // admitted and not finished
 };
+
+// The calling worker thread's engine workspace (visibility/plan.hpp): each
+// worker reuses its read buffer from call to call. At most
+// Workspace::kMaxKeptBytes a worker, outside memory_budget_mb's reservations
+// (a request's reservation covers its cells while it runs).
+inline visibility::Workspace& worker_workspace() {
+  thread_local visibility::Workspace workspace;
+  return workspace;
+}
 
 }  // namespace horizon::server

@@ -115,7 +115,7 @@ grpc::Status ViewshedCall::compute() {
   if (auto s = scope_.reserve(plan->cost.bytes + cells * MemoryBudget::kEncodingBytesPerCell, "this viewshed"); !s.ok())
     return scope_.status_of(s.error());
 
-  auto run = visibility::run_viewshed(*plan, *d.source, &env.cache, scope_.control(), env.gpu, env.backend);
+  auto run = visibility::run_viewshed(*plan, *d.source, &env.cache, scope_.control(), env.gpu, env.backend, &worker_workspace());
   if (!run.ok()) return scope_.status_of(rename_field(run.error(), "options."));
   const visibility::ViewshedResult* const result = &run->result;
   const visibility::WorkStats& stats = result->stats;

@@ -287,6 +287,29 @@ TEST(Plan, AnEyeOnAVoidIsNamedAtItsCellOfTheSource) {
   EXPECT_NE(run.error().message.find("(col 209.00, row 14.00)"), std::string::npos) << run.error().message;
 }
 
+TEST(Plan, AWorkspaceKeepsItsBufferAcrossRunsAndChangesNoAnswer) {
+  auto source = open(testing::bundled_dem("zion_canyon_srtm3_465x457.tif"));
+  ASSERT_TRUE(source);
+  terrain::BlockCache cache(cache_of(8 << 20));
+  Workspace workspace;
+  const terrain::DemHeader& h = source->header();
+  const float* buffer = nullptr;
+  for (double reach : {6000.0, 3000.0, 6000.0}) {  // a smaller window fits the kept buffer
+    auto plan = plan_viewshed(*source, query(at_cell(h, 201.3, 170.6), Algorithm::kRadial, reach));
+    ASSERT_TRUE(plan.ok());
+    auto with = run_viewshed(*plan, *source, &cache, nullptr, nullptr, nullptr, &workspace);
+    auto without = run_viewshed(*plan, *source, &cache);
+    ASSERT_TRUE(with.ok() && without.ok());
+    EXPECT_TRUE(same_grid(with->result.ohf, without->result.ohf)) << reach;
+    EXPECT_TRUE(same_grid(with->result.terrain, without->result.terrain)) << reach;
+    ASSERT_GE(workspace.cells.capacity(), plan->read.read.cell_count());
+    if (buffer) {
+      EXPECT_EQ(workspace.cells.data(), buffer) << "the buffer was reallocated";
+    }
+    buffer = workspace.cells.data();
+  }
+}
+
 TEST(Plan, RejectsBadQueriesAtPlanningNamingTheField) {
   auto source = open(testing::bundled_dem("zion_canyon_srtm3_465x457.tif"));
   ASSERT_TRUE(source);

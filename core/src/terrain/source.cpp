@@ -269,7 +269,7 @@ Result<Grid<float>> ElevationSource::load_block(std::uint64_t block) const {
 }
 
 Result<Dem> ElevationSource::read(const Window& requested, BlockCache* cache, const RunControl* control,
-                                  SourceReadStats* stats, unsigned threads) const {
+                                  SourceReadStats* stats, unsigned threads, Grid<float>* reuse) const {
   const auto start = std::chrono::steady_clock::now();
   auto clipped = clip_read_window(requested, header_.width, header_.height, header_.source);
   if (!clipped.ok()) return clipped.error();
@@ -334,8 +334,14 @@ Result<Dem> ElevationSource::read(const Window& requested, BlockCache* cache, co
     auto got = cache->fetch(wants, control, &local.cache);
     if (!got.ok()) return got.error();
     local.cells_decoded = local.cache.bytes_decoded / sizeof(float);
-    dem.elevation = covered.ok() ? Grid<float>(window.width(), window.height(), kUninitialized)
-                                 : Grid<float>(window.width(), window.height(), kNaN);
+    if (reuse && reuse->capacity() >= window.cell_count()) {
+      dem.elevation = std::move(*reuse);
+      dem.elevation.reshape(window.width(), window.height());
+      if (!covered.ok()) std::fill(dem.elevation.values().begin(), dem.elevation.values().end(), kNaN);
+    } else {
+      dem.elevation = covered.ok() ? Grid<float>(window.width(), window.height(), kUninitialized)
+                                   : Grid<float>(window.width(), window.height(), kNaN);
+    }
     for (std::size_t i = got->size(); i-- > 0;) copy_into(dem.elevation, *(*got)[i], block_cells(blocks[i]));
   }
   local.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

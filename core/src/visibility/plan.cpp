@@ -69,6 +69,14 @@ Result<geodesy::GridPoint> on_ground(const terrain::Dem& dem, const terrain::Win
   return geodesy::place_on_ground(dem, located, spec, what, read.col0, read.row0);
 }
 
+// Hands a run's cells back to its workspace (or frees them).
+void keep_or_release(terrain::Grid<float>& cells, Workspace* workspace) {
+  if (workspace && cells.capacity() * sizeof(float) <= Workspace::kMaxKeptBytes &&
+      cells.capacity() >= workspace->cells.capacity())
+    workspace->cells = std::move(cells);
+  cells = terrain::Grid<float>();
+}
+
 geodesy::GridPoint to_source(geodesy::GridPoint p, const terrain::Window& read) {
   p.col += read.col0;
   p.row += read.row0;
@@ -118,9 +126,10 @@ Result<ViewshedPlan> plan_viewshed(const terrain::ElevationSource& source, const
 
 Result<ViewshedRun> run_viewshed(const ViewshedPlan& plan, const terrain::ElevationSource& source,
                                  terrain::BlockCache* cache, const RunControl* control, gpu::ContextPool* gpu,
-                                 const BackendPolicy* policy) {
+                                 const BackendPolicy* policy, Workspace* workspace) {
   ViewshedRun run;
-  auto dem = source.read(plan.read.read, cache, control, &run.read, plan.query.options.threads);
+  // An uncached read decodes on every core: it is the file's work, not the engine's.
+  auto dem = source.read(plan.read.read, cache, control, &run.read, 0, workspace ? &workspace->cells : nullptr);
   if (!dem.ok()) return dem.error();
   run.dem = std::move(*dem);
   auto observer = on_ground(run.dem, run.read.window, plan.observer, plan.query.observer, "observer");
@@ -140,7 +149,7 @@ Result<ViewshedRun> run_viewshed(const ViewshedPlan& plan, const terrain::Elevat
   run.window = shifted(run.result.frame.window, run.read.window.col0, run.read.window.row0);
   run.georef = source.header().georef;
   run.georef.transform = source.header().georef.transform.shifted(run.window.col0, run.window.row0);
-  run.dem.elevation = terrain::Grid<float>();  // result.terrain holds the window's crop
+  keep_or_release(run.dem.elevation, workspace);  // result.terrain holds the window's crop
   return run;
 }
 
@@ -187,10 +196,10 @@ Result<CullBoxesPlan> plan_cull_boxes(const terrain::ElevationSource& source, Cu
 
 Result<CullBoxesRun> run_cull_boxes(const CullBoxesPlan& plan, const terrain::ElevationSource& source,
                                     terrain::BlockCache* cache, const RunControl* control, gpu::ContextPool* gpu,
-                                    const BackendPolicy* policy) {
+                                    const BackendPolicy* policy, Workspace* workspace) {
   CullBoxesRun run;
   const terrain::Window& read = plan.read.read;
-  auto dem = source.read(read, cache, control, &run.read, plan.viewshed.threads);
+  auto dem = source.read(read, cache, control, &run.read, 0, workspace ? &workspace->cells : nullptr);
   if (!dem.ok()) return dem.error();
   const terrain::Window& got = run.read.window;
   auto observer = on_ground(*dem, got, plan.observer, plan.query.observer, "observer");
@@ -213,6 +222,7 @@ Result<CullBoxesRun> run_cull_boxes(const CullBoxesPlan& plan, const terrain::El
   run.result.window = shifted(run.result.window, got.col0, got.row0);
   run.result.stats.dem_cells = static_cast<std::uint64_t>(source.width()) * static_cast<std::uint64_t>(source.height());
   run.observer = to_source(*observer, got);
+  keep_or_release(dem->elevation, workspace);
   return run;
 }
 

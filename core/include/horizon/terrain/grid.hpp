@@ -51,6 +51,17 @@ class Grid {
     assert(width >= 0 && height >= 0);
   }
 
+  // Makes this a width x height grid, keeping its storage when it is large
+  // enough (no new pages, no page faults: for buffers a caller reuses).
+  // The cells' values are unspecified afterwards: the caller writes them all.
+  void reshape(int width, int height) {
+    assert(width >= 0 && height >= 0);
+    width_ = width;
+    height_ = height;
+    cells_.resize(static_cast<std::size_t>(width) * static_cast<std::size_t>(height));
+  }
+  std::size_t capacity() const { return cells_.capacity(); }
+
   int width() const { return width_; }
   int height() const { return height_; }
   std::size_t size() const { return cells_.size(); }

@@ -115,8 +115,10 @@ class ElevationSource : public std::enable_shared_from_this<ElevationSource> {
   // is inside) as a Dem georeferenced at the clipped window's corner.
   // `cache` may be null (read the files directly, keep nothing); `control`
   // may be null; `threads` (0 = all cores) decode an uncached read.
+  // `reuse` (may be null): a grid whose storage a cached read takes over
+  // instead of allocating (a request's workspace, plan.hpp).
   Result<Dem> read(const Window& window, BlockCache* cache, const RunControl* control = nullptr,
-                   SourceReadStats* stats = nullptr, unsigned threads = 0) const;
+                   SourceReadStats* stats = nullptr, unsigned threads = 0, Grid<float>* reuse = nullptr) const;
 
   // Decodes every block once on `threads` threads and returns the
   // elevation statistics: a load-time check that every file decodes,

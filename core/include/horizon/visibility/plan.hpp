@@ -63,6 +63,17 @@ struct ReadPlan {
   std::vector<std::uint64_t> blocks;  // ElevationSource::blocks_in(read)
 };
 
+// Buffers a caller keeps between runs (one per thread: a daemon worker, a
+// benchmark loop), so that a run reads its cells into memory already mapped
+// rather than taking a page fault per 4 KiB of a fresh allocation, which on a
+// VM costs more than assembling the window itself. Runs without one allocate.
+struct Workspace {
+  terrain::Grid<float> cells;  // the last run's read window; its storage is reused
+  // A workspace keeps at most this much between runs (a larger window's
+  // buffer is freed when its run ends): 64 MiB, a 16 M-cell window.
+  static constexpr std::uint64_t kMaxKeptBytes = 64ull << 20;
+};
+
 // ---- viewsheds ----------------------------------------------------------
 
 struct ViewshedQuery {
@@ -102,7 +113,8 @@ struct ViewshedRun {
 // source is never copied). `gpu` and `policy` as compute_viewshed.
 Result<ViewshedRun> run_viewshed(const ViewshedPlan& plan, const terrain::ElevationSource& source,
                                  terrain::BlockCache* cache, const RunControl* control = nullptr,
-                                 gpu::ContextPool* gpu = nullptr, const BackendPolicy* policy = nullptr);
+                                 gpu::ContextPool* gpu = nullptr, const BackendPolicy* policy = nullptr,
+                                 Workspace* workspace = nullptr);
 
 // ---- culling ------------------------------------------------------------
 
@@ -132,7 +144,8 @@ struct CullBoxesRun {
 
 Result<CullBoxesRun> run_cull_boxes(const CullBoxesPlan& plan, const terrain::ElevationSource& source,
                                     terrain::BlockCache* cache, const RunControl* control = nullptr,
-                                    gpu::ContextPool* gpu = nullptr, const BackendPolicy* policy = nullptr);
+                                    gpu::ContextPool* gpu = nullptr, const BackendPolicy* policy = nullptr,
+                                    Workspace* workspace = nullptr);
 
 // ---- one sight line -----------------------------------------------------
 
