@@ -122,6 +122,22 @@ Result<Dem> read_whole(const std::string& path, Format format, const ReadOptions
   return dem;
 }
 
+// The header of a format without internal blocks: one block, the whole raster
+// (as read_whole's stats count it).
+DemHeader header_of_whole(const Dem& dem) {
+  DemHeader h;
+  h.width = dem.width();
+  h.height = dem.height();
+  h.georef = dem.georef;
+  h.nodata = dem.nodata;
+  h.source = dem.source;
+  h.format = dem.format;
+  h.block_width = h.width;
+  h.block_height = h.height;
+  h.blocks_total = 1;
+  return h;
+}
+
 // A small raster held decoded (terrain-RGB tiles: 256x256 cells).
 class DecodedFile final : public RasterFile {
  public:
@@ -159,17 +175,7 @@ Result<std::unique_ptr<RasterFile>> open_raster(const std::string& path, const R
   if (*format == Format::kHgt) return open_hgt(path);
   auto dem = read_terrain_rgb(path, options);
   if (!dem.ok()) return dem.error();
-  DemHeader h;
-  h.width = dem->width();
-  h.height = dem->height();
-  h.georef = dem->georef;
-  h.nodata = dem->nodata;
-  h.source = dem->source;
-  h.format = dem->format;
-  h.block_width = h.width;
-  h.block_height = h.height;
-  h.blocks_total = 1;
-  return std::unique_ptr<RasterFile>(std::make_unique<DecodedFile>(std::move(h), std::move(dem->elevation)));
+  return std::unique_ptr<RasterFile>(std::make_unique<DecodedFile>(header_of_whole(*dem), std::move(dem->elevation)));
 }
 
 Result<Window> clip_read_window(const Window& window, int width, int height, const std::string& path) {
@@ -198,20 +204,9 @@ Result<DemHeader> read_dem_header(const std::string& path, const ReadOptions& op
   if (*format == Format::kGeoTiff) return read_geotiff_header(path, options);
   ReadOptions whole = options;
   whole.window.reset();
-  ReadStats stats;
-  auto dem = read_whole(path, *format, whole, &stats);
+  auto dem = read_whole(path, *format, whole, nullptr);
   if (!dem.ok()) return dem.error();
-  DemHeader h;
-  h.width = dem->width();
-  h.height = dem->height();
-  h.georef = dem->georef;
-  h.nodata = dem->nodata;
-  h.source = dem->source;
-  h.format = dem->format;
-  h.block_width = stats.block_width;
-  h.block_height = stats.block_height;
-  h.blocks_total = stats.blocks_total;
-  return h;
+  return header_of_whole(*dem);
 }
 
 }  // namespace horizon::terrain
