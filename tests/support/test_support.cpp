@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <random>
 #include <vector>
 
@@ -125,6 +126,24 @@ std::string readable_name(const std::string& text) {
 
 std::string dem_name(const std::string& file) {
   return readable_name(std::filesystem::path(file).stem().string());
+}
+
+void write_hgt(const std::string& dir, int lat, int lon, int n) {
+  char name[32];
+  std::snprintf(name, sizeof name, "%c%02d%c%03d.hgt", lat >= 0 ? 'N' : 'S', std::abs(lat), lon >= 0 ? 'E' : 'W',
+                std::abs(lon));
+  std::ofstream out(dir + "/" + name, std::ios::binary);
+  for (int r = 0; r < n; ++r)
+    for (int c = 0; c < n; ++c) {
+      const long gc = static_cast<long>(lon) * (n - 1) + c, gr = static_cast<long>(-lat) * (n - 1) + r;
+      // Ridges and valleys across tiles, so that a viewshed has something to hide.
+      const double z = 1500 + 600 * std::sin(gc * 0.011) * std::cos(gr * 0.013) + 80 * std::sin(gc * 0.13 + gr * 0.07);
+      auto v = static_cast<std::int16_t>(std::lround(z));
+      if ((gc * 7 + gr * 13) % 9973 == 0) v = -32768;
+      const unsigned char bytes[2] = {static_cast<unsigned char>(static_cast<std::uint16_t>(v) >> 8),
+                                      static_cast<unsigned char>(v & 0xff)};
+      out.write(reinterpret_cast<const char*>(bytes), 2);
+    }
 }
 
 }  // namespace horizon::testing

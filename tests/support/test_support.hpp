@@ -42,6 +42,12 @@ class TempDir {
 // gdal_translate -srcwin would. Returns the paths, row by row.
 std::vector<std::string> write_tiles(const terrain::Dem& dem, int nx, int ny, const std::string& dir);
 
+// Writes an SRTM tile "<dir>/N46W122.hgt" (named by its south-west corner,
+// big-endian int16, n x n samples on whole-degree edges) whose heights are a
+// function of the global sample position, so neighbours' shared edges agree;
+// a void (-32768) now and then.
+void write_hgt(const std::string& dir, int lat, int lon, int n);
+
 // Path of a DEM bundled in data/dem (always present), or in
 // $HORIZON_TEST_DATA_DIR when that is set.
 std::string bundled_dem(const std::string& name);

@@ -145,28 +145,10 @@ TEST(ElevationSource, BlocksUnderAWindowAreExactlyThoseThatMeetIt) {
   EXPECT_EQ(cells, 300u * 200u);  // the blocks tile the mosaic
 }
 
-// Writes an SRTM tile named by its corner, big-endian int16, height z(lon, lat) on whole-degree-aligned samples.
-void write_hgt(const std::string& dir, int lat, int lon, int n) {
-  char name[32];
-  std::snprintf(name, sizeof name, "%c%02d%c%03d.hgt", lat >= 0 ? 'N' : 'S', std::abs(lat), lon >= 0 ? 'E' : 'W',
-                std::abs(lon));
-  std::ofstream out(dir + "/" + name, std::ios::binary);
-  for (int r = 0; r < n; ++r)
-    for (int c = 0; c < n; ++c) {
-      // A function of the global sample position, so shared edges agree.
-      const long gc = static_cast<long>(lon) * (n - 1) + c, gr = static_cast<long>(-lat) * (n - 1) + r;
-      auto v = static_cast<std::int16_t>((gc * 7 + gr * 13) % 3000 - 200);
-      if ((gc + gr) % 997 == 0) v = -32768;  // a void now and then
-      const unsigned char bytes[2] = {static_cast<unsigned char>(static_cast<std::uint16_t>(v) >> 8),
-                                      static_cast<unsigned char>(v & 0xff)};
-      out.write(reinterpret_cast<const char*>(bytes), 2);
-    }
-}
-
 TEST(ElevationSource, AFolderOfHgtTilesIsOneRasterWithSharedEdgesOnce) {
   TempDir dir;
   for (int lat : {46, 47})
-    for (int lon : {-122, -121}) write_hgt(dir.path().string(), lat, lon, 1201);
+    for (int lon : {-122, -121}) testing::write_hgt(dir.path().string(), lat, lon, 1201);
   auto source = ElevationSource::open(dir.path().string());
   ASSERT_TRUE(source.ok()) << source.error().message;
   const DemHeader& h = (*source)->header();

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "horizon/terrain/dem_reader.hpp"
+#include "horizon/terrain/geotiff_writer.hpp"
 #include "horizon/visibility/plan.hpp"
 #include "test_support.hpp"
 
@@ -203,6 +204,59 @@ INSTANTIATE_TEST_SUITE_P(Cuts, TiledEqualsUntiled, ::testing::Values(2, 3, 4),
                          [](const ::testing::TestParamInfo<int>& cut) {
                            return std::to_string(cut.param) + "x" + std::to_string(cut.param) + "Tiles";
                          });
+
+// The viewsheds of a mosaic and of a raster are equal bit for bit.
+void expect_same_viewsheds(const terrain::ElevationSource& a, const terrain::ElevationSource& b,
+                           const geodesy::PointSpec& eye, double reach) {
+  for (Algorithm algorithm : kAlgorithms) {
+    auto pa = plan_viewshed(a, query(eye, algorithm, reach));
+    auto pb = plan_viewshed(b, query(eye, algorithm, reach));
+    ASSERT_TRUE(pa.ok() && pb.ok());
+    auto ra = run_viewshed(*pa, a, nullptr);
+    auto rb = run_viewshed(*pb, b, nullptr);
+    ASSERT_TRUE(ra.ok() && rb.ok()) << (ra.ok() ? rb.error().message : ra.error().message);
+    EXPECT_EQ(ra->window, rb->window);
+    EXPECT_EQ(ra->georef.transform, rb->georef.transform);
+    EXPECT_TRUE(same_grid(ra->result.ohf, rb->result.ohf)) << algorithm_name(algorithm);
+  }
+}
+
+TEST(Plan, TilesCutByGdalTranslateAnswerAsTheFile) {
+  if (testing::run_command("command -v gdal_translate").exit_code != 0) GTEST_SKIP() << "gdal_translate not installed";
+  const std::string path = testing::bundled_dem("zion_canyon_srtm3_465x457.tif");
+  TempDir dir;
+  for (const auto& [c0, r0, w, h] : std::vector<std::array<int, 4>>{
+           {0, 0, 232, 228}, {232, 0, 233, 228}, {0, 228, 232, 229}, {232, 228, 233, 229}}) {
+    const std::string out = dir.file("t_" + std::to_string(c0) + "_" + std::to_string(r0) + ".tif");
+    const auto r = testing::run_command("gdal_translate -q -srcwin " + std::to_string(c0) + " " + std::to_string(r0) +
+                                        " " + std::to_string(w) + " " + std::to_string(h) + " " + path + " " + out);
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+  }
+  auto merged = open(path);
+  auto tiled = open(dir.path().string());
+  ASSERT_TRUE(merged && tiled);
+  EXPECT_EQ(tiled->header().georef.transform, merged->header().georef.transform);
+  for (const auto& [col, row] : std::vector<std::pair<double, double>>{{232, 228}, {100.3, 300.6}})
+    expect_same_viewsheds(*merged, *tiled, at_cell(merged->header(), col, row), 5000.0);
+}
+
+TEST(Plan, AFolderOfHgtTilesAnswersAsTheMergedRaster) {
+  TempDir dir, merged_dir;
+  for (int lat : {46, 47})
+    for (int lon : {-122, -121}) testing::write_hgt(dir.path().string(), lat, lon, 1201);
+  auto tiles = open(dir.path().string());
+  ASSERT_TRUE(tiles);
+  // The merged raster, as one GeoTIFF: the mosaic's cells with its georeference.
+  auto all = tiles->read({0, 0, tiles->width(), tiles->height()}, nullptr);
+  ASSERT_TRUE(all.ok());
+  const std::string merged_path = merged_dir.file("merged.tif");
+  ASSERT_TRUE(terrain::write_geotiff(merged_path, all->elevation, all->georef, all->nodata).ok());
+  auto merged = open(merged_path);
+  ASSERT_TRUE(merged);
+  // On the corner the four tiles share, and inside one of them.
+  for (const auto& [col, row] : std::vector<std::pair<double, double>>{{1200, 1200}, {600.4, 1800.7}})
+    expect_same_viewsheds(*merged, *tiles, at_cell(merged->header(), col, row), 4000.0);
+}
 
 TEST(Plan, ALineOnAWindowEqualsTheLineOnTheWholeRaster) {
   const std::string path = testing::bundled_dem("rainier_summit_srtm3_400x400.tif");
