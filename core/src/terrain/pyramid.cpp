@@ -313,15 +313,20 @@ void Pyramid::descend(const Window& w, int level, int i, int j, float& best, std
     if (better(children[k].value, best)) descend(w, level - 1, children[k].i, children[k].j, best, reads, better);
 }
 
+// The level where the window spans at most 2x2 cells: factor^level >= its
+// longer side (or the top level, if the shape stops short of that).
+int Pyramid::start_level(const Window& window) const {
+  const int extent = std::max(window.width(), window.height());
+  int level = 0;
+  while (cell_side(level) < extent && level + 1 < level_count_) ++level;
+  return level;
+}
+
 template <class Better>
 float Pyramid::extreme_in(const Window& window, std::uint64_t* cells_read, Better better, float worst) const {
   assert(!window.empty());
   assert(window.col0 >= 0 && window.row0 >= 0 && window.col1 <= width_ && window.row1 <= height_);
-  // The level where the window spans at most 2x2 cells: factor^level >= its
-  // longer side (or the top level, if the shape stops short of that).
-  const int extent = std::max(window.width(), window.height());
-  int level = 0;
-  while (cell_side(level) < extent && level + 1 < level_count_) ++level;
+  const int level = start_level(window);
 
   const int size = cell_side(level);
   float best = worst;
@@ -383,9 +388,7 @@ float Pyramid::mean_in(const Window& window, std::uint64_t* cells_read) const {
   assert(reduction_ == Reduction::kMean);
   assert(!window.empty());
   assert(window.col0 >= 0 && window.row0 >= 0 && window.col1 <= width_ && window.row1 <= height_);
-  const int extent = std::max(window.width(), window.height());
-  int level = 0;
-  while (cell_side(level) < extent && level + 1 < level_count_) ++level;
+  const int level = start_level(window);
   const int size = cell_side(level);
   double sum = 0, n = 0;
   std::uint64_t reads = 0;

@@ -139,6 +139,7 @@ class Pyramid {
   int level_height(int l) const { return level_h_[static_cast<std::size_t>(l)]; }
   // Level-0 cells per side of a level-l cell: factor^l.
   int cell_side(int l) const { return 1 << (l * log_factor_); }
+  int start_level(const Window& window) const;  // where a query of `window` starts
 
   // Cell (i, j) of level l (level 0: the source cell under the NaN policy),
   // building what it needs.
