@@ -235,6 +235,26 @@ TEST(Pyramid, AllVoidWindowsFollowEachPolicy) {
   EXPECT_EQ(pmean.count(pmean.level_count() - 1, 0, 0), 27u);
 }
 
+// A view that fills its voids gives every reduction the fill height, at
+// every level, and leaves the grid itself untouched.
+TEST(Pyramid, AFilledViewReducesItsFillHeight) {
+  Grid<float> g(6, 6, 2.0f);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) g.at(c, r) = kNaN;
+  const HeightView filled = HeightView(g).with_void_fill(5.0f);
+  const PyramidShape shape{2, PyramidShape::kToOneCell};
+  const PyramidOptions options{.block_cells = 2};  // levels above the block stored whole, too
+  const Pyramid pmin(filled, Reduction::kMin, shape, options), pmax(filled, Reduction::kMax, shape, options),
+      pmean(filled, Reduction::kMean, shape, options);
+  EXPECT_EQ(pmin.min_in({0, 0, 3, 3}), 5.0f);
+  EXPECT_EQ(pmin.min_in({0, 0, 6, 6}), 2.0f);
+  EXPECT_EQ(pmax.max_in({0, 0, 6, 6}), 5.0f);
+  EXPECT_EQ(pmax.max_in({3, 3, 6, 6}), 2.0f);
+  EXPECT_EQ(pmean.mean_in({0, 0, 6, 6}), (9 * 5.0f + 27 * 2.0f) / 36);
+  EXPECT_EQ(pmean.count(pmean.level_count() - 1, 0, 0), 36u);
+  EXPECT_TRUE(std::isnan(g.at(0, 0)));
+}
+
 // A pyramid over a window of a larger grid answers in the window's own cells.
 TEST(Pyramid, WindowOfASourceEqualsItsCopy) {
   std::mt19937 rng(5);

@@ -60,9 +60,9 @@ void fill_spans(Reduction r, PyramidLevel& level) {
 
 }  // namespace
 
-Pyramid::Pyramid(const Grid<float>& source, const Window& window, Reduction reduction, PyramidShape shape,
+Pyramid::Pyramid(const HeightView& source, const Window& window, Reduction reduction, PyramidShape shape,
                  PyramidOptions options)
-    : source_(&source),
+    : source_(source),
       window_(window),
       reduction_(reduction),
       factor_(shape.factor),
@@ -119,7 +119,7 @@ void Pyramid::invalidate() {
 }
 
 float Pyramid::source_cell(int i, int j) const {
-  const float v = source_->row(window_.row0 + j)[window_.col0 + i];
+  const float v = source_.fill(source_.row(window_.row0 + j)[window_.col0 + i]);
   return reduction_ != Reduction::kMean && std::isnan(v) ? -kInf : v;
 }
 
@@ -142,30 +142,33 @@ void Pyramid::fill_block(int bi, int bj, PyramidBlock& out) const {
     }
     l1.values.assign(n, reduction_ == Reduction::kMin ? kInf : -kInf);
     for (int r = 0; r < bh; ++r) {
-      const float* src = source_->row(window_.row0 + r0 + r) + window_.col0 + c0;
+      const float* src = source_.row(window_.row0 + r0 + r) + window_.col0 + c0;
       const std::size_t base = static_cast<std::size_t>(r >> log_factor_) * l1.width;
       float* dst = l1.values.data() + base;
       switch (reduction_) {
         case Reduction::kMin:
           for (int c = 0; c < bw; ++c) {
-            const float v = std::isnan(src[c]) ? -kInf : src[c];
+            const float z = source_.fill(src[c]);
+            const float v = std::isnan(z) ? -kInf : z;
             float& m = dst[c >> log_factor_];
             m = std::min(m, v);
           }
           break;
         case Reduction::kMax:
           for (int c = 0; c < bw; ++c) {
-            const float v = src[c];
+            const float v = source_.fill(src[c]);
             float& m = dst[c >> log_factor_];
             if (v > m) m = v;  // NaN never wins
           }
           break;
         case Reduction::kMean:
-          for (int c = 0; c < bw; ++c)
-            if (!std::isnan(src[c])) {
-              sums[base + (c >> log_factor_)] += src[c];
+          for (int c = 0; c < bw; ++c) {
+            const float v = source_.fill(src[c]);
+            if (!std::isnan(v)) {
+              sums[base + (c >> log_factor_)] += v;
               ++l1.counts[base + (c >> log_factor_)];
             }
+          }
           break;
       }
     }

@@ -1,7 +1,7 @@
 // horizon/terrain/pyramid.hpp — min, max or mean of a raster over rectangles
 // of cells, from reduced levels built block by block on first use.
 //
-// Frame: the pyramid covers a window of a source Grid<float>; its level 0 is
+// Frame: the pyramid covers a window of a source HeightView; its level 0 is
 // that window, in *local* cells (local (0, 0) is source cell (window.col0,
 // window.row0)). Level l, for a factor f, has ceil(w / f^l) x ceil(h / f^l)
 // cells; cell (i, j) of level l reduces the level-0 cells
@@ -16,6 +16,8 @@
 //          only answers -infinity. Exact's stretch pruning needs this: a
 //          stretch with no terrain is skipped only while no slope is known.
 //   kMean  the mean of the valid cells below, NaN where there are none.
+// Those rules apply to what the view reads: a view that fills its voids
+// (HeightView::with_void_fill) gives the fill height to every reduction.
 // Level 0 is never copied: reads of it go to the source through the same
 // policy.
 //
@@ -38,7 +40,7 @@
 // asked for), which is what cover_built reads: one array index per read, no
 // block lookup.
 //
-// Ownership: the pyramid borrows the source grid, which must outlive it and
+// Ownership: the pyramid keeps the view, whose cells must outlive it and
 // stay unchanged while blocks are built from it (invalidate() after changing
 // it). A PyramidBlock is a plain owned value with bytes(), so a block cache
 // can account for it (not wired to terrain/block_cache yet: the pyramid owns
@@ -73,6 +75,7 @@
 #include <vector>
 
 #include "horizon/terrain/grid.hpp"
+#include "horizon/terrain/height_view.hpp"
 
 namespace horizon::terrain {
 
@@ -121,10 +124,10 @@ class Pyramid {
   // Over `window` of `source` (inside it; an empty window makes an empty
   // pyramid, width 0, that answers no query). Asserted: the shape and
   // options as documented above. Builds nothing yet.
-  Pyramid(const Grid<float>& source, const Window& window, Reduction reduction, PyramidShape shape = {},
+  Pyramid(const HeightView& source, const Window& window, Reduction reduction, PyramidShape shape = {},
           PyramidOptions options = {});
   // Over all of `source`.
-  Pyramid(const Grid<float>& source, Reduction reduction, PyramidShape shape = {}, PyramidOptions options = {})
+  Pyramid(const HeightView& source, Reduction reduction, PyramidShape shape = {}, PyramidOptions options = {})
       : Pyramid(source, Window{0, 0, source.width(), source.height()}, reduction, shape, options) {}
   Pyramid(const Pyramid&) = delete;
   Pyramid& operator=(const Pyramid&) = delete;
@@ -202,7 +205,7 @@ class Pyramid {
   void descend(const Window& w, int level, int i, int j, float& best, std::uint64_t& reads, Better better) const;
   void mean_descend(const Window& w, int level, int i, int j, double& sum, double& n, std::uint64_t& reads) const;
 
-  const Grid<float>* source_;
+  HeightView source_;
   Window window_;
   Reduction reduction_;
   int factor_, log_factor_;
