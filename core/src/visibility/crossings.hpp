@@ -15,6 +15,7 @@
 #include <limits>
 
 #include "horizon/terrain/grid.hpp"
+#include "horizon/terrain/height_view.hpp"
 #include "horizon/visibility/view_frame.hpp"
 
 namespace horizon::visibility::detail {
@@ -33,7 +34,7 @@ enum class Axis { kColumns, kRows };  // crossings with column lines x = c, or w
 // DEM shifted by whole cells, or cropped around the segment, gives bit-for-bit
 // the same answers.
 template <class Visit>
-void for_each_crossing_on(Axis axis, const terrain::Grid<float>& z, double c0, double r0, double c1, double r1,
+void for_each_crossing_on(Axis axis, const terrain::HeightView& z, double c0, double r0, double c1, double r1,
                           int line_lo, int line_hi, Visit&& visit) {
   const bool columns = axis == Axis::kColumns;
   const int line_count = columns ? z.width() : z.height();
@@ -88,7 +89,7 @@ void for_each_crossing_on(Axis axis, const terrain::Grid<float>& z, double c0, d
 
 // Every crossing: column crossings first, in order of t, then row crossings.
 template <class Visit>
-void for_each_crossing(const terrain::Grid<float>& z, double c0, double r0, double c1, double r1, Visit&& visit) {
+void for_each_crossing(const terrain::HeightView& z, double c0, double r0, double c1, double r1, Visit&& visit) {
   constexpr int kLo = std::numeric_limits<int>::min(), kHi = std::numeric_limits<int>::max();
   for_each_crossing_on(Axis::kColumns, z, c0, r0, c1, r1, kLo, kHi, visit);
   for_each_crossing_on(Axis::kRows, z, c0, r0, c1, r1, kLo, kHi, visit);

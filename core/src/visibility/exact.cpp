@@ -38,7 +38,7 @@ constexpr terrain::PyramidOptions kMaxOptions{.block_cells = 1024, .spans = true
 
 // One target's sight line and the search state.
 struct SightLine {
-  const terrain::Grid<float>* z;
+  const terrain::HeightView* z;
   const ViewFrame* f;
   const terrain::Pyramid* pyramid;   // kMax over the window, built
   const detail::PolarBounds* polar;  // null: no ring bounds (visibility only)
@@ -162,8 +162,8 @@ struct SightLine {
     const int p_max = pos_count - 2;
     // The crossing's two cells: (line, p0) and (line, p0 + 1) on a column
     // line, (p0, line) and (p0 + 1, line) on a row line.
-    const std::ptrdiff_t width = z->width();
-    const std::ptrdiff_t line_stride = columns ? 1 : width, pos_stride = columns ? width : 1;
+    const std::ptrdiff_t stride = z->stride();
+    const std::ptrdiff_t line_stride = columns ? 1 : stride, pos_stride = columns ? stride : 1;
     const float* cells = z->data();
     double T = std::max(floor_slope, best);
     std::uint64_t screened = 0;
@@ -174,7 +174,7 @@ struct SightLine {
       const double pos = std::clamp(b0 + t * db, 0.0, pos_max);
       const int p0 = std::min(static_cast<int>(pos), p_max);
       const float* cell = cells + line * line_stride + p0 * pos_stride;
-      const double za = cell[0], zb = cell[pos_stride];
+      const double za = z->fill(cell[0]), zb = z->fill(cell[pos_stride]);
       const double terrain = za + (pos - p0) * (zb - za);
       const double d = t * total;
       const double needed = eye + T * d + curv * d * d;
@@ -190,7 +190,7 @@ struct SightLine {
 
 }  // namespace
 
-Status exact_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const RadialOptions& radial, unsigned threads,
+Status exact_ohf(const terrain::HeightView& z, const ViewFrame& f, const RadialOptions& radial, unsigned threads,
                  const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats,
                  std::optional<double> visibility_only_at) {
   // 1. Lower bounds (into `ohf`, overwritten below cell by cell).

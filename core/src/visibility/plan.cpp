@@ -135,14 +135,8 @@ Result<ViewshedRun> run_viewshed(const ViewshedPlan& plan, const terrain::Elevat
   auto observer = on_ground(run.dem, run.read.window, plan.observer, plan.query.observer, "observer");
   if (!observer.ok()) return observer.error();
   run.observer = *observer;
-  ViewshedOptions options = plan.query.options;
-  if (options.nodata == NodataPolicy::kFill) {
-    // The run's cells are its own: fill them in place.
-    const float fill = static_cast<float>(options.nodata_fill_height);
-    for (float& v : run.dem.elevation.values())
-      if (std::isnan(v)) v = fill;
-  }
-  auto result = compute_viewshed_taking_elevation(run.dem, run.observer, options, control, gpu, policy);
+  // Voids are filled as the kernels read them (NodataPolicy, elevation_view).
+  auto result = compute_viewshed_taking_elevation(run.dem, run.observer, plan.query.options, control, gpu, policy);
   if (!result.ok()) return result.error();
   run.result = std::move(*result);
   run.result.stats.dem_cells = static_cast<std::uint64_t>(source.width()) * static_cast<std::uint64_t>(source.height());

@@ -112,7 +112,7 @@ struct Builder {
   }
 
   // Every segment and edge stub of one grid line within [lo, hi] of positions.
-  void line(const terrain::Grid<float>& z, bool column, int index, int lo, int hi) {
+  void line(const terrain::HeightView& z, bool column, int index, int lo, int hi) {
     const int count = column ? z.height() : z.width();
     const auto at = [&](int p) -> double { return column ? z.at(index, p) : z.at(p, index); };
     if (lo == 0) segment(column, index, -0.5, 0.0, at(0), at(0));
@@ -128,7 +128,7 @@ double PolarBounds::pseudo_angle(double dx, double dy) {
   return dx < 0 ? 2 - dy / (-dx - dy) : 3 + dx / (dx - dy);
 }
 
-PolarBounds::PolarBounds(const terrain::Grid<float>& z, const ViewFrame& f, double reach, unsigned threads) {
+PolarBounds::PolarBounds(const terrain::HeightView& z, const ViewFrame& f, double reach, unsigned threads) {
   const double cell = std::max(f.metres_per_col, f.metres_per_row);
   for (double r = kFirstRing * cell;; r *= kRingGrowth) {
     outer_.push_back(r);

@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "horizon/terrain/grid.hpp"
+#include "horizon/terrain/height_view.hpp"
 #include "horizon/visibility/view_frame.hpp"
 
 namespace horizon::visibility::detail {
@@ -35,7 +36,7 @@ class PolarBounds {
  public:
   // Bounds for the crossings within `reach` metres of the eye (rounded up to
   // a whole ring); threads as parallel_for.
-  PolarBounds(const terrain::Grid<float>& elevation, const ViewFrame& frame, double reach, unsigned threads);
+  PolarBounds(const terrain::HeightView& elevation, const ViewFrame& frame, double reach, unsigned threads);
 
   int rings() const { return static_cast<int>(outer_.size()); }
   double inner(int ring) const { return ring == 0 ? 0.0 : outer_[ring - 1]; }  // metres

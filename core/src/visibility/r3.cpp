@@ -17,7 +17,7 @@ namespace {
 constexpr double kNoHorizon = -std::numeric_limits<double>::infinity();
 }  // namespace
 
-double r3_horizon(const terrain::Grid<float>& z, const ViewFrame& f, double tc, double tr) {
+double r3_horizon(const terrain::HeightView& z, const ViewFrame& f, double tc, double tr) {
   const double total = f.distance(tc, tr);
   double horizon = kNoHorizon;
   if (total == 0) return horizon;
@@ -29,13 +29,13 @@ double r3_horizon(const terrain::Grid<float>& z, const ViewFrame& f, double tc, 
   return horizon;
 }
 
-float r3_ohf_at(const terrain::Grid<float>& z, const ViewFrame& f, int col, int row) {
+float r3_ohf_at(const terrain::HeightView& z, const ViewFrame& f, int col, int row) {
   const double horizon = r3_horizon(z, f, col, row);
   if (horizon == kNoHorizon) return -std::numeric_limits<float>::infinity();
   return static_cast<float>(detail::r3_ohf_value(f, f.distance(col, row), horizon));
 }
 
-Status r3_ohf(const terrain::Grid<float>& z, const ViewFrame& f, unsigned threads, const RunControl* control,
+Status r3_ohf(const terrain::HeightView& z, const ViewFrame& f, unsigned threads, const RunControl* control,
               terrain::Grid<float>& ohf, WorkStats& stats) {
   const terrain::Window& win = f.window;
   reset_output(ohf, win, threads);

@@ -84,7 +84,7 @@ struct SweepConstants {
   double max_distance = 0.0;
   RayBlend blend = RayBlend::kLinear;
   bool precise = false;                        // re-sample through R3's arithmetic (RadialBound::kLowerBound)
-  const terrain::Grid<float>* grid = nullptr;  // for R3's arithmetic
+  const terrain::HeightView* grid = nullptr;  // for R3's arithmetic
   const ViewFrame* frame = nullptr;
 };
 
@@ -392,7 +392,7 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
     //    (max(kp, 0), k), if any (|m| <= 1: at most one), and where its
     //    horizon lies with it (`code`). The re-sampling blend needs nothing
     //    else from the rays, so step 3 is done here in the same pass.
-    const LineStep ls{eye, eye_lo, eye_v, v_min, v_max, kf, kp, std::max(kp, 0.0f), j_max, zv};
+    const LineStep ls{eye, eye_lo, eye_v, v_min, v_max, kf, kp, std::max(kp, 0.0f), j_max, zv, s.fill};
     if (lo <= hi) {
       const int prev_line = std::clamp(line - s.dir, 0, s.line_count - 1);
       const float* prev = s.z + prev_line * s.z_line;
@@ -441,7 +441,7 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
           const int r = sweep::lower_ray(rho, p.rays.half);
           const double dv = (j - s.eye_v) * s.metres_v;
           const double d2 = du2 + dv * dv;
-          const float zc = cur[j * zv];
+          const float zc = sweep::fill_void(cur[j * zv], s.fill);
           if (std::isnan(zc)) continue;  // void target: no answer (stays NaN)
           ++evaluated;
           const int i0 = (r - ra) >> level;  // the bracketing rays are i0 and i0 + 1
@@ -485,18 +485,18 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
 
 }  // namespace
 
-Status radial_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const RadialOptions& options, unsigned threads,
+Status radial_ohf(const terrain::HeightView& z, const ViewFrame& f, const RadialOptions& options, unsigned threads,
                   const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats, RadialBound bound) {
   const terrain::Window& win = f.window;
-  if (z.size() >= (std::size_t{1} << 31))
+  if (z.cell_count() >= (std::size_t{1} << 31) || z.stride() * std::ptrdiff_t{z.height()} >= (std::ptrdiff_t{1} << 31))
     return make_error(ErrorCode::kResourceExhausted,
-                      "dem: the radial sweep handles up to 2^31 cells; this DEM has " + std::to_string(z.size()),
+                      "dem: the radial sweep handles up to 2^31 cells; this DEM has " + std::to_string(z.cell_count()),
                       "dem");
   reset_output(ohf, win, threads);
   const bool lower_bound = bound == RadialBound::kLowerBound;
   const SweepConstants c{
       f.eye, f.curvature, f.max_distance, lower_bound ? RayBlend::kResample : options.blend, lower_bound, &z, &f};
-  const std::ptrdiff_t pitch = z.width();
+  const std::ptrdiff_t pitch = z.stride();
 
   // The four sectors. North/south step rows (v = column, contiguous); east/west
   // step columns (v = row, stride = pitch).
@@ -507,6 +507,7 @@ Status radial_ohf(const terrain::Grid<float>& z, const ViewFrame& f, const Radia
     const bool rows = axis.rows;
     Sector s;
     s.z = z.data();
+    s.fill = z.void_fill();
     s.out = ohf.data();
     s.z_line = rows ? pitch : 1;
     s.z_v = rows ? 1 : pitch;

@@ -180,7 +180,7 @@ Status prepare_radial_gl(gpu::ContextPool& pool) {
   return Status::Ok();
 }
 
-Status radial_ohf_gl(gpu::Lease& lease, const terrain::Grid<float>& z, const ViewFrame& f, const RadialOptions& radial,
+Status radial_ohf_gl(gpu::Lease& lease, const terrain::HeightView& z, const ViewFrame& f, const RadialOptions& radial,
                      const GpuOptions& options, const RunControl* control, terrain::Grid<float>& ohf,
                      WorkStats& stats) {
   // Every failure below marks the context failed: it is replaced on return.
@@ -212,12 +212,15 @@ Status radial_ohf_gl(gpu::Lease& lease, const terrain::Grid<float>& z, const Vie
   const double curvature = f.curvature;
   std::vector<gl::GpuSector>& gpu_sectors = disk.gpu_sectors;
 
-  // Terrain: the window, voids as kVoid.
+  // Terrain: the window under the view's void policy, voids left as kVoid.
   std::vector<float> staging(w.cell_count());
   for (int r = w.row0; r < w.row1; ++r) {
     const float* src = z.row(r) + w.col0;
     float* dst = staging.data() + static_cast<std::size_t>(r - w.row0) * w.width();
-    for (int c = 0; c < w.width(); ++c) dst[c] = std::isnan(src[c]) ? kVoid : src[c];
+    for (int c = 0; c < w.width(); ++c) {
+      const float v = z.fill(src[c]);
+      dst[c] = std::isnan(v) ? kVoid : v;
+    }
   }
   gl.terrain.ensure(w.width(), w.height());
   glBindTexture(GL_TEXTURE_2D, gl.terrain.texture);
@@ -351,7 +354,7 @@ Status radial_ohf_gl(gpu::Lease& lease, const terrain::Grid<float>& z, const Vie
     std::uint64_t count = 0;
     for (int x = 0; x < w.width(); ++x) {
       const int si = static_cast<int>(src[2 * x + 1]);
-      if (si < 0 || si >= static_cast<int>(sectors.size()) || std::isnan(zr[x])) continue;
+      if (si < 0 || si >= static_cast<int>(sectors.size()) || std::isnan(z.fill(zr[x]))) continue;
       const sweep::SectorLines& s = sectors[static_cast<std::size_t>(si)].lines;
       const bool rows = s.axis.rows;
       const int line = rows ? static_cast<int>(y) : x, j = rows ? x : static_cast<int>(y);  // window-relative

@@ -29,7 +29,7 @@ inline Cross cross_one(const LineStep& ls, float m, float inv_m, float curv_k, c
   const int jc = static_cast<int>(cv_clamped);
   const float kc = std::max((cv_clamped - ls.eye_v) * inv_m, 1.0e-6f);
   const float tc = kc - ls.kp;
-  const float pa = prev[jc * ls.zv], pb = cur[jc * ls.zv];
+  const float pa = fill_void(prev[jc * ls.zv], ls.fill), pb = fill_void(cur[jc * ls.zv], ls.fill);
   const float s_cross = eye_relative(pa, pb, tc, ls.eye, ls.eye_lo) / kc - curv_k * kc;
   return {std::min(s_cross, valid ? 3.0e38f : kNoHorizon), (jc + 1) * valid - 1};
 }
@@ -39,7 +39,7 @@ inline float line_one(const LineStep& ls, float inv_kf, float m, float curv_k, c
   const float v = std::min(std::max(ls.eye_v + m * ls.kf, ls.v_min), ls.v_max);
   const int j0 = std::min(static_cast<int>(v), ls.j_max);
   const float t = v - static_cast<float>(j0);
-  const float a = cur[j0 * ls.zv], b = cur[(j0 + 1) * ls.zv];
+  const float a = fill_void(cur[j0 * ls.zv], ls.fill), b = fill_void(cur[(j0 + 1) * ls.zv], ls.fill);
   return eye_relative(a, b, t, ls.eye, ls.eye_lo) * inv_kf - curv_k * ls.kf;
 }
 
@@ -102,7 +102,7 @@ namespace {
 // operations (simd.hpp gives std::min / std::max's exact NaN and tie
 // behaviour); the last, partial group runs through the scalar loop.
 struct Step8 {
-  __m256 eye_v, k_start, kf, inv_kf, v_min, v_max, kp, eye, eye_lo;
+  __m256 eye_v, k_start, kf, inv_kf, v_min, v_max, kp, eye, eye_lo, fill;
   __m256i zv, j_max;
 };
 
@@ -110,7 +110,7 @@ HORIZON_AVX2 inline Step8 step8(const LineStep& ls) {
   using namespace simd;
   const float inv_kf = 1.0f / ls.kf;
   return {f8(ls.eye_v), f8(ls.k_start), f8(ls.kf),     f8(inv_kf), f8(ls.v_min), f8(ls.v_max),
-          f8(ls.kp),    f8(ls.eye),     f8(ls.eye_lo), i8(ls.zv),  i8(ls.j_max)};
+          f8(ls.kp),    f8(ls.eye),     f8(ls.eye_lo), f8(ls.fill), i8(ls.zv), i8(ls.j_max)};
 }
 
 struct Cross8 {
@@ -138,7 +138,8 @@ HORIZON_AVX2 inline Cross8 cross8(const Step8& s, __m256 m, __m256 inv_m, __m256
   const __m256 kc = max_of(_mm256_mul_ps(_mm256_sub_ps(cv_clamped, s.eye_v), inv_m), f8(1.0e-6f));
   const __m256 tc = _mm256_sub_ps(kc, s.kp);
   const __m256i at = _mm256_mullo_epi32(jc, s.zv);
-  const __m256 pa = _mm256_i32gather_ps(prev, at, 4), pb = _mm256_i32gather_ps(cur, at, 4);
+  const __m256 pa = fill_voids(_mm256_i32gather_ps(prev, at, 4), s.fill);
+  const __m256 pb = fill_voids(_mm256_i32gather_ps(cur, at, 4), s.fill);
   const __m256 s_cross =
       _mm256_sub_ps(_mm256_div_ps(eye_relative8(pa, pb, tc, s.eye, s.eye_lo), kc), _mm256_mul_ps(curv_k, kc));
   return {min_of(s_cross, _mm256_blendv_ps(f8(kNoHorizon), f8(3.0e38f), valid)),
@@ -151,7 +152,8 @@ HORIZON_AVX2 inline __m256 line8(const Step8& s, __m256 m, __m256 curv_k, const 
   const __m256i j0 = mini_of(_mm256_cvttps_epi32(v), s.j_max);
   const __m256 t = _mm256_sub_ps(v, _mm256_cvtepi32_ps(j0));
   const __m256i at = _mm256_mullo_epi32(j0, s.zv);
-  const __m256 a = _mm256_i32gather_ps(cur, at, 4), b = _mm256_i32gather_ps(cur, _mm256_add_epi32(at, s.zv), 4);
+  const __m256 a = fill_voids(_mm256_i32gather_ps(cur, at, 4), s.fill);
+  const __m256 b = fill_voids(_mm256_i32gather_ps(cur, _mm256_add_epi32(at, s.zv), 4), s.fill);
   return _mm256_sub_ps(_mm256_mul_ps(eye_relative8(a, b, t, s.eye, s.eye_lo), s.inv_kf), _mm256_mul_ps(curv_k, s.kf));
 }
 
@@ -233,7 +235,7 @@ HORIZON_AVX2 int step_rays_avx2(const LineStep& ls, int count, const float* slop
 // registers for the comparisons. The last, partial group runs masked: its
 // absent lanes read and write nothing.
 struct Step16 {
-  __m512 eye_v, k_start, kf, inv_kf, v_min, v_max, kp, eye, eye_lo;
+  __m512 eye_v, k_start, kf, inv_kf, v_min, v_max, kp, eye, eye_lo, fill;
   __m512i zv, j_max;
 };
 
@@ -241,7 +243,7 @@ HORIZON_AVX512 inline Step16 step16(const LineStep& ls) {
   using namespace simd;
   const float inv_kf = 1.0f / ls.kf;
   return {f16(ls.eye_v), f16(ls.k_start), f16(ls.kf),     f16(inv_kf), f16(ls.v_min), f16(ls.v_max),
-          f16(ls.kp),    f16(ls.eye),     f16(ls.eye_lo), i16(ls.zv),  i16(ls.j_max)};
+          f16(ls.kp),    f16(ls.eye),     f16(ls.eye_lo), f16(ls.fill), i16(ls.zv), i16(ls.j_max)};
 }
 
 struct Cross16 {
@@ -268,7 +270,8 @@ HORIZON_AVX512 inline Cross16 cross16(const Step16& s, __mmask16 in, __m512 m, _
   const __m512 kc = max_of(_mm512_mul_ps(_mm512_sub_ps(cv_clamped, s.eye_v), inv_m), f16(1.0e-6f));
   const __m512 tc = _mm512_sub_ps(kc, s.kp);
   const __m512i at = _mm512_mullo_epi32(jc, s.zv);
-  const __m512 pa = gather_masked(prev, at, in), pb = gather_masked(cur, at, in);
+  const __m512 pa = fill_voids(gather_masked(prev, at, in), s.fill);
+  const __m512 pb = fill_voids(gather_masked(cur, at, in), s.fill);
   const __m512 s_cross =
       _mm512_sub_ps(_mm512_div_ps(eye_relative16(pa, pb, tc, s.eye, s.eye_lo), kc), _mm512_mul_ps(curv_k, kc));
   return {min_of(s_cross, _mm512_mask_blend_ps(valid, f16(kNoHorizon), f16(3.0e38f))),
@@ -281,7 +284,8 @@ HORIZON_AVX512 inline __m512 line16(const Step16& s, __mmask16 in, __m512 m, __m
   const __m512i j0 = mini_of(_mm512_cvttps_epi32(v), s.j_max);
   const __m512 t = _mm512_sub_ps(v, _mm512_cvtepi32_ps(j0));
   const __m512i at = _mm512_mullo_epi32(j0, s.zv);
-  const __m512 a = gather_masked(cur, at, in), b = gather_masked(cur, _mm512_add_epi32(at, s.zv), in);
+  const __m512 a = fill_voids(gather_masked(cur, at, in), s.fill);
+  const __m512 b = fill_voids(gather_masked(cur, _mm512_add_epi32(at, s.zv), in), s.fill);
   return _mm512_sub_ps(_mm512_mul_ps(eye_relative16(a, b, t, s.eye, s.eye_lo), s.inv_kf), _mm512_mul_ps(curv_k, s.kf));
 }
 

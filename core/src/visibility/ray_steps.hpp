@@ -23,6 +23,7 @@ struct LineStep {
   float eye, eye_lo, eye_v;             // the eye's height as eye_hi + eye_lo (see eye_relative), its v position
   float v_min, v_max, kf, kp, k_start;  // v_min / v_max: the window's first and last v line
   int j_max, zv;                        // last v index a bracket may start at; v stride of the elevation
+  float fill;                           // what a void reads as (Sector::fill)
 };
 
 // Crossing of a v grid line strictly inside (k_start, k) for rays [0, count)

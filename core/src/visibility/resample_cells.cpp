@@ -23,7 +23,7 @@ std::uint64_t resample_cells_scalar(const ResampleLine& L, int j_begin, int j_en
   const CellLine& cl = *L.cells;
   std::uint64_t written = 0;
   for (int j = j_begin; j <= j_end; ++j) {
-    const float zc = L.elevation[j * cl.zv];
+    const float zc = fill_void(L.elevation[j * cl.zv], cl.s->fill);
     if (std::isnan(zc)) continue;  // void target: no answer (stays NaN)
     // Rays are evenly spaced: ray r has slope r / ray_half, so the cell's
     // own slope m sits at ray coordinate rho = m * ray_half.
@@ -78,7 +78,9 @@ HORIZON_AVX2 __m256 sample_u8(const CellLine& L, __m256 m, __m256 curv_k, __m256
   const __m256i ia =
       _mm256_add_epi32(_mm256_mullo_epi32(line, i8(static_cast<int>(L.z_line))), _mm256_mullo_epi32(j0, i8(L.zv)));
   const __m256i ib = _mm256_add_epi32(ia, i8(L.zv));
-  const __m256 a = gather_masked(L.s->z, ia, mask), b = gather_masked(L.s->z, ib, mask);
+  const __m256 fill = f8(L.s->fill);
+  const __m256 a = fill_voids(gather_masked(L.s->z, ia, mask), fill);
+  const __m256 b = fill_voids(gather_masked(L.s->z, ib, mask), fill);
   const __m256 er = eye_relative8(a, b, t, f8(L.eye), f8(L.eye_lo));
   return _mm256_sub_ps(_mm256_mul_ps(er, inv_step), _mm256_mul_ps(curv_k, kn));
 }
@@ -113,8 +115,9 @@ HORIZON_AVX2 __m256 sample_at8(const CellLine& L, __m256 lanes, __m256i j, __m25
       clampi8(_mm256_add_epi32(i8(L.line0), _mm256_mullo_epi32(i8(L.dir), _mm256_add_epi32(n1, i8(1)))), zero, last);
   const __m256i zl = i8(static_cast<int>(L.z_line));
   const __m256i vo = _mm256_mullo_epi32(vline, i8(L.zv));
-  const __m256 a = gather_masked(L.s->z, _mm256_add_epi32(_mm256_mullo_epi32(la, zl), vo), on_v);
-  const __m256 b = gather_masked(L.s->z, _mm256_add_epi32(_mm256_mullo_epi32(lb, zl), vo), on_v);
+  const __m256 fill = f8(L.s->fill);
+  const __m256 a = fill_voids(gather_masked(L.s->z, _mm256_add_epi32(_mm256_mullo_epi32(la, zl), vo), on_v), fill);
+  const __m256 b = fill_voids(gather_masked(L.s->z, _mm256_add_epi32(_mm256_mullo_epi32(lb, zl), vo), on_v), fill);
   const __m256 inv_dv = gather_masked(L.inv_dv, vline, on_v);
   const __m256 er = eye_relative8(a, b, t, f8(L.eye), f8(L.eye_lo));
   const __m256 sv = _mm256_sub_ps(_mm256_mul_ps(er, _mm256_mul_ps(m, inv_dv)), _mm256_mul_ps(curv_k, kc));
@@ -140,8 +143,9 @@ HORIZON_AVX2 std::uint64_t resample_cells_avx2(const ResampleLine& L, int j_begi
     // The lanes inside [j, j_end] (all but in the last, partial group), then
     // those whose target is not void; void cells are left alone.
     const __m256 lanes = _mm256_castsi256_ps(_mm256_cmpgt_epi32(i8(j_end + 1), jv));
-    const __m256 zc = cl.zv == 1 ? _mm256_maskload_ps(L.elevation + j, _mm256_castps_si256(lanes))
-                                 : gather_masked(L.elevation, _mm256_mullo_epi32(jv, i8(cl.zv)), lanes);
+    const __m256 zc = fill_voids(cl.zv == 1 ? _mm256_maskload_ps(L.elevation + j, _mm256_castps_si256(lanes))
+                                            : gather_masked(L.elevation, _mm256_mullo_epi32(jv, i8(cl.zv)), lanes),
+                                 f8(cl.s->fill));
     const __m256 valid = _mm256_and_ps(lanes, _mm256_cmp_ps(zc, zc, _CMP_ORD_Q));
     const int valid_bits = _mm256_movemask_ps(valid);
     if (valid_bits == 0) continue;
@@ -213,7 +217,9 @@ HORIZON_AVX512 __m512 sample_u16(const CellLine& L, __m512 m, __m512 curv_k, __m
   const __m512i ia =
       _mm512_add_epi32(_mm512_mullo_epi32(line, i16(static_cast<int>(L.z_line))), _mm512_mullo_epi32(j0, i16(L.zv)));
   const __m512i ib = _mm512_add_epi32(ia, i16(L.zv));
-  const __m512 a = gather_masked(L.s->z, ia, mask), b = gather_masked(L.s->z, ib, mask);
+  const __m512 fill = f16(L.s->fill);
+  const __m512 a = fill_voids(gather_masked(L.s->z, ia, mask), fill);
+  const __m512 b = fill_voids(gather_masked(L.s->z, ib, mask), fill);
   const __m512 er = eye_relative16(a, b, t, f16(L.eye), f16(L.eye_lo));
   return _mm512_sub_ps(_mm512_mul_ps(er, inv_step), _mm512_mul_ps(curv_k, kn));
 }
@@ -243,8 +249,9 @@ HORIZON_AVX512 __m512 sample_at16(const CellLine& L, __mmask16 lanes, __m512i j,
       _mm512_add_epi32(i16(L.line0), _mm512_mullo_epi32(i16(L.dir), _mm512_add_epi32(n1, i16(1)))), zero, last);
   const __m512i zl = i16(static_cast<int>(L.z_line));
   const __m512i vo = _mm512_mullo_epi32(vline, i16(L.zv));
-  const __m512 a = gather_masked(L.s->z, _mm512_add_epi32(_mm512_mullo_epi32(la, zl), vo), on_v);
-  const __m512 b = gather_masked(L.s->z, _mm512_add_epi32(_mm512_mullo_epi32(lb, zl), vo), on_v);
+  const __m512 fill = f16(L.s->fill);
+  const __m512 a = fill_voids(gather_masked(L.s->z, _mm512_add_epi32(_mm512_mullo_epi32(la, zl), vo), on_v), fill);
+  const __m512 b = fill_voids(gather_masked(L.s->z, _mm512_add_epi32(_mm512_mullo_epi32(lb, zl), vo), on_v), fill);
   const __m512 inv_dv = gather_masked(L.inv_dv, vline, on_v);
   const __m512 er = eye_relative16(a, b, t, f16(L.eye), f16(L.eye_lo));
   const __m512 sv = _mm512_sub_ps(_mm512_mul_ps(er, _mm512_mul_ps(m, inv_dv)), _mm512_mul_ps(curv_k, kc));
@@ -275,8 +282,9 @@ HORIZON_AVX512 std::uint64_t resample_cells_avx512(const ResampleLine& L, int j_
   for (int j = j_begin; j <= j_end; j += 16) {
     const __m512i jv = _mm512_add_epi32(i16(j), lane);
     const __mmask16 lanes = _mm512_cmpgt_epi32_mask(i16(j_end + 1), jv);
-    const __m512 zc = cl.zv == 1 ? _mm512_maskz_loadu_ps(lanes, L.elevation + j)
-                                 : gather_masked(L.elevation, _mm512_mullo_epi32(jv, i16(cl.zv)), lanes);
+    const __m512 zc = fill_voids(cl.zv == 1 ? _mm512_maskz_loadu_ps(lanes, L.elevation + j)
+                                            : gather_masked(L.elevation, _mm512_mullo_epi32(jv, i16(cl.zv)), lanes),
+                                 f16(cl.s->fill));
     const __mmask16 valid = _mm512_mask_cmp_ps_mask(lanes, zc, zc, _CMP_ORD_Q);
     if (valid == 0) continue;
     const __m512d dj_lo = _mm512_sub_pd(low_pd(jv), eye_v), dj_hi = _mm512_sub_pd(high_pd(jv), eye_v);

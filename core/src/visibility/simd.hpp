@@ -16,10 +16,11 @@
 #include <atomic>
 
 #if defined(__x86_64__) && defined(__GNUC__)
-// GCC 12's AVX-512 headers trip -Wmaybe-uninitialized on their own
+// GCC 12's AVX-512 headers trip -W(maybe-)uninitialized on their own
 // _mm512_undefined_* placeholders (GCC bug 105593, fixed in GCC 13).
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
 #include <immintrin.h>
 #pragma GCC diagnostic pop
 #define HORIZON_SIMD_AVX2 1
@@ -99,6 +100,12 @@ HORIZON_AVX2 inline __m256 gather_masked(const float* base, __m256i index, __m25
   return _mm256_mask_i32gather_ps(_mm256_setzero_ps(), base, index, mask, 4);
 }
 
+// HeightView::fill lane by lane: voids (NaN) read as `fill` (itself NaN
+// when voids are transparent).
+HORIZON_AVX2 inline __m256 fill_voids(__m256 v, __m256 fill) {
+  return _mm256_blendv_ps(v, fill, _mm256_cmp_ps(v, v, _CMP_UNORD_Q));
+}
+
 // The AVX-512 twins of the helpers above (sixteen lanes).
 HORIZON_AVX512 inline __m512 f16(float x) {
   return _mm512_set1_ps(x);
@@ -131,6 +138,9 @@ HORIZON_AVX512 inline __m512 ceil16(__m512 x) {
 // base[index] for the lanes of `mask`, 0 elsewhere; the others are not read.
 HORIZON_AVX512 inline __m512 gather_masked(const float* base, __m512i index, __mmask16 mask) {
   return _mm512_mask_i32gather_ps(_mm512_setzero_ps(), mask, index, base, 4);
+}
+HORIZON_AVX512 inline __m512 fill_voids(__m512 v, __m512 fill) {
+  return _mm512_mask_blend_ps(_mm512_cmp_ps_mask(v, v, _CMP_UNORD_Q), v, fill);
 }
 
 #else

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <limits>
 
 namespace horizon::visibility::sweep {
 
@@ -22,6 +23,7 @@ struct Sector {
   // Elevation: value at (line i, v index j) = z[i * z_line + j * z_v].
   const float* z = nullptr;
   std::ptrdiff_t z_line = 0, z_v = 0;
+  float fill = std::numeric_limits<float>::quiet_NaN();  // what a void reads as (HeightView::void_fill)
   // v is counted from the window's first v line (v_offset in the DEM), so the
   // float arithmetic is the same whatever surrounds the window: a result
   // never depends on how much of the file around it was read.
@@ -47,6 +49,11 @@ struct Sector {
 // terrain near the eye (Sterbenz), so the result is the same whether the
 // scene sits at 0 m or at 8 km (a plain a + t (b - a) - eye rounds to
 // 0.5 mm there, which a crossing close to the eye amplifies to decimetres).
+// HeightView::fill: a void (NaN) reads as `fill`, NaN when voids are transparent.
+inline float fill_void(float v, float fill) {
+  return v == v ? v : fill;
+}
+
 inline float eye_relative(float a, float b, float t, float eye_hi, float eye_lo) {
   return ((a - eye_hi) - eye_lo) + t * (b - a);
 }
@@ -87,7 +94,7 @@ inline float sample_u(const CellLine& L, const CellRay& c, int n) {
   const int j0 = std::min(static_cast<int>(v), L.j_max);
   const float t = v - static_cast<float>(j0);
   const float* zl = L.s->z + (L.line0 + L.dir * n) * L.z_line;
-  const float a = zl[j0 * L.zv], b = zl[(j0 + 1) * L.zv];
+  const float a = fill_void(zl[j0 * L.zv], L.s->fill), b = fill_void(zl[(j0 + 1) * L.zv], L.s->fill);
   return eye_relative(a, b, t, L.eye, L.eye_lo) * L.inv_step[n] - c.curv_k * kn;
 }
 
@@ -102,7 +109,8 @@ inline float sample_v(const CellLine& L, const CellRay& c, int vline) {
   const float t = x - static_cast<float>(n1);
   const int la = std::clamp(L.line0 + L.dir * n1, 0, L.line_count - 1);
   const int lb = std::clamp(L.line0 + L.dir * (n1 + 1), 0, L.line_count - 1);
-  const float a = L.s->z[la * L.z_line + vline * L.zv], b = L.s->z[lb * L.z_line + vline * L.zv];
+  const float a = fill_void(L.s->z[la * L.z_line + vline * L.zv], L.s->fill);
+  const float b = fill_void(L.s->z[lb * L.z_line + vline * L.zv], L.s->fill);
   return eye_relative(a, b, t, L.eye, L.eye_lo) * (c.m * L.inv_dv[vline]) - c.curv_k * kc;
 }
 

@@ -16,12 +16,6 @@ namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
-terrain::Grid<float> crop(const terrain::Grid<float>& z, const terrain::Window& w) {
-  terrain::Grid<float> out(w.width(), w.height());
-  for (int r = w.row0; r < w.row1; ++r) std::copy_n(z.row(r) + w.col0, w.width(), out.row(r - w.row0));
-  return out;
-}
-
 // A window-sized raster holding f(ohf, z) where the result has an answer, NaN elsewhere.
 template <class F>
 terrain::Grid<float> per_answered_cell(const ViewshedResult& result, F&& f) {
@@ -38,7 +32,7 @@ terrain::Grid<float> per_answered_cell(const ViewshedResult& result, F&& f) {
 // true when the GPU answered (or the caller's control stopped it: `status`
 // then holds that error); false leaves the work to the CPU, with
 // stats.gpu_fallback saying why when the GPU was asked for.
-bool try_gpu(const terrain::Grid<float>& elevation, const ViewFrame& frame, const ViewshedOptions& options,
+bool try_gpu(const terrain::HeightView& elevation, const ViewFrame& frame, const ViewshedOptions& options,
              const RunControl* control, gpu::ContextPool* pool, const BackendPolicy* policy, ViewshedResult& result,
              Status& status) {
   if (options.algorithm != Algorithm::kRadial || options.backend == Backend::kCpu) return false;
@@ -68,10 +62,6 @@ bool try_gpu(const terrain::Grid<float>& elevation, const ViewFrame& frame, cons
   return false;
 }
 
-bool has_voids(const terrain::Grid<float>& z) {
-  return std::any_of(z.values().begin(), z.values().end(), [](float v) { return std::isnan(v); });
-}
-
 // compute_viewshed, with `spare` (dem.elevation itself, or null) free to be
 // taken as result.terrain.
 Result<ViewshedResult> compute(const terrain::Dem& dem, terrain::Grid<float>* spare, const geodesy::GridPoint& observer,
@@ -80,17 +70,10 @@ Result<ViewshedResult> compute(const terrain::Dem& dem, terrain::Grid<float>* sp
   auto frame = make_view_frame(dem, observer, options);
   if (!frame.ok()) return frame.error();
 
-  // NodataPolicy::kFill works on a filled copy; transparent voids stay NaN,
-  // which every algorithm skips (a NaN slope never raises a horizon).
-  const terrain::Grid<float>* elevation = &dem.elevation;
-  terrain::Grid<float> filled;
-  if (options.nodata == NodataPolicy::kFill && has_voids(dem.elevation)) {
-    filled = dem.elevation;
-    const float fill = static_cast<float>(options.nodata_fill_height);
-    for (float& v : filled.values())
-      if (std::isnan(v)) v = fill;
-    elevation = &filled;
-  }
+  // Voids are read through the view: transparent ones stay NaN, which every
+  // algorithm skips (a NaN slope never raises a horizon); NodataPolicy::kFill
+  // reads them as the fill height. The DEM itself is never copied.
+  const terrain::HeightView elevation = elevation_view(dem.elevation, options);
 
   ViewshedResult result;
   result.frame = *frame;
@@ -100,39 +83,46 @@ Result<ViewshedResult> compute(const terrain::Dem& dem, terrain::Grid<float>* sp
 
   const auto start = std::chrono::steady_clock::now();
   Status status;
-  if (!try_gpu(*elevation, *frame, options, control, gpu, policy, result, status)) switch (options.algorithm) {
+  if (!try_gpu(elevation, *frame, options, control, gpu, policy, result, status)) switch (options.algorithm) {
       case Algorithm::kRadial:
-        status = radial_ohf(*elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats);
+        status = radial_ohf(elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats);
         break;
       case Algorithm::kConservative:
-        status = radial_ohf(*elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats,
+        status = radial_ohf(elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats,
                             RadialBound::kLowerBound);
         break;
       case Algorithm::kExact:
-        status = exact_ohf(*elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats,
+        status = exact_ohf(elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats,
                            options.visibility_only ? std::optional<double>(options.target_height) : std::nullopt);
         break;
       case Algorithm::kR3:
-        status = r3_ohf(*elevation, *frame, options.threads, control, result.ohf, result.stats);
+        status = r3_ohf(elevation, *frame, options.threads, control, result.ohf, result.stats);
         break;
     }
   if (!status.ok()) return status.error();
   result.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   // The elevations used, window-sized: the grid itself when the window
-  // covers it and it can be given away, else a copy.
+  // covers it and it can be given away (its voids filled in place, the
+  // caller having given it up), else a copy of the window.
   const terrain::Window& w = frame->window;
-  const bool whole = w.col0 == 0 && w.row0 == 0 && w.width() == elevation->width() && w.height() == elevation->height();
-  if (whole && elevation == &filled) {
-    result.terrain = std::move(filled);
-  } else if (whole && spare != nullptr) {
+  const bool whole = w.col0 == 0 && w.row0 == 0 && w.width() == dem.width() && w.height() == dem.height();
+  if (whole && spare != nullptr) {
     result.terrain = std::move(*spare);
+    if (elevation.fills_voids())
+      for (float& v : result.terrain.values()) v = elevation.fill(v);
   } else {
-    result.terrain = crop(*elevation, w);
+    result.terrain = terrain::copy_cells(elevation.sub(w));
   }
   return result;
 }
 
 }  // namespace
+
+terrain::HeightView elevation_view(const terrain::Grid<float>& elevation, const ViewshedOptions& options) {
+  const terrain::HeightView view(elevation);
+  return options.nodata == NodataPolicy::kFill ? view.with_void_fill(static_cast<float>(options.nodata_fill_height))
+                                               : view;
+}
 
 Result<ViewshedResult> compute_viewshed(const terrain::Dem& dem, const geodesy::GridPoint& observer,
                                         const ViewshedOptions& options, const RunControl* control,

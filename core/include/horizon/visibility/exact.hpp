@@ -37,6 +37,7 @@
 #include "horizon/common/control.hpp"
 #include "horizon/common/error.hpp"
 #include "horizon/terrain/grid.hpp"
+#include "horizon/terrain/height_view.hpp"
 #include "horizon/visibility/options.hpp"
 #include "horizon/visibility/view_frame.hpp"
 #include "horizon/visibility/work_stats.hpp"
@@ -53,7 +54,7 @@ namespace horizon::visibility {
 // R3's answer under the viewshed's rule (visibility_mask at that target
 // height): R3's own value, or a lower bound of it that hides or shows the
 // target as R3's does; min_target_height() of it is not R3's.
-Status exact_ohf(const terrain::Grid<float>& elevation, const ViewFrame& frame, const RadialOptions& radial,
+Status exact_ohf(const terrain::HeightView& elevation, const ViewFrame& frame, const RadialOptions& radial,
                  unsigned threads, const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats,
                  std::optional<double> visibility_only_at = std::nullopt);
 

@@ -109,8 +109,8 @@ struct ViewshedRun {
 
 // Reads the planned cells (`cache` may be null: read the files directly),
 // places the observer (kDataError on a void under an above-ground eye) and
-// computes. NodataPolicy::kFill fills the run's own cells in place (the
-// source is never copied). `gpu` and `policy` as compute_viewshed.
+// computes. NodataPolicy::kFill is applied as the kernels read the cells
+// (elevation_view). `gpu` and `policy` as compute_viewshed.
 Result<ViewshedRun> run_viewshed(const ViewshedPlan& plan, const terrain::ElevationSource& source,
                                  terrain::BlockCache* cache, const RunControl* control = nullptr,
                                  gpu::ContextPool* gpu = nullptr, const BackendPolicy* policy = nullptr,

@@ -22,6 +22,7 @@
 #include "horizon/common/control.hpp"
 #include "horizon/common/error.hpp"
 #include "horizon/terrain/grid.hpp"
+#include "horizon/terrain/height_view.hpp"
 #include "horizon/visibility/view_frame.hpp"
 #include "horizon/visibility/work_stats.hpp"
 
@@ -32,17 +33,17 @@ namespace horizon::visibility {
 // voids are transparent). `ohf`'s storage is reused when it already has the
 // window's size (see reset_output()). `elevation` already has voids filled or NaN per
 // policy.
-Status r3_ohf(const terrain::Grid<float>& elevation, const ViewFrame& frame, unsigned threads,
+Status r3_ohf(const terrain::HeightView& elevation, const ViewFrame& frame, unsigned threads,
               const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats);
 
 // The exact horizon slope (see above) for one target at continuous grid
 // coordinates, for tests and line-of-sight queries.
-double r3_horizon(const terrain::Grid<float>& elevation, const ViewFrame& frame, double target_col,
+double r3_horizon(const terrain::HeightView& elevation, const ViewFrame& frame, double target_col,
                   double target_row);
 
 // The OHF r3_ohf() stores for the target cell (col, row) of `elevation`
 // (-inf when no crossing lies between it and the eye), for checks that need
 // R3's answer at a few cells only. The cell must be in range.
-float r3_ohf_at(const terrain::Grid<float>& elevation, const ViewFrame& frame, int col, int row);
+float r3_ohf_at(const terrain::HeightView& elevation, const ViewFrame& frame, int col, int row);
 
 }  // namespace horizon::visibility

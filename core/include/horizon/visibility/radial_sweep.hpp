@@ -29,6 +29,7 @@
 #include "horizon/common/control.hpp"
 #include "horizon/common/error.hpp"
 #include "horizon/terrain/grid.hpp"
+#include "horizon/terrain/height_view.hpp"
 #include "horizon/visibility/options.hpp"
 #include "horizon/visibility/view_frame.hpp"
 #include "horizon/visibility/work_stats.hpp"
@@ -42,7 +43,7 @@ enum class RadialBound {
 
 // Same contract as r3_ohf(): fills `ohf` (sized frame.window) with the OHF of
 // every in-range cell, NaN out of range or on a transparent void.
-Status radial_ohf(const terrain::Grid<float>& elevation, const ViewFrame& frame, const RadialOptions& options,
+Status radial_ohf(const terrain::HeightView& elevation, const ViewFrame& frame, const RadialOptions& options,
                   unsigned threads, const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats,
                   RadialBound bound = RadialBound::kNone);
 

@@ -36,6 +36,7 @@
 #include "horizon/common/error.hpp"
 #include "horizon/gpu/context_pool.hpp"
 #include "horizon/terrain/grid.hpp"
+#include "horizon/terrain/height_view.hpp"
 #include "horizon/visibility/options.hpp"
 #include "horizon/visibility/view_frame.hpp"
 #include "horizon/visibility/work_stats.hpp"
@@ -48,7 +49,7 @@ namespace horizon::visibility {
 // On a GL failure the lease is marked failed and the error returned
 // (kResourceExhausted for sizes past the device's limits, kInternal for GL
 // errors), for the caller to answer on the CPU.
-Status radial_ohf_gl(gpu::Lease& lease, const terrain::Grid<float>& elevation, const ViewFrame& frame,
+Status radial_ohf_gl(gpu::Lease& lease, const terrain::HeightView& elevation, const ViewFrame& frame,
                      const RadialOptions& radial, const GpuOptions& options, const RunControl* control,
                      terrain::Grid<float>& ohf, WorkStats& stats);
 

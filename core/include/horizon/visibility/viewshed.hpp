@@ -24,6 +24,7 @@
 #include "horizon/geodesy/observer.hpp"
 #include "horizon/gpu/context_pool.hpp"
 #include "horizon/terrain/dem.hpp"
+#include "horizon/terrain/height_view.hpp"
 #include "horizon/terrain/preview.hpp"
 #include "horizon/visibility/backend_policy.hpp"
 #include "horizon/visibility/options.hpp"
@@ -60,6 +61,10 @@ Result<ViewshedResult> compute_viewshed_taking_elevation(terrain::Dem& dem, cons
                                                          const RunControl* control = nullptr,
                                                          gpu::ContextPool* gpu = nullptr,
                                                          const BackendPolicy* policy = nullptr);
+
+// The elevations as the options' NodataPolicy reads them: voids
+// transparent, or at nodata_fill_height (kFill). Borrows `elevation`.
+terrain::HeightView elevation_view(const terrain::Grid<float>& elevation, const ViewshedOptions& options);
 
 // Metres: an occlusion height at most this far above the ground counts as the ground itself.
 inline constexpr float kTieTolerance = 1.0e-3f;
