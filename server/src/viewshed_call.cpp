@@ -178,6 +178,7 @@ grpc::Status ViewshedCall::compute() {
   summary_.set_evaluated_cells(visible + hidden);
   summary_.set_visible_area_km2(static_cast<double>(visible) * f.metres_per_col * f.metres_per_row / 1e6);
   fill_stats(result->stats, *summary_.mutable_stats());
+  worker_workspace().recycle(std::move(run->result));  // everything sent is copied out: its rasters serve the next call
   return grpc::Status::OK;
 }
 

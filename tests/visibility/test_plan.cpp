@@ -347,8 +347,8 @@ TEST(Plan, AWorkspaceKeepsItsBufferAcrossRunsAndChangesNoAnswer) {
   terrain::BlockCache cache(cache_of(8 << 20));
   Workspace workspace;
   const terrain::DemHeader& h = source->header();
-  const float* buffer = nullptr;
-  for (double reach : {6000.0, 3000.0, 6000.0}) {  // a smaller window fits the kept buffer
+  const float *buffer = nullptr, *ohf = nullptr, *terrain = nullptr;
+  for (double reach : {6000.0, 3000.0, 6000.0}) {  // a smaller window fits the kept buffers
     auto plan = plan_viewshed(*source, query(at_cell(h, 201.3, 170.6), Algorithm::kRadial, reach));
     ASSERT_TRUE(plan.ok());
     auto with = run_viewshed(*plan, *source, &cache, nullptr, nullptr, nullptr, &workspace);
@@ -358,9 +358,55 @@ TEST(Plan, AWorkspaceKeepsItsBufferAcrossRunsAndChangesNoAnswer) {
     EXPECT_TRUE(same_grid(with->result.terrain, without->result.terrain)) << reach;
     ASSERT_GE(workspace.cells.capacity(), plan->read.read.cell_count());
     if (buffer) {
-      EXPECT_EQ(workspace.cells.data(), buffer) << "the buffer was reallocated";
+      EXPECT_EQ(workspace.cells.data(), buffer) << "the read buffer was reallocated";
+      EXPECT_EQ(with->result.ohf.data(), ohf) << "the OHF was reallocated";
+      EXPECT_EQ(with->result.terrain.data(), terrain) << "the terrain raster was reallocated";
     }
     buffer = workspace.cells.data();
+    ohf = with->result.ohf.data();
+    terrain = with->result.terrain.data();
+    workspace.recycle(std::move(with->result));
+    EXPECT_EQ(workspace.ohf.data(), ohf);
+    EXPECT_EQ(workspace.terrain.data(), terrain);
+  }
+}
+
+TEST(Plan, ACullingRunHandsItsRastersBackToTheWorkspace) {
+  auto source = open(testing::bundled_dem("zion_canyon_srtm3_465x457.tif"));
+  ASSERT_TRUE(source);
+  const terrain::DemHeader& h = source->header();
+  CullQuery cq;
+  cq.observer = at_cell(h, 201.3, 170.6);
+  for (int i = 0; i < 12; ++i) {
+    const double bc = 150 + (i * 37) % 120, br = 120 + (i * 53) % 110;
+    visibility::BoxSpec b;
+    b.x_min = h.georef.transform.x_at(bc);
+    b.x_max = h.georef.transform.x_at(bc + 3);
+    b.y_max = h.georef.transform.y_at(br);
+    b.y_min = h.georef.transform.y_at(br + 2);
+    b.z_min = 1000;
+    b.z_max = 1300 + 150 * i;
+    cq.boxes.push_back(b);
+  }
+  auto plan = plan_cull_boxes(*source, cq);
+  ASSERT_TRUE(plan.ok());
+  Workspace workspace;
+  const float* ohf = nullptr;
+  for (int pass = 0; pass < 2; ++pass) {
+    auto with = run_cull_boxes(*plan, *source, nullptr, nullptr, nullptr, nullptr, &workspace);
+    auto without = run_cull_boxes(*plan, *source, nullptr);
+    ASSERT_TRUE(with.ok() && without.ok());
+    ASSERT_EQ(with->result.boxes.size(), without->result.boxes.size());
+    for (std::size_t i = 0; i < with->result.boxes.size(); ++i) {
+      EXPECT_EQ(with->result.boxes[i].state, without->result.boxes[i].state) << i;
+      EXPECT_EQ(with->result.boxes[i].ohf_min, without->result.boxes[i].ohf_min) << i;
+    }
+    // The OHF came back, the same storage on the second pass.
+    EXPECT_EQ(workspace.ohf.size(), with->result.window.cell_count());
+    if (ohf) {
+      EXPECT_EQ(workspace.ohf.data(), ohf);
+    }
+    ohf = workspace.ohf.data();
   }
 }
 

@@ -195,8 +195,9 @@ Result<CullPlan> plan_cull(const terrain::Dem& dem, const geodesy::GridPoint& ob
 }
 
 Result<CullResult> run_cull(const terrain::Dem& dem, const geodesy::GridPoint& observer, const CullPlan& plan,
-                            const RunControl* control, gpu::ContextPool* gpu, const BackendPolicy* policy) {
-  auto ohf = compute_viewshed(dem, observer, plan.viewshed, control, gpu, policy);
+                            const RunControl* control, gpu::ContextPool* gpu, const BackendPolicy* policy,
+                            ResultStorage storage) {
+  auto ohf = compute_viewshed(dem, observer, plan.viewshed, control, gpu, policy, storage);
   if (!ohf.ok()) return ohf.error();
 
   CullResult result;
@@ -207,6 +208,8 @@ Result<CullResult> run_cull(const terrain::Dem& dem, const geodesy::GridPoint& o
   const terrain::Pyramid pyramid(ohf->ohf, terrain::Reduction::kMin);
   result.boxes.resize(plan.footprints.size());
   result.visible_count = cull_footprints(*ohf, pyramid, plan.footprints, result.boxes, &result.pyramid_cells_read);
+  if (storage.ohf) *storage.ohf = std::move(ohf->ohf);
+  if (storage.terrain) *storage.terrain = std::move(ohf->terrain);
   return result;
 }
 

@@ -69,12 +69,25 @@ Result<geodesy::GridPoint> on_ground(const terrain::Dem& dem, const terrain::Win
   return geodesy::place_on_ground(dem, located, spec, what, read.col0, read.row0);
 }
 
+bool keepable(const terrain::Grid<float>& g) {
+  return g.capacity() * sizeof(float) <= Workspace::kMaxKeptBytes;
+}
+
+// Keeps `done`'s storage in `kept` when it is within the limit and larger.
+void keep(terrain::Grid<float>& kept, terrain::Grid<float>&& done) {
+  if (keepable(done) && done.capacity() >= kept.capacity()) kept = std::move(done);
+  done = terrain::Grid<float>();
+}
+
 // Hands a run's cells back to its workspace (or frees them).
 void keep_or_release(terrain::Grid<float>& cells, Workspace* workspace) {
-  if (workspace && cells.capacity() * sizeof(float) <= Workspace::kMaxKeptBytes &&
-      cells.capacity() >= workspace->cells.capacity())
-    workspace->cells = std::move(cells);
+  if (workspace) keep(workspace->cells, std::move(cells));
   cells = terrain::Grid<float>();
+}
+
+ResultStorage storage_of(Workspace* workspace) {
+  if (!workspace) return {};
+  return {&workspace->ohf, &workspace->terrain};
 }
 
 geodesy::GridPoint to_source(geodesy::GridPoint p, const terrain::Window& read) {
@@ -94,6 +107,16 @@ Result<geodesy::GridPoint> locate(const terrain::ElevationSource& source, const 
 }
 
 }  // namespace
+
+void Workspace::recycle(ViewshedResult&& done) {
+  keep(ohf, std::move(done.ohf));
+  keep(terrain, std::move(done.terrain));
+}
+
+void Workspace::trim() {
+  for (terrain::Grid<float>* g : {&cells, &ohf, &terrain})
+    if (!keepable(*g)) *g = terrain::Grid<float>();
+}
 
 geodesy::GridPoint ViewshedRun::observer_in_source() const {
   return to_source(observer, read.window);
@@ -136,7 +159,8 @@ Result<ViewshedRun> run_viewshed(const ViewshedPlan& plan, const terrain::Elevat
   if (!observer.ok()) return observer.error();
   run.observer = *observer;
   // Voids are filled as the kernels read them (NodataPolicy, elevation_view).
-  auto result = compute_viewshed_taking_elevation(run.dem, run.observer, plan.query.options, control, gpu, policy);
+  auto result = compute_viewshed_taking_elevation(run.dem, run.observer, plan.query.options, control, gpu, policy,
+                                                  storage_of(workspace));
   if (!result.ok()) return result.error();
   run.result = std::move(*result);
   run.result.stats.dem_cells = static_cast<std::uint64_t>(source.width()) * static_cast<std::uint64_t>(source.height());
@@ -210,7 +234,8 @@ Result<CullBoxesRun> run_cull_boxes(const CullBoxesPlan& plan, const terrain::El
   auto frame = make_view_frame(*dem, *observer, local.viewshed);
   if (!frame.ok()) return frame.error();
   local.frame = *frame;
-  auto result = run_cull(*dem, *observer, local, control, gpu, policy);
+  auto result = run_cull(*dem, *observer, local, control, gpu, policy, storage_of(workspace));
+  if (workspace) workspace->trim();
   if (!result.ok()) return result.error();
   run.result = std::move(*result);
   run.result.window = shifted(run.result.window, got.col0, got.row0);

@@ -30,8 +30,12 @@ bool ViewFrame::in_range(int col, int row) const {
 }
 
 void reset_output(terrain::Grid<float>& ohf, const terrain::Window& window, unsigned threads) {
-  if (ohf.width() != window.width() || ohf.height() != window.height())
-    ohf = terrain::Grid<float>(window.width(), window.height(), terrain::kUninitialized);
+  if (ohf.width() != window.width() || ohf.height() != window.height()) {
+    if (ohf.capacity() >= window.cell_count())
+      ohf.reshape(window.width(), window.height());  // the storage kept: no new pages
+    else
+      ohf = terrain::Grid<float>(window.width(), window.height(), terrain::kUninitialized);
+  }
   // Row bands of at least 64 K cells each, filled in parallel.
   const std::size_t rows = static_cast<std::size_t>(ohf.height()), width = static_cast<std::size_t>(ohf.width());
   const std::size_t band = std::max<std::size_t>(1, (std::size_t{1} << 16) / std::max<std::size_t>(1, width));

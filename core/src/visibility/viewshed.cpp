@@ -66,7 +66,7 @@ bool try_gpu(const terrain::HeightView& elevation, const ViewFrame& frame, const
 // taken as result.terrain.
 Result<ViewshedResult> compute(const terrain::Dem& dem, terrain::Grid<float>* spare, const geodesy::GridPoint& observer,
                                const ViewshedOptions& options, const RunControl* control, gpu::ContextPool* gpu,
-                               const BackendPolicy* policy) {
+                               const BackendPolicy* policy, ResultStorage storage) {
   auto frame = make_view_frame(dem, observer, options);
   if (!frame.ok()) return frame.error();
 
@@ -76,6 +76,7 @@ Result<ViewshedResult> compute(const terrain::Dem& dem, terrain::Grid<float>* sp
   const terrain::HeightView elevation = elevation_view(dem.elevation, options);
 
   ViewshedResult result;
+  if (storage.ohf) result.ohf = std::move(*storage.ohf);  // reset_output keeps its pages
   result.frame = *frame;
   result.target_height = options.target_height;
   result.stats.dem_cells = dem.elevation.size();
@@ -111,7 +112,8 @@ Result<ViewshedResult> compute(const terrain::Dem& dem, terrain::Grid<float>* sp
     if (elevation.fills_voids())
       for (float& v : result.terrain.values()) v = elevation.fill(v);
   } else {
-    result.terrain = terrain::copy_cells(elevation.sub(w));
+    if (storage.terrain) result.terrain = std::move(*storage.terrain);
+    terrain::copy_cells(elevation.sub(w), result.terrain);
   }
   return result;
 }
@@ -126,14 +128,15 @@ terrain::HeightView elevation_view(const terrain::Grid<float>& elevation, const 
 
 Result<ViewshedResult> compute_viewshed(const terrain::Dem& dem, const geodesy::GridPoint& observer,
                                         const ViewshedOptions& options, const RunControl* control,
-                                        gpu::ContextPool* gpu, const BackendPolicy* policy) {
-  return compute(dem, nullptr, observer, options, control, gpu, policy);
+                                        gpu::ContextPool* gpu, const BackendPolicy* policy, ResultStorage storage) {
+  return compute(dem, nullptr, observer, options, control, gpu, policy, storage);
 }
 
 Result<ViewshedResult> compute_viewshed_taking_elevation(terrain::Dem& dem, const geodesy::GridPoint& observer,
                                                          const ViewshedOptions& options, const RunControl* control,
-                                                         gpu::ContextPool* gpu, const BackendPolicy* policy) {
-  return compute(dem, &dem.elevation, observer, options, control, gpu, policy);
+                                                         gpu::ContextPool* gpu, const BackendPolicy* policy,
+                                                         ResultStorage storage) {
+  return compute(dem, &dem.elevation, observer, options, control, gpu, policy, storage);
 }
 
 terrain::Grid<float> min_target_height(const ViewshedResult& result) {

@@ -117,15 +117,20 @@ class HeightView {
   const Georeference* georef_ = nullptr;
 };
 
-// A window-sized copy of the view's cells under its void policy (for the
-// rasters a result keeps: the elevations its answers were computed on).
-inline Grid<float> copy_cells(const HeightView& view) {
-  Grid<float> out(view.width(), view.height(), kUninitialized);
+// The view's cells under its void policy, into `out` (reshaped to the
+// view's size, its storage reused when large enough): for the rasters a
+// result keeps, the elevations its answers were computed on.
+inline void copy_cells(const HeightView& view, Grid<float>& out) {
+  out.reshape(view.width(), view.height());
   for (int r = 0; r < view.height(); ++r) {
     const float* src = view.row(r);
     float* dst = out.row(r);
     for (int c = 0; c < view.width(); ++c) dst[c] = view.fill(src[c]);
   }
+}
+inline Grid<float> copy_cells(const HeightView& view) {
+  Grid<float> out(view.width(), view.height(), kUninitialized);
+  copy_cells(view, out);
   return out;
 }
 

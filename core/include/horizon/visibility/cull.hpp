@@ -150,9 +150,11 @@ Result<CullPlan> plan_cull(const terrain::Dem& dem, const geodesy::GridPoint& ob
 // `control` (cancel, deadline) inside the OHF computation. `gpu` (may be
 // null) and `policy` are lent to the OHF computation as compute_viewshed()
 // describes: the fast algorithm may run there; the stats say where it ran.
+// `storage` (viewshed.hpp) is lent to the OHF computation and given the OHF
+// and terrain rasters back once the boxes are tested (for the next run).
 Result<CullResult> run_cull(const terrain::Dem& dem, const geodesy::GridPoint& observer, const CullPlan& plan,
                             const RunControl* control = nullptr, gpu::ContextPool* gpu = nullptr,
-                            const BackendPolicy* policy = nullptr);
+                            const BackendPolicy* policy = nullptr, ResultStorage storage = {});
 
 // plan_cull + run_cull.
 Result<CullResult> cull_boxes(const terrain::Dem& dem, const geodesy::GridPoint& observer,

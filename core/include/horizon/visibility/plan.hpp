@@ -64,14 +64,30 @@ struct ReadPlan {
 };
 
 // Buffers a caller keeps between runs (one per thread: a daemon worker, a
-// benchmark loop), so that a run reads its cells into memory already mapped
-// rather than taking a page fault per 4 KiB of a fresh allocation, which on a
-// VM costs more than assembling the window itself. Runs without one allocate.
+// benchmark loop), so that a run writes into memory already mapped rather
+// than taking a page fault per 4 KiB of a fresh allocation, which on a VM
+// costs more than assembling the window itself. Runs without one allocate.
+//
+// A run reads its cells into `cells`; its OHF and terrain rasters take over
+// `ohf` and `terrain`. A culling run hands those two back itself; a viewshed
+// run's result holds them until the caller, done with it, recycle()s it.
+// The sweep's per-task scratch needs no workspace: it is kept by each thread
+// of the engine's executor (common/parallel.hpp), which lives as long as the
+// process. The pyramids are the exception: built per run, they are small
+// (culling's min-pyramid builds only the blocks under the boxes, exact's
+// max-pyramid stores 1/63 of its window).
 struct Workspace {
-  terrain::Grid<float> cells;  // the last run's read window; its storage is reused
-  // A workspace keeps at most this much between runs (a larger window's
+  terrain::Grid<float> cells;    // the last run's read window
+  terrain::Grid<float> ohf;      // a finished run's OHF raster
+  terrain::Grid<float> terrain;  // a finished run's terrain raster
+  // A workspace keeps at most this much per buffer between runs (a larger
   // buffer is freed when its run ends): 64 MiB, a 16 M-cell window.
   static constexpr std::uint64_t kMaxKeptBytes = 64ull << 20;
+
+  // Takes back a finished viewshed's rasters for the next run to fill.
+  void recycle(ViewshedResult&& done);
+  // Frees any buffer above kMaxKeptBytes.
+  void trim();
 };
 
 // ---- viewsheds ----------------------------------------------------------

@@ -38,9 +38,9 @@ struct ViewFrame {
 };
 
 // Sizes `ohf` to the frame's window and fills it with NaN ("no answer") on
-// `threads` threads (0: one per core), reusing its storage when it already
-// has that size: a caller computing many viewsheds of one size (a daemon, a
-// benchmark) then pays no page faults.
+// `threads` threads (0: one per core), reusing its storage when it is large
+// enough: a caller computing many viewsheds (a daemon, a benchmark) then
+// pays no page faults.
 void reset_output(terrain::Grid<float>& ohf, const terrain::Window& window, unsigned threads = 1);
 
 // Ground metres per column and per row at CRS point (x, y): the cell size

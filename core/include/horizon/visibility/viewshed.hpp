@@ -41,16 +41,25 @@ struct ViewshedResult {
   WorkStats stats;
 };
 
+// Rasters whose storage a run may fill instead of allocating its own (a
+// caller's Workspace, plan.hpp): result.ohf and result.terrain take them
+// over. Either may be null; their contents are overwritten.
+struct ResultStorage {
+  terrain::Grid<float>* ohf = nullptr;
+  terrain::Grid<float>* terrain = nullptr;
+};
+
 // Validates the options, builds the frame and runs the chosen algorithm.
 // Algorithm fast runs on `gpu` (may be null: no GPU) when options.backend is
 // kGpu, or kAuto and `policy` prefers the GPU for the window's size (null:
 // an unmeasured policy, so auto stays on the CPU); a request naming no GL
 // variant runs the policy's preferred one. A GPU failure, or kGpu without a
 // pool, is answered on the CPU with stats.gpu_fallback saying why.
-// stats.backend says where it ran.
+// stats.backend says where it ran. `storage`: see ResultStorage.
 Result<ViewshedResult> compute_viewshed(const terrain::Dem& dem, const geodesy::GridPoint& observer,
                                         const ViewshedOptions& options, const RunControl* control = nullptr,
-                                        gpu::ContextPool* gpu = nullptr, const BackendPolicy* policy = nullptr);
+                                        gpu::ContextPool* gpu = nullptr, const BackendPolicy* policy = nullptr,
+                                        ResultStorage storage = {});
 
 // The same for a caller done with the DEM's elevations (the one-shot CLI):
 // when the window covers the whole grid, result.terrain takes over
@@ -60,7 +69,8 @@ Result<ViewshedResult> compute_viewshed_taking_elevation(terrain::Dem& dem, cons
                                                          const ViewshedOptions& options,
                                                          const RunControl* control = nullptr,
                                                          gpu::ContextPool* gpu = nullptr,
-                                                         const BackendPolicy* policy = nullptr);
+                                                         const BackendPolicy* policy = nullptr,
+                                                         ResultStorage storage = {});
 
 // The elevations as the options' NodataPolicy reads them: voids
 // transparent, or at nodata_fill_height (kFill). Borrows `elevation`.
