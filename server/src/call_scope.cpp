@@ -1,5 +1,7 @@
 #include "call_scope.hpp"
 
+#include <cstdio>
+
 #include "grpc_status.hpp"
 
 namespace horizon::server {
@@ -46,6 +48,14 @@ Result<std::shared_ptr<const Dataset>> CallScope::dataset(const std::string& nam
   if (it == datasets_->end())
     return make_error(ErrorCode::kNotFound, "dataset '" + name + "' is not held by this daemon", name);
   return it->second;
+}
+
+std::string planned_work(const std::string& what, const visibility::Cost& cost, double ray_spacing) {
+  if (cost.sweep_bytes * 2 <= cost.bytes) return what;
+  char spacing[32];
+  std::snprintf(spacing, sizeof spacing, "%g", ray_spacing);
+  return what + " (" + std::to_string(cost.sweep_rays) + " sweep rays at options.ray_spacing = " + spacing +
+         " cells)";
 }
 
 Status CallScope::reserve(std::uint64_t bytes, const std::string& what) {

@@ -20,6 +20,7 @@
 
 #include "horizon/common/control.hpp"
 #include "horizon/common/error.hpp"
+#include "horizon/visibility/plan.hpp"
 #include "horizon/visibility/work_stats.hpp"
 #include "request_log.hpp"
 #include "server_env.hpp"
@@ -37,6 +38,10 @@ inline constexpr std::chrono::milliseconds kDeadlineRace{50};
 // True when a cancellation seen at `now` is the deadline passing (or about to).
 bool cancel_reads_as_deadline(std::chrono::steady_clock::time_point now,
                               std::optional<std::chrono::steady_clock::time_point> deadline);
+
+// Names a planned request for reserve()'s refusal: `what`, and the sweep's
+// rays and the ray_spacing behind them when those are most of the cost.
+std::string planned_work(const std::string& what, const visibility::Cost& cost, double ray_spacing);
 
 class CallScope {
  public:

@@ -60,7 +60,7 @@ grpc::Status run_cull_boxes(CallScope& scope, const v1::CullBoxesRequest& reques
                        " cells, more than limits.max_cells = " + std::to_string(env.config.limits.max_cells),
                    "boxes"));
   if (auto s = scope.reserve(plan->cost.bytes + static_cast<std::uint64_t>(n) * MemoryBudget::kMessageBytesPerBox,
-                             "this culling request");
+                             planned_work("this culling request", plan->cost, plan->viewshed.radial.ray_spacing));
       !s.ok())
     return scope.status_of(s.error());
 

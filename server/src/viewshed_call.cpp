@@ -112,7 +112,9 @@ grpc::Status ViewshedCall::compute() {
                        " cells, more than limits.max_cells = " + std::to_string(env.config.limits.max_cells) +
                        "; give a smaller max_distance",
                    "options.max_distance"));
-  if (auto s = scope_.reserve(plan->cost.bytes + cells * MemoryBudget::kEncodingBytesPerCell, "this viewshed"); !s.ok())
+  if (auto s = scope_.reserve(plan->cost.bytes + cells * MemoryBudget::kEncodingBytesPerCell,
+                              planned_work("this viewshed", plan->cost, options->radial.ray_spacing));
+      !s.ok())
     return scope_.status_of(s.error());
 
   auto run = visibility::run_viewshed(*plan, *d.source, &env.cache, scope_.control(), env.gpu, env.backend, &worker_workspace());

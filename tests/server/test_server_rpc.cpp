@@ -278,6 +278,31 @@ TEST_F(ServerRpc, NotFoundOutOfRangeAndResourceExhausted) {
   EXPECT_NE(last_log_line("LineOfSight").find("RESOURCE_EXHAUSTED"), std::string::npos);
 }
 
+// ray_spacing is in its documented range (0, 4] at 1e-6 and 1e-4, yet the
+// sweep would need 10^9 or 10^8 rays: both are refused from the plan, before
+// anything is allocated, naming the field and what it costs, and the daemon
+// answers the next request as before.
+TEST_F(ServerRpc, ATinyRaySpacingIsRefusedFromThePlan) {
+  v1::ViewshedRequest r = slow_viewshed();
+  r.mutable_options()->set_algorithm(v1::ALGORITHM_FAST);
+  r.mutable_options()->set_ray_spacing(1e-6);
+  grpc::Status s = run_viewshed(r, nullptr, std::chrono::seconds(20));
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
+  EXPECT_EQ(violated_field(s), "options.ray_spacing");
+  EXPECT_NE(s.error_message().find("rays a sector"), std::string::npos) << s.error_message();
+  r.mutable_options()->set_ray_spacing(1e-4);  // a sweep could run it; the memory budget cannot hold it
+  s = run_viewshed(r, nullptr, std::chrono::seconds(20));
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
+  EXPECT_EQ(violated_field(s), "memory_budget_mb");
+  EXPECT_NE(s.error_message().find("sweep rays at options.ray_spacing = 0.0001"), std::string::npos)
+      << s.error_message();
+  r.mutable_options()->set_ray_spacing(1.0);
+  std::vector<v1::ViewshedResponse> out;
+  s = run_viewshed(r, &out);
+  EXPECT_TRUE(s.ok()) << s.error_message();
+  EXPECT_FALSE(out.empty());
+}
+
 TEST_F(ServerRpc, LineOfSightBatchAnswersInOrder) {
   v1::LineOfSightRequest los;
   los.set_dataset("rainier");

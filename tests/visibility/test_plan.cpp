@@ -410,6 +410,48 @@ TEST(Plan, ACullingRunHandsItsRastersBackToTheWorkspace) {
   }
 }
 
+// The sweep's rays scale as 1 / ray_spacing: the plan counts them before
+// anything is allocated, and refuses a spacing no sweep could run.
+TEST(Plan, TheSweepsRaysAreCostedFromRaySpacingAndBounded) {
+  auto source = open(testing::bundled_dem("zion_canyon_srtm3_465x457.tif"));
+  ASSERT_TRUE(source);
+  const terrain::DemHeader& h = source->header();
+  ViewshedQuery q = query(at_cell(h, 201.3, 170.6), Algorithm::kRadial, 6000.0);
+  auto normal = plan_viewshed(*source, q);
+  ASSERT_TRUE(normal.ok());
+  const std::uint64_t reach = std::max(normal->output.width(), normal->output.height());
+  EXPECT_EQ(normal->cost.sweep_rays, 4 * (2 * reach + 1));  // spacing 1: one ray a cell at the far line
+  EXPECT_LT(normal->cost.sweep_bytes, normal->cost.bytes);
+  q.options.radial.ray_spacing = 0.01;
+  auto fine = plan_viewshed(*source, q);
+  ASSERT_TRUE(fine.ok());
+  EXPECT_EQ(fine->cost.sweep_rays, 4 * (2 * 100 * reach + 1));
+  EXPECT_GT(fine->cost.sweep_bytes, 99 * normal->cost.sweep_bytes);
+  EXPECT_EQ(fine->cost.bytes - fine->cost.sweep_bytes, normal->cost.bytes - normal->cost.sweep_bytes);
+  EXPECT_GT(fine->cost.seconds, 50 * normal->cost.seconds);
+  // In the documented range (0, 4], but 10^8 rays a sector: refused at planning, naming the field.
+  q.options.radial.ray_spacing = 1e-6;
+  auto tiny = plan_viewshed(*source, q);
+  ASSERT_FALSE(tiny.ok());
+  EXPECT_EQ(tiny.error().code, ErrorCode::kResourceExhausted);
+  EXPECT_EQ(tiny.error().field, "ray_spacing");
+  EXPECT_NE(tiny.error().message.find("rays a sector"), std::string::npos) << tiny.error().message;
+  // Culling plans its OHF the same way.
+  CullQuery cq;
+  cq.observer = at_cell(h, 201.3, 170.6);
+  visibility::BoxSpec b;
+  b.x_min = h.georef.transform.x_at(400);
+  b.x_max = h.georef.transform.x_at(402);
+  b.y_max = h.georef.transform.y_at(400);
+  b.y_min = h.georef.transform.y_at(402);
+  b.z_max = 3000;
+  cq.boxes.push_back(b);
+  cq.options.viewshed.radial.ray_spacing = 1e-6;
+  auto cull = plan_cull_boxes(*source, cq);
+  ASSERT_FALSE(cull.ok());
+  EXPECT_EQ(cull.error().field, "ray_spacing");
+}
+
 TEST(Plan, RejectsBadQueriesAtPlanningNamingTheField) {
   auto source = open(testing::bundled_dem("zion_canyon_srtm3_465x457.tif"));
   ASSERT_TRUE(source);

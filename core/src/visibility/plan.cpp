@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
+#include <string>
 #include <utility>
 
 namespace horizon::visibility {
@@ -15,9 +17,20 @@ namespace {
 // (cells_within and make_view_frame round the disc's edge separately).
 constexpr int kReadMargin = 2;
 
+std::string number(double v) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.3g", v);
+  return buffer;
+}
+
 // Measured single-core costs per answered cell (docs/benchmarks.md, the
 // 12 M-cell case): estimates for admission, not promises.
-constexpr double kFastSecondsPerCell = 16e-9;
+// One ray's step of the sweep: ~2.2 per cell at the default spacing, 16 ns
+// a cell in all.
+constexpr double kSweepSecondsPerRayStep = 7e-9;
+// A ray's table entry (slope, inverse, curvature: sweep_geometry.hpp's
+// RayTable) and its share of the per-task scratch (radial_sweep.cpp).
+constexpr std::uint64_t kSweepBytesPerRay = 12 + 32;
 constexpr double kConservativeSecondsPerCell = 140e-9;
 constexpr double kExactSecondsPerCell = 1.2e-6;
 constexpr double kR3SecondsPerCellPerCrossing = 12e-9;  // R3 walks ~ the distance in cells per target
@@ -37,15 +50,41 @@ void add_read_cost(const terrain::ElevationSource& source, const ReadPlan& read,
   cost.bytes += cost.read_cells * sizeof(float);
 }
 
+// The radial sweep's rays over `output` (sweep_geometry.hpp's ray_half for
+// the farthest line a sector can have), their tables and their steps.
+// kResourceExhausted naming ray_spacing beyond kMaxSweepRays a sector.
+Status add_sweep_cost(const ViewshedOptions& o, const terrain::Window& output, Cost& cost) {
+  const double reach = std::max(output.width(), output.height());  // lines in the longest sector, at most
+  const double half = std::ceil(reach / o.radial.ray_spacing);
+  const double per_sector = 2 * half + 1;
+  if (per_sector > static_cast<double>(kMaxSweepRays)) {
+    const double floor_spacing = reach / (0.5 * static_cast<double>(kMaxSweepRays));
+    return make_error(ErrorCode::kResourceExhausted,
+                      "ray_spacing: " + number(o.radial.ray_spacing) + " cells over a reach of " +
+                          number(reach) + " cells needs " + number(per_sector) +
+                          " rays a sector, more than the sweep's limit of " + std::to_string(kMaxSweepRays) +
+                          "; use a ray_spacing of at least " + number(floor_spacing) +
+                          " or a smaller max_distance",
+                      "ray_spacing");
+  }
+  cost.sweep_rays = static_cast<std::uint64_t>(4 * per_sector);
+  cost.sweep_bytes = cost.sweep_rays * kSweepBytesPerRay;
+  cost.bytes += cost.sweep_bytes;
+  // Every ray marches through the lines of its sector's wedge: about half
+  // the reach for an observer inside the window, all of it at an edge.
+  cost.seconds += static_cast<double>(cost.sweep_rays) * (0.5 * reach) * kSweepSecondsPerRayStep;
+  return Status::Ok();
+}
+
 // The OHF and the terrain crop per answered cell, and what the algorithm adds.
-void add_ohf_cost(const ViewshedOptions& o, const terrain::Window& output, double radius_cells, Cost& cost) {
+Status add_ohf_cost(const ViewshedOptions& o, const terrain::Window& output, double radius_cells, Cost& cost) {
   const auto cells = static_cast<double>(output.cell_count());
   cost.cells = output.cell_count();
   cost.bytes += cost.cells * 2 * sizeof(float);
+  if (o.algorithm != Algorithm::kR3) HORIZON_RETURN_IF_ERROR(add_sweep_cost(o, output, cost));
   switch (o.algorithm) {
     case Algorithm::kRadial:
-      cost.seconds += cells * kFastSecondsPerCell;
-      break;
+      break;  // the sweep's steps are its time
     case Algorithm::kConservative:
       cost.seconds += cells * kConservativeSecondsPerCell;
       break;
@@ -57,6 +96,7 @@ void add_ohf_cost(const ViewshedOptions& o, const terrain::Window& output, doubl
       cost.seconds += cells * radius_cells * kR3SecondsPerCellPerCrossing;
       break;
   }
+  return Status::Ok();
 }
 
 // Puts a located point on the ground of a window read from the source: the
@@ -143,7 +183,7 @@ Result<ViewshedPlan> plan_viewshed(const terrain::ElevationSource& source, const
   if (!cell.ok()) return cell.error();
   const double radius_cells =
       0.5 * std::hypot(plan.output.width(), plan.output.height());  // the farthest a target may be, in cells
-  add_ohf_cost(query.options, plan.output, radius_cells, plan.cost);
+  HORIZON_RETURN_IF_ERROR(add_ohf_cost(query.options, plan.output, radius_cells, plan.cost));
   return plan;
 }
 
@@ -203,7 +243,7 @@ Result<CullBoxesPlan> plan_cull_boxes(const terrain::ElevationSource& source, Cu
   plan.read = plan_read(
       source, geodesy::cells_within(h.georef, h.width, h.height, plan.observer, vs.max_distance, kReadMargin));
   add_read_cost(source, plan.read, plan.cost);
-  add_ohf_cost(vs, output, 0.5 * std::hypot(output.width(), output.height()), plan.cost);
+  HORIZON_RETURN_IF_ERROR(add_ohf_cost(vs, output, 0.5 * std::hypot(output.width(), output.height()), plan.cost));
   // The min-pyramid (under 1.4 bytes a cell; 4/3 of the OHF, an upper bound) and, per box, its spec,
   // footprint and answer.
   plan.cost.bytes += plan.cost.cells * sizeof(float) * 4 / 3 +

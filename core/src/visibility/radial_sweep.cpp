@@ -544,6 +544,9 @@ Status radial_ohf(const terrain::HeightView& z, const ViewFrame& f, const Radial
   };
   std::vector<Task> tasks;
   for (std::size_t si = 0; si < sectors.size(); ++si) {
+    // A sector's tables take time in proportion to its rays (plan.hpp bounds
+    // them): a cancel or a deadline is heard between sectors, too.
+    HORIZON_RETURN_IF_ERROR(check_control(control));
     plans.push_back(plan_sector(sectors[si], c, options.ray_spacing, options.thinning_levels));
     const int half = plans.back().rays.half;
     for (int ra = -half; ra < half; ra += kRaysPerTask)

@@ -49,9 +49,15 @@ struct Cost {
   std::uint64_t blocks = 0;       // source blocks under them
   std::uint64_t block_bytes = 0;  // their decoded size (what a cold cache decodes)
   // Engine working memory: the cells read, the OHF and the terrain crop, the
-  // algorithm's own tables (exact: pyramid and ring bounds; cull: the
-  // min-pyramid), per box and per profile sample. Not the caller's encodings.
+  // algorithm's own tables (the sweep's rays; exact: pyramid and ring
+  // bounds; cull: the min-pyramid), per box and per profile sample. Not the
+  // caller's encodings.
   std::uint64_t bytes = 0;
+  // The radial sweep's rays (fast, conservative, and exact's lower bound):
+  // about 8 x reach / ray_spacing, each with a table entry, each marching
+  // through up to `reach` lines. A tiny ray_spacing makes them the cost.
+  std::uint64_t sweep_rays = 0;
+  std::uint64_t sweep_bytes = 0;  // their share of `bytes`
   // Rough compute time on one core, seconds (from the measured cost per cell
   // of each algorithm on the 12 M-cell benchmark; within a factor of ~3).
   double seconds = 0.0;
@@ -90,6 +96,10 @@ struct Workspace {
   void trim();
 };
 
+// The most rays one sector of the radial sweep may march (its tables are
+// indexed by int, and 2^28 rays are already 3 GiB of tables).
+inline constexpr std::uint64_t kMaxSweepRays = std::uint64_t{1} << 28;
+
 // ---- viewsheds ----------------------------------------------------------
 
 struct ViewshedQuery {
@@ -106,7 +116,9 @@ struct ViewshedPlan {
 };
 
 // Errors: the options' (validate_options: field named), the observer's
-// (locate_point: "observer.lon", kOutOfRange outside the source).
+// (locate_point: "observer.lon", kOutOfRange outside the source), and
+// kResourceExhausted naming "ray_spacing" when the sweep would need more than
+// kMaxSweepRays rays a sector.
 Result<ViewshedPlan> plan_viewshed(const terrain::ElevationSource& source, const ViewshedQuery& query);
 
 struct ViewshedRun {
