@@ -109,8 +109,8 @@ struct Step8 {
 HORIZON_AVX2 inline Step8 step8(const LineStep& ls) {
   using namespace simd;
   const float inv_kf = 1.0f / ls.kf;
-  return {f8(ls.eye_v), f8(ls.k_start), f8(ls.kf),     f8(inv_kf), f8(ls.v_min), f8(ls.v_max),
-          f8(ls.kp),    f8(ls.eye),     f8(ls.eye_lo), f8(ls.fill), i8(ls.zv), i8(ls.j_max)};
+  return {f8(ls.eye_v), f8(ls.k_start), f8(ls.kf),     f8(inv_kf),  f8(ls.v_min), f8(ls.v_max),
+          f8(ls.kp),    f8(ls.eye),     f8(ls.eye_lo), f8(ls.fill), i8(ls.zv),    i8(ls.j_max)};
 }
 
 struct Cross8 {
@@ -118,6 +118,15 @@ struct Cross8 {
   __m256i v;
 };
 
+// Heights as the view's void policy reads them: the fill applied only when
+// the view has one (a transparent view reads NaN as NaN without the blend).
+template <bool kFill>
+HORIZON_AVX2 inline __m256 heights8(__m256 v, __m256 fill) {
+  if constexpr (kFill) return simd::fill_voids(v, fill);
+  return v;
+}
+
+template <bool kFill>
 HORIZON_AVX2 inline Cross8 cross8(const Step8& s, __m256 m, __m256 inv_m, __m256 curv_k, const float* prev,
                                   const float* cur) {
   using namespace simd;
@@ -138,22 +147,23 @@ HORIZON_AVX2 inline Cross8 cross8(const Step8& s, __m256 m, __m256 inv_m, __m256
   const __m256 kc = max_of(_mm256_mul_ps(_mm256_sub_ps(cv_clamped, s.eye_v), inv_m), f8(1.0e-6f));
   const __m256 tc = _mm256_sub_ps(kc, s.kp);
   const __m256i at = _mm256_mullo_epi32(jc, s.zv);
-  const __m256 pa = fill_voids(_mm256_i32gather_ps(prev, at, 4), s.fill);
-  const __m256 pb = fill_voids(_mm256_i32gather_ps(cur, at, 4), s.fill);
+  const __m256 pa = heights8<kFill>(_mm256_i32gather_ps(prev, at, 4), s.fill);
+  const __m256 pb = heights8<kFill>(_mm256_i32gather_ps(cur, at, 4), s.fill);
   const __m256 s_cross =
       _mm256_sub_ps(_mm256_div_ps(eye_relative8(pa, pb, tc, s.eye, s.eye_lo), kc), _mm256_mul_ps(curv_k, kc));
   return {min_of(s_cross, _mm256_blendv_ps(f8(kNoHorizon), f8(3.0e38f), valid)),
           _mm256_blendv_epi8(i8(-1), jc, _mm256_castps_si256(valid))};
 }
 
+template <bool kFill>
 HORIZON_AVX2 inline __m256 line8(const Step8& s, __m256 m, __m256 curv_k, const float* cur) {
   using namespace simd;
   const __m256 v = min_of(max_of(_mm256_add_ps(s.eye_v, _mm256_mul_ps(m, s.kf)), s.v_min), s.v_max);
   const __m256i j0 = mini_of(_mm256_cvttps_epi32(v), s.j_max);
   const __m256 t = _mm256_sub_ps(v, _mm256_cvtepi32_ps(j0));
   const __m256i at = _mm256_mullo_epi32(j0, s.zv);
-  const __m256 a = fill_voids(_mm256_i32gather_ps(cur, at, 4), s.fill);
-  const __m256 b = fill_voids(_mm256_i32gather_ps(cur, _mm256_add_epi32(at, s.zv), 4), s.fill);
+  const __m256 a = heights8<kFill>(_mm256_i32gather_ps(cur, at, 4), s.fill);
+  const __m256 b = heights8<kFill>(_mm256_i32gather_ps(cur, _mm256_add_epi32(at, s.zv), 4), s.fill);
   return _mm256_sub_ps(_mm256_mul_ps(eye_relative8(a, b, t, s.eye, s.eye_lo), s.inv_kf), _mm256_mul_ps(curv_k, s.kf));
 }
 
@@ -180,14 +190,15 @@ HORIZON_AVX2 inline void store8(int* p, __m256i x) {
   _mm256_storeu_si256(reinterpret_cast<__m256i*>(p), x);
 }
 
+template <bool kFill>
 HORIZON_AVX2 int step_cross_avx2(const LineStep& ls, int count, const float* slope, const float* inv_slope,
                                  const float* curv_k, const float* prev, const float* cur, const float* h,
                                  const int* arg, float* cross_slope, int* cross_v, int* code) {
   const Step8 s = step8(ls);
   int i = 0;
   for (; i + 8 <= count; i += 8) {
-    const Cross8 c =
-        cross8(s, _mm256_loadu_ps(slope + i), _mm256_loadu_ps(inv_slope + i), _mm256_loadu_ps(curv_k + i), prev, cur);
+    const Cross8 c = cross8<kFill>(s, _mm256_loadu_ps(slope + i), _mm256_loadu_ps(inv_slope + i),
+                                   _mm256_loadu_ps(curv_k + i), prev, cur);
     _mm256_storeu_ps(cross_slope + i, c.slope);
     store8(cross_v + i, c.v);
     store8(code + i, code8(c, _mm256_loadu_ps(h + i), load8(arg + i)));
@@ -195,6 +206,7 @@ HORIZON_AVX2 int step_cross_avx2(const LineStep& ls, int count, const float* slo
   return i;
 }
 
+template <bool kFill>
 HORIZON_AVX2 int step_line_avx2(const LineStep& ls, int count, const float* slope, const float* curv_k,
                                 const float* cur, const float* cross_slope, const int* cross_v, float* h, int* arg,
                                 int n) {
@@ -202,7 +214,7 @@ HORIZON_AVX2 int step_line_avx2(const LineStep& ls, int count, const float* slop
   const __m256i line = simd::i8(n);
   int i = 0;
   for (; i + 8 <= count; i += 8) {
-    const __m256 s_line = line8(s, _mm256_loadu_ps(slope + i), _mm256_loadu_ps(curv_k + i), cur);
+    const __m256 s_line = line8<kFill>(s, _mm256_loadu_ps(slope + i), _mm256_loadu_ps(curv_k + i), cur);
     __m256 best = _mm256_loadu_ps(h + i);
     __m256i where = load8(arg + i);
     fold8(best, where, _mm256_loadu_ps(cross_slope + i), load8(cross_v + i), s_line, line);
@@ -212,6 +224,7 @@ HORIZON_AVX2 int step_line_avx2(const LineStep& ls, int count, const float* slop
   return i;
 }
 
+template <bool kFill>
 HORIZON_AVX2 int step_rays_avx2(const LineStep& ls, int count, const float* slope, const float* inv_slope,
                                 const float* curv_k, const float* prev, const float* cur, float* h, int* arg, int* code,
                                 int n) {
@@ -220,11 +233,11 @@ HORIZON_AVX2 int step_rays_avx2(const LineStep& ls, int count, const float* slop
   int i = 0;
   for (; i + 8 <= count; i += 8) {
     const __m256 m = _mm256_loadu_ps(slope + i), ck = _mm256_loadu_ps(curv_k + i);
-    const Cross8 c = cross8(s, m, _mm256_loadu_ps(inv_slope + i), ck, prev, cur);
+    const Cross8 c = cross8<kFill>(s, m, _mm256_loadu_ps(inv_slope + i), ck, prev, cur);
     __m256 best = _mm256_loadu_ps(h + i);
     __m256i where = load8(arg + i);
     store8(code + i, code8(c, best, where));
-    fold8(best, where, c.slope, c.v, line8(s, m, ck, cur), line);
+    fold8(best, where, c.slope, c.v, line8<kFill>(s, m, ck, cur), line);
     _mm256_storeu_ps(h + i, best);
     store8(arg + i, where);
   }
@@ -242,8 +255,8 @@ struct Step16 {
 HORIZON_AVX512 inline Step16 step16(const LineStep& ls) {
   using namespace simd;
   const float inv_kf = 1.0f / ls.kf;
-  return {f16(ls.eye_v), f16(ls.k_start), f16(ls.kf),     f16(inv_kf), f16(ls.v_min), f16(ls.v_max),
-          f16(ls.kp),    f16(ls.eye),     f16(ls.eye_lo), f16(ls.fill), i16(ls.zv), i16(ls.j_max)};
+  return {f16(ls.eye_v), f16(ls.k_start), f16(ls.kf),     f16(inv_kf),  f16(ls.v_min), f16(ls.v_max),
+          f16(ls.kp),    f16(ls.eye),     f16(ls.eye_lo), f16(ls.fill), i16(ls.zv),    i16(ls.j_max)};
 }
 
 struct Cross16 {
@@ -251,6 +264,13 @@ struct Cross16 {
   __m512i v;
 };
 
+template <bool kFill>
+HORIZON_AVX512 inline __m512 heights16(__m512 v, __m512 fill) {
+  if constexpr (kFill) return simd::fill_voids(v, fill);
+  return v;
+}
+
+template <bool kFill>
 HORIZON_AVX512 inline Cross16 cross16(const Step16& s, __mmask16 in, __m512 m, __m512 inv_m, __m512 curv_k,
                                       const float* prev, const float* cur) {
   using namespace simd;
@@ -270,22 +290,23 @@ HORIZON_AVX512 inline Cross16 cross16(const Step16& s, __mmask16 in, __m512 m, _
   const __m512 kc = max_of(_mm512_mul_ps(_mm512_sub_ps(cv_clamped, s.eye_v), inv_m), f16(1.0e-6f));
   const __m512 tc = _mm512_sub_ps(kc, s.kp);
   const __m512i at = _mm512_mullo_epi32(jc, s.zv);
-  const __m512 pa = fill_voids(gather_masked(prev, at, in), s.fill);
-  const __m512 pb = fill_voids(gather_masked(cur, at, in), s.fill);
+  const __m512 pa = heights16<kFill>(gather_masked(prev, at, in), s.fill);
+  const __m512 pb = heights16<kFill>(gather_masked(cur, at, in), s.fill);
   const __m512 s_cross =
       _mm512_sub_ps(_mm512_div_ps(eye_relative16(pa, pb, tc, s.eye, s.eye_lo), kc), _mm512_mul_ps(curv_k, kc));
   return {min_of(s_cross, _mm512_mask_blend_ps(valid, f16(kNoHorizon), f16(3.0e38f))),
           _mm512_mask_blend_epi32(valid, i16(-1), jc)};
 }
 
+template <bool kFill>
 HORIZON_AVX512 inline __m512 line16(const Step16& s, __mmask16 in, __m512 m, __m512 curv_k, const float* cur) {
   using namespace simd;
   const __m512 v = min_of(max_of(_mm512_add_ps(s.eye_v, _mm512_mul_ps(m, s.kf)), s.v_min), s.v_max);
   const __m512i j0 = mini_of(_mm512_cvttps_epi32(v), s.j_max);
   const __m512 t = _mm512_sub_ps(v, _mm512_cvtepi32_ps(j0));
   const __m512i at = _mm512_mullo_epi32(j0, s.zv);
-  const __m512 a = fill_voids(gather_masked(cur, at, in), s.fill);
-  const __m512 b = fill_voids(gather_masked(cur, _mm512_add_epi32(at, s.zv), in), s.fill);
+  const __m512 a = heights16<kFill>(gather_masked(cur, at, in), s.fill);
+  const __m512 b = heights16<kFill>(gather_masked(cur, _mm512_add_epi32(at, s.zv), in), s.fill);
   return _mm512_sub_ps(_mm512_mul_ps(eye_relative16(a, b, t, s.eye, s.eye_lo), s.inv_kf), _mm512_mul_ps(curv_k, s.kf));
 }
 
@@ -309,14 +330,16 @@ HORIZON_AVX512 inline __mmask16 lanes16(int i, int count) {
   return count - i >= 16 ? __mmask16(0xffff) : __mmask16((1u << (count - i)) - 1);
 }
 
+template <bool kFill>
 HORIZON_AVX512 void step_cross_avx512(const LineStep& ls, int count, const float* slope, const float* inv_slope,
                                       const float* curv_k, const float* prev, const float* cur, const float* h,
                                       const int* arg, float* cross_slope, int* cross_v, int* code) {
   const Step16 s = step16(ls);
   for (int i = 0; i < count; i += 16) {
     const __mmask16 in = lanes16(i, count);
-    const Cross16 c = cross16(s, in, _mm512_maskz_loadu_ps(in, slope + i), _mm512_maskz_loadu_ps(in, inv_slope + i),
-                              _mm512_maskz_loadu_ps(in, curv_k + i), prev, cur);
+    const Cross16 c =
+        cross16<kFill>(s, in, _mm512_maskz_loadu_ps(in, slope + i), _mm512_maskz_loadu_ps(in, inv_slope + i),
+                       _mm512_maskz_loadu_ps(in, curv_k + i), prev, cur);
     _mm512_mask_storeu_ps(cross_slope + i, in, c.slope);
     _mm512_mask_storeu_epi32(cross_v + i, in, c.v);
     _mm512_mask_storeu_epi32(code + i, in,
@@ -324,6 +347,7 @@ HORIZON_AVX512 void step_cross_avx512(const LineStep& ls, int count, const float
   }
 }
 
+template <bool kFill>
 HORIZON_AVX512 void step_line_avx512(const LineStep& ls, int count, const float* slope, const float* curv_k,
                                      const float* cur, const float* cross_slope, const int* cross_v, float* h, int* arg,
                                      int n) {
@@ -332,7 +356,7 @@ HORIZON_AVX512 void step_line_avx512(const LineStep& ls, int count, const float*
   for (int i = 0; i < count; i += 16) {
     const __mmask16 in = lanes16(i, count);
     const __m512 s_line =
-        line16(s, in, _mm512_maskz_loadu_ps(in, slope + i), _mm512_maskz_loadu_ps(in, curv_k + i), cur);
+        line16<kFill>(s, in, _mm512_maskz_loadu_ps(in, slope + i), _mm512_maskz_loadu_ps(in, curv_k + i), cur);
     __m512 best = _mm512_maskz_loadu_ps(in, h + i);
     __m512i where = _mm512_maskz_loadu_epi32(in, arg + i);
     fold16(best, where, _mm512_maskz_loadu_ps(in, cross_slope + i), _mm512_maskz_loadu_epi32(in, cross_v + i), s_line,
@@ -342,6 +366,7 @@ HORIZON_AVX512 void step_line_avx512(const LineStep& ls, int count, const float*
   }
 }
 
+template <bool kFill>
 HORIZON_AVX512 void step_rays_avx512(const LineStep& ls, int count, const float* slope, const float* inv_slope,
                                      const float* curv_k, const float* prev, const float* cur, float* h, int* arg,
                                      int* code, int n) {
@@ -350,11 +375,11 @@ HORIZON_AVX512 void step_rays_avx512(const LineStep& ls, int count, const float*
   for (int i = 0; i < count; i += 16) {
     const __mmask16 in = lanes16(i, count);
     const __m512 m = _mm512_maskz_loadu_ps(in, slope + i), ck = _mm512_maskz_loadu_ps(in, curv_k + i);
-    const Cross16 c = cross16(s, in, m, _mm512_maskz_loadu_ps(in, inv_slope + i), ck, prev, cur);
+    const Cross16 c = cross16<kFill>(s, in, m, _mm512_maskz_loadu_ps(in, inv_slope + i), ck, prev, cur);
     __m512 best = _mm512_maskz_loadu_ps(in, h + i);
     __m512i where = _mm512_maskz_loadu_epi32(in, arg + i);
     _mm512_mask_storeu_epi32(code + i, in, code16(c, best, where));
-    fold16(best, where, c.slope, c.v, line16(s, in, m, ck, cur), line);
+    fold16(best, where, c.slope, c.v, line16<kFill>(s, in, m, ck, cur), line);
     _mm512_mask_storeu_ps(h + i, in, best);
     _mm512_mask_storeu_epi32(arg + i, in, where);
   }
@@ -363,8 +388,15 @@ HORIZON_AVX512 void step_rays_avx512(const LineStep& ls, int count, const float*
 }  // namespace
 #endif
 
+namespace {
+bool has_fill(const LineStep& ls) {
+  return !std::isnan(ls.fill);
+}
+}  // namespace
+
 // Each entry point: AVX-512 takes every ray; AVX2 groups of eight, then the
-// scalar loop the rest.
+// scalar loop the rest; the vector forms without the void fill's blend when
+// the view has none.
 
 void step_cross(const LineStep& ls, int count, const float* slope, const float* inv_slope, const float* curv_k,
                 const float* prev, const float* cur, const float* h, const int* arg, float* cross_slope, int* cross_v,
@@ -372,9 +404,15 @@ void step_cross(const LineStep& ls, int count, const float* slope, const float* 
   int done = 0;
 #ifdef HORIZON_SIMD_AVX2
   if (simd::has_avx512())
-    return step_cross_avx512(ls, count, slope, inv_slope, curv_k, prev, cur, h, arg, cross_slope, cross_v, code);
+    return has_fill(ls) ? step_cross_avx512<true>(ls, count, slope, inv_slope, curv_k, prev, cur, h, arg, cross_slope,
+                                                  cross_v, code)
+                        : step_cross_avx512<false>(ls, count, slope, inv_slope, curv_k, prev, cur, h, arg, cross_slope,
+                                                   cross_v, code);
   if (simd::has_avx2())
-    done = step_cross_avx2(ls, count, slope, inv_slope, curv_k, prev, cur, h, arg, cross_slope, cross_v, code);
+    done = has_fill(ls) ? step_cross_avx2<true>(ls, count, slope, inv_slope, curv_k, prev, cur, h, arg, cross_slope,
+                                                cross_v, code)
+                        : step_cross_avx2<false>(ls, count, slope, inv_slope, curv_k, prev, cur, h, arg, cross_slope,
+                                                 cross_v, code);
 #endif
   step_cross_scalar(ls, count - done, slope + done, inv_slope + done, curv_k + done, prev, cur, h + done, arg + done,
                     cross_slope + done, cross_v + done, code + done);
@@ -384,8 +422,12 @@ void step_line(const LineStep& ls, int count, const float* slope, const float* c
                const float* cross_slope, const int* cross_v, float* h, int* arg, int n) {
   int done = 0;
 #ifdef HORIZON_SIMD_AVX2
-  if (simd::has_avx512()) return step_line_avx512(ls, count, slope, curv_k, cur, cross_slope, cross_v, h, arg, n);
-  if (simd::has_avx2()) done = step_line_avx2(ls, count, slope, curv_k, cur, cross_slope, cross_v, h, arg, n);
+  if (simd::has_avx512())
+    return has_fill(ls) ? step_line_avx512<true>(ls, count, slope, curv_k, cur, cross_slope, cross_v, h, arg, n)
+                        : step_line_avx512<false>(ls, count, slope, curv_k, cur, cross_slope, cross_v, h, arg, n);
+  if (simd::has_avx2())
+    done = has_fill(ls) ? step_line_avx2<true>(ls, count, slope, curv_k, cur, cross_slope, cross_v, h, arg, n)
+                        : step_line_avx2<false>(ls, count, slope, curv_k, cur, cross_slope, cross_v, h, arg, n);
 #endif
   step_line_scalar(ls, count - done, slope + done, curv_k + done, cur, cross_slope + done, cross_v + done, h + done,
                    arg + done, n);
@@ -395,8 +437,12 @@ void step_rays(const LineStep& ls, int count, const float* slope, const float* i
                const float* prev, const float* cur, float* h, int* arg, int* code, int n) {
   int done = 0;
 #ifdef HORIZON_SIMD_AVX2
-  if (simd::has_avx512()) return step_rays_avx512(ls, count, slope, inv_slope, curv_k, prev, cur, h, arg, code, n);
-  if (simd::has_avx2()) done = step_rays_avx2(ls, count, slope, inv_slope, curv_k, prev, cur, h, arg, code, n);
+  if (simd::has_avx512())
+    return has_fill(ls) ? step_rays_avx512<true>(ls, count, slope, inv_slope, curv_k, prev, cur, h, arg, code, n)
+                        : step_rays_avx512<false>(ls, count, slope, inv_slope, curv_k, prev, cur, h, arg, code, n);
+  if (simd::has_avx2())
+    done = has_fill(ls) ? step_rays_avx2<true>(ls, count, slope, inv_slope, curv_k, prev, cur, h, arg, code, n)
+                        : step_rays_avx2<false>(ls, count, slope, inv_slope, curv_k, prev, cur, h, arg, code, n);
 #endif
   step_rays_scalar(ls, count - done, slope + done, inv_slope + done, curv_k + done, prev, cur, h + done, arg + done,
                    code + done, n);
