@@ -33,10 +33,6 @@ bool is_raster_name(const std::filesystem::path& p) {
   return ext == ".tif" || ext == ".tiff" || ext == ".hgt";
 }
 
-Window intersect(const Window& a, const Window& b) {
-  return {std::max(a.col0, b.col0), std::max(a.row0, b.row0), std::min(a.col1, b.col1), std::min(a.row1, b.row1)};
-}
-
 Window shifted(const Window& w, int dc, int dr) {
   return {w.col0 + dc, w.row0 + dr, w.col1 + dc, w.row1 + dr};
 }
@@ -211,7 +207,7 @@ Window ElevationSource::block_cells(std::uint64_t block) const {
 std::vector<std::uint64_t> ElevationSource::blocks_in(const Window& window) const {
   std::vector<std::uint64_t> out;
   for (const SourceFile& f : files_) {
-    const Window w = intersect(window, f.cells);
+    const Window w = window.intersect(f.cells);
     if (w.empty()) continue;
     const Window local = shifted(w, -f.cells.col0, -f.cells.row0);
     for (int by = local.row0 / f.block_height; by <= (local.row1 - 1) / f.block_height; ++by)
@@ -228,7 +224,7 @@ Status ElevationSource::check_covered(const Window& window) const {
   std::vector<Window> parts;
   std::vector<int> xs{window.col0, window.col1}, ys{window.row0, window.row1};
   for (const SourceFile& f : files_) {
-    const Window w = intersect(window, f.cells);
+    const Window w = window.intersect(f.cells);
     if (w.empty()) continue;
     parts.push_back(w);
     xs.insert(xs.end(), {w.col0, w.col1});
@@ -282,7 +278,7 @@ Result<Dem> ElevationSource::read(const Window& requested, BlockCache* cache, co
   local.blocks_total = block_count_;
   const std::vector<std::uint64_t> blocks = blocks_in(window);
   local.blocks = blocks.size();
-  for (const SourceFile& f : files_) local.files += !intersect(window, f.cells).empty();
+  for (const SourceFile& f : files_) local.files += !window.intersect(f.cells).empty();
 
   Dem dem;
   dem.georef = header_.georef;
@@ -293,7 +289,7 @@ Result<Dem> ElevationSource::read(const Window& requested, BlockCache* cache, co
   constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
   // Where files overlap the first in name order wins: later files are copied first.
   auto copy_into = [&window](Grid<float>& out, const Grid<float>& cells, const Window& at) {
-    const Window w = intersect(window, at);
+    const Window w = window.intersect(at);
     for (int r = w.row0; r < w.row1; ++r)
       std::copy_n(cells.row(r - at.row0) + (w.col0 - at.col0), w.width(),
                   out.row(r - window.row0) + (w.col0 - window.col0));
@@ -302,7 +298,7 @@ Result<Dem> ElevationSource::read(const Window& requested, BlockCache* cache, co
   if (!cache) {
     std::vector<const SourceFile*> under;
     for (const SourceFile& f : files_)
-      if (!intersect(window, f.cells).empty()) under.push_back(&f);
+      if (!window.intersect(f.cells).empty()) under.push_back(&f);
     if (under.size() == 1 && covered.ok()) {  // one file holds the whole window: read it in place
       const SourceFile& f = *under.front();
       auto cells = f.raster->read_cells(shifted(window, -f.cells.col0, -f.cells.row0), threads, &local.file);
@@ -314,7 +310,7 @@ Result<Dem> ElevationSource::read(const Window& requested, BlockCache* cache, co
       for (auto it = under.rbegin(); it != under.rend(); ++it) {
         HORIZON_RETURN_IF_ERROR(check_control(control));
         const SourceFile& f = **it;
-        const Window part = intersect(window, f.cells);
+        const Window part = window.intersect(f.cells);
         ReadStats read;
         auto cells = f.raster->read_cells(shifted(part, -f.cells.col0, -f.cells.row0), threads, &read);
         if (!cells.ok()) {

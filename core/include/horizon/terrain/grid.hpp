@@ -28,6 +28,11 @@ struct Window {
     return empty() ? 0 : static_cast<std::size_t>(width()) * static_cast<std::size_t>(height());
   }
   bool contains(int col, int row) const { return col >= col0 && col < col1 && row >= row0 && row < row1; }
+  // The cells in both (empty() when they do not meet).
+  Window intersect(const Window& o) const {
+    return {col0 > o.col0 ? col0 : o.col0, row0 > o.row0 ? row0 : o.row0, col1 < o.col1 ? col1 : o.col1,
+            row1 < o.row1 ? row1 : o.row1};
+  }
   friend bool operator==(const Window&, const Window&) = default;
 };
 
