@@ -1,6 +1,7 @@
 // The shared block cache: hits and LRU eviction under the byte budget, one
 // decode for blocks asked for at once, failures that fail only their
-// requests, and a stopped wait that keeps the decode for the next request.
+// requests, and a stopped wait that keeps the decode for the next request;
+// blocks built on the caller's thread kept, joined and evicted the same way.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -163,6 +164,101 @@ TEST(BlockCache, ACancelledWaitReturnsAtOnceAndTheDecodeIsKept) {
 
 TEST(BlockCache, SourcesHaveDistinctKeys) {
   EXPECT_NE(BlockCache::next_source_id(), BlockCache::next_source_id());
+}
+
+// A built block: `n` floats, a size for the budget.
+struct Built {
+  std::vector<float> cells;
+  std::uint64_t bytes() const { return cells.size() * sizeof(float); }
+};
+
+TEST(BlockCache, BuiltBlocksAreKeptBesideDecodedOnesUnderOneBudget) {
+  BlockCache cache(cache_of(3 * kBlockBytes, 1));
+  std::atomic<int> decodes{0};
+  int builds = 0;
+  const auto make = [&builds](float v) {
+    return [&builds, v]() -> Result<Built> {
+      ++builds;
+      return Built{std::vector<float>(1000, v)};
+    };
+  };
+  FetchStats s;
+  auto a = cache.build<Built>({5, 1}, make(1.0f), nullptr, &s);
+  ASSERT_TRUE(a.ok());
+  EXPECT_EQ(s.misses, 1u);
+  auto again = cache.build<Built>({5, 1}, make(9.0f), nullptr, &s);  // a hit: make is not called
+  ASSERT_TRUE(again.ok());
+  EXPECT_EQ(s.hits, 1u);
+  EXPECT_EQ(builds, 1);
+  EXPECT_EQ(a->get(), again->get());
+  EXPECT_EQ((*again)->cells[0], 1.0f);
+  EXPECT_EQ(cache.stats().builds, 1u);
+  EXPECT_EQ(cache.stats().resident_bytes, kBlockBytes);
+  // Three decoded blocks fill the budget: the built one, least recently used, goes first.
+  std::vector<BlockCache::Want> wants;
+  for (int b = 0; b < 3; ++b) wants.push_back({{7, static_cast<std::uint64_t>(b)}, counted(decodes, 1000, 0.0f)});
+  ASSERT_TRUE(cache.fetch(wants).ok());
+  const BlockCacheStats st = cache.stats();
+  EXPECT_EQ(st.resident_bytes, 3 * kBlockBytes);
+  EXPECT_EQ(st.evictions, 1u);
+  EXPECT_EQ(cache.resident_bytes_of(5), 0u);
+  // Still held here after its eviction: counted apart, and freed with the last holder.
+  EXPECT_EQ(st.held_bytes, kBlockBytes);
+  a = Error{};
+  again = Error{};
+  EXPECT_EQ(cache.stats().held_bytes, 0u);
+  // Asked for again, it is built again.
+  ASSERT_TRUE(cache.build<Built>({5, 1}, make(2.0f)).ok());
+  EXPECT_EQ(builds, 2);
+  EXPECT_LE(cache.stats().peak_resident_bytes, 3 * kBlockBytes);
+}
+
+TEST(BlockCache, ConcurrentBuildsOfOneKeyRunOnce) {
+  BlockCache cache(cache_of(100 * kBlockBytes, 1));
+  std::atomic<int> builds{0}, same{0};
+  std::atomic<std::uint64_t> joins{0};
+  std::atomic<const Built*> first{nullptr};
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 6; ++t)
+    threads.emplace_back([&] {
+      FetchStats s;
+      auto got = cache.build<Built>(
+          {11, 3},
+          [&builds]() -> Result<Built> {
+            ++builds;
+            std::this_thread::sleep_for(std::chrono::milliseconds(50));
+            return Built{std::vector<float>(10, 4.0f)};
+          },
+          nullptr, &s);
+      if (!got.ok() || (*got)->cells[9] != 4.0f) return;
+      const Built* expected = nullptr;
+      if (first.compare_exchange_strong(expected, got->get()) || expected == got->get()) ++same;
+      joins += s.joins;
+    });
+  for (auto& t : threads) t.join();
+  EXPECT_EQ(builds.load(), 1);
+  EXPECT_EQ(same.load(), 6);
+  EXPECT_EQ(joins.load() + cache.stats().hits, 5u);  // the others joined the build or found it resident
+}
+
+TEST(BlockCache, AFailedBuildFailsItsCallersAndIsNotKept) {
+  BlockCache cache(cache_of(100 * kBlockBytes, 1));
+  int calls = 0;
+  const auto broken = [&calls]() -> Result<Built> {
+    ++calls;
+    return make_error(ErrorCode::kDataError, "tile.tif: block 4 is corrupt");
+  };
+  auto got = cache.build<Built>({12, 4}, broken);
+  ASSERT_FALSE(got.ok());
+  EXPECT_EQ(got.error().message, "tile.tif: block 4 is corrupt");
+  EXPECT_EQ(cache.stats().failures, 1u);
+  EXPECT_EQ(cache.stats().resident_blocks, 0u);
+  auto retry = cache.build<Built>({12, 4}, [&calls]() -> Result<Built> {
+    ++calls;
+    return Built{std::vector<float>(3, 1.0f)};
+  });
+  ASSERT_TRUE(retry.ok());  // the failure was not kept
+  EXPECT_EQ(calls, 2);
 }
 
 }  // namespace

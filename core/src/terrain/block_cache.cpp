@@ -27,39 +27,37 @@ std::uint64_t bytes_of(const Grid<float>& cells) {
   return static_cast<std::uint64_t>(cells.size()) * sizeof(float);
 }
 
-using Pending = std::shared_future<Result<Block>>;
-
 }  // namespace
 
 struct BlockCache::State {
   explicit State(const Options& o) : budget(o.budget_bytes), pool(std::max(1u, o.io_threads)) {}
 
+  using Pending = std::shared_future<Result<Shared>>;
   struct Entry {
-    Block block;                        // set once resident
+    Shared block;                       // set once resident
     std::list<BlockKey>::iterator lru;  // position in `lru` while resident
   };
 
   const std::uint64_t budget;
   mutable std::mutex mutex;
   std::unordered_map<BlockKey, Entry, KeyHash> resident;
-  std::unordered_map<BlockKey, Pending, KeyHash> decoding;
+  std::unordered_map<BlockKey, Pending, KeyHash> decoding;     // decodes and builds in flight
   std::list<BlockKey> lru;                                     // front = most recently used
   std::unordered_map<std::uint64_t, std::uint64_t> by_source;  // resident bytes per source
   BlockCacheStats counters;
-  // Bytes of every decoded block alive anywhere (the cache's and the evicted
-  // ones requests still hold); updated by the blocks' deleters.
+  // Bytes of every block alive anywhere (the cache's and the evicted ones
+  // requests still hold); updated as each block's last owner lets go.
   std::atomic<std::uint64_t> live_bytes{0};
   boost::asio::thread_pool pool;
 
   // Keeps `block` while the budget allows, evicting from the back. Mutex held.
-  void keep(const BlockKey& key, const Block& block) {
-    const std::uint64_t bytes = bytes_of(*block);
-    if (bytes > budget) return;  // handed to its requesters only
-    while (counters.resident_bytes + bytes > budget && !lru.empty()) {
+  void keep(const BlockKey& key, const Shared& block) {
+    if (block.bytes > budget) return;  // handed to its requesters only
+    while (counters.resident_bytes + block.bytes > budget && !lru.empty()) {
       const BlockKey victim = lru.back();
       lru.pop_back();
       auto it = resident.find(victim);
-      const std::uint64_t freed = bytes_of(*it->second.block);
+      const std::uint64_t freed = it->second.block.bytes;
       counters.resident_bytes -= freed;
       if ((by_source[victim.source] -= freed) == 0) by_source.erase(victim.source);
       resident.erase(it);
@@ -67,9 +65,47 @@ struct BlockCache::State {
     }
     lru.push_front(key);
     resident.emplace(key, Entry{block, lru.begin()});
-    counters.resident_bytes += bytes;
-    by_source[key.source] += bytes;
+    counters.resident_bytes += block.bytes;
+    by_source[key.source] += block.bytes;
     counters.peak_resident_bytes = std::max(counters.peak_resident_bytes, counters.resident_bytes);
+  }
+
+  // `made`, wrapped so that live_bytes counts it until its last owner lets
+  // go (the wrapper holds the state weakly: a block may outlive its cache).
+  static Shared track(Shared made, const std::shared_ptr<State>& state) {
+    struct Tracked {
+      Tracked(std::shared_ptr<const void> v, std::uint64_t b, std::weak_ptr<State> s)
+          : value(std::move(v)), bytes(b), state(std::move(s)) {}
+      Tracked(const Tracked&) = delete;
+      Tracked& operator=(const Tracked&) = delete;
+      ~Tracked() {
+        if (auto s = state.lock()) s->live_bytes.fetch_sub(bytes);
+      }
+      std::shared_ptr<const void> value;
+      std::uint64_t bytes;
+      std::weak_ptr<State> state;
+    };
+    state->live_bytes.fetch_add(made.bytes);
+    auto owner = std::make_shared<const Tracked>(std::move(made.value), made.bytes, state);
+    const void* object = owner->value.get();
+    return Shared{std::shared_ptr<const void>(owner, object), owner->bytes};
+  }
+
+  // Settles an in-flight key: out of `decoding`, into the cache when it
+  // succeeded. Mutex held. Returns what its waiters get.
+  Result<Shared> settle(const BlockKey& key, Result<Shared> made, const std::shared_ptr<State>& self, bool decoded) {
+    decoding.erase(key);
+    if (!made.ok()) {
+      ++counters.failures;
+      return made.error();
+    }
+    Shared block = track(std::move(*made), self);
+    if (decoded)
+      counters.bytes_decoded += block.bytes;
+    else
+      ++counters.builds;
+    keep(key, block);
+    return block;
   }
 };
 
@@ -109,7 +145,7 @@ Result<std::vector<Block>> BlockCache::fetch(std::span<const Want> wants, const 
   FetchStats local;
   local.blocks = wants.size();
   std::vector<Block> blocks(wants.size());
-  std::vector<std::optional<Pending>> pending(wants.size());
+  std::vector<std::optional<State::Pending>> pending(wants.size());
   std::vector<bool> own(wants.size(), false);  // this fetch started the decode
   {
     std::lock_guard lock(state_->mutex);
@@ -117,7 +153,7 @@ Result<std::vector<Block>> BlockCache::fetch(std::span<const Want> wants, const 
       const BlockKey key = wants[i].key;
       if (auto it = state_->resident.find(key); it != state_->resident.end()) {
         state_->lru.splice(state_->lru.begin(), state_->lru, it->second.lru);
-        blocks[i] = it->second.block;
+        blocks[i] = std::static_pointer_cast<const Grid<float>>(it->second.block.value);
         ++local.hits;
         continue;
       }
@@ -128,8 +164,8 @@ Result<std::vector<Block>> BlockCache::fetch(std::span<const Want> wants, const 
       }
       // A decode of our own, posted once the map knows it (so a second want
       // of the same key, in this fetch or another, joins it).
-      auto promise = std::make_shared<std::promise<Result<Block>>>();
-      Pending future = promise->get_future().share();
+      auto promise = std::make_shared<std::promise<Result<Shared>>>();
+      State::Pending future = promise->get_future().share();
       state_->decoding.emplace(key, future);
       pending[i] = future;
       own[i] = true;
@@ -139,22 +175,15 @@ Result<std::vector<Block>> BlockCache::fetch(std::span<const Want> wants, const 
         std::shared_ptr<State> state = weak.lock();
         if (!state) return promise->set_value(make_error(ErrorCode::kCancelled, "the block cache was closed"));
         Result<Grid<float>> cells = load();
-        std::lock_guard inner(state->mutex);
-        state->decoding.erase(key);
-        if (!cells.ok()) {
-          ++state->counters.failures;
-          return promise->set_value(cells.error());
+        Result<Shared> made = Error{};
+        if (cells.ok()) {
+          const std::uint64_t bytes = bytes_of(*cells);
+          made = Shared{std::make_shared<const Grid<float>>(std::move(*cells)), bytes};
+        } else {
+          made = cells.error();
         }
-        const std::uint64_t bytes = bytes_of(*cells);
-        state->counters.bytes_decoded += bytes;
-        state->live_bytes.fetch_add(bytes);
-        // The deleter holds the state weakly: a block may outlive its cache.
-        Block block(new Grid<float>(std::move(*cells)), [weak, bytes](const Grid<float>* g) {
-          if (auto s = weak.lock()) s->live_bytes.fetch_sub(bytes);
-          delete g;
-        });
-        state->keep(key, block);
-        promise->set_value(std::move(block));
+        std::lock_guard inner(state->mutex);
+        promise->set_value(state->settle(key, std::move(made), state, /*decoded=*/true));
       });
     }
     state_->counters.hits += local.hits;
@@ -169,18 +198,71 @@ Result<std::vector<Block>> BlockCache::fetch(std::span<const Want> wants, const 
     if (!pending[i]) continue;
     while (pending[i]->wait_for(std::chrono::milliseconds(5)) != std::future_status::ready)
       if (auto s = check_control(control); !s.ok()) return s.error();
-    const Result<Block>& got = pending[i]->get();
+    const Result<Shared>& got = pending[i]->get();
     if (!got.ok()) {
       if (!failure) failure = got.error();
       continue;
     }
-    blocks[i] = *got;
-    if (own[i]) local.bytes_decoded += bytes_of(*blocks[i]);
+    blocks[i] = std::static_pointer_cast<const Grid<float>>(got->value);
+    if (own[i]) local.bytes_decoded += got->bytes;
   }
   local.wait_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (stats) *stats = local;
   if (failure) return *failure;
   return blocks;
+}
+
+Result<BlockCache::Shared> BlockCache::build_shared(BlockKey key, const std::function<Result<Shared>()>& make,
+                                                    const RunControl* control, FetchStats* stats) {
+  FetchStats local;
+  local.blocks = 1;
+  std::optional<State::Pending> joined;
+  std::promise<Result<Shared>> promise;
+  {
+    std::lock_guard lock(state_->mutex);
+    if (auto it = state_->resident.find(key); it != state_->resident.end()) {
+      state_->lru.splice(state_->lru.begin(), state_->lru, it->second.lru);
+      ++state_->counters.hits;
+      local.hits = 1;
+      if (stats) *stats = local;
+      return it->second.block;
+    }
+    if (auto it = state_->decoding.find(key); it != state_->decoding.end()) {
+      joined = it->second;
+      ++state_->counters.joins;
+      local.joins = 1;
+    } else {
+      state_->decoding.emplace(key, promise.get_future().share());
+      ++state_->counters.misses;
+      local.misses = 1;
+    }
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const auto finish = [&](Result<Shared> r) {
+    local.wait_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (stats) *stats = local;
+    return r;
+  };
+  if (joined) {
+    while (joined->wait_for(std::chrono::milliseconds(5)) != std::future_status::ready)
+      if (auto s = check_control(control); !s.ok()) return finish(s.error());
+    return finish(joined->get());
+  }
+  // Ours to build, here. Whatever happens, the key is settled, so that
+  // no joiner waits forever.
+  Result<Shared> made = Error{};
+  try {
+    made = make();
+  } catch (...) {
+    std::lock_guard lock(state_->mutex);
+    promise.set_value(state_->settle(key, make_error(ErrorCode::kInternal, "building a cached block failed"), state_,
+                                     /*decoded=*/false));
+    throw;
+  }
+  std::lock_guard lock(state_->mutex);
+  Result<Shared> settled = state_->settle(key, std::move(made), state_, /*decoded=*/false);
+  promise.set_value(settled);
+  return finish(std::move(settled));
 }
 
 }  // namespace horizon::terrain

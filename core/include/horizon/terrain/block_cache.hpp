@@ -20,6 +20,15 @@
 // with the loader's error (naming the file and the block), and nothing else:
 // the failure is not kept, the other blocks are.
 //
+// Built blocks. Besides decoded elevations the cache keeps blocks that are
+// computed rather than read: a pyramid's reduced levels over a source
+// (source_pyramid.hpp). build() computes one on the calling thread (it
+// usually reads elevation blocks through fetch() first, which an I/O thread
+// must not wait on), and keeps, shares, joins and evicts it exactly like a
+// decoded block, under the same budget and LRU order. Keys of built blocks
+// use a namespace of their own (next_source_id()), so one key never names
+// two kinds of block.
+//
 // Memory: the blocks the cache keeps never exceed budget_bytes (a block
 // larger than the whole budget is handed to its requester and not kept).
 // Blocks still held by requests after their eviction are counted apart
@@ -63,6 +72,7 @@ struct BlockCacheStats {
   std::uint64_t evictions = 0;
   std::uint64_t failures = 0;       // decodes that returned an error
   std::uint64_t bytes_decoded = 0;  // float bytes of the blocks decoded
+  std::uint64_t builds = 0;         // blocks computed by build() (also counted as misses)
 };
 
 // What one fetch() found.
@@ -96,6 +106,29 @@ class BlockCache {
   Result<std::vector<Block>> fetch(std::span<const Want> wants, const RunControl* control = nullptr,
                                    FetchStats* stats = nullptr);
 
+  // The block `key`, computed by `make` on this thread when it is neither
+  // resident nor being built (or decoded) by another thread, whose result
+  // it then waits for, polling `control` (may be null). T is an immutable
+  // value with `std::uint64_t bytes() const`, its size for the budget; a key
+  // must always be built as the same T. A failure of `make` is returned to
+  // this call and to the calls that joined it, and is not kept. `stats`
+  // (may be null) counts one block: a hit, a join or a miss.
+  template <class T, class Make>
+  Result<std::shared_ptr<const T>> build(BlockKey key, Make&& make, const RunControl* control = nullptr,
+                                         FetchStats* stats = nullptr) {
+    Result<Shared> got = build_shared(
+        key,
+        [&make]() -> Result<Shared> {
+          Result<T> made = make();
+          if (!made.ok()) return made.error();
+          const std::uint64_t bytes = made->bytes();
+          return Shared{std::make_shared<const T>(std::move(*made)), bytes};
+        },
+        control, stats);
+    if (!got.ok()) return got.error();
+    return std::static_pointer_cast<const T>(std::move(got->value));
+  }
+
   // A fresh id for a source's keys (never reused in this process).
   static std::uint64_t next_source_id();
 
@@ -105,6 +138,14 @@ class BlockCache {
   std::uint64_t resident_bytes_of(std::uint64_t source) const;
 
  private:
+  // A block of any kind, with its size for the budget.
+  struct Shared {
+    std::shared_ptr<const void> value;
+    std::uint64_t bytes = 0;
+  };
+  Result<Shared> build_shared(BlockKey key, const std::function<Result<Shared>()>& make, const RunControl* control,
+                              FetchStats* stats);
+
   struct State;
   std::shared_ptr<State> state_;  // shared with the I/O tasks and the blocks' deleters
 };
