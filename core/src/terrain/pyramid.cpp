@@ -123,50 +123,53 @@ float Pyramid::source_cell(int i, int j) const {
   return reduction_ != Reduction::kMean && std::isnan(v) ? -kInf : v;
 }
 
-void Pyramid::fill_block(int bi, int bj, PyramidBlock& out) const {
-  const int c0 = bi << log_block_, r0 = bj << log_block_;
-  const int bw = std::min(block_cells_, width_ - c0), bh = std::min(block_cells_, height_ - r0);
-  out.levels.resize(static_cast<std::size_t>(block_levels_));
-  const bool mean = reduction_ == Reduction::kMean;
+PyramidBlock reduce_block(const HeightView& cells, Reduction reduction, int factor, int levels) {
+  assert(std::has_single_bit(static_cast<unsigned>(factor)) && factor >= 2 && factor <= kMaxFactor);
+  assert(levels >= 1 && !cells.empty());
+  const int log_factor = std::countr_zero(static_cast<unsigned>(factor));
+  const int bw = cells.width(), bh = cells.height();
+  PyramidBlock out;
+  out.levels.resize(static_cast<std::size_t>(levels));
+  const bool mean = reduction == Reduction::kMean;
   std::vector<double> sums, below_sums;  // kMean: exact sums of the valid cells below, per cell
 
   // Level 1 from the source.
   {
     PyramidLevel& l1 = out.levels[0];
-    l1.width = ((bw - 1) >> log_factor_) + 1;
-    l1.height = ((bh - 1) >> log_factor_) + 1;
+    l1.width = ((bw - 1) >> log_factor) + 1;
+    l1.height = ((bh - 1) >> log_factor) + 1;
     const std::size_t n = static_cast<std::size_t>(l1.width) * l1.height;
     if (mean) {
       sums.assign(n, 0.0);
       l1.counts.assign(n, 0);
     }
-    l1.values.assign(n, reduction_ == Reduction::kMin ? kInf : -kInf);
+    l1.values.assign(n, reduction == Reduction::kMin ? kInf : -kInf);
     for (int r = 0; r < bh; ++r) {
-      const float* src = source_.row(window_.row0 + r0 + r) + window_.col0 + c0;
-      const std::size_t base = static_cast<std::size_t>(r >> log_factor_) * l1.width;
+      const float* src = cells.row(r);
+      const std::size_t base = static_cast<std::size_t>(r >> log_factor) * l1.width;
       float* dst = l1.values.data() + base;
-      switch (reduction_) {
+      switch (reduction) {
         case Reduction::kMin:
           for (int c = 0; c < bw; ++c) {
-            const float z = source_.fill(src[c]);
+            const float z = cells.fill(src[c]);
             const float v = std::isnan(z) ? -kInf : z;
-            float& m = dst[c >> log_factor_];
+            float& m = dst[c >> log_factor];
             m = std::min(m, v);
           }
           break;
         case Reduction::kMax:
           for (int c = 0; c < bw; ++c) {
-            const float v = source_.fill(src[c]);
-            float& m = dst[c >> log_factor_];
+            const float v = cells.fill(src[c]);
+            float& m = dst[c >> log_factor];
             if (v > m) m = v;  // NaN never wins
           }
           break;
         case Reduction::kMean:
           for (int c = 0; c < bw; ++c) {
-            const float v = source_.fill(src[c]);
+            const float v = cells.fill(src[c]);
             if (!std::isnan(v)) {
-              sums[base + (c >> log_factor_)] += v;
-              ++l1.counts[base + (c >> log_factor_)];
+              sums[base + (c >> log_factor)] += v;
+              ++l1.counts[base + (c >> log_factor)];
             }
           }
           break;
@@ -174,13 +177,13 @@ void Pyramid::fill_block(int bi, int bj, PyramidBlock& out) const {
     }
   }
   // Levels 2.. from the level below, within the block.
-  for (int l = 2; l <= block_levels_; ++l) {
+  for (int l = 2; l <= levels; ++l) {
     const PyramidLevel& below = out.levels[static_cast<std::size_t>(l - 2)];
     PyramidLevel& level = out.levels[static_cast<std::size_t>(l - 1)];
-    level.width = ((below.width - 1) >> log_factor_) + 1;
-    level.height = ((below.height - 1) >> log_factor_) + 1;
+    level.width = ((below.width - 1) >> log_factor) + 1;
+    level.height = ((below.height - 1) >> log_factor) + 1;
     const std::size_t n = static_cast<std::size_t>(level.width) * level.height;
-    level.values.assign(n, reduction_ == Reduction::kMin ? kInf : -kInf);
+    level.values.assign(n, reduction == Reduction::kMin ? kInf : -kInf);
     if (mean) {
       below_sums.swap(sums);
       sums.assign(n, 0.0);
@@ -189,12 +192,12 @@ void Pyramid::fill_block(int bi, int bj, PyramidBlock& out) const {
     for (int j = 0; j < below.height; ++j)
       for (int i = 0; i < below.width; ++i) {
         const std::size_t from = static_cast<std::size_t>(j) * below.width + i;
-        const std::size_t to = static_cast<std::size_t>(j >> log_factor_) * level.width + (i >> log_factor_);
+        const std::size_t to = static_cast<std::size_t>(j >> log_factor) * level.width + (i >> log_factor);
         if (mean) {
           sums[to] += below_sums[from];
           level.counts[to] += below.counts[from];
         } else {
-          level.values[to] = combine(reduction_, level.values[to], below.values[from]);
+          level.values[to] = combine(reduction, level.values[to], below.values[from]);
         }
       }
     // The level below is final now: its means from its sums.
@@ -204,11 +207,19 @@ void Pyramid::fill_block(int bi, int bj, PyramidBlock& out) const {
         b.values[k] = b.counts[k] ? static_cast<float>(below_sums[k] / b.counts[k]) : std::nanf("");
     }
   }
-  if (mean && block_levels_ >= 1) {
-    PyramidLevel& top = out.levels[static_cast<std::size_t>(block_levels_ - 1)];
+  if (mean && levels >= 1) {
+    PyramidLevel& top = out.levels[static_cast<std::size_t>(levels - 1)];
     for (std::size_t k = 0; k < top.values.size(); ++k)
       top.values[k] = top.counts[k] ? static_cast<float>(sums[k] / top.counts[k]) : std::nanf("");
   }
+  return out;
+}
+
+void Pyramid::fill_block(int bi, int bj, PyramidBlock& out) const {
+  const int c0 = bi << log_block_, r0 = bj << log_block_;
+  const int bw = std::min(block_cells_, width_ - c0), bh = std::min(block_cells_, height_ - r0);
+  const Window cells{window_.col0 + c0, window_.row0 + r0, window_.col0 + c0 + bw, window_.row0 + r0 + bh};
+  out = reduce_block(source_.sub(cells), reduction_, factor_, block_levels_);
 }
 
 const PyramidBlock& Pyramid::build_block(int bi, int bj) const {

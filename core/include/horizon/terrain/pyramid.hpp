@@ -21,7 +21,7 @@
 // Level 0 is never copied: reads of it go to the source through the same
 // policy.
 //
-// Shape: PyramidShape{factor, levels}; factor a power of two in [2, 16].
+// Shape: PyramidShape{factor, levels}; factor a power of two in [2, 8].
 // Culling's min-pyramid is {2, kToOneCell} (2x2 reductions up to one cell,
 // the hierarchical Z-buffer); exact's max-pyramid is {8, 3} (tiles of 8, 64
 // and 512 cells).
@@ -42,9 +42,11 @@
 //
 // Ownership: the pyramid keeps the view, whose cells must outlive it and
 // stay unchanged while blocks are built from it (invalidate() after changing
-// it). A PyramidBlock is a plain owned value with bytes(), so a block cache
-// can account for it (not wired to terrain/block_cache yet: the pyramid owns
-// its blocks until it is destroyed or invalidated).
+// it), and owns its blocks until it is destroyed or invalidated: they reduce
+// cells one caller holds, for that caller. Levels of a whole elevation
+// source, shared by every request, are a SourcePyramid (source_pyramid.hpp),
+// whose blocks (the same PyramidBlock, from reduce_block) live in the shared
+// BlockCache.
 //
 // Thread safety: queries may run concurrently from any threads, including
 // the first ones that build blocks (std::call_once per block and per upper
@@ -83,7 +85,7 @@ enum class Reduction { kMin, kMax, kMean };
 
 struct PyramidShape {
   static constexpr int kToOneCell = -1;
-  int factor = 2;           // cells per side reduced into one, a power of two in [2, 16]
+  int factor = 2;           // cells per side reduced into one, a power of two in [2, 8]
   int levels = kToOneCell;  // reduced levels above level 0; kToOneCell: until the top is 1x1
 };
 
@@ -118,6 +120,12 @@ struct PyramidBlock {
     return n;
   }
 };
+
+// Levels 1..levels of `cells`, reduced by `factor` (a power of two in
+// [2, 8]) under the rules above: one block of a pyramid whose level-0 frame
+// starts at cells' (0, 0). Cells at the east and south edges reduce what
+// is there.
+PyramidBlock reduce_block(const HeightView& cells, Reduction reduction, int factor, int levels);
 
 class Pyramid {
  public:
