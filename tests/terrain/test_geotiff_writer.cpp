@@ -210,6 +210,40 @@ TEST(GeoTiffWriter, ReplacesExistingFile) {
   EXPECT_EQ(leftover_temporaries(dir.path()), 0);
 }
 
+// The temporaries are "<path>.tmp-<pid>-<n>", n counting up in this
+// process. Symlinks planted under those names (as in a shared /tmp) must
+// never be written through: every other name taken, the writer skips them;
+// every name taken, it refuses.
+TEST(GeoTiffWriter, NeverWritesThroughANamePlantedForItsTemporary) {
+  TempDir dir;
+  const std::string path = dir.file("out.tif");
+  const std::string victim = dir.file("victim.txt");
+  std::ofstream(victim) << "precious";
+  constexpr int kNames = 20000;  // beyond any count this test binary reaches
+  const auto plant = [&](int step) {
+    for (int n = 0; n < kNames; n += step)
+      fs::create_symlink(victim, path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(n));
+  };
+  const auto unplant = [&] {
+    for (int n = 0; n < kNames; ++n)
+      fs::remove(path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(n));
+  };
+  plant(1);
+  const Status refused = write_geotiff(path, float_grid(), utm_georef(), -9999.0);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ErrorCode::kIoError);
+  EXPECT_NE(refused.error().message.find("cannot create a temporary file"), std::string::npos)
+      << refused.error().message;
+  EXPECT_EQ(read_bytes(victim), "precious");
+  EXPECT_FALSE(fs::exists(path));
+  unplant();
+  plant(2);  // every even name
+  ASSERT_TRUE(write_geotiff(path, float_grid(), utm_georef(), -9999.0).ok());
+  EXPECT_EQ(read_bytes(victim), "precious");
+  EXPECT_TRUE(read_dem(path).ok());
+  unplant();
+}
+
 TEST(GeoTiffWriter, RejectsPathInMissingDirectoryAndLeavesNothing) {
   TempDir dir;
   const std::string path = dir.file("missing/out.tif");

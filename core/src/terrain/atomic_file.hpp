@@ -5,6 +5,10 @@
 // over `path` only when everything succeeded. POSIX rename is atomic: readers
 // see the old file or the new one, never a half-written one. The temporary is
 // removed on every failure path by the guard's destructor.
+//
+// create() makes the temporary before the writer opens it, with O_EXCL and
+// O_NOFOLLOW: a name planted in a shared directory (a symlink to someone
+// else's file, say) is never written through; the next name is tried.
 #pragma once
 
 #include <fcntl.h>
@@ -22,17 +26,37 @@ namespace horizon::terrain::detail {
 
 class AtomicFile {
  public:
-  explicit AtomicFile(std::string path) : path_(std::move(path)) {
-    static std::atomic<unsigned> counter{0};
-    temp_ = path_ + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(counter.fetch_add(1));
-  }
+  explicit AtomicFile(std::string path) : path_(std::move(path)) {}
   AtomicFile(const AtomicFile&) = delete;
   AtomicFile& operator=(const AtomicFile&) = delete;
   ~AtomicFile() {
-    if (!committed_) std::remove(temp_.c_str());
+    if (created_ && !committed_) std::remove(temp_.c_str());
   }
 
-  const std::string& temp_path() const { return temp_; }
+  // Creates the (empty) temporary under a name nothing else holds. `what`
+  // prefixes messages ("geotiff", "preview").
+  Status create(const char* what) {
+    static std::atomic<unsigned> counter{0};
+    constexpr int kAttempts = 64;
+    int err = 0;
+    for (int attempt = 0; attempt < kAttempts; ++attempt) {
+      temp_ = path_ + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(counter.fetch_add(1));
+      const int fd = ::open(temp_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
+      if (fd >= 0) {
+        ::close(fd);
+        created_ = true;
+        return Status::Ok();
+      }
+      err = errno;
+      if (err != EEXIST) break;
+    }
+    return make_error(ErrorCode::kIoError,
+                      std::string(what) + " '" + path_ + "': cannot create a temporary file beside it: " +
+                          std::strerror(err),
+                      path_);
+  }
+
+  const std::string& temp_path() const { return temp_; }  // after create()
 
   // Flushes the finished temporary to disk and renames it over the target.
   // `what` prefixes messages ("geotiff", "preview").
@@ -60,6 +84,7 @@ class AtomicFile {
  private:
   std::string path_;
   std::string temp_;
+  bool created_ = false;
   bool committed_ = false;
 };
 

@@ -165,6 +165,7 @@ Status write_impl(const std::string& path, const Grid<T>& grid, const Georeferen
   const std::uint64_t bytes = static_cast<std::uint64_t>(grid.size()) * sizeof(T);
 
   detail::AtomicFile file(path);
+  HORIZON_RETURN_IF_ERROR(file.create("geotiff"));
   {
     TiffMessages messages;
     TiffPtr tif = detail::open_tiff(file.temp_path(), bytes > kClassicTiffLimitBytes ? "w8" : "w", messages);

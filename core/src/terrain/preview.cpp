@@ -160,6 +160,7 @@ Status write_viewshed_preview(const std::string& path, const Grid<float>& elevat
   }
 
   detail::AtomicFile file(path);
+  HORIZON_RETURN_IF_ERROR(file.create("preview"));
   if (Status written = imageio::write_png(file.temp_path(), out_w, out_h, 3, rgb.data()); !written.ok())
     return preview_error(written.error().code, path, written.error().message);
   return file.commit("preview");
