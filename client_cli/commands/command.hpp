@@ -14,6 +14,7 @@
 #include "args.hpp"
 #include "horizon/common/error.hpp"
 #include "horizon/gpu/context_pool.hpp"
+#include "horizon/terrain/source.hpp"
 #include "horizon/visibility/work_stats.hpp"
 
 namespace horizon::cli {
@@ -53,6 +54,14 @@ void warn_gpu_fallback(const visibility::WorkStats& stats);
 // The one EGL context behind a command's --gpu switch (bench, stress): null
 // when the switch is absent, the pool's error when no context can be had.
 Result<std::unique_ptr<gpu::ContextPool>> gpu_for_switch(const Args& args);
+
+// How a command that reads a DEM through an ElevationSource opens it: from
+// --band N and --valid-range MIN,MAX (kSourceFlags, in its flag table);
+// UsageError for a malformed or reversed range.
+terrain::SourceOptions source_options(const Args& args);
+inline constexpr FlagSpec kValidRangeFlag{
+    "--valid-range", "", "MIN,MAX",
+    "Plausible elevations (default -12000,9000 metres); a cell outside them is refused as corrupt data"};
 
 // Exactly one positional operand (the DEM path); UsageError otherwise.
 const std::string& single_operand(const Args& args, std::string_view what);

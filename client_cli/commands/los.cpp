@@ -25,6 +25,7 @@ constexpr FlagSpec kFlags[] = {
     {"--to-height", "", "M", "Target height above the ground, metres (default 0)"},
     {"--curvature", "", "C", "Curvature/refraction coefficient as GDAL's (default 0.85714; 0 disables)"},
     {"--band", "", "N", "DEM band to read, 1-based (required when the file has several)"},
+    kValidRangeFlag,
     {"--json", "", "", "Print a JSON document, with the full terrain profile"},
     remote::kServerFlag,
     remote::kDeadlineFlag,
@@ -45,13 +46,11 @@ int run_los(const Args& args) {
     check.curvature_coefficient = options.curvature_coefficient;
     throw_if_invalid_option(visibility::validate_options(check));
   }
-  (void)args.positive_integer("--band");
+  (void)source_options(args);  // a malformed --band or --valid-range is a usage error before any reading
   if (args.has("--server")) return remote::run_los(args, path, from, to, options, json);  // DEM is a dataset name
 
   // Planned on the header, run on the cells between the two points only.
-  terrain::SourceOptions source_options;
-  source_options.band = args.positive_integer("--band").value_or(0);
-  auto source = terrain::ElevationSource::open(path, source_options);
+  auto source = terrain::ElevationSource::open(path, source_options(args));
   if (!source.ok()) return report_error(source.error());
   auto plan = visibility::plan_line(**source, {from, to, options});
   if (!plan.ok()) return report_error(plan.error());

@@ -47,6 +47,7 @@ constexpr FlagSpec kFlags[] = {
     {"--out", "-o", "OUT.tif", "GeoTIFF to write (required)"},
     {"--png", "", "PREVIEW.png", "Also write a hillshade preview with the viewshed tinted over it"},
     {"--band", "", "N", "DEM band to read, 1-based (required when the file has several)"},
+    kValidRangeFlag,
     {"--json", "", "", "Print the summary as a JSON document"},
     remote::kServerFlag,
     remote::kDeadlineFlag,
@@ -128,7 +129,7 @@ Request parse_request(const Args& args) {
                                                     : OutputKind::kVisible;
   // Only the visible/hidden raster is written: exact may skip finding R3's OHF.
   o.visibility_only = r.output == OutputKind::kVisible;
-  (void)args.positive_integer("--band");
+  (void)source_options(args);  // a malformed --band or --valid-range is a usage error before any reading
   // The engine owns the ranges (max distance > 0, curvature in [0, 2], ...);
   // asking it now makes a bad value a usage error that names the flag.
   throw_if_invalid_option(visibility::validate_options(o));
@@ -211,9 +212,7 @@ int run_viewshed(const Args& args) {
         args, {r.dem_path, r.out_path, r.png_path, r.observer, r.options, r.output_name, r.algorithm_name, r.json});
 
   const auto started = std::chrono::steady_clock::now();
-  terrain::SourceOptions source_options;
-  source_options.band = args.positive_integer("--band").value_or(0);
-  auto source = terrain::ElevationSource::open(r.dem_path, source_options);
+  auto source = terrain::ElevationSource::open(r.dem_path, source_options(args));
   if (!source.ok()) return report_error(source.error());
   auto plan = plan_for(r, **source);
   if (!plan.ok()) return report_error(plan.error());

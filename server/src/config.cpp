@@ -78,7 +78,7 @@ Status parse_datasets(const Json& j, const std::string& source, Config& config) 
     if (value.is_string()) {
       d.file = value.get<std::string>();
     } else if (value.is_object()) {
-      HORIZON_RETURN_IF_ERROR(check_keys(value, source, key + ".", {"file", "band", "missing_tiles"}));
+      HORIZON_RETURN_IF_ERROR(check_keys(value, source, key + ".", {"file", "band", "missing_tiles", "valid_range"}));
       if (!value.contains("file")) return config_error(source, key + ".file", "missing");
       auto file = get_string(value, source, "file", key + ".file", false);
       if (!file.ok()) return file.error();
@@ -96,9 +96,18 @@ Status parse_datasets(const Json& j, const std::string& source, Config& config) 
                               "expected \"error\" or \"nodata\", got '" + *missing + "'");
         d.missing_as_nodata = *missing == "nodata";
       }
+      if (value.contains("valid_range")) {
+        const Json& range = value["valid_range"];
+        const bool numbers = range.is_array() && range.size() == 2 && range[0].is_number() && range[1].is_number();
+        if (!numbers || !(range[0].get<double>() < range[1].get<double>()))
+          return config_error(source, key + ".valid_range",
+                              "expected [min, max] elevations with min < max, got " + range.dump());
+        d.valid_min = range[0].get<double>();
+        d.valid_max = range[1].get<double>();
+      }
     } else {
       return config_error(source, key,
-                          "expected a file or folder name or {\"file\": ..., \"band\": N}, got " + value.dump());
+                          "expected a file or folder name or {\"file\": ..., \"band\": N, ...}, got " + value.dump());
     }
     if (d.file.empty()) return config_error(source, key, "file name must not be empty");
     config.datasets.push_back(std::move(d));

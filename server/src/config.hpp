@@ -10,7 +10,9 @@
 //       "multi": {"file": "bands.tif", "band": 2},
 //       "alps": "srtm/alps"                 a folder of tiles on one grid (terrain/source.hpp)
 //     },                                    "missing_tiles": "error" (default: a request needing a
-//                                           tile no file covers fails) or "nodata" (read as voids)
+//                                           tile no file covers fails) or "nodata" (read as voids);
+//                                           "valid_range": [-12000, 9000] (the default, metres): a
+//                                           cell outside it is a corrupt block, refused at load
 //     "memory_budget_mb": 2048,             the block cache + the working memory of requests in flight
 //     "block_cache_mb": 256,                decoded elevation blocks shared by every request (LRU),
 //                                           reserved in memory_budget_mb at start; [1, 1048576]
@@ -26,7 +28,8 @@
 //                                           thread (at most 64); 0 = no GPU, every request on the CPU
 //     "default_deadline_ms": 30000,         for requests that carry no deadline
 //     "shutdown_grace_ms": 10000,           SIGTERM/SIGINT: time in-flight requests get to finish
-//     "scratch_dir": "/tmp"                 where GeoTIFF/PNG bytes are encoded (default: $TMPDIR or /tmp)
+//     "scratch_dir": "/tmp"                 holds the daemon's private 0700 directory where GeoTIFF/PNG
+//                                           bytes are encoded (default: $TMPDIR or /tmp)
 //   }
 //
 // Every key is checked; an unknown key, a wrong type or a value out of range
@@ -53,6 +56,7 @@
 #include <vector>
 
 #include "horizon/common/error.hpp"
+#include "horizon/terrain/source.hpp"
 
 namespace horizon::server {
 
@@ -61,6 +65,9 @@ struct DatasetConfig {
   std::string file;                // as written, relative to data_root: a raster, or a folder of tiles
   int band = 0;                    // 1-based; 0 = the file's only band
   bool missing_as_nodata = false;  // "missing_tiles": "nodata"
+  // "valid_range": [min, max], plausible elevations (terrain::SourceOptions).
+  double valid_min = terrain::SourceOptions{}.valid_min;
+  double valid_max = terrain::SourceOptions{}.valid_max;
 };
 
 struct Limits {

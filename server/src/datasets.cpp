@@ -51,11 +51,15 @@ Result<std::shared_ptr<const Dataset>> load_dataset(const Config& config, const 
   d->path = *path;
   d->band = entry.band;
   d->missing_as_nodata = entry.missing_as_nodata;
+  d->valid_min = entry.valid_min;
+  d->valid_max = entry.valid_max;
   d->signature = signature_of(*path);
 
   terrain::SourceOptions options;
   options.band = entry.band;
   options.missing_as_nodata = entry.missing_as_nodata;
+  options.valid_min = entry.valid_min;
+  options.valid_max = entry.valid_max;
   auto source = terrain::ElevationSource::open(path->string(), options);
   if (!source.ok()) return in_config(source.error());
   d->source = std::move(*source);
@@ -90,7 +94,8 @@ Status DatasetRegistry::load(const Config& config) {
       const Dataset& have = *it->second;
       auto path = resolve_dataset_file(config, entry);
       if (path.ok() && *path == have.path && entry.band == have.band &&
-          entry.missing_as_nodata == have.missing_as_nodata && signature_of(*path) == have.signature) {
+          entry.missing_as_nodata == have.missing_as_nodata && entry.valid_min == have.valid_min &&
+          entry.valid_max == have.valid_max && signature_of(*path) == have.signature) {
         (*next)[entry.name] = it->second;
         continue;
       }

@@ -36,6 +36,7 @@ struct Dataset {
   std::filesystem::path path;
   int band = 0;
   bool missing_as_nodata = false;
+  double valid_min = 0.0, valid_max = 0.0;  // as configured
   std::string signature;  // the files' names, sizes and modification times
   std::shared_ptr<const terrain::ElevationSource> source;
   terrain::ElevationStats stats;

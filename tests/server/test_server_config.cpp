@@ -51,7 +51,8 @@ TEST(ServerConfig, GoodDocumentGivesItsValues) {
 TEST(ServerConfig, TiledDatasetsAndTheBlockCache) {
   auto c = parse_config(document(R"("block_cache_mb": 64, "io_threads": 3,
                                     "datasets": {"t": {"file": ".", "missing_tiles": "nodata"},
-                                                 "f": {"file": "zion_canyon_srtm3_465x457.tif", "missing_tiles": "error"}})"),
+                                                 "f": {"file": "zion_canyon_srtm3_465x457.tif", "missing_tiles": "error",
+                                                       "valid_range": [-100, 30000]}})"),
                         "test.json", "/");
   ASSERT_TRUE(c.ok()) << c.error().message;
   EXPECT_EQ(c->block_cache_bytes, 64ull << 20);
@@ -59,6 +60,10 @@ TEST(ServerConfig, TiledDatasetsAndTheBlockCache) {
   ASSERT_EQ(c->datasets.size(), 2u);
   EXPECT_FALSE(c->datasets[0].missing_as_nodata);  // "f"
   EXPECT_TRUE(c->datasets[1].missing_as_nodata);   // "t"
+  EXPECT_EQ(c->datasets[0].valid_min, -100.0);
+  EXPECT_EQ(c->datasets[0].valid_max, 30000.0);
+  EXPECT_EQ(c->datasets[1].valid_min, -12000.0);  // the default
+  EXPECT_EQ(c->datasets[1].valid_max, 9000.0);
   auto folder = resolve_dataset_file(*c, c->datasets[1]);
   ASSERT_TRUE(folder.ok()) << folder.error().message;  // a folder is a dataset too
   EXPECT_EQ(*folder, std::filesystem::canonical(kDataDir));
@@ -134,6 +139,11 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"scratch_dir missing", document(R"("scratch_dir": "/no/such/dir")"), "scratch_dir"},
         BadCase{"missing_tiles unknown", document(R"("datasets": {"a": {"file": "x", "missing_tiles": "zero"}})"),
                 "datasets.a.missing_tiles"},
+        BadCase{"valid_range not a pair", document(R"("datasets": {"a": {"file": "x", "valid_range": [1]}})"),
+                "datasets.a.valid_range"},
+        BadCase{"valid_range reversed",
+                document(R"("datasets": {"a": {"file": "x", "valid_range": [100, -100]}})"),
+                "datasets.a.valid_range"},
         BadCase{"block_cache_mb 0", document(R"("block_cache_mb": 0)"), "block_cache_mb"},
         BadCase{"block_cache_mb over the budget", document(R"("block_cache_mb": 300)"), "block_cache_mb"},
         BadCase{"io_threads 0", document(R"("io_threads": 0)"), "io_threads"}),

@@ -241,6 +241,53 @@ TEST(ElevationSource, ACorruptTileFailsTheReadNamingTheFileAndBlock) {
   EXPECT_TRUE((*source)->read({0, 0, 250, 300}, &cache).ok());  // the west tile is fine
 }
 
+TEST(ElevationSource, ImplausibleElevationsFailTheReadNamingFileBlockAndCell) {
+  TempDir dir;
+  Dem dem = georeferenced_terrain(200, 100, 8);
+  dem.elevation.at(150, 40) = 3.4e38f;  // what a few overwritten bytes of a float file decode to
+  const auto tiles = testing::write_tiles(dem, 2, 1, dir.path().string());
+  auto source = ElevationSource::open(dir.path().string(), blocks_of(50 * 50));
+  ASSERT_TRUE(source.ok()) << source.error().message;
+  BlockCache cache(cache_of(4 << 20));
+  for (BlockCache* c : {static_cast<BlockCache*>(nullptr), &cache}) {
+    auto got = (*source)->read({120, 0, 200, 100}, c);
+    ASSERT_FALSE(got.ok());
+    EXPECT_EQ(got.error().code, ErrorCode::kDataError);
+    const std::string& m = got.error().message;
+    EXPECT_NE(m.find("tile_0_1.tif"), std::string::npos) << m;
+    EXPECT_NE(m.find("cell (col 150, row 40) holds 3.4e+38"), std::string::npos) << m;
+    EXPECT_NE(m.find("[-12000, 9000]"), std::string::npos) << m;
+    if (c) {
+      EXPECT_NE(m.find("block"), std::string::npos) << m;
+    }
+    EXPECT_TRUE((*source)->read({0, 0, 100, 100}, c).ok());  // the west tile is fine
+  }
+  EXPECT_GE(cache.stats().failures, 1u);  // the corrupt block was not kept
+  auto scanned = (*source)->scan(1, &cache);  // the load-time check refuses it too
+  ASSERT_FALSE(scanned.ok());
+  EXPECT_NE(scanned.error().message.find("tile_0_1.tif"), std::string::npos) << scanned.error().message;
+  // A single file, read whole in place.
+  auto single = ElevationSource::open(tiles[1]);
+  ASSERT_TRUE(single.ok());
+  auto whole = (*single)->read({0, 0, 100, 100}, nullptr);
+  ASSERT_FALSE(whole.ok());
+  EXPECT_NE(whole.error().message.find("cell (col 50, row 40)"), std::string::npos) << whole.error().message;
+  // A range wide enough for it reads it as it is; one the wrong way round is refused.
+  SourceOptions wide;
+  wide.valid_max = 3.5e38;
+  auto lenient = ElevationSource::open(dir.path().string(), wide);
+  ASSERT_TRUE(lenient.ok());
+  auto got = (*lenient)->read({120, 0, 200, 100}, &cache);
+  ASSERT_TRUE(got.ok()) << got.error().message;
+  EXPECT_EQ(got->elevation.at(30, 40), 3.4e38f);
+  SourceOptions reversed;
+  reversed.valid_min = 10;
+  reversed.valid_max = -10;
+  auto refused = ElevationSource::open(dir.path().string(), reversed);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().field, "valid_range");
+}
+
 TEST(ElevationSource, RejectsFilesNotOnOneGrid) {
   const Dem dem = georeferenced_terrain(40, 40, 8);
   {

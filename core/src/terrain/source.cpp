@@ -10,6 +10,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <limits>
@@ -76,6 +77,29 @@ std::string describe_cells(const Window& w) {
          ".." + std::to_string(w.row1 - 1);
 }
 
+// Cells outside the plausible range (NaN passes), as an error naming `file`
+// and where the cells lie; `at` places `cells` in the source's grid.
+Status check_plausible(const Grid<float>& cells, const Window& at, const SourceOptions& o, const std::string& file,
+                       const std::string& where) {
+  const float lo = static_cast<float>(o.valid_min), hi = static_cast<float>(o.valid_max);
+  for (int r = 0; r < cells.height(); ++r) {
+    const float* row = cells.row(r);
+    for (int c = 0; c < cells.width(); ++c) {
+      if (!(row[c] < lo || row[c] > hi)) continue;  // in range, or a void
+      char value[32];
+      std::snprintf(value, sizeof value, "%g", double(row[c]));
+      char range[64];
+      std::snprintf(range, sizeof range, "[%g, %g]", o.valid_min, o.valid_max);
+      return source_error(ErrorCode::kDataError, file,
+                          "cell (col " + std::to_string(at.col0 + c) + ", row " + std::to_string(at.row0 + r) +
+                              ") holds " + value + ", outside the plausible elevations " + range +
+                              ": the file is corrupt (" + where +
+                              "), or its units need a wider valid range");
+    }
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
 Result<std::shared_ptr<const ElevationSource>> ElevationSource::open(const std::string& path,
@@ -87,6 +111,8 @@ Result<std::shared_ptr<const ElevationSource>> ElevationSource::open(const std::
   }
   if (options.block_cells == 0)
     return make_error(ErrorCode::kInvalidArgument, "block_cells: must be at least 1", "block_cells");
+  if (!(options.valid_min < options.valid_max))  // NaN too
+    return make_error(ErrorCode::kInvalidArgument, "valid range: the minimum must be below the maximum", "valid_range");
 
   std::shared_ptr<ElevationSource> source(new ElevationSource());
   source->options_ = options;
@@ -261,6 +287,8 @@ Result<Grid<float>> ElevationSource::load_block(std::uint64_t block) const {
     e.message += " (block " + std::to_string(block) + ": " + describe_cells(cells) + " of '" + header_.source + "')";
     return e;
   }
+  HORIZON_RETURN_IF_ERROR(check_plausible(*got, cells, options_, f.path,
+                                          "block " + std::to_string(block) + ": " + describe_cells(cells)));
   return got;
 }
 
@@ -303,6 +331,7 @@ Result<Dem> ElevationSource::read(const Window& requested, BlockCache* cache, co
       const SourceFile& f = *under.front();
       auto cells = f.raster->read_cells(shifted(window, -f.cells.col0, -f.cells.row0), threads, &local.file);
       if (!cells.ok()) return cells.error();
+      HORIZON_RETURN_IF_ERROR(check_plausible(*cells, window, options_, f.path, describe_cells(window)));
       dem.elevation = std::move(*cells);
       local.cells_decoded = local.file.cells_decoded;
     } else {
@@ -318,6 +347,7 @@ Result<Dem> ElevationSource::read(const Window& requested, BlockCache* cache, co
           if (options_.missing_as_nodata && !std::filesystem::exists(f.path, ec)) continue;
           return cells.error();
         }
+        HORIZON_RETURN_IF_ERROR(check_plausible(*cells, part, options_, f.path, describe_cells(part)));
         copy_into(dem.elevation, *cells, part);
         local.cells_decoded += read.cells_decoded;
       }

@@ -33,8 +33,9 @@
 // I/O pool when absent, shared with every other request); without one the
 // files are read directly, only the blocks under the window, on `threads`
 // threads, and nothing is kept (the one-shot CLI). Both give the same cells.
-// A file that fails to decode fails the read with an error naming the file
-// and the block; a file that vanished after open() reads as voids under
+// A file that fails to decode, or decodes to elevations outside
+// SourceOptions' plausible range, fails the read with an error naming the
+// file and the block; a file that vanished after open() reads as voids under
 // missing_as_nodata.
 //
 // A source is immutable after open() and safe to share between threads.
@@ -63,6 +64,13 @@ struct SourceOptions {
   // Cells a block aims at: smaller tiles and strips are grouped up to it
   // (262 144 cells = 1 MiB of float32).
   std::uint64_t block_cells = 1u << 18;
+  // Plausible elevations: a cell outside [valid_min, valid_max] (infinities
+  // included; voids are not checked) fails the read as corrupt data, naming
+  // the file, the block and the cell, so that a damaged file is refused
+  // rather than served as terrain 3e38 m high. The default is the Earth's
+  // relief in metres with a margin; widen it for other units or planets.
+  double valid_min = -12000.0;
+  double valid_max = 9000.0;
 };
 
 // One file of a source, placed in the source's grid.
