@@ -18,6 +18,7 @@
 #include "memory_budget.hpp"
 #include "metrics.hpp"
 #include "request_log.hpp"
+#include "scratch_dir.hpp"
 #include "server_env.hpp"
 #include "visibility_service.hpp"
 #include "worker_pool.hpp"
@@ -110,6 +111,7 @@ struct Daemon::Impl {
   ServerEnv env;
   DatasetService dataset_service;
   VisibilityService visibility_service;
+  ScratchDir scratch;  // env.scratch; removed after the last call
   std::unique_ptr<grpc::Server> server;
   int port = 0;
   bool stopped = false;
@@ -142,6 +144,11 @@ Status Daemon::start() {
         "block_cache_mb");
   d.metrics.set_memory_reserved(d.memory.reserved());
 
+  auto scratch = ScratchDir::create(d.config.scratch_dir);
+  if (!scratch.ok()) return scratch.error();
+  d.scratch = std::move(*scratch);
+  d.env.scratch = d.scratch.path();
+
   // Before the first call can arrive: env.gpu is read without a lock.
   d.gpu = open_gpu(d.config, d.pool.threads(), d.backend);
   d.env.gpu = d.gpu.get();
@@ -151,13 +158,20 @@ Status Daemon::start() {
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   int port = 0;
+  // gRPC sets SO_REUSEPORT by default, which lets a second daemon bind a
+  // port already in use and take half its connections: off, so that bind fails.
+  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   builder.AddListeningPort(d.config.listen, grpc::InsecureServerCredentials(), &port);
   builder.RegisterService(&d.dataset_service);
   builder.RegisterService(&d.visibility_service);
   builder.SetMaxReceiveMessageSize(max_receive_bytes(d.config.limits));
   d.server = builder.BuildAndStart();
   if (!d.server || port == 0)
-    return make_error(ErrorCode::kIoError, "listen '" + d.config.listen + "': cannot listen there", "listen");
+    return make_error(ErrorCode::kIoError,
+                      "listen '" + d.config.listen +
+                          "': cannot listen there (is another process using the port, or is the host not an "
+                          "address of this machine?)",
+                      "listen");
   d.port = port;
   d.set_serving(false);  // until the datasets are loaded
 

@@ -1,8 +1,8 @@
 // raster_files.hpp — a viewshed's GeoTIFF and PNG as bytes, through the
 // engine's own writers, so the daemon's GeoTIFF is byte-identical to the one
 // `horizon viewshed -o` writes for the same inputs. The writers work on files:
-// each encoding goes to a unique name in the scratch directory, is read back
-// and removed.
+// each encoding goes to a unique name in the daemon's private scratch
+// directory (scratch_dir.hpp), is read back and removed.
 #pragma once
 
 #include <cstdint>

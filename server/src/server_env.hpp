@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <filesystem>
 
 #include "config.hpp"
 #include "datasets.hpp"
@@ -31,6 +32,9 @@ struct ServerEnv {
   // When requests run there (backend auto) and with which GL variant,
   // measured at start (visibility/backend_policy.hpp); set with `gpu`.
   const visibility::BackendPolicy* backend = nullptr;
+  // The daemon's private directory inside config.scratch_dir (scratch_dir.hpp),
+  // made at start before the first call.
+  std::filesystem::path scratch{};
   std::atomic<std::uint32_t> pending{0};  // admitted and not finished
 };
 

@@ -143,13 +143,13 @@ grpc::Status ViewshedCall::compute() {
       std::memcpy(raster_.data(), is_mask ? static_cast<const void*>(mask.data()) : values.data(), raster_.size());
   }
   if (req.include_geotiff()) {
-    auto bytes_or = is_mask ? geotiff_bytes(env.config.scratch_dir, mask, georef, nodata)
-                            : geotiff_bytes(env.config.scratch_dir, values, georef, nodata);
+    auto bytes_or = is_mask ? geotiff_bytes(env.scratch, mask, georef, nodata)
+                            : geotiff_bytes(env.scratch, values, georef, nodata);
     if (!bytes_or.ok()) return scope_.status_of(bytes_or.error());
     geotiff_ = std::move(*bytes_or);
   }
   if (req.include_png()) {
-    auto png = preview_png_bytes(env.config.scratch_dir, *result, mask);
+    auto png = preview_png_bytes(env.scratch, *result, mask);
     if (!png.ok()) return scope_.status_of(png.error());
     png_ = std::move(*png);
   }
