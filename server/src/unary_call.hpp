@@ -4,7 +4,8 @@
 // work to the Asio pool; the work fills the response and returns the status,
 // and the reactor finishes the call from the pool thread. OnCancel (client
 // cancelled, deadline passed, server shutting down past its grace) sets the
-// call's cancel token, which the engine polls. The reactor deletes itself in
+// call's cancel token, which the engine polls, and finishes at once a call
+// still waiting for a worker (QueueTicket). The reactor deletes itself in
 // OnDone, which gRPC calls only after Finish.
 #pragma once
 
@@ -16,6 +17,7 @@
 #include <grpcpp/support/server_callback.h>
 
 #include "call_scope.hpp"
+#include "worker_pool.hpp"
 
 namespace horizon::server {
 
@@ -27,15 +29,22 @@ class UnaryCall final : public grpc::ServerUnaryReactor {
   static grpc::ServerUnaryReactor* start(ServerEnv& env, grpc::CallbackServerContext* context,
                                          std::string_view method, Work work) {
     auto* call = new UnaryCall(env, context, method);
+    QueueTicket ticket = call->ticket_;
     if (auto refused = call->scope_.admit()) {
+      ticket.take();  // never queued: a cancel has nothing to drop
       call->finish(*refused);
       return call;
     }
-    env.pool.post([call, work = std::move(work)] { call->finish(work(call->scope_)); });
+    env.pool.post([call, ticket, work = std::move(work)]() mutable {
+      if (ticket.take()) call->finish(work(call->scope_));
+    });
     return call;
   }
 
-  void OnCancel() override { scope_.cancel(); }
+  void OnCancel() override {
+    scope_.cancel();
+    if (ticket_.drop()) finish(scope_.status_of(make_error(ErrorCode::kCancelled, "cancelled before it started")));
+  }
   void OnDone() override { delete this; }
 
  private:
@@ -48,6 +57,7 @@ class UnaryCall final : public grpc::ServerUnaryReactor {
   }
 
   CallScope scope_;
+  QueueTicket ticket_;
 };
 
 }  // namespace horizon::server

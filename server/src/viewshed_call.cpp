@@ -30,8 +30,13 @@ class ViewshedCall final : public grpc::ServerWriteReactor<v1::ViewshedResponse>
       : scope_(env, context, "ComputeViewshed"), request_(request) {}
 
   void start() {
-    if (auto refused = scope_.admit()) return finish(*refused);
-    scope_.env().pool.post([this] {
+    QueueTicket ticket = ticket_;
+    if (auto refused = scope_.admit()) {
+      ticket.take();  // never queued: a cancel has nothing to drop
+      return finish(*refused);
+    }
+    scope_.env().pool.post([this, ticket]() mutable {
+      if (!ticket.take()) return;  // cancelled in the queue: finished, perhaps deleted
       const grpc::Status status = compute();
       if (!status.ok()) return finish(status);
       write_next();
@@ -42,7 +47,10 @@ class ViewshedCall final : public grpc::ServerWriteReactor<v1::ViewshedResponse>
     if (!ok) return finish(grpc::Status(grpc::StatusCode::CANCELLED, "the client went away mid-stream"));
     write_next();
   }
-  void OnCancel() override { scope_.cancel(); }
+  void OnCancel() override {
+    scope_.cancel();
+    if (ticket_.drop()) finish(scope_.status_of(make_error(ErrorCode::kCancelled, "cancelled before it started")));
+  }
   void OnDone() override { delete this; }
 
  private:
@@ -59,6 +67,7 @@ class ViewshedCall final : public grpc::ServerWriteReactor<v1::ViewshedResponse>
   }
 
   CallScope scope_;
+  QueueTicket ticket_;
   const v1::ViewshedRequest request_;  // a copy: the call's own lives only until Finish
   std::mutex mutex_;
   bool finished_ = false;
