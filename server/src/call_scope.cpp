@@ -9,6 +9,7 @@ namespace horizon::server {
 CallScope::CallScope(ServerEnv& env, grpc::CallbackServerContext* context, std::string_view method)
     : env_(env), started_(std::chrono::steady_clock::now()) {
   record_.method = method;
+  env_.live_calls.fetch_add(1);
   env_.metrics.request_started();
   control_.cancel = &token_;
   // The client's deadline, as a steady-clock time; none (gRPC's "infinite") -> the default.
@@ -23,11 +24,17 @@ CallScope::CallScope(ServerEnv& env, grpc::CallbackServerContext* context, std::
 
 CallScope::~CallScope() {
   if (!finished_) finish(grpc::Status(grpc::StatusCode::INTERNAL, "call ended without a status"));
+  env_.live_calls.fetch_sub(1);
 }
 
 std::optional<grpc::Status> CallScope::admit() {
   if (!env_.datasets.loaded())
     return grpc::Status(grpc::StatusCode::UNAVAILABLE, "horizond is loading its datasets; retry shortly");
+  if (env_.draining.load())
+    return grpc::Status(grpc::StatusCode::UNAVAILABLE, "horizond is shutting down; retry on another replica");
+  // A call that arrives with its deadline gone takes no slot.
+  if (control_.deadline && *control_.deadline <= std::chrono::steady_clock::now())
+    return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED, "the call's deadline passed before it was admitted");
   const std::uint32_t before = env_.pending.fetch_add(1);
   admitted_ = true;
   if (before >= env_.config.limits.max_pending)
@@ -41,12 +48,17 @@ std::optional<grpc::Status> CallScope::admit() {
 }
 
 Result<std::shared_ptr<const Dataset>> CallScope::dataset(const std::string& name) {
-  record_.dataset = name;
+  record_.dataset = name.substr(0, kMaxDatasetName);
   if (name.empty()) return make_error(ErrorCode::kInvalidArgument, "dataset: a dataset name is required", "dataset");
+  if (name.size() > kMaxDatasetName)  // no such name can be configured; the message does not echo it
+    return make_error(ErrorCode::kInvalidArgument,
+                      "dataset: a dataset name is at most " + std::to_string(kMaxDatasetName) + " bytes, got " +
+                          std::to_string(name.size()),
+                      "dataset");
   if (!datasets_) datasets_ = env_.datasets.snapshot();
   const auto it = datasets_->find(name);
   if (it == datasets_->end())
-    return make_error(ErrorCode::kNotFound, "dataset '" + name + "' is not held by this daemon", name);
+    return make_error(ErrorCode::kNotFound, "dataset '" + name + "' is not held by this daemon", "dataset");
   return it->second;
 }
 

@@ -71,8 +71,10 @@ Status parse_datasets(const Json& j, const std::string& source, Config& config) 
   if (!j.is_object()) return config_error(source, "datasets", "expected an object of name -> file");
   for (const auto& [name, value] : j.items()) {
     const std::string key = "datasets." + name;
-    if (name.empty() || name.size() > 128 || name.find_first_of("/\\ \t\n") != std::string::npos)
-      return config_error(source, key, "a dataset name is 1-128 characters without '/', '\\' or spaces");
+    if (name.empty() || name.size() > kMaxDatasetName || name.find_first_of("/\\ \t\n") != std::string::npos)
+      return config_error(source, key,
+                          "a dataset name is 1-" + std::to_string(kMaxDatasetName) +
+                              " characters without '/', '\\' or spaces");
     DatasetConfig d;
     d.name = name;
     if (value.is_string()) {
@@ -282,6 +284,29 @@ Result<fs::path> resolve_dataset_file(const Config& config, const DatasetConfig&
                       "config '" + config.source + "': " + key + ": no such file or folder '" + resolved.string() + "'",
                       key);
   return resolved;
+}
+
+std::vector<std::string> keys_needing_restart(const Config& a, const Config& b) {
+  std::vector<std::string> keys;
+  const auto differ = [&keys](bool changed, const char* key) {
+    if (changed) keys.emplace_back(key);
+  };
+  differ(a.listen != b.listen, "listen");
+  differ(a.metrics_listen != b.metrics_listen, "metrics_listen");
+  differ(a.memory_budget_bytes != b.memory_budget_bytes, "memory_budget_mb");
+  differ(a.block_cache_bytes != b.block_cache_bytes, "block_cache_mb");
+  differ(a.io_threads != b.io_threads, "io_threads");
+  differ(a.worker_threads != b.worker_threads, "worker_threads");
+  differ(a.engine_threads != b.engine_threads, "engine_threads");
+  differ(a.limits.max_cells != b.limits.max_cells, "limits.max_cells");
+  differ(a.limits.max_boxes != b.limits.max_boxes, "limits.max_boxes");
+  differ(a.limits.max_lines != b.limits.max_lines, "limits.max_lines");
+  differ(a.limits.max_pending != b.limits.max_pending, "limits.max_pending");
+  differ(a.gpu.contexts != b.gpu.contexts, "gpu.contexts");
+  differ(a.default_deadline != b.default_deadline, "default_deadline_ms");
+  differ(a.shutdown_grace != b.shutdown_grace, "shutdown_grace_ms");
+  differ(a.scratch_dir != b.scratch_dir, "scratch_dir");
+  return keys;
 }
 
 }  // namespace horizon::server

@@ -60,6 +60,9 @@
 
 namespace horizon::server {
 
+// The longest dataset name (bytes); requests naming a longer one are refused unread.
+inline constexpr std::size_t kMaxDatasetName = 128;
+
 struct DatasetConfig {
   std::string name;                // the key
   std::string file;                // as written, relative to data_root: a raster, or a folder of tiles
@@ -106,6 +109,12 @@ struct Config {
 struct ConfigOverrides {
   std::string listen, metrics_listen, data_root;  // data_root: relative to the working directory
 };
+
+// The keys whose values differ between the running configuration and one
+// read on SIGHUP, among those a reload does not apply (everything but the
+// datasets and data_root): they take effect at the next start. In the order
+// the file documents them, e.g. {"listen", "limits.max_cells"}.
+std::vector<std::string> keys_needing_restart(const Config& running, const Config& next);
 
 // Parses and checks a configuration document. `base_dir` resolves relative paths.
 Result<Config> parse_config(const std::string& text, const std::string& source, const std::filesystem::path& base_dir,

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstdint>
 #include <exception>
+#include <thread>
 
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/health_check_service_interface.h>
@@ -214,6 +215,13 @@ Status Daemon::reload(const Config& config) {
   log_event("info", "datasets_reloaded",
             {{"datasets", std::to_string(set->size()), true},
              {"resident_bytes", std::to_string(d.cache.stats().resident_bytes), true}});
+  // Everything else is fixed at start: say so rather than ignore it silently.
+  if (const auto keys = keys_needing_restart(d.config, config); !keys.empty()) {
+    std::string list;
+    for (const std::string& k : keys) list += (list.empty() ? "" : ", ") + k;
+    log_event("warn", "reload_needs_restart",
+              {{"keys", list}, {"message", "changed in the config but applied only at the next start: " + list}});
+  }
   return Status::Ok();
 }
 
@@ -230,8 +238,15 @@ void Daemon::shutdown() {
     log_event("info", "draining",
               {{"in_flight", std::to_string(d.env.pending.load()), true},
                {"grace_ms", std::to_string(d.config.shutdown_grace.count()), true}});
-    // Stops accepting; waits for calls in flight up to the deadline, then cancels them.
-    d.server->Shutdown(std::chrono::system_clock::now() + d.config.shutdown_grace);
+    // New calls are refused (UNAVAILABLE: a client retries elsewhere) and
+    // the ones admitted get the grace to finish. Then Shutdown ends what is
+    // left: calls past the grace, and the health watches load balancers hold
+    // open for ever, which would otherwise keep it waiting the whole grace.
+    d.env.draining.store(true);
+    const auto deadline = std::chrono::steady_clock::now() + d.config.shutdown_grace;
+    while (d.env.live_calls.load() > 0 && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    d.server->Shutdown(std::chrono::system_clock::now());
   }
   d.pool.join();
   if (d.server) d.server->Wait();

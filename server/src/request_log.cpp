@@ -33,6 +33,13 @@ void emit(const nlohmann::ordered_json& j) {
   std::fflush(stderr);
 }
 
+// A string field as logged: at most kMaxFieldBytes of it, then how long it was.
+std::string bounded(std::string_view text) {
+  constexpr std::size_t kMaxFieldBytes = 1024;
+  if (text.size() <= kMaxFieldBytes) return std::string(text);
+  return std::string(text.substr(0, kMaxFieldBytes)) + "... (" + std::to_string(text.size()) + " bytes)";
+}
+
 std::string_view level_for(const RequestRecord& r) {
   if (r.server_fault) return "error";
   return r.status == "OK" && r.gpu_fallback.empty() ? "info" : "warn";
@@ -46,16 +53,16 @@ void log_request(const RequestRecord& r) {
   j["level"] = level_for(r);
   j["event"] = "request";
   j["method"] = r.method;
-  j["dataset"] = r.dataset;
+  j["dataset"] = bounded(r.dataset);
   j["cells"] = r.cells;
   j["boxes"] = r.boxes;
   j["lines"] = r.lines;
   j["algorithm"] = r.algorithm;
   j["backend"] = r.backend;
-  j["gpu_fallback"] = r.gpu_fallback;
+  j["gpu_fallback"] = bounded(r.gpu_fallback);
   j["duration_ms"] = std::round(r.duration_ms * 1000.0) / 1000.0;
   j["status"] = r.status;
-  j["message"] = r.message;
+  j["message"] = bounded(r.message);
   emit(j);
 }
 
@@ -68,7 +75,7 @@ void log_event(std::string_view level, std::string_view event, std::initializer_
     if (f.raw)
       j[std::string(f.key)] = nlohmann::ordered_json::parse(f.value, nullptr, false);
     else
-      j[std::string(f.key)] = f.value;
+      j[std::string(f.key)] = bounded(f.value);
   }
   emit(j);
 }

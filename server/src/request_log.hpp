@@ -10,6 +10,8 @@
 // CANCELLED, DEADLINE_EXCEEDED, ...) and for an OK answer the CPU gave after
 // the GPU asked for failed (gpu_fallback says what failed), "error" for the
 // daemon's own failures (INTERNAL, UNKNOWN, DATA_LOSS, UNAVAILABLE at run time).
+// String fields are cut at 1 KiB (the rest noted by its length): a client
+// cannot make a line longer than a few KiB.
 #pragma once
 
 #include <cstdint>

@@ -36,6 +36,10 @@ struct ServerEnv {
   // made at start before the first call.
   std::filesystem::path scratch{};
   std::atomic<std::uint32_t> pending{0};  // admitted and not finished
+  std::atomic<bool> draining{false};      // shutting down: new calls are refused
+  // Our calls whose reactors gRPC still holds (CallScope's lifetime, which
+  // ends after gRPC's OnDone: the answer is sent), admitted or not.
+  std::atomic<std::uint32_t> live_calls{0};
 };
 
 // The calling worker thread's engine workspace (visibility/plan.hpp): each

@@ -4,12 +4,16 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
+#include <chrono>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <grpcpp/generic/generic_stub.h>
+#include <grpcpp/support/byte_buffer.h>
 
 #include "daemon_process.hpp"
 #include "horizon/terrain/geotiff_writer.hpp"
@@ -108,6 +112,42 @@ TEST(ServerHostile, CheckConfigRefusesACorruptDemNamingTheFileAndCell) {
   // An operator who knows better widens the range for that dataset.
   const CommandResult widened = config("{\"file\": \"bad.tif\", \"valid_range\": [-1, 3.1e38]}");
   EXPECT_EQ(widened.exit_code, 0) << widened.output;
+}
+
+// A client watching the health service (as a load balancer does) keeps a
+// stream open for ever; SIGTERM must not wait the whole shutdown grace for it.
+TEST(ServerHostile, AnIdleHealthWatchDoesNotHoldShutdownForTheGrace) {
+  DaemonOptions options;
+  options.extra_json = R"("shutdown_grace_ms": 20000,)";
+  DaemonProcess daemon(options);
+  ASSERT_TRUE(daemon.ready()) << daemon.error();
+  grpc::GenericStub stub(daemon.channel());
+  grpc::CompletionQueue cq;
+  grpc::ClientContext context;
+  auto call = stub.PrepareCall(&context, "/grpc.health.v1.Health/Watch", &cq);
+  const auto step = [&cq](void* tag) {
+    void* got = nullptr;
+    bool ok = false;
+    return cq.Next(&got, &ok) && got == tag && ok;
+  };
+  int tags[4];
+  call->StartCall(&tags[0]);
+  ASSERT_TRUE(step(&tags[0]));
+  grpc::Slice empty("");  // HealthCheckRequest{service: ""}: the whole server
+  grpc::ByteBuffer request(&empty, 1), response;
+  call->Write(request, &tags[1]);
+  ASSERT_TRUE(step(&tags[1]));
+  call->Read(&response, &tags[2]);
+  ASSERT_TRUE(step(&tags[2]));  // the first status: SERVING
+  const auto started = std::chrono::steady_clock::now();
+  EXPECT_EQ(daemon.signal(SIGTERM), 0);
+  EXPECT_LT(std::chrono::steady_clock::now() - started, std::chrono::seconds(5)) << daemon.log();
+  context.TryCancel();
+  cq.Shutdown();
+  void* tag = nullptr;
+  bool ok = false;
+  while (cq.Next(&tag, &ok)) {
+  }
 }
 
 }  // namespace

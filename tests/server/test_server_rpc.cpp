@@ -13,6 +13,7 @@
 #include <future>
 #include <optional>
 #include <sstream>
+#include <thread>
 
 #include "daemon_process.hpp"
 #include "horizon/geodesy/observer.hpp"
@@ -385,6 +386,62 @@ TEST_F(ServerRpc, DeadlineAndCancellationStopTheComputation) {
   EXPECT_TRUE(run_viewshed(rainier_viewshed(2000)).ok());
 }
 
+// Both workers busy; calls whose deadlines pass while they wait in the
+// queue must give their max_pending slots back then, not when a worker
+// reaches them seconds later (1 ms deadlines from one client used to fill it).
+TEST_F(ServerRpc, CallsWhoseDeadlinePassesInTheQueueFreeTheirSlotsAtOnce) {
+  std::vector<std::unique_ptr<grpc::ClientContext>> busy;
+  std::vector<std::unique_ptr<grpc::ClientReader<v1::ViewshedResponse>>> readers;
+  for (int i = 0; i < 2; ++i) {  // the fixture's two workers
+    busy.push_back(std::make_unique<grpc::ClientContext>());
+    readers.push_back(visibility_->ComputeViewshed(busy.back().get(), slow_viewshed(4500)));  // ~2 s each
+  }
+  ASSERT_TRUE(daemon_->wait_for_in_flight(2)) << daemon_->metrics();
+  std::vector<std::future<grpc::StatusCode>> queued;
+  for (int i = 0; i < 8; ++i)
+    queued.push_back(std::async(std::launch::async, [&] {
+      v1::LineOfSightRequest request;
+      request.set_dataset("rainier");
+      auto* line = request.add_lines();
+      *line->mutable_from() = point(kRainierLon, kRainierLat, 2, v1::FRAME_WGS84);
+      *line->mutable_to() = point(kRainierLon + 0.01, kRainierLat, 2, v1::FRAME_WGS84);
+      v1::LineOfSightResponse response;
+      return visibility_->LineOfSight(context_with_deadline(std::chrono::milliseconds(50)).get(), request, &response)
+          .error_code();
+    }));
+  for (auto& q : queued) EXPECT_EQ(q.get(), grpc::StatusCode::DEADLINE_EXCEEDED);
+  // Only the two computations hold slots again, long before either ends.
+  const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(500);
+  double in_flight = -1;
+  while (std::chrono::steady_clock::now() < until) {
+    in_flight = metric(daemon_->metrics(), "horizon_requests_in_flight");
+    if (in_flight == 2) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_EQ(in_flight, 2) << daemon_->metrics();
+  for (auto& c : busy) c->TryCancel();
+  for (auto& r : readers) {
+    v1::ViewshedResponse message;
+    while (r->Read(&message)) {
+    }
+    EXPECT_EQ(r->Finish().error_code(), grpc::StatusCode::CANCELLED);
+  }
+}
+
+// A dataset name far longer than any configured one is refused without
+// being echoed, and the log line stays short.
+TEST_F(ServerRpc, AHugeDatasetNameIsRefusedAndNotEchoed) {
+  v1::ViewshedRequest request = rainier_viewshed(1000);
+  request.set_dataset(std::string(1 << 20, 'n'));
+  const grpc::Status s = run_viewshed(request);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(violated_field(s), "dataset");
+  EXPECT_LT(s.error_message().size(), 200u) << s.error_message().substr(0, 200);
+  ASSERT_TRUE(daemon_->wait_for_log("at most 128 bytes"));
+  const std::string line = last_log_line("ComputeViewshed");
+  EXPECT_LT(line.size(), 4096u);
+}
+
 TEST_F(ServerRpc, ClientCancellingMidStreamEndsTheCall) {
   // 2.2 million float cells in 4 KiB messages: far more than gRPC buffers unread.
   v1::ViewshedRequest request = slow_viewshed();
@@ -425,9 +482,15 @@ TEST_F(ServerRpc, SighupReloadsDatasetsWithoutDroppingACall) {
   const auto at = config.find("\"datasets\": {");
   ASSERT_NE(at, std::string::npos);
   config.insert(at + 13, "\"zion\": \"zion_canyon_srtm3_465x457.tif\", ");
+  // And a key a reload cannot apply: the log says it needs a restart.
+  const auto budget = config.find("\"memory_budget_mb\": ");
+  ASSERT_NE(budget, std::string::npos);
+  config.insert(budget + 20, "1");  // 256 -> 1256
   write_file(daemon_->config_path(), config);
   daemon_->signal(SIGHUP);
   ASSERT_TRUE(daemon_->wait_for_log("datasets_reloaded")) << daemon_->log();
+  ASSERT_TRUE(daemon_->wait_for_log("\"event\":\"reload_needs_restart\",\"keys\":\"memory_budget_mb"))
+      << daemon_->log();
   v1::GetDatasetRequest get;
   get.set_name("zion");
   v1::Dataset zion;
