@@ -92,7 +92,28 @@ grpc::Status CallScope::status_of(const Error& error) const {
   if (error.code == ErrorCode::kCancelled &&
       cancel_reads_as_deadline(std::chrono::steady_clock::now(), control_.deadline))
     return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED, "the request's deadline passed before it finished");
-  return to_grpc_status(error);
+  return to_grpc_status(without_server_paths(error, env_.config.data_root, env_.scratch));
+}
+
+Error without_server_paths(Error error, const std::filesystem::path& data_root, const std::filesystem::path& scratch) {
+  const auto strip = [](std::string& text, const std::string& prefix, const std::string& with) {
+    if (prefix.empty() || prefix == "/") return;
+    for (auto at = text.find(prefix); at != std::string::npos; at = text.find(prefix, at + with.size()))
+      text.replace(at, prefix.size(), with);
+  };
+  std::error_code ec;
+  const std::filesystem::path canonical = std::filesystem::weakly_canonical(data_root, ec);
+  for (const std::filesystem::path& root : {data_root, ec ? data_root : canonical}) {
+    std::string r = root.string();
+    while (r.size() > 1 && r.back() == '/') r.pop_back();
+    if (r.size() <= 1) continue;  // "" or "/": nothing to hide
+    strip(error.message, r + "/", "");  // a file inside: relative to data_root
+    strip(error.message, r, ".");       // the root itself
+  }
+  strip(error.message, scratch.string(), "<scratch>");
+  // A path is no field of the request: the dataset named one.
+  if (error.field.find('/') != std::string::npos) error.field = "dataset";
+  return error;
 }
 
 void CallScope::ohf_computed(const visibility::WorkStats& stats) {

@@ -10,6 +10,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -38,6 +39,12 @@ inline constexpr std::chrono::milliseconds kDeadlineRace{50};
 // True when a cancellation seen at `now` is the deadline passing (or about to).
 bool cancel_reads_as_deadline(std::chrono::steady_clock::time_point now,
                               std::optional<std::chrono::steady_clock::time_point> deadline);
+
+// `error` as a client may see it: paths inside data_root made relative to it
+// (and the root itself "."), the scratch directory "<scratch>", and a field
+// that is a path (a source's error names its file) replaced by "dataset".
+// Clients learn which file of a dataset failed, not where the server keeps it.
+Error without_server_paths(Error error, const std::filesystem::path& data_root, const std::filesystem::path& scratch);
 
 // Names a planned request for reserve()'s refusal: `what`, and the sweep's
 // rays and the ray_spacing behind them when those are most of the cost.

@@ -165,6 +165,9 @@ TEST_F(ServerTiles, AMissingTileFailsOnlyTheRequestsThatNeedIt) {
   EXPECT_EQ(over.exit_code, 1);
   EXPECT_NE(over.output.find("NOT_FOUND"), std::string::npos) << over.output;
   EXPECT_NE(over.output.find("no file covers cols 155.."), std::string::npos) << over.output;
+  // Named relative to the daemon's data_root: clients learn the dataset's file, not the server's paths.
+  EXPECT_NE(over.output.find("dem 'holey'"), std::string::npos) << over.output;
+  EXPECT_EQ(over.output.find(data_->path().string()), std::string::npos) << over.output;
   EXPECT_FALSE(fs::exists(out_.file("b.tif")));
   // The daemon is unharmed.
   EXPECT_EQ(
