@@ -21,6 +21,8 @@ packages=(
   prometheus-cpp-dev  # horizond's /metrics (core + pull)
   # the daemon's integration tests: an independent Python client, and the deploy YAML check
   python3-grpcio python3-protobuf python3-yaml
+  # fuzzing (scripts/fuzz.sh): clang and its libFuzzer runtime
+  clang-14 libclang-rt-14-dev
   # tests and benchmarks; gdal-bin gives gdalinfo (georeferencing checks) and gdal_viewshed (the speed peer)
   libgtest-dev libbenchmark-dev gdal-bin python3
   # horizon bench: GRASS r.viewshed (the exact peer) and the chart's font (OpenImageIO render_text, DejaVu Sans)

@@ -1,10 +1,16 @@
 #!/usr/bin/env bash
-# Installs what is needed, builds with warnings as errors and runs the whole
-# test suite. Extra arguments go to ctest (e.g. -R Cli, -j 2); HORIZON_BUILD_DIR
-# picks the build directory as in build.sh.
+# Installs what is needed, builds with warnings as errors, runs the whole
+# test suite, then fuzzes every target for HORIZON_FUZZ_SECONDS (default 30;
+# 0 skips it) in a clang/libFuzzer/ASan/UBSan build (scripts/fuzz.sh). Extra
+# arguments go to ctest (e.g. -R Cli, -j 2); HORIZON_BUILD_DIR picks the
+# build directory as in build.sh.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
 scripts/setup.sh
 HORIZON_WERROR=ON scripts/build.sh
 ctest --test-dir "${HORIZON_BUILD_DIR:-build}" --output-on-failure "$@"
+fuzz_seconds="${HORIZON_FUZZ_SECONDS:-30}"
+if ((fuzz_seconds > 0)); then
+  FUZZ_SECONDS="$fuzz_seconds" scripts/fuzz.sh
+fi

@@ -167,7 +167,7 @@ Result<Config> parse_config(const std::string& text, const std::string& source, 
   Json j;
   try {
     j = Json::parse(text);
-  } catch (const Json::parse_error& e) {
+  } catch (const Json::exception& e) {  // parse_error, and out_of_range for a number beyond double (1e400)
     return make_error(ErrorCode::kInvalidArgument, "config '" + source + "': not valid JSON: " + e.what(), "");
   }
   if (!j.is_object()) return config_error(source, "(document)", "expected a JSON object");

@@ -48,6 +48,15 @@ TEST(ServerConfig, GoodDocumentGivesItsValues) {
   EXPECT_EQ(*file, std::filesystem::canonical(kDataDir / "olinda_coast_utm25s_111x111.tif"));
 }
 
+// Found by fuzz_config: a number beyond double threw out of the parser
+// (nlohmann's out_of_range, not a parse_error) and terminated the daemon.
+TEST(ServerConfig, ANumberBeyondDoubleIsInvalidJsonNotACrash) {
+  auto c = parse_config(R"({"listen": "127.0.0.1:0", "memory_budget_mb": 1e400})", "test.json", "/");
+  ASSERT_FALSE(c.ok());
+  EXPECT_EQ(c.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_NE(c.error().message.find("not valid JSON"), std::string::npos) << c.error().message;
+}
+
 TEST(ServerConfig, TiledDatasetsAndTheBlockCache) {
   auto c = parse_config(document(R"("block_cache_mb": 64, "io_threads": 3,
                                     "datasets": {"t": {"file": ".", "missing_tiles": "nodata"},

@@ -41,6 +41,25 @@ TEST(ViewshedDriver, TakingTheElevationsOfAWholeWindowGivesTheSameResultWithoutA
   EXPECT_EQ(dem.georef.transform.x_at(3), reference.georef.transform.x_at(3));  // the rest of the DEM stays
 }
 
+// Found by fuzz_requests: a max_distance whose square overflows (3.7e263 m)
+// made the sweep's set-up cast an infinite reach to int. Any distance past
+// the grid answers as no limit does, for every algorithm.
+TEST(ViewshedDriver, AMaxDistanceBeyondAllTerrainAnswersAsNoLimit) {
+  const terrain::Dem dem = hills();
+  const auto eye = eye_at(dem, 30, 20, 2.0);
+  for (visibility::Algorithm a : {visibility::Algorithm::kRadial, visibility::Algorithm::kConservative,
+                                  visibility::Algorithm::kExact, visibility::Algorithm::kR3}) {
+    visibility::ViewshedOptions unlimited;
+    unlimited.algorithm = a;
+    visibility::ViewshedOptions huge = unlimited;
+    huge.max_distance = 3.690094671694659e+263;
+    auto a_run = visibility::compute_viewshed(dem, eye, unlimited);
+    auto b_run = visibility::compute_viewshed(dem, eye, huge);
+    ASSERT_TRUE(a_run.ok() && b_run.ok()) << visibility::algorithm_name(a);
+    expect_same(*a_run, *b_run);
+  }
+}
+
 TEST(ViewshedDriver, AWindowSmallerThanTheGridIsCopiedAndTheDemKept) {
   terrain::Dem dem = hills();
   const auto eye = eye_at(dem, 30, 20, 2.0);

@@ -138,9 +138,12 @@ SectorPlan plan_sector(const Sector& s, const SweepConstants& c, double ray_spac
       if (rest < 0) {
         jhi = jlo - 1;
       } else {
+        // Compared as doubles first: a huge max_distance makes `rest` and
+        // `reach` infinite, and casting those to int is undefined.
         const double reach = std::sqrt(rest) / s.metres_v;
-        jlo = std::max(jlo, static_cast<int>(std::floor(s.eye_v - reach)));
-        jhi = std::min(jhi, static_cast<int>(std::ceil(s.eye_v + reach)));
+        const double lo = std::floor(s.eye_v - reach), hi = std::ceil(s.eye_v + reach);
+        if (lo > jlo) jlo = static_cast<int>(lo);
+        if (hi < jhi) jhi = static_cast<int>(hi);
       }
     }
     p.cell_lo[n] = jlo;

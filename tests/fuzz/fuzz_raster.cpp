@@ -1,0 +1,66 @@
+// libFuzzer target: the raster readers (GeoTIFF/BigTIFF/COG, SRTM .hgt,
+// terrain-RGB PNG) on arbitrary bytes. The first byte picks the format (the
+// readers dispatch on the name); the rest is the file. A reader must answer
+// an Error or cells, never crash, hang or read out of bounds; a header that
+// opens is read through a bounded window, and whole when it is small.
+#include <unistd.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include "horizon/terrain/dem_reader.hpp"
+#include "horizon/terrain/source.hpp"
+
+namespace {
+
+const std::filesystem::path& scratch() {
+  static const std::filesystem::path dir = [] {
+    auto d = std::filesystem::temp_directory_path() / ("horizon-fuzz-raster-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(d);
+    return d;
+  }();
+  return dir;
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  using namespace horizon::terrain;
+  if (size < 1) return 0;
+  // An .hgt must hold 1201^2 or 3601^2 samples (2.9 or 26 MB), beyond a
+  // fuzzer's inputs: for it, the size check is what is fuzzed.
+  static const char* const kNames[] = {"dem.tif", "dem.tiff", "N46W122.hgt", "dem.png"};
+  const std::filesystem::path path = scratch() / kNames[data[0] % 4];
+  if (FILE* f = std::fopen(path.c_str(), "wb")) {
+    std::fwrite(data + 1, 1, size - 1, f);
+    std::fclose(f);
+  } else {
+    return 0;
+  }
+  ReadOptions options;
+  options.allow_missing_crs = true;
+  auto raster = open_raster(path.string(), options);
+  if (raster.ok()) {
+    const DemHeader& h = (*raster)->header();
+    const Window corner{0, 0, h.width < 256 ? h.width : 256, h.height < 256 ? h.height : 256};
+    (void)(*raster)->read_cells(corner, 1);
+    const Window far{h.width - corner.width(), h.height - corner.height(), h.width, h.height};
+    (void)(*raster)->read_cells(far, 1);
+    if (static_cast<std::uint64_t>(h.width) * static_cast<std::uint64_t>(h.height) <= (1u << 20))
+      (void)read_dem(path.string(), options);
+  }
+  // The same bytes as a source (one file): the plausible-range check and block grouping.
+  SourceOptions source_options;
+  source_options.allow_missing_crs = true;
+  source_options.block_cells = 4096;
+  if (auto source = ElevationSource::open(path.string(), source_options); source.ok()) {
+    const int w = (*source)->width() < 128 ? (*source)->width() : 128;
+    const int hgt = (*source)->height() < 128 ? (*source)->height() : 128;
+    BlockCache cache({.budget_bytes = 1 << 20, .io_threads = 1});
+    (void)(*source)->read({0, 0, w, hgt}, &cache);
+  }
+  return 0;
+}

@@ -1,0 +1,132 @@
+// libFuzzer target: every request's validation, planning and (on a small
+// DEM) execution, from the wire bytes of a v1 request. The first byte picks
+// the message (viewshed, culling, sight lines); the rest is parsed as it.
+// The steps are the daemon's: the translations of server/src/translate.hpp,
+// then visibility::plan_* and run_* against the bundled Olinda DEM
+// (111 x 111 cells), under a 2 s deadline. Any outcome but a crash, a hang
+// or undefined behaviour is fine: an Error names what was wrong.
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <google/protobuf/stubs/logging.h>
+
+#include "horizon/terrain/block_cache.hpp"
+#include "horizon/terrain/source.hpp"
+#include "horizon/v1/visibility.pb.h"
+#include "horizon/visibility/plan.hpp"
+#include "translate.hpp"
+
+namespace {
+
+namespace v1 = horizon::v1;
+namespace vis = horizon::visibility;
+using horizon::RunControl;
+
+struct Fixture {
+  std::shared_ptr<const horizon::terrain::ElevationSource> source;
+  horizon::terrain::BlockCache cache{{.budget_bytes = 8 << 20, .io_threads = 1}};
+  Fixture() {
+    google::protobuf::SetLogHandler(nullptr);  // invalid UTF-8 in a string field is an expected input, not news
+    auto opened = horizon::terrain::ElevationSource::open(HORIZON_DATA_DIR "/olinda_coast_utm25s_111x111.tif");
+    if (opened.ok()) source = *opened;
+  }
+};
+
+Fixture& fixture() {
+  static Fixture f;
+  return f;
+}
+
+RunControl bounded() {
+  RunControl control;
+  control.deadline = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+  return control;
+}
+
+void viewshed(const v1::ViewshedRequest& req) {
+  Fixture& f = fixture();
+  if (!req.has_observer()) return;
+  auto spec = horizon::server::to_point_spec(req.observer(), "observer");
+  if (!spec.ok()) return;
+  auto options = horizon::server::to_viewshed_options(req.options(), 1);
+  if (!options.ok()) return;
+  options->backend = vis::Backend::kCpu;  // no GL context in a fuzzer
+  auto plan = vis::plan_viewshed(*f.source, {*spec, *options});
+  if (!plan.ok()) return;
+  const RunControl control = bounded();
+  (void)vis::run_viewshed(*plan, *f.source, &f.cache, &control, nullptr, nullptr, nullptr);
+}
+
+void cull(const v1::CullBoxesRequest& req) {
+  Fixture& f = fixture();
+  if (!req.has_observer() || req.boxes_size() > 1000) return;  // the daemon's limits.max_boxes, shrunk
+  auto spec = horizon::server::to_point_spec(req.observer(), "observer");
+  if (!spec.ok()) return;
+  vis::CullOptions options;
+  auto algorithm = horizon::server::to_algorithm(req.algorithm(), "algorithm");
+  if (!algorithm.ok()) return;
+  options.viewshed.algorithm = *algorithm;
+  auto curvature = horizon::server::to_curvature(req.has_curvature(), req.curvature());
+  if (!curvature.ok()) return;
+  options.viewshed.curvature_coefficient = *curvature;
+  options.conservative = req.conservative();
+  std::vector<vis::BoxSpec> boxes;
+  for (const v1::Box& in : req.boxes()) {
+    auto frame = horizon::server::to_frame(in.frame(), "boxes[].frame");
+    if (!frame.ok()) return;
+    boxes.push_back({*frame, in.x_min(), in.y_min(), in.x_max(), in.y_max(), in.z_min(), in.z_max()});
+  }
+  auto plan = vis::plan_cull_boxes(*f.source, {*spec, std::move(boxes), options});
+  if (!plan.ok()) return;
+  const RunControl control = bounded();
+  (void)vis::run_cull_boxes(*plan, *f.source, &f.cache, &control, nullptr, nullptr, nullptr);
+}
+
+void lines(const v1::LineOfSightRequest& req) {
+  Fixture& f = fixture();
+  if (req.lines_size() > 50) return;  // limits.max_lines, shrunk
+  auto curvature = horizon::server::to_curvature(req.has_curvature(), req.curvature());
+  if (!curvature.ok()) return;
+  vis::LosOptions options;
+  options.curvature_coefficient = *curvature;
+  const RunControl control = bounded();
+  for (const v1::SightLine& line : req.lines()) {
+    if (!line.has_from() || !line.has_to()) return;
+    auto from = horizon::server::to_point_spec(line.from(), "from");
+    auto to = horizon::server::to_point_spec(line.to(), "to");
+    if (!from.ok() || !to.ok()) return;
+    auto plan = vis::plan_line(*f.source, {*from, *to, options});
+    if (!plan.ok()) continue;
+    (void)vis::run_line(*plan, *f.source, &f.cache, &control);
+  }
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  if (size < 1 || !fixture().source) return 0;
+  const void* body = data + 1;
+  const int n = static_cast<int>(size - 1);
+  switch (data[0] % 3) {
+    case 0: {
+      v1::ViewshedRequest r;
+      if (r.ParseFromArray(body, n)) viewshed(r);
+      break;
+    }
+    case 1: {
+      v1::CullBoxesRequest r;
+      if (r.ParseFromArray(body, n)) cull(r);
+      break;
+    }
+    default: {
+      v1::LineOfSightRequest r;
+      if (r.ParseFromArray(body, n)) lines(r);
+      break;
+    }
+  }
+  return 0;
+}
