@@ -34,6 +34,9 @@ constexpr FlagSpec kFlags[] = {
     {"--json", "", "", "Print a JSON document with every box"},
     remote::kServerFlag,
     remote::kDeadlineFlag,
+    remote::kCaFlag,
+    remote::kClientCertFlag,
+    remote::kTokenFileFlag,
 };
 
 constexpr std::string_view kAlgorithms[] = {"fast", "exact", "conservative", "r3"};

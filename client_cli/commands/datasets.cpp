@@ -8,6 +8,9 @@ namespace {
 constexpr FlagSpec kFlags[] = {
     remote::kServerFlag,
     remote::kDeadlineFlag,
+    remote::kCaFlag,
+    remote::kClientCertFlag,
+    remote::kTokenFileFlag,
     {"--page-size", "", "N", "Datasets asked per call (default 100); all pages are listed"},
     {"--json", "", "", "Print a JSON document"},
 };

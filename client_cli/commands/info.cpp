@@ -16,6 +16,9 @@ constexpr FlagSpec kFlags[] = {
     {"--json", "", "", "Print a JSON document instead of text"},
     remote::kServerFlag,
     remote::kDeadlineFlag,
+    remote::kCaFlag,
+    remote::kClientCertFlag,
+    remote::kTokenFileFlag,
 };
 
 struct Extent {

@@ -29,6 +29,9 @@ constexpr FlagSpec kFlags[] = {
     {"--json", "", "", "Print a JSON document, with the full terrain profile"},
     remote::kServerFlag,
     remote::kDeadlineFlag,
+    remote::kCaFlag,
+    remote::kClientCertFlag,
+    remote::kTokenFileFlag,
 };
 
 int run_los(const Args& args) {

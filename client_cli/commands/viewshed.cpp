@@ -51,6 +51,9 @@ constexpr FlagSpec kFlags[] = {
     {"--json", "", "", "Print the summary as a JSON document"},
     remote::kServerFlag,
     remote::kDeadlineFlag,
+    remote::kCaFlag,
+    remote::kClientCertFlag,
+    remote::kTokenFileFlag,
     {"--full-read", "", "",
      "Read the whole DEM even with --max-distance (by default only the tiles within reach are read)"},
 };

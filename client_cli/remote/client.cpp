@@ -2,6 +2,9 @@
 
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
 
 #include <grpcpp/create_channel.h>
 #include <grpcpp/security/credentials.h>
@@ -12,6 +15,18 @@
 #include "commands/command.hpp"
 
 namespace horizon::cli::remote {
+namespace {
+
+// A PEM or token file's text; UsageError naming `flag` when it cannot be read.
+std::string read_text(const std::string& path, const char* flag) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw UsageError(std::string(flag) + ": cannot read '" + path + "'");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+}  // namespace
 
 Client::Client(const Args& args) {
   address_ = args.text("--server").value_or("");
@@ -24,13 +39,36 @@ Client::Client(const Args& args) {
   grpc::ChannelArguments channel_args;
   channel_args.SetMaxReceiveMessageSize(256 << 20);  // big LineOfSight profiles and CullBoxes answers
   channel_args.SetMaxSendMessageSize(256 << 20);
-  auto channel = grpc::CreateCustomChannel(address_, grpc::InsecureChannelCredentials(), channel_args);
+  std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials();
+  if (auto ca = args.text("--ca")) {
+    grpc::SslCredentialsOptions tls;
+    tls.pem_root_certs = read_text(*ca, "--ca");
+    if (auto pair = args.text("--client-cert")) {
+      const auto comma = pair->find(',');
+      if (comma == std::string::npos)
+        throw UsageError("--client-cert: expected CERT.pem,KEY.pem, got '" + *pair + "'");
+      tls.pem_cert_chain = read_text(pair->substr(0, comma), "--client-cert");
+      tls.pem_private_key = read_text(pair->substr(comma + 1), "--client-cert");
+    }
+    credentials = grpc::SslCredentials(tls);
+  } else if (args.has("--client-cert")) {
+    throw UsageError("--client-cert needs --ca (a client certificate is presented over TLS)");
+  }
+  if (auto file = args.text("--token-file")) {
+    const std::string text = read_text(*file, "--token-file");
+    token_ = text.substr(0, text.find_first_of("\r\n"));
+    if (token_.empty()) throw UsageError("--token-file: '" + *file + "' starts with an empty line");
+  } else if (const char* env = std::getenv("HORIZON_TOKEN"); env && *env) {
+    token_ = env;
+  }
+  auto channel = grpc::CreateCustomChannel(address_, credentials, channel_args);
   datasets_ = v1::DatasetService::NewStub(channel);
   visibility_ = v1::VisibilityService::NewStub(channel);
 }
 
 std::unique_ptr<grpc::ClientContext> Client::context() const {
   auto context = std::make_unique<grpc::ClientContext>();
+  if (!token_.empty()) context->AddMetadata("authorization", "Bearer " + token_);
   context->set_deadline(std::chrono::system_clock::now() +
                         std::chrono::duration_cast<std::chrono::system_clock::duration>(
                             std::chrono::duration<double>(deadline_seconds_)));

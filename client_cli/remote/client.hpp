@@ -22,11 +22,13 @@ namespace horizon::cli::remote {
 
 class Client {
  public:
-  // Reads --server and --deadline (UsageError when malformed).
+  // Reads --server, --deadline, --ca, --client-cert and --token-file
+  // (UsageError when malformed or unreadable). Without --ca the channel is
+  // plaintext; the token, when given, goes with every call.
   explicit Client(const Args& args);
 
   const std::string& address() const { return address_; }
-  // A context carrying the deadline.
+  // A context carrying the deadline (and the bearer token).
   std::unique_ptr<grpc::ClientContext> context() const;
 
   v1::DatasetService::Stub& datasets() { return *datasets_; }
@@ -35,6 +37,7 @@ class Client {
  private:
   std::string address_;
   double deadline_seconds_ = 60.0;
+  std::string token_;
   std::unique_ptr<v1::DatasetService::Stub> datasets_;
   std::unique_ptr<v1::VisibilityService::Stub> visibility_;
 };

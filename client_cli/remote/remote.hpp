@@ -23,6 +23,12 @@ inline constexpr FlagSpec kServerFlag{"--server", "", "HOST:PORT",
                                       "Ask the horizond daemon there; the DEM operand is then a dataset name"};
 inline constexpr FlagSpec kDeadlineFlag{"--deadline", "", "S",
                                         "With --server: seconds the daemon may take (default 60); the call fails after"};
+inline constexpr FlagSpec kCaFlag{"--ca", "", "CA.pem",
+                                  "With --server: speak TLS, trusting the daemon's certificate to this CA"};
+inline constexpr FlagSpec kClientCertFlag{"--client-cert", "", "CERT.pem,KEY.pem",
+                                          "With --ca: present this client certificate and key (mutual TLS)"};
+inline constexpr FlagSpec kTokenFileFlag{"--token-file", "", "FILE",
+                                         "With --server: send the bearer token in FILE's first line (or $HORIZON_TOKEN)"};
 
 struct ViewshedInputs {
   std::string dataset;

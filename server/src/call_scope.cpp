@@ -2,12 +2,13 @@
 
 #include <cstdio>
 
+#include "auth.hpp"
 #include "grpc_status.hpp"
 
 namespace horizon::server {
 
 CallScope::CallScope(ServerEnv& env, grpc::CallbackServerContext* context, std::string_view method)
-    : env_(env), started_(std::chrono::steady_clock::now()) {
+    : env_(env), context_(context), started_(std::chrono::steady_clock::now()) {
   record_.method = method;
   env_.live_calls.fetch_add(1);
   env_.metrics.request_started();
@@ -30,6 +31,21 @@ CallScope::~CallScope() {
 std::optional<grpc::Status> CallScope::admit() {
   if (!env_.datasets.loaded())
     return grpc::Status(grpc::StatusCode::UNAVAILABLE, "horizond is loading its datasets; retry shortly");
+  // With TLS, a call that arrived on the plaintext health port is refused:
+  // that port is for probes, and a token must not cross the wire in clear.
+  if (env_.config.tls) {
+    const auto auth = context_->auth_context();
+    const auto type = auth ? auth->FindPropertyValues("transport_security_type") : std::vector<grpc::string_ref>();
+    if (type.empty() || type.front() != "ssl")
+      return grpc::Status(grpc::StatusCode::UNAUTHENTICATED,
+                          "this port serves health checks only; call the TLS port (config listen)");
+  }
+  if (!env_.config.auth_tokens.empty()) {
+    const auto& metadata = context_->client_metadata();
+    const auto it = metadata.find("authorization");
+    const std::string_view value = it == metadata.end() ? std::string_view() : std::string_view(it->second.data(), it->second.size());
+    if (auto refused = check_bearer(value, env_.config.auth_tokens)) return refused;
+  }
   if (env_.draining.load())
     return grpc::Status(grpc::StatusCode::UNAVAILABLE, "horizond is shutting down; retry on another replica");
   // A call that arrives with its deadline gone takes no slot.

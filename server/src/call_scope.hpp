@@ -1,7 +1,9 @@
 // call_scope.hpp — one RPC's bookkeeping, from admission to its log line.
 //
-// Every handler owns a CallScope. It admits the call (UNAVAILABLE while the
-// datasets load, RESOURCE_EXHAUSTED past limits.max_pending), looks the
+// Every handler owns a CallScope. It admits the call (UNAUTHENTICATED
+// without an accepted bearer token when auth_tokens_file is set, UNAVAILABLE
+// while the datasets load or the daemon drains, DEADLINE_EXCEEDED when the
+// deadline has already gone, RESOURCE_EXHAUSTED past limits.max_pending), looks the
 // dataset up (NOT_FOUND), gives the engine a RunControl (the call's cancel
 // token, set by the reactor's OnCancel, and its deadline: the client's, or
 // the configured default), reserves working memory, and on finish() writes
@@ -82,6 +84,7 @@ class CallScope {
 
  private:
   ServerEnv& env_;
+  grpc::CallbackServerContext* context_;
   const std::chrono::steady_clock::time_point started_;
   CancelToken token_;
   RunControl control_;

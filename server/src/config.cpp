@@ -1,8 +1,6 @@
 // Configuration parsing (nlohmann-json kept to this file).
 #include "config.hpp"
 
-#include "memory_budget.hpp"
-
 #include <unistd.h>
 
 #include <cstdlib>
@@ -11,6 +9,9 @@
 #include <sstream>
 
 #include <nlohmann/json.hpp>
+
+#include "auth.hpp"
+#include "memory_budget.hpp"
 
 namespace horizon::server {
 namespace {
@@ -118,6 +119,69 @@ Status parse_datasets(const Json& j, const std::string& source, Config& config) 
   return Status::Ok();
 }
 
+// The text of the file `key` names (relative to base_dir).
+Result<std::string> read_named_file(const Json& object, const std::string& source, const std::string& name,
+                                    const std::string& key, const fs::path& base_dir) {
+  auto v = get_string(object, source, name, key, false);
+  if (!v.ok()) return v.error();
+  const fs::path path = base_dir / *v;
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return config_error(source, key, "cannot read '" + path.string() + "'");
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (text.str().empty()) return config_error(source, key, "'" + path.string() + "' is empty");
+  return text.str();
+}
+
+Status parse_security(const Json& j, const std::string& source, const fs::path& base_dir, Config& c) {
+  if (j.contains("plaintext")) {
+    if (!j.at("plaintext").is_boolean()) return config_error(source, "plaintext", "expected true or false");
+    c.plaintext = j.at("plaintext").get<bool>();
+  }
+  if (j.contains("tls")) {
+    const Json& t = j.at("tls");
+    if (!t.is_object()) return config_error(source, "tls", "expected {\"cert_file\": ..., \"key_file\": ...}");
+    HORIZON_RETURN_IF_ERROR(check_keys(t, source, "tls.", {"cert_file", "key_file", "client_ca_file"}));
+    for (const char* required : {"cert_file", "key_file"})
+      if (!t.contains(required)) return config_error(source, std::string("tls.") + required, "missing (required)");
+    TlsConfig tls;
+    auto cert = read_named_file(t, source, "cert_file", "tls.cert_file", base_dir);
+    if (!cert.ok()) return cert.error();
+    auto key = read_named_file(t, source, "key_file", "tls.key_file", base_dir);
+    if (!key.ok()) return key.error();
+    tls.cert_pem = std::move(*cert);
+    tls.key_pem = std::move(*key);
+    if (t.contains("client_ca_file")) {
+      auto ca = read_named_file(t, source, "client_ca_file", "tls.client_ca_file", base_dir);
+      if (!ca.ok()) return ca.error();
+      tls.client_ca_pem = std::move(*ca);
+    }
+    c.tls = std::move(tls);
+  }
+  if (c.tls && c.plaintext)
+    return config_error(source, "plaintext", "true beside \"tls\": choose one transport");
+  if (j.contains("health_listen")) {
+    auto v = get_string(j, source, "health_listen", "health_listen", false);
+    if (!v.ok()) return v.error();
+    HORIZON_RETURN_IF_ERROR(check_address(source, "health_listen", *v));
+    if (!c.tls)
+      return config_error(source, "health_listen", "only with \"tls\" (without it, the gRPC port serves health)");
+    c.health_listen = *v;
+  }
+  if (!c.tls && !c.plaintext)
+    return config_error(source, "plaintext",
+                        "no \"tls\" given: set \"tls\" (certificate and key), or \"plaintext\": true to serve "
+                        "gRPC unencrypted (loopback and tests only)");
+  if (j.contains("auth_tokens_file")) {
+    auto v = get_string(j, source, "auth_tokens_file", "auth_tokens_file", false);
+    if (!v.ok()) return v.error();
+    auto tokens = read_tokens(base_dir / *v, "auth_tokens_file");
+    if (!tokens.ok()) return config_error(source, "auth_tokens_file", tokens.error().message);
+    c.auth_tokens = std::move(*tokens);
+  }
+  return Status::Ok();
+}
+
 Status parse_limits(const Json& j, const std::string& source, Limits& limits) {
   if (!j.is_object()) return config_error(source, "limits", "expected an object");
   HORIZON_RETURN_IF_ERROR(check_keys(j, source, "limits.", {"max_cells", "max_boxes", "max_lines", "max_pending"}));
@@ -177,7 +241,8 @@ Result<Config> parse_config(const std::string& text, const std::string& source, 
   HORIZON_RETURN_IF_ERROR(check_keys(j, source, "",
                                      {"listen", "metrics_listen", "data_root", "datasets", "memory_budget_mb",
                                       "block_cache_mb", "io_threads", "worker_threads", "engine_threads", "limits",
-                                      "gpu", "default_deadline_ms", "shutdown_grace_ms", "scratch_dir"}));
+                                      "gpu", "default_deadline_ms", "shutdown_grace_ms", "scratch_dir", "tls",
+                                      "health_listen", "plaintext", "auth_tokens_file"}));
   Config c;
   c.source = source;
   for (const char* required : {"listen", "data_root", "datasets", "memory_budget_mb"})
@@ -255,6 +320,7 @@ Result<Config> parse_config(const std::string& text, const std::string& source, 
   }
   if (!fs::is_directory(c.scratch_dir, ec) || ::access(c.scratch_dir.c_str(), W_OK) != 0)
     return config_error(source, "scratch_dir", "'" + c.scratch_dir.string() + "' is not a writable directory");
+  HORIZON_RETURN_IF_ERROR(parse_security(j, source, base_dir, c));
   return c;
 }
 
@@ -306,6 +372,13 @@ std::vector<std::string> keys_needing_restart(const Config& a, const Config& b) 
   differ(a.default_deadline != b.default_deadline, "default_deadline_ms");
   differ(a.shutdown_grace != b.shutdown_grace, "shutdown_grace_ms");
   differ(a.scratch_dir != b.scratch_dir, "scratch_dir");
+  const auto tls_of = [](const Config& c) {
+    return c.tls ? c.tls->cert_pem + '\0' + c.tls->key_pem + '\0' + c.tls->client_ca_pem : std::string();
+  };
+  differ(tls_of(a) != tls_of(b), "tls");
+  differ(a.health_listen != b.health_listen, "health_listen");
+  differ(a.plaintext != b.plaintext, "plaintext");
+  differ(a.auth_tokens != b.auth_tokens, "auth_tokens_file");
   return keys;
 }
 

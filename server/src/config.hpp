@@ -28,11 +28,22 @@
 //                                           thread (at most 64); 0 = no GPU, every request on the CPU
 //     "default_deadline_ms": 30000,         for requests that carry no deadline
 //     "shutdown_grace_ms": 10000,           SIGTERM/SIGINT: time in-flight requests get to finish
-//     "scratch_dir": "/tmp"                 holds the daemon's private 0700 directory where GeoTIFF/PNG
+//     "scratch_dir": "/tmp",                holds the daemon's private 0700 directory where GeoTIFF/PNG
 //                                           bytes are encoded (default: $TMPDIR or /tmp)
+//     "tls": {"cert_file": "server.crt",    the gRPC port's certificate chain and key (PEM); with
+//             "key_file": "server.key",     client_ca_file, clients must present a certificate
+//             "client_ca_file": "ca.crt"},  that CA signed (mutual TLS)
+//     "health_listen": "0.0.0.0:50052",     with tls: a plaintext port for the health service (and
+//                                           reflection) only, for probes that cannot speak TLS
+//                                           (Kubernetes'); our services refuse calls arriving on it
+//     "plaintext": false,                   true: serve gRPC unencrypted; required when "tls" is absent
+//                                           (loopback and tests), refused beside it
+//     "auth_tokens_file": "tokens"          bearer tokens (auth.hpp), one a line: every call of our
+//                                           services must carry one; absent: no token asked
 //   }
 //
-// Every key is checked; an unknown key, a wrong type or a value out of range
+// Files named by keys (tls.*, auth_tokens_file) are read when the config is:
+// --check-config proves they are there. Every key is checked; an unknown key, a wrong type or a value out of range
 // is an Error whose message and field name the key ("limits.max_cells",
 // "datasets.rainier"). Relative data_root and scratch_dir resolve against the
 // config file's directory.
@@ -80,6 +91,13 @@ struct Limits {
   std::uint32_t max_pending = 64;
 };
 
+// The gRPC port's TLS: a server certificate, and optionally the CA whose
+// client certificates it requires (mutual TLS). PEM text, read at load.
+struct TlsConfig {
+  std::string cert_pem, key_pem;
+  std::string client_ca_pem;  // empty: no client certificate asked for
+};
+
 struct GpuConfig {
   // EGL contexts, [0, 64]; nullopt = one per worker thread (at most 64); 0 = no GPU.
   std::optional<std::uint32_t> contexts;
@@ -101,6 +119,11 @@ struct Config {
   std::chrono::milliseconds default_deadline{30'000};
   std::chrono::milliseconds shutdown_grace{10'000};
   std::filesystem::path scratch_dir;
+  // Transport and callers: TLS, or plaintext only when the file says so.
+  std::optional<TlsConfig> tls;
+  std::string health_listen;  // with tls only; empty: none
+  bool plaintext = false;
+  std::vector<std::string> auth_tokens;  // auth_tokens_file's; empty: every caller accepted
 };
 
 // Command-line overrides applied before checking (empty: keep the file's value).

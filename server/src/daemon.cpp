@@ -9,6 +9,7 @@
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/health_check_service_interface.h>
 #include <grpcpp/server.h>
+#include <grpcpp/security/server_credentials.h>
 #include <grpcpp/server_builder.h>
 
 #include "dataset_service.hpp"
@@ -118,6 +119,22 @@ struct Daemon::Impl {
   bool stopped = false;
 };
 
+namespace {
+
+// TLS when configured (mutual when it names a client CA); plaintext only
+// when the config said so (parse_config refuses neither).
+std::shared_ptr<grpc::ServerCredentials> credentials(const Config& c) {
+  if (!c.tls) return grpc::InsecureServerCredentials();
+  grpc::SslServerCredentialsOptions options(c.tls->client_ca_pem.empty()
+                                                ? GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE
+                                                : GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY);
+  options.pem_root_certs = c.tls->client_ca_pem;
+  options.pem_key_cert_pairs.push_back({c.tls->key_pem, c.tls->cert_pem});
+  return grpc::SslServerCredentials(options);
+}
+
+}  // namespace
+
 Daemon::Daemon(Config config) : impl_(std::make_unique<Impl>(std::move(config))) {}
 Daemon::~Daemon() {
   shutdown();
@@ -162,17 +179,23 @@ Status Daemon::start() {
   // gRPC sets SO_REUSEPORT by default, which lets a second daemon bind a
   // port already in use and take half its connections: off, so that bind fails.
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
-  builder.AddListeningPort(d.config.listen, grpc::InsecureServerCredentials(), &port);
+  builder.AddListeningPort(d.config.listen, credentials(d.config), &port);
+  int health_port = 0;
+  if (!d.config.health_listen.empty())
+    builder.AddListeningPort(d.config.health_listen, grpc::InsecureServerCredentials(), &health_port);
   builder.RegisterService(&d.dataset_service);
   builder.RegisterService(&d.visibility_service);
   builder.SetMaxReceiveMessageSize(max_receive_bytes(d.config.limits));
   d.server = builder.BuildAndStart();
-  if (!d.server || port == 0)
+  if (!d.server || port == 0 || (!d.config.health_listen.empty() && health_port == 0)) {
+    const bool main_port = !d.server || port == 0;
+    const std::string key = main_port ? "listen" : "health_listen";
     return make_error(ErrorCode::kIoError,
-                      "listen '" + d.config.listen +
+                      key + " '" + (main_port ? d.config.listen : d.config.health_listen) +
                           "': cannot listen there (is another process using the port, or is the host not an "
                           "address of this machine?)",
-                      "listen");
+                      key);
+  }
   d.port = port;
   d.set_serving(false);  // until the datasets are loaded
 
@@ -180,6 +203,9 @@ Status Daemon::start() {
   log_event("info", "listening",
             {{"grpc", host + ":" + std::to_string(port)},
              {"grpc_port", std::to_string(port), true},
+             {"transport", d.config.tls ? (d.config.tls->client_ca_pem.empty() ? "tls" : "mutual tls") : "plaintext"},
+             {"auth", d.config.auth_tokens.empty() ? "none" : "bearer tokens"},
+             {"health_port", std::to_string(health_port), true},
              {"metrics_port", std::to_string(metrics_port), true},
              {"workers", std::to_string(d.pool.threads()), true},
              {"memory_budget_mb", std::to_string(d.config.memory_budget_bytes >> 20), true},

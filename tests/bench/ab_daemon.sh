@@ -26,15 +26,19 @@ load=build/tests/bench/load_horizond
 work=$(mktemp -d)
 pid=
 trap '[[ -n "$pid" ]] && kill "$pid" 2>/dev/null; wait 2>/dev/null; rm -rf "$work"' EXIT
-cat >"$work/bench.json" <<JSON
+cat >"$work/legacy.json" <<JSON
 {"listen": "127.0.0.1:0", "data_root": "$(dirname "$dem")", "datasets": {"dem": "$(basename "$dem")"},
  "memory_budget_mb": 1024, "worker_threads": 2, "engine_threads": 1, "gpu": {"contexts": 0}}
 JSON
+# Builds since the tls/plaintext keys need "plaintext": true; older ones refuse the key.
+sed 's/^{/{"plaintext": true, /' "$work/legacy.json" >"$work/plaintext.json"
 for round in $(seq "$rounds"); do
   for which in old new; do
     bin=$old
     [[ $which == new ]] && bin=$new
-    "$bin" --config "$work/bench.json" 2>"$work/log" &
+    config=$work/plaintext.json
+    "$bin" --check-config "$config" >/dev/null 2>&1 || config=$work/legacy.json
+    "$bin" --config "$config" 2>"$work/log" &
     pid=$!
     for _ in $(seq 600); do
       grep -q '"datasets_loaded"' "$work/log" && break

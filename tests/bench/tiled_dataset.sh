@@ -53,7 +53,7 @@ folder_rel=$(realpath --relative-to="$root" "$folder")
 # Starts a daemon serving DATASETS (JSON object body); sets $port, $mport, $pid.
 start() {
   cat >"$work/horizond.json" <<JSON
-{"listen": "127.0.0.1:0", "metrics_listen": "127.0.0.1:0", "data_root": "$root",
+{"listen": "127.0.0.1:0", "plaintext": true, "metrics_listen": "127.0.0.1:0", "data_root": "$root",
  "datasets": {$1}, "memory_budget_mb": $((cache_mb + 1024)), "block_cache_mb": $cache_mb,
  "worker_threads": 2, "engine_threads": 1, "limits": {"max_pending": 64}}
 JSON

@@ -44,6 +44,7 @@ DaemonProcess::DaemonProcess(const DaemonOptions& o) {
   log_path_ = dir_.file("horizond.log");
   std::ostringstream config;
   config << "{\"listen\": \"127.0.0.1:0\", \"metrics_listen\": \"127.0.0.1:0\",\n"
+         << (o.plaintext ? " \"plaintext\": true,\n" : "")
          << " \"data_root\": \"" << o.data_root << "\",\n \"datasets\": {";
   for (std::size_t i = 0; i < o.datasets.size(); ++i)
     config << (i ? ", " : "") << "\"" << o.datasets[i].first << "\": \"" << o.datasets[i].second << "\"";

@@ -27,6 +27,7 @@ struct DaemonOptions {
   std::string extra_json;  // more top-level keys, e.g. R"("limits": {"max_boxes": 10},)"
   std::string data_root = HORIZON_DATA_DIR;
   int memory_budget_mb = 256;
+  bool plaintext = true;  // false: extra_json must give "tls"
   int worker_threads = 2;
 };
 

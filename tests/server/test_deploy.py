@@ -5,6 +5,7 @@ gRPC probes and a read-only DEM volume, and a Service; the ConfigMap's JSON and
 deploy/horizond.json pass `horizond --check-config` with --data-root set to the
 bundled DEMs (which the configs name)."""
 import argparse
+import json
 import os
 import subprocess
 import sys
@@ -14,15 +15,29 @@ import yaml
 
 
 def check_config(horizond, text, data_dir):
-    with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as f:
-        f.write(text)
-        path = f.name
-    try:
+    """The shipped config is safe by default (TLS, tokens, metrics on loopback,
+    never plaintext), and horizond accepts it once the secrets it names exist:
+    here a certificate and tokens made for the test stand in for the mounts."""
+    config = json.loads(text)
+    assert "tls" in config and not config.get("plaintext", False), config
+    assert "auth_tokens_file" in config, config
+    assert config.get("metrics_listen", "").startswith("127.0.0.1:"), config
+    with tempfile.TemporaryDirectory() as tmp:
+        r = subprocess.run(["openssl", "req", "-x509", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1",
+                            "-nodes", "-keyout", os.path.join(tmp, "tls.key"), "-out", os.path.join(tmp, "tls.crt"),
+                            "-days", "1", "-subj", "/CN=horizond"], capture_output=True, text=True)
+        assert r.returncode == 0, r.stderr
+        with open(os.path.join(tmp, "tokens"), "w") as f:
+            f.write("a-deploy-test-token-0123456789\n")
+        config["tls"]["cert_file"] = os.path.join(tmp, "tls.crt")
+        config["tls"]["key_file"] = os.path.join(tmp, "tls.key")
+        config["auth_tokens_file"] = os.path.join(tmp, "tokens")
+        path = os.path.join(tmp, "horizond.json")
+        with open(path, "w") as f:
+            json.dump(config, f)
         r = subprocess.run([horizond, "--check-config", path, "--data-root", data_dir], capture_output=True, text=True)
         assert r.returncode == 0, r.stderr
         assert "accepted" in r.stdout, r.stdout
-    finally:
-        os.unlink(path)
 
 
 def main():
@@ -35,8 +50,12 @@ def main():
     kinds = {d["kind"]: d for d in docs}
     assert set(kinds) == {"ConfigMap", "Deployment", "Service"}, kinds.keys()
     container = kinds["Deployment"]["spec"]["template"]["spec"]["containers"][0]
-    assert container["readinessProbe"]["grpc"]["port"] == 50051
-    assert container["livenessProbe"]["grpc"]["port"] == 50051
+    # Kubernetes' gRPC probes speak no TLS: they use the plaintext health-only port.
+    assert container["readinessProbe"]["grpc"]["port"] == 50052
+    assert container["livenessProbe"]["grpc"]["port"] == 50052
+    secrets = {v["secret"]["secretName"] for v in kinds["Deployment"]["spec"]["template"]["spec"]["volumes"]
+               if "secret" in v}
+    assert secrets == {"horizond-tls", "horizond-tokens"}, secrets
     mounts = {m["name"]: m for m in container["volumeMounts"]}
     assert mounts["dem"]["readOnly"] is True
     assert kinds["Deployment"]["spec"]["template"]["spec"]["securityContext"]["runAsNonRoot"] is True
@@ -46,8 +65,8 @@ def main():
     r = subprocess.run([a.horizond, "--check-config", "/dev/null"], capture_output=True, text=True)
     assert r.returncode == 1
     with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as f:
-        f.write('{"listen": "0.0.0.0:50051", "data_root": "%s", "datasets": {"x": "../../etc/passwd"}, '
-                '"memory_budget_mb": 256}' % a.data_dir)
+        f.write('{"listen": "0.0.0.0:50051", "plaintext": true, "data_root": "%s", '
+                '"datasets": {"x": "../../etc/passwd"}, "memory_budget_mb": 256}' % a.data_dir)
     r = subprocess.run([a.horizond, "--check-config", f.name], capture_output=True, text=True)
     os.unlink(f.name)
     assert r.returncode == 1 and "datasets.x" in r.stderr and "outside data_root" in r.stderr, r.stderr

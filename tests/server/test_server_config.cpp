@@ -4,11 +4,16 @@
 // directory).
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <cctype>
 #include <filesystem>
+#include <fstream>
 #include <ostream>
 #include <string>
+#include <vector>
 
+#include "auth.hpp"
 #include "config.hpp"
 
 namespace horizon::server {
@@ -19,7 +24,7 @@ const std::filesystem::path kDataDir = HORIZON_DATA_DIR;
 // A valid document with `extra` spliced in as more top-level keys, or with a
 // key replaced when `extra` repeats it (nlohmann keeps the last duplicate).
 std::string document(const std::string& extra) {
-  return R"({"listen": "127.0.0.1:0", "data_root": ")" + kDataDir.string() +
+  return R"({"listen": "127.0.0.1:0", "plaintext": true, "data_root": ")" + kDataDir.string() +
          R"(", "datasets": {"rainier": "rainier_summit_srtm3_400x400.tif"}, "memory_budget_mb": 256)" +
          (extra.empty() ? "" : ", " + extra) + "}";
 }
@@ -51,10 +56,45 @@ TEST(ServerConfig, GoodDocumentGivesItsValues) {
 // Found by fuzz_config: a number beyond double threw out of the parser
 // (nlohmann's out_of_range, not a parse_error) and terminated the daemon.
 TEST(ServerConfig, ANumberBeyondDoubleIsInvalidJsonNotACrash) {
-  auto c = parse_config(R"({"listen": "127.0.0.1:0", "memory_budget_mb": 1e400})", "test.json", "/");
+  auto c = parse_config(R"({"listen": "127.0.0.1:0", "plaintext": true, "memory_budget_mb": 1e400})", "test.json",
+                        "/");
   ASSERT_FALSE(c.ok());
   EXPECT_EQ(c.error().code, ErrorCode::kInvalidArgument);
   EXPECT_NE(c.error().message.find("not valid JSON"), std::string::npos) << c.error().message;
+}
+
+TEST(ServerConfig, TokensFileLinesAreCheckedWithoutEchoingThem) {
+  const auto path = std::filesystem::temp_directory_path() / ("horizon-tokens-" + std::to_string(::getpid()));
+  {
+    std::ofstream(path) << "# comment\n\n  a-good-token-0123456789  \nshort\n";
+  }
+  auto refused = parse_config(document(R"("auth_tokens_file": ")" + path.string() + R"(")"), "test.json", "/");
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().field, "auth_tokens_file");
+  EXPECT_NE(refused.error().message.find("line 4"), std::string::npos) << refused.error().message;
+  EXPECT_EQ(refused.error().message.find("short"), std::string::npos) << refused.error().message;
+  {
+    std::ofstream(path) << "# comment\n\n  a-good-token-0123456789  \n";
+  }
+  auto accepted = parse_config(document(R"("auth_tokens_file": ")" + path.string() + R"(")"), "test.json", "/");
+  ASSERT_TRUE(accepted.ok()) << accepted.error().message;
+  EXPECT_EQ(accepted->auth_tokens, std::vector<std::string>{"a-good-token-0123456789"});
+  std::filesystem::remove(path);
+}
+
+TEST(ServerConfig, BearerTokensCompareWholeAndOnlyWithTheScheme) {
+  const std::vector<std::string> tokens{"a-good-token-0123456789", "another-token-0123456789"};
+  EXPECT_FALSE(check_bearer("Bearer a-good-token-0123456789", tokens));
+  EXPECT_FALSE(check_bearer("Bearer another-token-0123456789", tokens));
+  EXPECT_TRUE(check_bearer("Bearer a-good-token-012345678", tokens));   // a prefix
+  EXPECT_TRUE(check_bearer("Bearer a-good-token-01234567890", tokens));  // longer
+  EXPECT_TRUE(check_bearer("a-good-token-0123456789", tokens));          // no scheme
+  EXPECT_TRUE(check_bearer("", tokens));
+  EXPECT_EQ(check_bearer("", tokens)->error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  EXPECT_TRUE(same_secret("abc", "abc"));
+  EXPECT_FALSE(same_secret("abd", "abc"));
+  EXPECT_FALSE(same_secret("ab", "abc"));
+  EXPECT_FALSE(same_secret("", "x"));
 }
 
 TEST(ServerConfig, TiledDatasetsAndTheBlockCache) {
@@ -153,6 +193,15 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"valid_range reversed",
                 document(R"("datasets": {"a": {"file": "x", "valid_range": [100, -100]}})"),
                 "datasets.a.valid_range"},
+        BadCase{"neither tls nor plaintext", document(R"("plaintext": false)"), "plaintext"},
+        BadCase{"plaintext not a boolean", document(R"("plaintext": "yes")"), "plaintext"},
+        BadCase{"tls cert unreadable", document(R"("tls": {"cert_file": "/no/such.pem", "key_file": "/no/k"})"),
+                "tls.cert_file"},
+        BadCase{"tls without key", document(R"("tls": {"cert_file": "/no/such.pem"})"), "tls.key_file"},
+        BadCase{"tls unknown key", document(R"("tls": {"cert": "x"})"), "tls.cert"},
+        BadCase{"health_listen without tls", document(R"("health_listen": "127.0.0.1:0")"), "health_listen"},
+        BadCase{"auth_tokens_file missing", document(R"("auth_tokens_file": "/no/such/tokens")"),
+                "auth_tokens_file"},
         BadCase{"block_cache_mb 0", document(R"("block_cache_mb": 0)"), "block_cache_mb"},
         BadCase{"block_cache_mb over the budget", document(R"("block_cache_mb": 300)"), "block_cache_mb"},
         BadCase{"io_threads 0", document(R"("io_threads": 0)"), "io_threads"}),

@@ -41,7 +41,8 @@ int health_status(grpc::GenericStub& stub, const std::string& service) {
 }
 
 TEST(ServerHealth, NotServingUntilTheDatasetsAreLoaded) {
-  const std::string text = R"({"listen": "127.0.0.1:0", "data_root": ")" + std::string(HORIZON_DATA_DIR) +
+  const std::string text = R"({"listen": "127.0.0.1:0", "plaintext": true, "data_root": ")" +
+                           std::string(HORIZON_DATA_DIR) +
                            R"(", "datasets": {"rainier": "rainier_summit_srtm3_400x400.tif"},
                                "memory_budget_mb": 128, "shutdown_grace_ms": 0})";
   auto config = parse_config(text, "health.json", "/");

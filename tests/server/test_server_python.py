@@ -116,7 +116,7 @@ class Api:
 def start_daemon(horizond, data_dir, tmp):
     config = os.path.join(tmp, "horizond.json")
     with open(config, "w") as f:
-        json.dump({"listen": "127.0.0.1:0", "metrics_listen": "127.0.0.1:0", "data_root": data_dir,
+        json.dump({"listen": "127.0.0.1:0", "plaintext": True, "metrics_listen": "127.0.0.1:0", "data_root": data_dir,
                    "datasets": {"rainier": "rainier_summit_srtm3_400x400.tif",
                                 "everest": "everest_summit_voids_srtm3_300x300.tif",
                                 "olinda": "olinda_coast_utm25s_111x111.tif"},
