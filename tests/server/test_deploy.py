@@ -48,7 +48,13 @@ def main():
     a = p.parse_args()
     docs = list(yaml.safe_load_all(open(os.path.join(a.deploy_dir, "kubernetes", "horizond.yaml"))))
     kinds = {d["kind"]: d for d in docs}
-    assert set(kinds) == {"ConfigMap", "Deployment", "Service"}, kinds.keys()
+    assert sorted(d["kind"] for d in docs) == ["ConfigMap", "Deployment", "HorizontalPodAutoscaler",
+                                               "PodDisruptionBudget", "Service", "Service"], [d["kind"] for d in docs]
+    services = {d["metadata"]["name"]: d for d in docs if d["kind"] == "Service"}
+    assert services["horizond-pods"]["spec"]["clusterIP"] == "None"  # headless, for client-side round robin
+    labels = kinds["Deployment"]["spec"]["selector"]["matchLabels"]
+    assert kinds["PodDisruptionBudget"]["spec"]["selector"]["matchLabels"] == labels
+    assert kinds["HorizontalPodAutoscaler"]["spec"]["scaleTargetRef"]["name"] == kinds["Deployment"]["metadata"]["name"]
     container = kinds["Deployment"]["spec"]["template"]["spec"]["containers"][0]
     # Kubernetes' gRPC probes speak no TLS: they use the plaintext health-only port.
     assert container["readinessProbe"]["grpc"]["port"] == 50052
@@ -59,6 +65,13 @@ def main():
     mounts = {m["name"]: m for m in container["volumeMounts"]}
     assert mounts["dem"]["readOnly"] is True
     assert kinds["Deployment"]["spec"]["template"]["spec"]["securityContext"]["runAsNonRoot"] is True
+    # The memory limit holds the budget and the overhead outside it, and no more than 25 % on top.
+    config = json.loads(kinds["ConfigMap"]["data"]["horizond.json"])
+    def mebibytes(q):
+        return int(q[:-2]) * (1024 if q.endswith("Gi") else 1) if q[-2:] in ("Mi", "Gi") else int(q) >> 20
+    limit = mebibytes(container["resources"]["limits"]["memory"])
+    assert config["memory_budget_mb"] + 128 <= limit <= 1.25 * config["memory_budget_mb"], limit
+    assert mebibytes(container["resources"]["requests"]["memory"]) >= config["memory_budget_mb"]
     check_config(a.horizond, kinds["ConfigMap"]["data"]["horizond.json"], a.data_dir)
     check_config(a.horizond, open(os.path.join(a.deploy_dir, "horizond.json")).read(), a.data_dir)
     # A bad config is refused, naming the key.
