@@ -12,6 +12,7 @@
 # load_horizond line per daemon, scenario and round (default 3 rounds).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/../.."
+source tests/bench/horizond_lib.sh
 if (($# < 5)); then
   sed -n '2,12p' "$0" >&2
   exit 2
@@ -38,13 +39,9 @@ for round in $(seq "$rounds"); do
     [[ $which == new ]] && bin=$new
     config=$work/plaintext.json
     "$bin" --check-config "$config" >/dev/null 2>&1 || config=$work/legacy.json
-    "$bin" --config "$config" 2>"$work/log" &
-    pid=$!
-    for _ in $(seq 600); do
-      grep -q '"datasets_loaded"' "$work/log" && break
-      sleep 0.1
-    done
-    port=$(grep -o '"grpc_port":[0-9]*' "$work/log" | head -1 | cut -d: -f2)
+    start_horizond "$bin" "$config" "$work/log"
+    pid=$horizond_pid
+    port=$horizond_port
     echo "round $round $which cull:     $("$load" --server "127.0.0.1:$port" --dataset dem --mode cull --x "$x" --y "$y" \
       --clients 1 --requests 600 --boxes 10000 --scene-radius 3000)"
     echo "round $round $which viewshed: $("$load" --server "127.0.0.1:$port" --dataset dem --mode viewshed --x "$x" \
