@@ -135,6 +135,7 @@ DemHeader header_of_whole(const Dem& dem) {
   h.block_width = h.width;
   h.block_height = h.height;
   h.blocks_total = 1;
+  h.rows_read_alone = true;  // held decoded (DecodedFile)
   return h;
 }
 

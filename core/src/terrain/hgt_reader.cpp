@@ -105,6 +105,7 @@ Result<DemHeader> hgt_header(const std::string& path) {
   h.block_width = n;
   h.block_height = n;
   h.blocks_total = 1;
+  h.rows_read_alone = true;  // raw rows at known offsets
   return h;
 }
 

@@ -47,11 +47,12 @@ std::optional<long long> whole(double value) {
 
 // The source's blocks of a file: its own tiles or strips, grouped (doubling
 // the narrower side) until a block holds about `target` cells; a file
-// without internal blocks is cut into bands of rows.
+// whose one block reads row by row (an .hgt) is cut into bands of rows. A
+// TIFF of one strip stays one block: each band would decode the whole strip.
 void lay_out_blocks(SourceFile& f, std::uint64_t target) {
   const DemHeader& h = f.raster->header();
   int bw = h.block_width, bh = h.block_height;
-  if (h.blocks_total <= 1) {
+  if (h.blocks_total <= 1 && h.rows_read_alone) {
     bw = h.width;
     bh = static_cast<int>(std::clamp<std::uint64_t>(target / static_cast<std::uint64_t>(h.width), 1,
                                                     static_cast<std::uint64_t>(h.height)));

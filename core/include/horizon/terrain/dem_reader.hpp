@@ -85,6 +85,11 @@ struct DemHeader {
   bool tiled = false;
   int block_width = 0, block_height = 0;
   std::uint64_t blocks_total = 0;
+  // A window's read costs only its own rows, not the whole block's: an .hgt
+  // (raw rows at known offsets) and the formats held decoded. A source may
+  // then cut the block into bands of rows; a TIFF's strip is decoded whole
+  // by any read that touches it, so it is never cut.
+  bool rows_read_alone = false;
 };
 
 // An opened raster whose cells can be read many times, window by window,
