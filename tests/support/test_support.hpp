@@ -42,6 +42,10 @@ class TempDir {
 // gdal_translate -srcwin would. Returns the paths, row by row.
 std::vector<std::string> write_tiles(const terrain::Dem& dem, int nx, int ny, const std::string& dir);
 
+// Overwrites 512 bytes in the middle of the file at `path` with 0xA5: a
+// corrupt block in a compressed GeoTIFF's pixels.
+void overwrite_middle(const std::string& path);
+
 // Writes an SRTM tile "<dir>/N46W122.hgt" (named by its south-west corner,
 // big-endian int16, n x n samples on whole-degree edges) whose heights are a
 // function of the global sample position, so neighbours' shared edges agree;

@@ -222,14 +222,7 @@ TEST(ElevationSource, ACorruptTileFailsTheReadNamingTheFileAndBlock) {
   TempDir dir;
   const Dem dem = georeferenced_terrain(600, 300, 6);
   const auto tiles = testing::write_tiles(dem, 2, 1, dir.path().string());
-  // Overwrite the middle of the east tile's compressed pixels.
-  const auto size = std::filesystem::file_size(tiles[1]);
-  {
-    std::fstream f(tiles[1], std::ios::in | std::ios::out | std::ios::binary);
-    f.seekp(static_cast<std::streamoff>(size / 2));
-    const std::string junk(512, '\xA5');
-    f.write(junk.data(), static_cast<std::streamsize>(junk.size()));
-  }
+  testing::overwrite_middle(tiles[1]);  // the east tile's compressed pixels
   auto source = ElevationSource::open(dir.path().string());
   ASSERT_TRUE(source.ok()) << source.error().message;
   BlockCache cache(cache_of(4 << 20));
