@@ -281,6 +281,32 @@ TEST(ElevationSource, ImplausibleElevationsFailTheReadNamingFileBlockAndCell) {
   EXPECT_EQ(refused.error().field, "valid_range");
 }
 
+// Found by fuzz_raster: a file with one internal block was cut into bands
+// of rows, and for a TIFF of one strip every band decoded the whole strip
+// again. Such a TIFF is one block; an .hgt, whose rows read alone, is cut.
+TEST(ElevationSource, ATiffOfOneStripIsOneBlockAndAnHgtIsCutIntoBands) {
+  TempDir dir;
+  const Dem dem = georeferenced_terrain(300, 200, 9);
+  const std::string tiled = dir.file("tiled.tif"), strip = dir.file("strip.tif");
+  ASSERT_TRUE(write_geotiff(tiled, dem.elevation, dem.georef, std::nullopt).ok());
+  const auto made = testing::run_command("gdal_translate -q -co TILED=NO -co BLOCKYSIZE=200 -co COMPRESS=DEFLATE " +
+                                         tiled + " " + strip);
+  ASSERT_EQ(made.exit_code, 0) << made.output;
+  auto source = ElevationSource::open(strip, blocks_of(64 * 64));
+  ASSERT_TRUE(source.ok()) << source.error().message;
+  EXPECT_EQ((*source)->block_count(), 1u);
+  SourceReadStats stats;
+  BlockCache cache(cache_of(4 << 20));
+  auto got = (*source)->read({10, 10, 30, 30}, &cache, nullptr, &stats);
+  ASSERT_TRUE(got.ok()) << got.error().message;
+  EXPECT_EQ(stats.cache.misses, 1u);  // the strip, decoded once
+  EXPECT_EQ(got->elevation.at(0, 0), dem.elevation.at(10, 10));
+  testing::write_hgt(dir.path().string(), 46, -122, 1201);
+  auto hgt = ElevationSource::open(dir.file("N46W122.hgt"), blocks_of(64 * 64));
+  ASSERT_TRUE(hgt.ok()) << hgt.error().message;
+  EXPECT_GT((*hgt)->block_count(), 1u);  // bands of rows
+}
+
 TEST(ElevationSource, RejectsFilesNotOnOneGrid) {
   const Dem dem = georeferenced_terrain(40, 40, 8);
   {
