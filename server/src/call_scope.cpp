@@ -43,7 +43,8 @@ std::optional<grpc::Status> CallScope::admit() {
   if (!env_.config.auth_tokens.empty()) {
     const auto& metadata = context_->client_metadata();
     const auto it = metadata.find("authorization");
-    const std::string_view value = it == metadata.end() ? std::string_view() : std::string_view(it->second.data(), it->second.size());
+    const std::string_view value =
+        it == metadata.end() ? std::string_view() : std::string_view(it->second.data(), it->second.size());
     if (auto refused = check_bearer(value, env_.config.auth_tokens)) return refused;
   }
   if (env_.draining.load())

@@ -33,7 +33,8 @@ Result<std::string> encode(const fs::path& dir, const char* extension, Write&& w
   const Status written = write(path.string());
   if (!written.ok()) return written.error();
   std::ifstream in(path, std::ios::binary);
-  if (!in) return make_error(ErrorCode::kIoError, "an encoded raster could not be read back from the scratch directory");
+  if (!in)
+    return make_error(ErrorCode::kIoError, "an encoded raster could not be read back from the scratch directory");
   std::ostringstream bytes;
   bytes << in.rdbuf();
   return std::move(bytes).str();

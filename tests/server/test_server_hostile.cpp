@@ -100,8 +100,9 @@ TEST(ServerHostile, CheckConfigRefusesACorruptDemNamingTheFileAndCell) {
   georef.transform = {500000.0, 30.0, 5000000.0, -30.0};
   ASSERT_TRUE(terrain::write_geotiff(dir.file("bad.tif"), cells, georef, std::nullopt).ok());
   const auto config = [&](const std::string& entry) {
-    write_file(dir.file("c.json"), "{\"listen\": \"127.0.0.1:0\", \"plaintext\": true, \"memory_budget_mb\": 256, \"data_root\": \"" +
-                                       dir.path().string() + "\", \"datasets\": {\"bad\": " + entry + "}}");
+    write_file(dir.file("c.json"),
+               "{\"listen\": \"127.0.0.1:0\", \"plaintext\": true, \"memory_budget_mb\": 256, \"data_root\": \"" +
+                   dir.path().string() + "\", \"datasets\": {\"bad\": " + entry + "}}");
     return run_command(std::string(HORIZOND_PATH) + " --check-config " + dir.file("c.json"));
   };
   const CommandResult refused = config("\"bad.tif\"");
