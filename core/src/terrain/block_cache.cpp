@@ -50,6 +50,27 @@ struct BlockCache::State {
   std::atomic<std::uint64_t> live_bytes{0};
   boost::asio::thread_pool pool;
 
+  // The key's block if resident, made the most recently used. Mutex held.
+  const Shared* touch(const BlockKey& key) {
+    auto it = resident.find(key);
+    if (it == resident.end()) return nullptr;
+    lru.splice(lru.begin(), lru, it->second.lru);
+    return &it->second.block;
+  }
+  // The decode or build of `key` in flight, if any. Mutex held.
+  const Pending* in_flight(const BlockKey& key) const {
+    auto it = decoding.find(key);
+    return it == decoding.end() ? nullptr : &it->second;
+  }
+
+  // Waits for `pending` to settle, polling `control` (may be null) every
+  // 5 ms: Ok once it has, the control's error once it says stop. Mutex not held.
+  static Status settled(const Pending& pending, const RunControl* control) {
+    while (pending.wait_for(std::chrono::milliseconds(5)) != std::future_status::ready)
+      HORIZON_RETURN_IF_ERROR(check_control(control));
+    return Status::Ok();
+  }
+
   // Keeps `block` while the budget allows, evicting from the back. Mutex held.
   void keep(const BlockKey& key, const Shared& block) {
     if (block.bytes > budget) return;  // handed to its requesters only
@@ -151,14 +172,13 @@ Result<std::vector<Block>> BlockCache::fetch(std::span<const Want> wants, const 
     std::lock_guard lock(state_->mutex);
     for (std::size_t i = 0; i < wants.size(); ++i) {
       const BlockKey key = wants[i].key;
-      if (auto it = state_->resident.find(key); it != state_->resident.end()) {
-        state_->lru.splice(state_->lru.begin(), state_->lru, it->second.lru);
-        blocks[i] = std::static_pointer_cast<const Grid<float>>(it->second.block.value);
+      if (const Shared* hit = state_->touch(key)) {
+        blocks[i] = std::static_pointer_cast<const Grid<float>>(hit->value);
         ++local.hits;
         continue;
       }
-      if (auto it = state_->decoding.find(key); it != state_->decoding.end()) {
-        pending[i] = it->second;
+      if (const State::Pending* flight = state_->in_flight(key)) {
+        pending[i] = *flight;
         ++local.joins;
         continue;
       }
@@ -196,8 +216,7 @@ Result<std::vector<Block>> BlockCache::fetch(std::span<const Want> wants, const 
   std::optional<Error> failure;
   for (std::size_t i = 0; i < wants.size(); ++i) {
     if (!pending[i]) continue;
-    while (pending[i]->wait_for(std::chrono::milliseconds(5)) != std::future_status::ready)
-      if (auto s = check_control(control); !s.ok()) return s.error();
+    if (auto s = State::settled(*pending[i], control); !s.ok()) return s.error();
     const Result<Shared>& got = pending[i]->get();
     if (!got.ok()) {
       if (!failure) failure = got.error();
@@ -220,15 +239,14 @@ Result<BlockCache::Shared> BlockCache::build_shared(BlockKey key, const std::fun
   std::promise<Result<Shared>> promise;
   {
     std::lock_guard lock(state_->mutex);
-    if (auto it = state_->resident.find(key); it != state_->resident.end()) {
-      state_->lru.splice(state_->lru.begin(), state_->lru, it->second.lru);
+    if (const Shared* hit = state_->touch(key)) {
       ++state_->counters.hits;
       local.hits = 1;
       if (stats) *stats = local;
-      return it->second.block;
+      return *hit;
     }
-    if (auto it = state_->decoding.find(key); it != state_->decoding.end()) {
-      joined = it->second;
+    if (const State::Pending* flight = state_->in_flight(key)) {
+      joined = *flight;
       ++state_->counters.joins;
       local.joins = 1;
     } else {
@@ -244,8 +262,7 @@ Result<BlockCache::Shared> BlockCache::build_shared(BlockKey key, const std::fun
     return r;
   };
   if (joined) {
-    while (joined->wait_for(std::chrono::milliseconds(5)) != std::future_status::ready)
-      if (auto s = check_control(control); !s.ok()) return finish(s.error());
+    if (auto s = State::settled(*joined, control); !s.ok()) return finish(s.error());
     return finish(joined->get());
   }
   // Ours to build, here. Whatever happens, the key is settled, so that
