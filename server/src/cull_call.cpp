@@ -28,29 +28,15 @@ grpc::Status run_cull_boxes(CallScope& scope, const v1::CullBoxesRequest& reques
   auto spec = to_point_spec(request.observer(), "observer");
   if (!spec.ok()) return scope.status_of(spec.error());
 
-  visibility::CullOptions options;
-  auto algorithm = to_algorithm(request.algorithm(), "algorithm");
-  if (!algorithm.ok()) return scope.status_of(algorithm.error());
-  options.viewshed.algorithm = *algorithm;
-  auto curvature = to_curvature(request.has_curvature(), request.curvature());
-  if (!curvature.ok()) return scope.status_of(curvature.error());
-  options.viewshed.curvature_coefficient = *curvature;
-  options.viewshed.threads = env.config.engine_threads;
-  options.conservative = request.conservative();
-  scope.record().algorithm =
-      std::string(visibility::algorithm_name(options.conservative ? visibility::Algorithm::kConservative : *algorithm));
-
-  std::vector<visibility::BoxSpec> boxes(static_cast<std::size_t>(n));
-  for (int i = 0; i < n; ++i) {
-    const v1::Box& in = request.boxes(i);
-    auto frame = to_frame(in.frame(), "boxes[" + std::to_string(i) + "].frame");
-    if (!frame.ok()) return scope.status_of(frame.error());
-    boxes[static_cast<std::size_t>(i)] = {*frame,     in.x_min(), in.y_min(), in.x_max(),
-                                          in.y_max(), in.z_min(), in.z_max()};
-  }
+  auto options = to_cull_options(request, env.config.engine_threads);
+  if (!options.ok()) return scope.status_of(options.error());
+  scope.record().algorithm = std::string(visibility::algorithm_name(
+      options->conservative ? visibility::Algorithm::kConservative : options->viewshed.algorithm));
+  auto boxes = to_boxes(request);
+  if (!boxes.ok()) return scope.status_of(boxes.error());
 
   // The plan: observer and boxes placed on the dataset's header, the reach, cells and cost known.
-  auto plan = visibility::plan_cull_boxes(*d.source, {*spec, std::move(boxes), options});
+  auto plan = visibility::plan_cull_boxes(*d.source, {*spec, std::move(*boxes), *options});
   if (!plan.ok()) return scope.status_of(rename_field(plan.error(), ""));
   const std::uint64_t cells = plan->cost.cells;
   if (cells > env.config.limits.max_cells)

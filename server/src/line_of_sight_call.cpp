@@ -41,17 +41,10 @@ grpc::Status run_line_of_sight(CallScope& scope, const v1::LineOfSightRequest& r
   for (int i = 0; i < n; ++i) {
     if (i % 64 == 0)
       if (auto s = check_control(scope.control()); !s.ok()) return scope.status_of(s.error());
-    const v1::SightLine& line = request.lines(i);
     const std::string prefix = "lines[" + std::to_string(i) + "].";
-    if (!line.has_from() || !line.has_to())
-      return scope.status_of(make_error(ErrorCode::kInvalidArgument,
-                                        prefix + (line.has_from() ? "to" : "from") + ": required",
-                                        prefix + (line.has_from() ? "to" : "from")));
-    auto from_spec = to_point_spec(line.from(), prefix + "from");
-    if (!from_spec.ok()) return scope.status_of(from_spec.error());
-    auto to_spec = to_point_spec(line.to(), prefix + "to");
-    if (!to_spec.ok()) return scope.status_of(to_spec.error());
-    auto plan = visibility::plan_line(*d.source, {*from_spec, *to_spec, options});
+    auto ends = to_line_ends(request.lines(i), prefix);
+    if (!ends.ok()) return scope.status_of(ends.error());
+    auto plan = visibility::plan_line(*d.source, {ends->first, ends->second, options});
     if (!plan.ok()) return scope.status_of(rename_field(plan.error(), "", prefix));
     largest = std::max(largest, plan->cost.bytes);
     const terrain::Window& w = plan->read.read;

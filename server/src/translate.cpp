@@ -178,6 +178,44 @@ Result<double> to_curvature(bool has, double value) {
   return check.curvature_coefficient;
 }
 
+Result<visibility::CullOptions> to_cull_options(const v1::CullBoxesRequest& request, unsigned threads) {
+  visibility::CullOptions options;
+  auto algorithm = to_algorithm(request.algorithm(), "algorithm");
+  if (!algorithm.ok()) return algorithm.error();
+  options.viewshed.algorithm = *algorithm;
+  auto curvature = to_curvature(request.has_curvature(), request.curvature());
+  if (!curvature.ok()) return curvature.error();
+  options.viewshed.curvature_coefficient = *curvature;
+  options.viewshed.threads = threads;
+  options.conservative = request.conservative();
+  return options;
+}
+
+Result<std::vector<visibility::BoxSpec>> to_boxes(const v1::CullBoxesRequest& request) {
+  std::vector<visibility::BoxSpec> boxes(static_cast<std::size_t>(request.boxes_size()));
+  for (int i = 0; i < request.boxes_size(); ++i) {
+    const v1::Box& in = request.boxes(i);
+    auto frame = to_frame(in.frame(), "boxes[" + std::to_string(i) + "].frame");
+    if (!frame.ok()) return frame.error();
+    boxes[static_cast<std::size_t>(i)] = {*frame,     in.x_min(), in.y_min(), in.x_max(),
+                                          in.y_max(), in.z_min(), in.z_max()};
+  }
+  return boxes;
+}
+
+Result<std::pair<geodesy::PointSpec, geodesy::PointSpec>> to_line_ends(const v1::SightLine& line,
+                                                                        const std::string& prefix) {
+  if (!line.has_from() || !line.has_to()) {
+    const std::string field = prefix + (line.has_from() ? "to" : "from");
+    return make_error(ErrorCode::kInvalidArgument, field + ": required", field);
+  }
+  auto from = to_point_spec(line.from(), prefix + "from");
+  if (!from.ok()) return from.error();
+  auto to = to_point_spec(line.to(), prefix + "to");
+  if (!to.ok()) return to.error();
+  return std::pair{*from, *to};
+}
+
 void fill_transform(const terrain::GeoTransform& t, v1::GeoTransform& out) {
   out.set_origin_x(t.origin_x);
   out.set_pixel_width(t.pixel_width);

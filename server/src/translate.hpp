@@ -7,6 +7,8 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 #include "datasets.hpp"
 #include "horizon/common/error.hpp"
@@ -34,6 +36,15 @@ Result<visibility::GpuMethod> to_gpu_method(v1::GpuMethod method, const std::str
 Result<visibility::ViewshedOptions> to_viewshed_options(const v1::ViewshedOptions& options, unsigned threads);
 // The curvature field shared by LineOfSight and CullBoxes ("curvature").
 Result<double> to_curvature(bool has, double value);
+// A CullBoxes request's algorithm, curvature and conservative flag.
+Result<visibility::CullOptions> to_cull_options(const v1::CullBoxesRequest& request, unsigned threads);
+// A CullBoxes request's boxes, each frame checked ("boxes[i].frame"). The
+// caller bounds boxes_size() by limits.max_boxes first.
+Result<std::vector<visibility::BoxSpec>> to_boxes(const v1::CullBoxesRequest& request);
+// A sight line's two ends, both required; `prefix` is its API path
+// ("lines[3].", naming "lines[3].from").
+Result<std::pair<geodesy::PointSpec, geodesy::PointSpec>> to_line_ends(const v1::SightLine& line,
+                                                                        const std::string& prefix);
 
 // An engine error's field renamed to the API path: core names options by their
 // C++ members ("curvature_coefficient") and WGS84 coordinates "lon"/"lat";

@@ -66,21 +66,11 @@ void cull(const v1::CullBoxesRequest& req) {
   if (!req.has_observer() || req.boxes_size() > 1000) return;  // the daemon's limits.max_boxes, shrunk
   auto spec = horizon::server::to_point_spec(req.observer(), "observer");
   if (!spec.ok()) return;
-  vis::CullOptions options;
-  auto algorithm = horizon::server::to_algorithm(req.algorithm(), "algorithm");
-  if (!algorithm.ok()) return;
-  options.viewshed.algorithm = *algorithm;
-  auto curvature = horizon::server::to_curvature(req.has_curvature(), req.curvature());
-  if (!curvature.ok()) return;
-  options.viewshed.curvature_coefficient = *curvature;
-  options.conservative = req.conservative();
-  std::vector<vis::BoxSpec> boxes;
-  for (const v1::Box& in : req.boxes()) {
-    auto frame = horizon::server::to_frame(in.frame(), "boxes[].frame");
-    if (!frame.ok()) return;
-    boxes.push_back({*frame, in.x_min(), in.y_min(), in.x_max(), in.y_max(), in.z_min(), in.z_max()});
-  }
-  auto plan = vis::plan_cull_boxes(*f.source, {*spec, std::move(boxes), options});
+  auto options = horizon::server::to_cull_options(req, 1);
+  if (!options.ok()) return;
+  auto boxes = horizon::server::to_boxes(req);
+  if (!boxes.ok()) return;
+  auto plan = vis::plan_cull_boxes(*f.source, {*spec, std::move(*boxes), *options});
   if (!plan.ok()) return;
   const RunControl control = bounded();
   (void)vis::run_cull_boxes(*plan, *f.source, &f.cache, &control, nullptr, nullptr, nullptr);
@@ -95,11 +85,9 @@ void lines(const v1::LineOfSightRequest& req) {
   options.curvature_coefficient = *curvature;
   const RunControl control = bounded();
   for (const v1::SightLine& line : req.lines()) {
-    if (!line.has_from() || !line.has_to()) return;
-    auto from = horizon::server::to_point_spec(line.from(), "from");
-    auto to = horizon::server::to_point_spec(line.to(), "to");
-    if (!from.ok() || !to.ok()) return;
-    auto plan = vis::plan_line(*f.source, {*from, *to, options});
+    auto ends = horizon::server::to_line_ends(line, "lines[].");
+    if (!ends.ok()) return;
+    auto plan = vis::plan_line(*f.source, {ends->first, ends->second, options});
     if (!plan.ok()) continue;
     (void)vis::run_line(*plan, *f.source, &f.cache, &control);
   }
