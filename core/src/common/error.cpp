@@ -1,9 +1,17 @@
 // Error names and RunControl polling.
 #include "horizon/common/error.hpp"
 
+#include <cstdio>
+
 #include "horizon/common/control.hpp"
 
 namespace horizon {
+
+std::string number_text(double value, int significant) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.*g", significant, value);
+  return buffer;
+}
 
 const char* error_code_name(ErrorCode code) {
   switch (code) {

@@ -10,7 +10,6 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <limits>
@@ -87,13 +86,10 @@ Status check_plausible(const Grid<float>& cells, const Window& at, const SourceO
     const float* row = cells.row(r);
     for (int c = 0; c < cells.width(); ++c) {
       if (!(row[c] < lo || row[c] > hi)) continue;  // in range, or a void
-      char value[32];
-      std::snprintf(value, sizeof value, "%g", double(row[c]));
-      char range[64];
-      std::snprintf(range, sizeof range, "[%g, %g]", o.valid_min, o.valid_max);
       return source_error(ErrorCode::kDataError, file,
                           "cell (col " + std::to_string(at.col0 + c) + ", row " + std::to_string(at.row0 + r) +
-                              ") holds " + value + ", outside the plausible elevations " + range +
+                              ") holds " + number_text(row[c]) + ", outside the plausible elevations [" +
+                              number_text(o.valid_min) + ", " + number_text(o.valid_max) + "]" +
                               ": the file is corrupt (" + where +
                               "), or its units need a wider valid range");
     }

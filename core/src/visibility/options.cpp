@@ -2,7 +2,6 @@
 #include "horizon/visibility/options.hpp"
 
 #include <cmath>
-#include <cstdio>
 #include <string>
 #include <utility>
 
@@ -13,43 +12,37 @@ Error bad_option(const char* field, const std::string& what) {
   return make_error(ErrorCode::kInvalidArgument, std::string(field) + ": " + what, field);
 }
 
-std::string number(double v) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%g", v);
-  return buffer;
-}
-
 }  // namespace
 
 Status validate_options(const ViewshedOptions& o) {
   if (!std::isfinite(o.target_height) || o.target_height < 0)
-    return bad_option("target_height", "must be a finite number >= 0 metres, got " + number(o.target_height));
+    return bad_option("target_height", "must be a finite number >= 0 metres, got " + number_text(o.target_height));
   if (std::isnan(o.max_distance) || o.max_distance <= 0)
-    return bad_option("max_distance", "must be > 0 metres (or infinite for no limit), got " + number(o.max_distance));
+    return bad_option("max_distance", "must be > 0 metres (or infinite for no limit), got " + number_text(o.max_distance));
   if (!std::isfinite(o.curvature_coefficient) || o.curvature_coefficient < 0 || o.curvature_coefficient > 2)
     return bad_option("curvature_coefficient",
                       "must be a finite number in [0, 2] (0.85714 = standard refraction, 0 = flat earth), got " +
-                          number(o.curvature_coefficient));
+                          number_text(o.curvature_coefficient));
   if (!std::isfinite(o.nodata_fill_height))
-    return bad_option("nodata_fill_height", "must be a finite number of metres, got " + number(o.nodata_fill_height));
+    return bad_option("nodata_fill_height", "must be a finite number of metres, got " + number_text(o.nodata_fill_height));
   if (!std::isfinite(o.radial.ray_spacing) || o.radial.ray_spacing <= 0 || o.radial.ray_spacing > 4)
-    return bad_option("ray_spacing", "must be in (0, 4] cells, got " + number(o.radial.ray_spacing));
+    return bad_option("ray_spacing", "must be in (0, 4] cells, got " + number_text(o.radial.ray_spacing));
   if (o.radial.thinning_levels < 0 || o.radial.thinning_levels > 6)
-    return bad_option("thinning_levels", "must be an integer in [0, 6], got " + number(o.radial.thinning_levels));
+    return bad_option("thinning_levels", "must be an integer in [0, 6], got " + number_text(o.radial.thinning_levels));
   switch (o.radial.blend) {
     case RayBlend::kLinear:
     case RayBlend::kMin:
     case RayBlend::kResample:
       break;
     default:
-      return bad_option("blend", "unknown ray blend value " + number(static_cast<int>(o.radial.blend)));
+      return bad_option("blend", "unknown ray blend value " + number_text(static_cast<int>(o.radial.blend)));
   }
   if (o.gpu) switch (o.gpu->method) {
       case GpuMethod::kFragment:
       case GpuMethod::kCompute:
         break;
       default:
-        return bad_option("gpu_method", "unknown GPU method value " + number(static_cast<int>(o.gpu->method)));
+        return bad_option("gpu_method", "unknown GPU method value " + number_text(static_cast<int>(o.gpu->method)));
     }
   switch (o.backend) {
     case Backend::kAuto:
@@ -61,7 +54,7 @@ Status validate_options(const ViewshedOptions& o) {
                                          std::string(algorithm_name(o.algorithm)) + " runs on the CPU (backend auto or cpu)");
       break;
     default:
-      return bad_option("backend", "unknown backend value " + number(static_cast<int>(o.backend)));
+      return bad_option("backend", "unknown backend value " + number_text(static_cast<int>(o.backend)));
   }
   switch (o.algorithm) {
     case Algorithm::kRadial:
@@ -70,7 +63,7 @@ Status validate_options(const ViewshedOptions& o) {
     case Algorithm::kConservative:
       return Status::Ok();
   }
-  return bad_option("algorithm", "unknown algorithm value " + number(static_cast<int>(o.algorithm)));
+  return bad_option("algorithm", "unknown algorithm value " + number_text(static_cast<int>(o.algorithm)));
 }
 
 namespace {

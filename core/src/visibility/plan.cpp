@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <string>
 #include <utility>
@@ -16,12 +15,6 @@ namespace {
 // finds on the read cells equals the one it would find on the whole source
 // (cells_within and make_view_frame round the disc's edge separately).
 constexpr int kReadMargin = 2;
-
-std::string number(double v) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.3g", v);
-  return buffer;
-}
 
 // Measured single-core costs per answered cell (docs/benchmarks.md, the
 // 12 M-cell case): estimates for admission, not promises.
@@ -60,10 +53,10 @@ Status add_sweep_cost(const ViewshedOptions& o, const terrain::Window& output, C
   if (per_sector > static_cast<double>(kMaxSweepRays)) {
     const double floor_spacing = reach / (0.5 * static_cast<double>(kMaxSweepRays));
     return make_error(ErrorCode::kResourceExhausted,
-                      "ray_spacing: " + number(o.radial.ray_spacing) + " cells over a reach of " +
-                          number(reach) + " cells needs " + number(per_sector) +
+                      "ray_spacing: " + number_text(o.radial.ray_spacing, 3) + " cells over a reach of " +
+                          number_text(reach, 3) + " cells needs " + number_text(per_sector, 3) +
                           " rays a sector, more than the sweep's limit of " + std::to_string(kMaxSweepRays) +
-                          "; use a ray_spacing of at least " + number(floor_spacing) +
+                          "; use a ray_spacing of at least " + number_text(floor_spacing, 3) +
                           " or a smaller max_distance",
                       "ray_spacing");
   }

@@ -38,6 +38,10 @@ struct Error {
   std::string field;    // the offending input's name ("observer", "max_distance", a path); may be empty
 };
 
+// A number as messages write it: printf's %.*g with `significant` digits
+// ("0.5", "1e+06", "3e+38").
+std::string number_text(double value, int significant = 6);
+
 inline Error make_error(ErrorCode code, std::string message, std::string field = {}) {
   return Error{code, std::move(message), std::move(field)};
 }
