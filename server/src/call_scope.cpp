@@ -1,6 +1,5 @@
 #include "call_scope.hpp"
 
-#include <cstdio>
 
 #include "auth.hpp"
 #include "grpc_status.hpp"
@@ -29,6 +28,18 @@ CallScope::~CallScope() {
 }
 
 std::optional<grpc::Status> CallScope::admit() {
+  auto refused = admission();
+  if (refused) ticket_.take();  // never queued: a cancel has nothing to drop
+  return refused;
+}
+
+std::optional<grpc::Status> CallScope::cancel() {
+  token_.cancel();
+  if (!ticket_.drop()) return std::nullopt;  // running, finished or never queued
+  return status_of(make_error(ErrorCode::kCancelled, "cancelled before it started"));
+}
+
+std::optional<grpc::Status> CallScope::admission() {
   if (!env_.datasets.loaded())
     return grpc::Status(grpc::StatusCode::UNAVAILABLE, "horizond is loading its datasets; retry shortly");
   // With TLS, a call that arrived on the plaintext health port is refused:
@@ -81,10 +92,8 @@ Result<std::shared_ptr<const Dataset>> CallScope::dataset(const std::string& nam
 
 std::string planned_work(const std::string& what, const visibility::Cost& cost, double ray_spacing) {
   if (cost.sweep_bytes * 2 <= cost.bytes) return what;
-  char spacing[32];
-  std::snprintf(spacing, sizeof spacing, "%g", ray_spacing);
-  return what + " (" + std::to_string(cost.sweep_rays) + " sweep rays at options.ray_spacing = " + spacing +
-         " cells)";
+  return what + " (" + std::to_string(cost.sweep_rays) + " sweep rays at options.ray_spacing = " +
+         number_text(ray_spacing) + " cells)";
 }
 
 Status CallScope::reserve(std::uint64_t bytes, const std::string& what) {
@@ -118,14 +127,12 @@ Error without_server_paths(Error error, const std::filesystem::path& data_root, 
     for (auto at = text.find(prefix); at != std::string::npos; at = text.find(prefix, at + with.size()))
       text.replace(at, prefix.size(), with);
   };
-  std::error_code ec;
-  const std::filesystem::path canonical = std::filesystem::weakly_canonical(data_root, ec);
-  for (const std::filesystem::path& root : {data_root, ec ? data_root : canonical}) {
-    std::string r = root.string();
-    while (r.size() > 1 && r.back() == '/') r.pop_back();
-    if (r.size() <= 1) continue;  // "" or "/": nothing to hide
-    strip(error.message, r + "/", "");  // a file inside: relative to data_root
-    strip(error.message, r, ".");       // the root itself
+  // parse_config made data_root canonical, and every dataset path is resolved inside it.
+  std::string root = data_root.string();
+  while (root.size() > 1 && root.back() == '/') root.pop_back();
+  if (root.size() > 1) {                   // "" or "/": nothing to hide
+    strip(error.message, root + "/", "");  // a file inside: relative to data_root
+    strip(error.message, root, ".");       // the root itself
   }
   strip(error.message, scratch.string(), "<scratch>");
   // A path is no field of the request: the dataset named one.

@@ -61,6 +61,9 @@ class CallScope {
 
   // Ok, or the status to finish with at once.
   std::optional<grpc::Status> admit();
+  // The call's place in the worker queue, for the task that runs it
+  // (worker_pool.hpp): the task runs the call only if ticket().take().
+  QueueTicket ticket() const { return ticket_; }
   // The dataset by name: kInvalidArgument for an empty name, kNotFound for an unknown one.
   Result<std::shared_ptr<const Dataset>> dataset(const std::string& name);
   // Reserves `bytes` of working memory for the rest of the call (kResourceExhausted when it
@@ -68,7 +71,9 @@ class CallScope {
   Status reserve(std::uint64_t bytes, const std::string& what);
 
   const RunControl* control() const { return &control_; }
-  void cancel() { token_.cancel(); }
+  // OnCancel: stops the engine (the cancel token it polls) and, when the call
+  // was still waiting for a worker, gives the status to finish it with now.
+  std::optional<grpc::Status> cancel();
   RequestRecord& record() { return record_; }
   ServerEnv& env() { return env_; }
   // Records an OHF the call computed: its cells, where it ran and any GPU
@@ -83,6 +88,8 @@ class CallScope {
   void finish(const grpc::Status& status);
 
  private:
+  std::optional<grpc::Status> admission();
+
   ServerEnv& env_;
   grpc::CallbackServerContext* context_;
   const std::chrono::steady_clock::time_point started_;
@@ -90,6 +97,7 @@ class CallScope {
   RunControl control_;
   RequestRecord record_;
   Reservation memory_;
+  QueueTicket ticket_;
   bool admitted_ = false;
   bool finished_ = false;
   std::shared_ptr<const DatasetSet> datasets_;  // held for the whole call (a reload never pulls a dataset away)

@@ -17,7 +17,6 @@
 #include <grpcpp/support/server_callback.h>
 
 #include "call_scope.hpp"
-#include "worker_pool.hpp"
 
 namespace horizon::server {
 
@@ -29,21 +28,18 @@ class UnaryCall final : public grpc::ServerUnaryReactor {
   static grpc::ServerUnaryReactor* start(ServerEnv& env, grpc::CallbackServerContext* context,
                                          std::string_view method, Work work) {
     auto* call = new UnaryCall(env, context, method);
-    QueueTicket ticket = call->ticket_;
     if (auto refused = call->scope_.admit()) {
-      ticket.take();  // never queued: a cancel has nothing to drop
       call->finish(*refused);
       return call;
     }
-    env.pool.post([call, ticket, work = std::move(work)]() mutable {
-      if (ticket.take()) call->finish(work(call->scope_));
+    env.pool.post([call, ticket = call->scope_.ticket(), work = std::move(work)]() mutable {
+      if (ticket.take()) call->finish(work(call->scope_));  // else finished by OnCancel, perhaps deleted
     });
     return call;
   }
 
   void OnCancel() override {
-    scope_.cancel();
-    if (ticket_.drop()) finish(scope_.status_of(make_error(ErrorCode::kCancelled, "cancelled before it started")));
+    if (auto dropped = scope_.cancel()) finish(*dropped);
   }
   void OnDone() override { delete this; }
 
@@ -57,7 +53,6 @@ class UnaryCall final : public grpc::ServerUnaryReactor {
   }
 
   CallScope scope_;
-  QueueTicket ticket_;
 };
 
 }  // namespace horizon::server

@@ -30,12 +30,8 @@ class ViewshedCall final : public grpc::ServerWriteReactor<v1::ViewshedResponse>
       : scope_(env, context, "ComputeViewshed"), request_(request) {}
 
   void start() {
-    QueueTicket ticket = ticket_;
-    if (auto refused = scope_.admit()) {
-      ticket.take();  // never queued: a cancel has nothing to drop
-      return finish(*refused);
-    }
-    scope_.env().pool.post([this, ticket]() mutable {
+    if (auto refused = scope_.admit()) return finish(*refused);
+    scope_.env().pool.post([this, ticket = scope_.ticket()]() mutable {
       if (!ticket.take()) return;  // cancelled in the queue: finished, perhaps deleted
       const grpc::Status status = compute();
       if (!status.ok()) return finish(status);
@@ -48,8 +44,7 @@ class ViewshedCall final : public grpc::ServerWriteReactor<v1::ViewshedResponse>
     write_next();
   }
   void OnCancel() override {
-    scope_.cancel();
-    if (ticket_.drop()) finish(scope_.status_of(make_error(ErrorCode::kCancelled, "cancelled before it started")));
+    if (auto dropped = scope_.cancel()) finish(*dropped);
   }
   void OnDone() override { delete this; }
 
@@ -67,7 +62,6 @@ class ViewshedCall final : public grpc::ServerWriteReactor<v1::ViewshedResponse>
   }
 
   CallScope scope_;
-  QueueTicket ticket_;
   const v1::ViewshedRequest request_;  // a copy: the call's own lives only until Finish
   std::mutex mutex_;
   bool finished_ = false;
