@@ -58,11 +58,6 @@ std::vector<std::string> files_in(const fs::path& dir) {
   return names;
 }
 
-std::string read_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 bool have_gdalinfo() {
   return run_command("command -v gdalinfo").exit_code == 0;
 }

@@ -15,13 +15,6 @@ namespace {
 
 using Json = nlohmann::json;
 
-std::string read_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 CommandResult horizon(const std::string& args) {
   return run_command(std::string(HORIZON_CLI_PATH) + " " + args);
 }

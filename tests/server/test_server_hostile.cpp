@@ -23,13 +23,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 // The entries of `dir` whose names start with `prefix`.
 std::vector<fs::path> entries(const fs::path& dir, const std::string& prefix) {
   std::vector<fs::path> out;
@@ -83,7 +76,7 @@ TEST(ServerHostile, ScratchFilesStayInAPrivateDirectoryAndNeverFollowPlantedName
   const CommandResult r = run_command(std::string(HORIZON_CLI_PATH) + " viewshed rainier --server " + daemon.address() +
                                       " --lat 46.8529 --lon -121.7604 --max-distance 3000 -o " + tif + " --png " + png);
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_EQ(read_text(victim), "precious");
+  EXPECT_EQ(read_bytes(victim.string()), "precious");
   EXPECT_GT(fs::file_size(tif), 0u);
   EXPECT_GT(fs::file_size(png), 0u);
   EXPECT_TRUE(fs::is_empty(private_dirs[0]));  // every encoding removed after use

@@ -19,11 +19,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string read_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
-
 CommandResult horizon(const std::string& args) {
   return run_command(std::string(HORIZON_CLI_PATH) + " " + args);
 }

@@ -25,13 +25,6 @@ namespace {
 
 constexpr const char* kToken = "s3cret-token-for-tests-0123456789";
 
-std::string read_text(const std::string& path) {
-  std::ifstream in(path);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 // A CA, a server certificate for 127.0.0.1 and a client certificate, in `dir`.
 bool make_certificates(const TempDir& dir) {
   const std::string d = dir.path().string();
@@ -62,10 +55,10 @@ DaemonOptions secured(const TempDir& certs, bool mutual) {
 
 std::shared_ptr<grpc::Channel> tls_channel(const DaemonProcess& daemon, const TempDir& certs, bool with_cert) {
   grpc::SslCredentialsOptions tls;
-  tls.pem_root_certs = read_text(certs.file("ca.pem"));
+  tls.pem_root_certs = read_bytes(certs.file("ca.pem"));
   if (with_cert) {
-    tls.pem_cert_chain = read_text(certs.file("client.pem"));
-    tls.pem_private_key = read_text(certs.file("client.key"));
+    tls.pem_cert_chain = read_bytes(certs.file("client.pem"));
+    tls.pem_private_key = read_bytes(certs.file("client.key"));
   }
   return grpc::CreateChannel(daemon.address(), grpc::SslCredentials(tls));
 }

@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <random>
 #include <vector>
 
@@ -126,6 +127,11 @@ std::string readable_name(const std::string& text) {
 
 std::string dem_name(const std::string& file) {
   return readable_name(std::filesystem::path(file).stem().string());
+}
+
+std::string read_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
 }
 
 void overwrite_middle(const std::string& path) {

@@ -42,6 +42,9 @@ class TempDir {
 // gdal_translate -srcwin would. Returns the paths, row by row.
 std::vector<std::string> write_tiles(const terrain::Dem& dem, int nx, int ny, const std::string& dir);
 
+// The bytes of the file at `path` ("" when it cannot be read).
+std::string read_bytes(const std::string& path);
+
 // Overwrites 512 bytes in the middle of the file at `path` with 0xA5: a
 // corrupt block in a compressed GeoTIFF's pixels.
 void overwrite_middle(const std::string& path);

@@ -41,11 +41,6 @@ Georeference utm_georef() {
   return {GeoTransform{712000.5, 10.0, 9561000.25, -10.0}, 32717};
 }
 
-std::string read_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
-
 int leftover_temporaries(const fs::path& dir) {
   int n = 0;
   for (const auto& entry : fs::directory_iterator(dir))
@@ -128,9 +123,9 @@ TEST(GeoTiffWriter, OutputIsDeterministic) {
   TempDir dir;
   ASSERT_TRUE(write_geotiff(dir.file("a.tif"), float_grid(), utm_georef(), -32768.0).ok());
   ASSERT_TRUE(write_geotiff(dir.file("b.tif"), float_grid(), utm_georef(), -32768.0).ok());
-  const std::string a = read_bytes(dir.file("a.tif"));
+  const std::string a = testing::read_bytes(dir.file("a.tif"));
   EXPECT_GT(a.size(), 1000u);
-  EXPECT_EQ(a, read_bytes(dir.file("b.tif")));
+  EXPECT_EQ(a, testing::read_bytes(dir.file("b.tif")));
 }
 
 TEST(GeoTiffWriter, GdalinfoSeesOriginPixelSizeEpsgAndNodata) {
@@ -234,12 +229,12 @@ TEST(GeoTiffWriter, NeverWritesThroughANamePlantedForItsTemporary) {
   EXPECT_EQ(refused.error().code, ErrorCode::kIoError);
   EXPECT_NE(refused.error().message.find("cannot create a temporary file"), std::string::npos)
       << refused.error().message;
-  EXPECT_EQ(read_bytes(victim), "precious");
+  EXPECT_EQ(testing::read_bytes(victim), "precious");
   EXPECT_FALSE(fs::exists(path));
   unplant();
   plant(2);  // every even name
   ASSERT_TRUE(write_geotiff(path, float_grid(), utm_georef(), -9999.0).ok());
-  EXPECT_EQ(read_bytes(victim), "precious");
+  EXPECT_EQ(testing::read_bytes(victim), "precious");
   EXPECT_TRUE(read_dem(path).ok());
   unplant();
 }
@@ -266,7 +261,7 @@ TEST(GeoTiffWriter, FailureAfterWritingLeavesTargetAndNoTemporary) {
   ASSERT_FALSE(st.ok());
   EXPECT_EQ(st.error().code, ErrorCode::kIoError);
   EXPECT_NE(st.error().message.find(path), std::string::npos);
-  EXPECT_EQ(read_bytes(dir.file("taken.tif/keep.txt")), "precious");
+  EXPECT_EQ(testing::read_bytes(dir.file("taken.tif/keep.txt")), "precious");
   EXPECT_EQ(leftover_temporaries(dir.path()), 0);
 }
 
@@ -280,7 +275,7 @@ TEST(GeoTiffWriter, FailureLeavesExistingFileUntouched) {
   ASSERT_FALSE(st.ok());
   EXPECT_EQ(st.error().code, ErrorCode::kUnsupported);
   EXPECT_NE(st.error().message.find("3035"), std::string::npos);
-  EXPECT_EQ(read_bytes(path), "precious");
+  EXPECT_EQ(testing::read_bytes(path), "precious");
   EXPECT_EQ(leftover_temporaries(dir.path()), 0);
 }
 
@@ -296,7 +291,7 @@ TEST(GeoTiffWriter, FailureInReadOnlyDirectoryLeavesExistingFileUntouched) {
   fs::permissions(ro, fs::perms::owner_all);
   ASSERT_FALSE(st.ok());
   EXPECT_EQ(st.error().code, ErrorCode::kIoError);
-  EXPECT_EQ(read_bytes(path), "precious");
+  EXPECT_EQ(testing::read_bytes(path), "precious");
   EXPECT_EQ(leftover_temporaries(ro), 0);
 }
 
