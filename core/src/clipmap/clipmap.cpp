@@ -1,0 +1,266 @@
+#include "horizon/clipmap/clipmap.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cassert>
+#include <cmath>
+#include <cstring>
+#include <mutex>
+#include <string>
+
+namespace horizon::clipmap {
+namespace {
+
+constexpr std::uint64_t kMaxValidityBytes = 16u << 20;
+
+bool power_of_two(int v) { return v > 0 && (v & (v - 1)) == 0; }
+int log2i(int v) { return std::countr_zero(static_cast<unsigned>(v)); }
+
+}  // namespace
+
+Result<std::shared_ptr<Clipmap>> Clipmap::make(int source_width, int source_height, const ClipmapShape& shape) {
+  if (source_width <= 0 || source_height <= 0)
+    return make_error(ErrorCode::kInvalidArgument, "clip-map source has no cells", "source");
+  if (shape.levels < 1 || shape.levels > ClipmapShape::kMaxLevels)
+    return make_error(ErrorCode::kInvalidArgument,
+                      "clipmap.levels must be 1.." + std::to_string(ClipmapShape::kMaxLevels) + ", got " +
+                          std::to_string(shape.levels),
+                      "clipmap.levels");
+  if (!power_of_two(shape.level_size) || shape.level_size < 64 || shape.level_size > 4096)
+    return make_error(ErrorCode::kInvalidArgument,
+                      "clipmap.level_size must be a power of two in [64, 4096], got " +
+                          std::to_string(shape.level_size),
+                      "clipmap.level_size");
+  if (!power_of_two(shape.subtile) || shape.subtile < 8 || shape.subtile > shape.level_size / 2)
+    return make_error(ErrorCode::kInvalidArgument,
+                      "clipmap.subtile must be a power of two in [8, level_size / 2 = " +
+                          std::to_string(shape.level_size / 2) + "], got " + std::to_string(shape.subtile),
+                      "clipmap.subtile");
+  const int longest = std::max(source_width, source_height);
+  const int top = shape.levels - 1;
+  if ((static_cast<std::int64_t>(shape.level_size) << top) < longest) {
+    int needed = shape.levels;
+    while ((static_cast<std::int64_t>(shape.level_size) << (needed - 1)) < longest) ++needed;
+    std::string message = "clipmap.levels: " + std::to_string(shape.levels) + " levels of " +
+                          std::to_string(shape.level_size) + " samples reach " +
+                          std::to_string(static_cast<std::int64_t>(shape.level_size) << top) +
+                          " cells, the source is " + std::to_string(longest) +
+                          " cells across; the coarsest level must cover it: ";
+    if (needed <= ClipmapShape::kMaxLevels)
+      message += "use at least " + std::to_string(needed) + " levels";
+    else
+      message += "use a larger level_size";
+    return make_error(ErrorCode::kInvalidArgument, std::move(message), "clipmap.levels");
+  }
+  const std::uint64_t validity = static_cast<std::uint64_t>((source_width + shape.subtile - 1) / shape.subtile) *
+                                 static_cast<std::uint64_t>((source_height + shape.subtile - 1) / shape.subtile);
+  if (validity > kMaxValidityBytes)
+    return make_error(ErrorCode::kResourceExhausted,
+                      "clipmap.subtile " + std::to_string(shape.subtile) + " needs a validity grid of " +
+                          std::to_string(validity) + " positions over this source (at most " +
+                          std::to_string(kMaxValidityBytes) + "): use a larger subtile",
+                      "clipmap.subtile");
+  return std::shared_ptr<Clipmap>(new Clipmap(source_width, source_height, shape));
+}
+
+Clipmap::Clipmap(int width, int height, const ClipmapShape& shape)
+    : shape_(shape),
+      width_(width),
+      height_(height),
+      tiles_(shape.level_size / shape.subtile),
+      log_t_(log2i(shape.subtile)),
+      log_n_(log2i(shape.level_size)),
+      valid_w_((width + shape.subtile - 1) / shape.subtile),
+      valid_h_((height + shape.subtile - 1) / shape.subtile),
+      levels_(static_cast<std::size_t>(shape.levels)),
+      validity_(static_cast<std::size_t>(valid_w_) * static_cast<std::size_t>(valid_h_), kNoLevel) {
+  const std::size_t n2 = static_cast<std::size_t>(shape.level_size) * static_cast<std::size_t>(shape.level_size);
+  for (Level& level : levels_) {
+    // Poison: a slot never written reads NaN, which no test accepts as terrain.
+    level.samples.assign(n2, std::numeric_limits<float>::quiet_NaN());
+    level.tags.assign(static_cast<std::size_t>(tiles_) * static_cast<std::size_t>(tiles_), kEmptyTag);
+  }
+}
+
+std::uint64_t Clipmap::bytes() const {
+  const std::uint64_t n2 = static_cast<std::uint64_t>(shape_.level_size) * shape_.level_size;
+  const std::uint64_t tags = static_cast<std::uint64_t>(tiles_) * tiles_ * sizeof(SubtileKey);
+  return levels_.size() * (n2 * sizeof(float) + tags) + validity_.size();
+}
+
+LevelOrigin Clipmap::origin_for(int k, double col, double row) const {
+  assert(k >= 0 && k < shape_.levels);
+  if (full_extent(k)) return {};
+  const int n = shape_.level_size, t = shape_.subtile;
+  auto axis = [&](double centre, int level_cells) {
+    const double u = (centre + 0.5) / static_cast<double>(1 << k) - 0.5;  // level-cell coordinate
+    const double start = std::clamp(u - n / 2.0, -1e9, 1e9);
+    int origin = static_cast<int>(std::floor(start / t + 0.5)) * t;
+    // Keep the window over the source where it can be: no slots spent off its edges.
+    const int last = level_cells > n ? (level_cells - n + t - 1) / t * t : 0;
+    return std::clamp(origin, 0, last);
+  };
+  return {axis(col, level_width(k)), axis(row, level_height(k))};
+}
+
+bool Clipmap::in_window(const LevelOrigin& o, int tx, int ty) const {
+  const int x0 = o.col0 >> log_t_, y0 = o.row0 >> log_t_;
+  return tx >= x0 && tx < x0 + tiles_ && ty >= y0 && ty < y0 + tiles_;
+}
+
+bool Clipmap::inside_source(int k, int tx, int ty) const {
+  return tx >= 0 && ty >= 0 && (tx << log_t_) < level_width(k) && (ty << log_t_) < level_height(k);
+}
+
+bool Clipmap::resident(int k, int tx, int ty) const {
+  const Level& level = levels_[static_cast<std::size_t>(k)];
+  return level.tags[static_cast<std::size_t>(slot_of(tx, ty))] == SubtileKey{tx, ty};
+}
+
+std::vector<SubtileKey> Clipmap::missing_subtiles(int k, const LevelOrigin& origin) const {
+  std::shared_lock lock(mutex_);
+  std::vector<SubtileKey> keys;
+  const int x0 = origin.col0 >> log_t_, y0 = origin.row0 >> log_t_;
+  for (int ty = y0; ty < y0 + tiles_; ++ty)
+    for (int tx = x0; tx < x0 + tiles_; ++tx)
+      if (inside_source(k, tx, ty) && !resident(k, tx, ty)) keys.push_back({tx, ty});
+  return keys;
+}
+
+void Clipmap::refresh_validity(int k, int tx, int ty) {
+  // Level-k sub-tile (tx, ty) spans finest positions [tx 2^k, (tx + 1) 2^k).
+  const int px0 = std::max(0, tx << k), px1 = std::min(valid_w_, (tx + 1) << k);
+  const int py0 = std::max(0, ty << k), py1 = std::min(valid_h_, (ty + 1) << k);
+  for (int py = py0; py < py1; ++py)
+    for (int px = px0; px < px1; ++px) {
+      std::uint8_t v = kNoLevel;
+      for (int level = 0; level < shape_.levels; ++level)
+        if (resident(level, px >> level, py >> level)) {
+          v = static_cast<std::uint8_t>(level);
+          break;
+        }
+      validity_[static_cast<std::size_t>(py) * static_cast<std::size_t>(valid_w_) + static_cast<std::size_t>(px)] = v;
+    }
+}
+
+void Clipmap::publish(const LevelUpdate& update) {
+  std::unique_lock lock(mutex_);
+  const int k = update.level;
+  assert(k >= 0 && k < shape_.levels);
+  Level& level = levels_[static_cast<std::size_t>(k)];
+  const int n = shape_.level_size, t = shape_.subtile;
+  assert(update.samples.size() == update.keys.size() * static_cast<std::size_t>(t) * static_cast<std::size_t>(t));
+
+  std::vector<SubtileKey> dropped;
+  for (SubtileKey& tag : level.tags)
+    if (!(tag == kEmptyTag) && !in_window(update.origin, tag.tx, tag.ty)) {
+      dropped.push_back(tag);
+      tag = kEmptyTag;
+      --level.resident;
+    }
+  level.origin = update.origin;
+
+  const float* src = update.samples.data();
+  for (const SubtileKey& key : update.keys) {
+    assert(in_window(update.origin, key.tx, key.ty) && inside_source(k, key.tx, key.ty));
+    SubtileKey& tag = level.tags[static_cast<std::size_t>(slot_of(key.tx, key.ty))];
+    const bool fresh = !(tag == key);
+    const int col = (key.tx << log_t_) & (n - 1);
+    for (int r = 0; r < t; ++r) {
+      const int row = ((key.ty << log_t_) + r) & (n - 1);
+      std::memcpy(level.samples.data() + (static_cast<std::size_t>(row) << log_n_) + static_cast<std::size_t>(col), src,
+                  static_cast<std::size_t>(t) * sizeof(float));
+      src += t;
+    }
+    tag = key;
+    if (fresh) ++level.resident;
+  }
+  for (const SubtileKey& key : dropped) refresh_validity(k, key.tx, key.ty);
+  for (const SubtileKey& key : update.keys) refresh_validity(k, key.tx, key.ty);
+  level.loaded_once = true;
+  ++level.version;
+  level.pose = update.pose;
+}
+
+// --- ClipmapReader ---
+
+ClipmapReader::ClipmapReader(const Clipmap& map) : map_(map), lock_(map.mutex_) {}
+
+LevelState ClipmapReader::level(int k) const {
+  const Clipmap::Level& level = map_.levels_[static_cast<std::size_t>(k)];
+  return {level.origin, map_.full_extent(k), level.version, level.pose, level.resident};
+}
+
+bool ClipmapReader::resident(int k, int i, int j) const {
+  return map_.resident(k, i >> map_.log_t_, j >> map_.log_t_) &&
+         map_.in_window(map_.levels_[static_cast<std::size_t>(k)].origin, i >> map_.log_t_, j >> map_.log_t_);
+}
+
+float ClipmapReader::cell(int k, int i, int j) const {
+  assert(resident(k, i, j));
+  const int mask = map_.shape_.level_size - 1;
+  return map_.levels_[static_cast<std::size_t>(k)]
+      .samples[(static_cast<std::size_t>(j & mask) << map_.log_n_) + static_cast<std::size_t>(i & mask)];
+}
+
+int ClipmapReader::level_for(int k, double col, double row) const {
+  const int px = std::clamp(static_cast<int>(std::floor(col)) >> map_.log_t_, 0, map_.valid_w_ - 1);
+  const int py = std::clamp(static_cast<int>(std::floor(row)) >> map_.log_t_, 0, map_.valid_h_ - 1);
+  const std::uint8_t v =
+      map_.validity_[static_cast<std::size_t>(py) * static_cast<std::size_t>(map_.valid_w_) + static_cast<std::size_t>(px)];
+  if (v == Clipmap::kNoLevel) return map_.shape_.levels;
+  return std::max(k, static_cast<int>(v));
+}
+
+float ClipmapReader::sample(int k, double col, double row, SampleStats& stats, int* used) const {
+  ++stats.samples;
+  if (used) *used = map_.shape_.levels;
+  if (!(col >= -0.5 && row >= -0.5 && col <= map_.width_ - 0.5 && row <= map_.height_ - 0.5))
+    return std::numeric_limits<float>::quiet_NaN();
+  for (int kk = level_for(k, col, row); kk < map_.shape_.levels; ++kk) {
+    const double scale = 1.0 / static_cast<double>(1 << kk);
+    const double u = (col + 0.5) * scale - 0.5, v = (row + 0.5) * scale - 0.5;
+    const int w = map_.level_width(kk), h = map_.level_height(kk);
+    const double fi = std::floor(u), fj = std::floor(v);
+    const double a = u - fi, b = v - fj;
+    const int i0 = std::clamp(static_cast<int>(fi), 0, w - 1), i1 = std::clamp(static_cast<int>(fi) + 1, 0, w - 1);
+    const int j0 = std::clamp(static_cast<int>(fj), 0, h - 1), j1 = std::clamp(static_cast<int>(fj) + 1, 0, h - 1);
+    if (!resident(kk, i0, j0) || !resident(kk, i1, j0) || !resident(kk, i0, j1) || !resident(kk, i1, j1)) continue;
+    if (kk > k) ++stats.fallbacks;
+    if (used) *used = kk;
+    const float z00 = cell(kk, i0, j0), z10 = cell(kk, i1, j0), z01 = cell(kk, i0, j1), z11 = cell(kk, i1, j1);
+    const double top = z00 + (z10 - z00) * a, bottom = z01 + (z11 - z01) * a;
+    return static_cast<float>(top + (bottom - top) * b);
+  }
+  return std::numeric_limits<float>::quiet_NaN();
+}
+
+float ClipmapReader::lowest(int k, int col0, int row0, int col1, int row1, SampleStats& stats) const {
+  ++stats.samples;
+  col0 = std::max(col0, 0);
+  row0 = std::max(row0, 0);
+  col1 = std::min(col1, map_.width_ - 1);
+  row1 = std::min(row1, map_.height_ - 1);
+  if (col0 > col1 || row0 > row1) return std::numeric_limits<float>::infinity();
+  int start = std::max({level_for(k, col0, row0), level_for(k, col1, row0), level_for(k, col0, row1),
+                        level_for(k, col1, row1)});
+  for (int kk = start; kk < map_.shape_.levels; ++kk) {
+    const int i0 = col0 >> kk, i1 = col1 >> kk, j0 = row0 >> kk, j1 = row1 >> kk;
+    bool all = true;
+    for (int j = j0; j <= j1 && all; ++j)
+      for (int i = i0; i <= i1 && all; ++i) all = resident(kk, i, j);
+    if (!all) continue;
+    if (kk > k) ++stats.fallbacks;
+    float least = std::numeric_limits<float>::infinity();
+    for (int j = j0; j <= j1; ++j)
+      for (int i = i0; i <= i1; ++i) {
+        const float z = cell(kk, i, j);
+        if (std::isnan(z)) return -std::numeric_limits<float>::infinity();  // a void bounds nothing
+        if (z < least) least = z;
+      }
+    return least;
+  }
+  return -std::numeric_limits<float>::infinity();  // nothing resident: no bound
+}
+
+}  // namespace horizon::clipmap

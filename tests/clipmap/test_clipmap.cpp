@@ -1,0 +1,330 @@
+// Clip-maps: under random walks of the clip centre (jumps wider than a level,
+// diagonals, reversals) every resident sample equals the source pyramid's
+// cell at its world position, bit for bit; an update loads exactly the newly
+// revealed sub-tiles; slots left behind are never read; samples whose level
+// is not resident fall back to the next coarser one; levels follow their
+// schedules; a loader thread and readers running together only ever see
+// consistent, correct terrain.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <random>
+#include <set>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "horizon/clipmap/clipmap.hpp"
+#include "horizon/clipmap/clipmap_updater.hpp"
+#include "test_support.hpp"
+
+namespace horizon::clipmap {
+namespace {
+
+using terrain::BlockCache;
+using terrain::ElevationSource;
+using terrain::Grid;
+using terrain::Reduction;
+using terrain::SourcePyramid;
+
+constexpr int kWidth = 1000, kHeight = 700;
+
+ClipmapShape small_shape(Reduction reduction = Reduction::kMean) {
+  ClipmapShape s;
+  s.levels = 4;  // level 3: 125 x 88 cells, full extent
+  s.level_size = 128;
+  s.subtile = 16;
+  s.reduction = reduction;
+  return s;
+}
+
+BlockCache::Options cache_options() {
+  BlockCache::Options o;
+  o.budget_bytes = 64 << 20;
+  o.io_threads = 2;
+  return o;
+}
+
+// A 1000 x 700 terrain cut into 2 x 2 GeoTIFF tiles, opened as a mosaic, with
+// every pyramid level read whole as the reference.
+struct World {
+  testing::TempDir dir;
+  terrain::Dem dem = testing::make_random_terrain(kWidth, kHeight, 5, 600.0, 30.0);
+  std::shared_ptr<const ElevationSource> source;
+  BlockCache cache{cache_options()};
+  std::shared_ptr<const SourcePyramid> pyramid;
+  std::vector<Grid<float>> levels;
+
+  explicit World(const ClipmapShape& shape = small_shape()) {
+    dem.georef.epsg = 32633;
+    dem.georef.transform = {500000.0, 30.0, 5000000.0, -30.0};
+    testing::write_tiles(dem, 2, 2, dir.path().string());
+    terrain::SourceOptions options;
+    options.block_cells = 128 * 128;
+    auto opened = ElevationSource::open(dir.path().string(), options);
+    EXPECT_TRUE(opened.ok()) << opened.error().message;
+    source = *opened;
+    auto made = SourcePyramid::make(source, cache, shape.reduction, pyramid_options_for(shape));
+    EXPECT_TRUE(made.ok()) << made.error().message;
+    pyramid = *made;
+    for (int k = 0; k < shape.levels; ++k)
+      levels.push_back(*pyramid->read(k, {0, 0, pyramid->level_width(k), pyramid->level_height(k)}));
+  }
+
+  std::shared_ptr<Clipmap> map(const ClipmapShape& shape = small_shape()) const {
+    auto made = Clipmap::make(kWidth, kHeight, shape);
+    EXPECT_TRUE(made.ok()) << made.error().message;
+    return *made;
+  }
+  ClipmapUpdater updater(std::shared_ptr<Clipmap> m, UpdaterOptions options = {}) const {
+    options.lead_seconds = 0.0;
+    auto made = ClipmapUpdater::make(std::move(m), pyramid, options);
+    EXPECT_TRUE(made.ok()) << made.error().message;
+    return std::move(*made);
+  }
+  // The reference bilinear sample of level k at source coordinates, as ClipmapReader::sample defines it.
+  float bilinear(int k, double col, double row) const {
+    const Grid<float>& g = levels[static_cast<std::size_t>(k)];
+    const double s = 1.0 / (1 << k);
+    const double u = (col + 0.5) * s - 0.5, v = (row + 0.5) * s - 0.5;
+    const double fi = std::floor(u), fj = std::floor(v);
+    const int i0 = std::clamp(int(fi), 0, g.width() - 1), i1 = std::clamp(int(fi) + 1, 0, g.width() - 1);
+    const int j0 = std::clamp(int(fj), 0, g.height() - 1), j1 = std::clamp(int(fj) + 1, 0, g.height() - 1);
+    const double a = u - fi, b = v - fj;
+    const float z00 = g.at(i0, j0), z10 = g.at(i1, j0), z01 = g.at(i0, j1), z11 = g.at(i1, j1);
+    const double top = z00 + (z10 - z00) * a, bottom = z01 + (z11 - z01) * a;
+    return static_cast<float>(top + (bottom - top) * b);
+  }
+};
+
+// The sub-tiles of level k's window at `o` that lie in the source.
+std::set<std::pair<int, int>> window_tiles(const Clipmap& map, int k, const LevelOrigin& o) {
+  std::set<std::pair<int, int>> tiles;
+  const int t = map.shape().subtile, m = map.shape().level_size / t;
+  for (int ty = o.row0 / t; ty < o.row0 / t + m; ++ty)
+    for (int tx = o.col0 / t; tx < o.col0 / t + m; ++tx)
+      if (tx * t < map.level_width(k) && ty * t < map.level_height(k)) tiles.insert({tx, ty});
+  return tiles;
+}
+
+// Every resident cell of every level equals the reference; returns the number checked.
+std::uint64_t check_resident_cells(const World& world, const Clipmap& map) {
+  ClipmapReader view(map);
+  std::uint64_t checked = 0;
+  for (int k = 0; k < map.shape().levels; ++k) {
+    const LevelState state = view.level(k);
+    const Grid<float>& want = world.levels[static_cast<std::size_t>(k)];
+    for (int j = state.origin.row0; j < std::min(state.origin.row0 + map.shape().level_size, want.height()); ++j)
+      for (int i = state.origin.col0; i < std::min(state.origin.col0 + map.shape().level_size, want.width()); ++i) {
+        if (!view.resident(k, i, j)) continue;
+        ++checked;
+        const float got = view.cell(k, i, j);
+        if (got != want.at(i, j)) {
+          ADD_FAILURE() << "level " << k << " cell (" << i << ", " << j << "): " << got << " != " << want.at(i, j);
+          return checked;
+        }
+      }
+  }
+  return checked;
+}
+
+TEST(Clipmap, ShapesOutOfRangeAreRefusedNamingTheField) {
+  auto refused = [](ClipmapShape s, int w = kWidth, int h = kHeight) {
+    auto made = Clipmap::make(w, h, s);
+    return made.ok() ? Error{} : made.error();
+  };
+  ClipmapShape s = small_shape();
+  s.levels = 0;
+  EXPECT_EQ(refused(s).field, "clipmap.levels");
+  s = small_shape();
+  s.level_size = 100;
+  EXPECT_EQ(refused(s).field, "clipmap.level_size");
+  s = small_shape();
+  s.subtile = 128;  // > level_size / 2
+  EXPECT_EQ(refused(s).field, "clipmap.subtile");
+  s = small_shape();
+  s.levels = 2;  // 128 << 1 = 256 cells < 1000
+  const Error e = refused(s);
+  EXPECT_EQ(e.field, "clipmap.levels");
+  EXPECT_NE(e.message.find("use at least 4 levels"), std::string::npos) << e.message;
+  s = small_shape();
+  EXPECT_EQ(refused(s, 1 << 20, 1 << 20).code, ErrorCode::kInvalidArgument);  // 10 levels of 128 reach 65 536
+}
+
+TEST(Clipmap, RandomWalksKeepEveryResidentSampleEqualToTheSourceAndLoadOnlyWhatIsRevealed) {
+  World world;
+  auto map = world.map();
+  ClipmapUpdater updater = world.updater(map);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> small(-60.0, 60.0);
+  double col = 500.0, row = 350.0;
+  std::uint64_t checked = 0;
+  std::vector<LevelOrigin> before(4);
+  for (int step = 0; step < 60; ++step) {
+    if (step % 10 == 7) {  // a jump wider than any partial level
+      col = std::uniform_real_distribution<double>(-50.0, kWidth + 50.0)(rng);
+      row = std::uniform_real_distribution<double>(-50.0, kHeight + 50.0)(rng);
+    } else if (step % 10 == 3) {  // a reversal of the last few moves
+      col = 1000.0 - col;
+      row = 700.0 - row;
+    } else {  // diagonal drift
+      col += small(rng);
+      row += small(rng);
+    }
+    {
+      ClipmapReader view(*map);
+      for (int k = 0; k < 4; ++k) before[static_cast<std::size_t>(k)] = view.level(k).origin;
+    }
+    const bool first = step == 0;
+    auto report = updater.update_all({.col = col, .row = row});
+    ASSERT_TRUE(report.ok()) << report.error().message;
+    std::uint64_t revealed = 0;
+    {
+      ClipmapReader view(*map);
+      for (int k = 0; k < 4; ++k) {
+        const LevelOrigin now = view.level(k).origin;
+        EXPECT_EQ(now, map->origin_for(k, col, row)) << "level " << k;
+        const auto tiles = window_tiles(*map, k, now);
+        EXPECT_EQ(view.level(k).resident_subtiles, tiles.size()) << "level " << k << " is complete";
+        const auto old = window_tiles(*map, k, before[static_cast<std::size_t>(k)]);
+        for (const auto& tile : tiles) revealed += first || !old.count(tile);
+      }
+    }
+    EXPECT_EQ(report->subtiles_loaded, revealed) << "step " << step;
+    checked += check_resident_cells(world, *map);
+  }
+  EXPECT_GT(checked, 60u * 3u * 128u * 64u);
+}
+
+TEST(Clipmap, SlotsLeftBehindAreNeverReadAndSamplesFallBackToTheNextCoarserLevel) {
+  World world;
+  auto map = world.map();
+  ClipmapUpdater updater = world.updater(map);
+  ASSERT_TRUE(updater.update_all({.col = 100.0, .row = 100.0}).ok());
+  {
+    ClipmapReader view(*map);
+    ASSERT_TRUE(view.resident(0, 100, 100));
+  }
+  // Move level 0 by exactly one level width: every slot is now another world sub-tile.
+  ASSERT_TRUE(updater.update_all({.col = 100.0 + 128.0, .row = 100.0}).ok());
+  ClipmapReader view(*map);
+  EXPECT_FALSE(view.resident(0, 100, 100)) << "the slot holds (228, 100) now";
+  EXPECT_TRUE(view.resident(0, 228, 100));
+  // (100, 100) is outside level 0 now: the sample comes from level 1, whose window still holds it.
+  SampleStats stats;
+  int used = -1;
+  const float z = view.sample(0, 100.0, 100.0, stats, &used);
+  EXPECT_EQ(used, 1);
+  EXPECT_EQ(stats.fallbacks, 1u);
+  EXPECT_EQ(z, world.bilinear(1, 100.0, 100.0));
+  // Far away only the full-extent level holds the terrain.
+  const float far = view.sample(0, 990.0, 690.0, stats, &used);
+  EXPECT_EQ(used, 3);
+  EXPECT_EQ(far, world.bilinear(3, 990.0, 690.0));
+  // In the window, level 0 itself, equal to the source.
+  const float near = view.sample(0, 230.25, 101.5, stats, &used);
+  EXPECT_EQ(used, 0);
+  EXPECT_EQ(near, world.bilinear(0, 230.25, 101.5));
+  // Outside the source: no terrain.
+  EXPECT_TRUE(std::isnan(view.sample(0, -3.0, 10.0, stats)));
+  // Every sample over the whole source is finite: the NaN poison of unwritten slots never shows.
+  for (double r = 0.0; r < kHeight; r += 7.3)
+    for (double c = 0.0; c < kWidth; c += 7.7)
+      ASSERT_TRUE(std::isfinite(view.sample(0, c, r, stats, &used))) << c << ", " << r;
+}
+
+TEST(Clipmap, LevelsFollowTheirOwnSchedules) {
+  World world;
+  auto map = world.map();
+  UpdaterOptions options;
+  options.every = {2, 4, 8, 1};
+  ClipmapUpdater updater = world.updater(map, options);
+  std::vector<std::vector<int>> published;
+  double col = 200.0;
+  for (int pose = 1; pose <= 16; ++pose) {
+    col += 40.0;  // more than a sub-tile at every partial level each pose
+    auto report = updater.update({.col = col, .row = 350.0});
+    ASSERT_TRUE(report.ok()) << report.error().message;
+    published.push_back(report->levels);
+  }
+  EXPECT_EQ(published[0], (std::vector<int>{0, 1, 2, 3})) << "the first pose loads every level";
+  for (int pose = 2; pose <= 16; ++pose) {
+    std::vector<int> want;
+    if (pose % 2 == 0) want.push_back(0);
+    if (pose % 4 == 0) want.push_back(1);
+    if (pose % 8 == 0) want.push_back(2);
+    EXPECT_EQ(published[static_cast<std::size_t>(pose - 1)], want) << "pose " << pose;  // level 3 is full extent
+  }
+  ClipmapReader view(*map);
+  EXPECT_EQ(view.level(0).pose, 16u);
+  EXPECT_EQ(view.level(2).pose, 16u);
+  EXPECT_EQ(view.level(3).pose, 1u);
+  EXPECT_EQ(view.level(3).version, 1u);
+}
+
+TEST(Clipmap, AMissingTileFailsTheUpdateAndPublishesNothingForThatLevel) {
+  World world;
+  terrain::SourceOptions options;
+  options.block_cells = 128 * 128;
+  // Reopen the mosaic without its south-east tile.
+  std::filesystem::remove(world.dir.file("tile_1_1.tif"));
+  auto opened = ElevationSource::open(world.dir.path().string(), options);
+  ASSERT_TRUE(opened.ok()) << opened.error().message;
+  auto pyramid = SourcePyramid::make(*opened, world.cache, Reduction::kMean, pyramid_options_for(small_shape()));
+  ASSERT_TRUE(pyramid.ok());
+  auto map = Clipmap::make((*opened)->width(), (*opened)->height(), small_shape());
+  ASSERT_TRUE(map.ok()) << map.error().message;
+  auto updater = ClipmapUpdater::make(*map, *pyramid, {});
+  ASSERT_TRUE(updater.ok());
+  auto report = updater->update_all({.col = 100.0, .row = 100.0});
+  ASSERT_FALSE(report.ok());
+  EXPECT_NE(report.error().message.find("missing"), std::string::npos) << report.error().message;
+  ClipmapReader view(**map);
+  EXPECT_EQ(view.level(0).version, 1u) << "level 0 lies over present tiles";
+  EXPECT_EQ(view.level(3).version, 0u) << "the full-extent level needs the missing tile";
+}
+
+TEST(Clipmap, ALoaderThreadAndReadersTogetherOnlyEverSeeCorrectTerrain) {
+  World world;
+  auto map = world.map();
+  std::atomic<bool> done{false};
+  std::atomic<std::uint64_t> reads{0}, wrong{0};
+  std::thread reader([&] {
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> c(0.0, kWidth - 1.0), r(0.0, kHeight - 1.0);
+    while (!done.load()) {
+      ClipmapReader view(*map);
+      SampleStats stats;
+      for (int i = 0; i < 200; ++i) {
+        const double x = c(rng), y = r(rng);
+        int used = -1;
+        const float z = view.sample(0, x, y, stats, &used);
+        if (used >= 4) continue;  // nothing loaded there yet
+        ++reads;
+        if (z != world.bilinear(used, x, y)) ++wrong;
+      }
+    }
+  });
+  {
+    AsyncClipmapUpdater loader(world.updater(map));
+    for (int pose = 0; pose < 400; ++pose) {
+      loader.post({.col = 50.0 + pose * 2.2, .row = 80.0 + pose * 1.4});
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+    loader.wait_idle();
+    const LoaderStats stats = loader.stats();
+    EXPECT_EQ(stats.posted, 400u);
+    EXPECT_EQ(stats.applied + stats.skipped, stats.posted);
+    EXPECT_FALSE(stats.last_error.has_value());
+    EXPECT_GT(stats.subtiles_loaded, 0u);
+  }
+  done = true;
+  reader.join();
+  EXPECT_GT(reads.load(), 0u);
+  EXPECT_EQ(wrong.load(), 0u);
+  EXPECT_GT(check_resident_cells(world, *map), 0u);
+}
+
+}  // namespace
+}  // namespace horizon::clipmap
