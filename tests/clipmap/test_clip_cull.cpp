@@ -1,0 +1,192 @@
+// Culling over a clip-map against R3 on the full-resolution terrain: the
+// conservative mode never reports hidden a box R3 sees, with the levels
+// complete and with the finest level left behind (fallbacks); the fast mode
+// agrees with R3 on most boxes; only the rays the boxes need are traced;
+// ring edges follow the level-selection rule.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <vector>
+
+#include "clipmap_world.hpp"
+#include "horizon/clipmap/clip_cull.hpp"
+#include "horizon/visibility/r3.hpp"
+#include "horizon/visibility/view_frame.hpp"
+#include "horizon/visibility/viewshed.hpp"
+
+namespace horizon::clipmap {
+namespace {
+
+using testing::ClipWorld;
+using testing::kHeight;
+using testing::kWidth;
+using testing::small_shape;
+using visibility::BoxFootprint;
+using visibility::Visibility;
+
+struct Scene {
+  visibility::ViewFrame frame;
+  ClipEye eye;
+  std::vector<BoxFootprint> boxes;
+  std::vector<bool> r3_visible;
+  std::size_t r3_hidden = 0;
+};
+
+// 1500 boxes of 1-4 cells scattered over the terrain, 0-40 m tall on the
+// ground, seen from 12 m above (col, row); R3's answer for each.
+Scene make_scene(const ClipWorld& world, double col, double row) {
+  Scene s;
+  const terrain::HeightView z(world.dem.elevation);
+  const double ground = world.bilinear(0, col, row);
+  visibility::ViewshedOptions options;
+  options.max_distance = std::numeric_limits<double>::infinity();
+  geodesy::GridPoint observer;
+  observer.col = col;
+  observer.row = row;
+  observer.elevation = ground + 12.0;
+  observer.x = world.dem.georef.transform.origin_x + (col + 0.5) * 30.0;
+  observer.y = world.dem.georef.transform.origin_y - (row + 0.5) * 30.0;
+  auto frame = visibility::make_view_frame(world.dem, observer, options);
+  EXPECT_TRUE(frame.ok()) << frame.error().message;
+  s.frame = *frame;
+  s.eye = {col, row, observer.elevation, s.frame.metres_per_col, s.frame.metres_per_row, s.frame.curvature};
+  std::mt19937 rng(21);
+  std::uniform_int_distribution<int> cx(0, kWidth - 5), cy(0, kHeight - 5), side(1, 4);
+  std::uniform_real_distribution<double> tall(0.0, 40.0);
+  while (s.boxes.size() < 1500) {
+    BoxFootprint b;
+    b.cells.col0 = cx(rng);
+    b.cells.row0 = cy(rng);
+    b.cells.col1 = b.cells.col0 + side(rng);
+    b.cells.row1 = b.cells.row0 + side(rng);
+    if (b.cells.contains(static_cast<int>(std::lround(col)), static_cast<int>(std::lround(row)))) continue;
+    float least_ground = std::numeric_limits<float>::infinity(), least_ohf = least_ground;
+    for (int r = b.cells.row0; r < b.cells.row1; ++r)
+      for (int c = b.cells.col0; c < b.cells.col1; ++c) {
+        least_ground = std::min(least_ground, z.at(c, r));
+        least_ohf = std::min(least_ohf, visibility::r3_ohf_at(z, s.frame, c, r));
+      }
+    b.z_min = least_ground;
+    b.z_max = least_ground + tall(rng);
+    s.boxes.push_back(b);
+    const bool seen = b.z_max + visibility::kTieTolerance >= least_ohf;
+    s.r3_visible.push_back(seen);
+    s.r3_hidden += !seen;
+  }
+  return s;
+}
+
+struct Agreement {
+  std::size_t false_hidden = 0, false_visible = 0, hidden = 0;
+};
+Agreement compare(const Scene& s, const ClipCullResult& got) {
+  Agreement a;
+  for (std::size_t i = 0; i < s.boxes.size(); ++i) {
+    const bool seen = got.boxes[i].state == Visibility::kSeen;
+    a.hidden += !seen;
+    a.false_hidden += s.r3_visible[i] && !seen;
+    a.false_visible += !s.r3_visible[i] && seen;
+  }
+  return a;
+}
+
+TEST(ClipCull, RingEdgesWidenWithTheLateralSpacingOfTheRays) {
+  // 1024 rays: neighbouring rays are one 30 m cell apart at 30 / (2π / 1024) = 4889 m.
+  ClipmapShape shape;
+  shape.levels = 4;
+  shape.level_size = 1024;  // level 0 reaches 448 cells: the rays' spacing decides
+  shape.subtile = 64;
+  const std::vector<double> edges = ring_edges(40000.0, 30.0, 1024, shape);
+  ASSERT_GE(edges.back(), 40000.0);
+  const double one_cell = 30.0 * 1024 / (2 * std::numbers::pi);
+  for (std::size_t j = 0; j + 1 < edges.size(); ++j) {
+    const double width = edges[j + 1] - edges[j];
+    const double rho = std::max(edges[j] / one_cell, 1.0);
+    const double want = 30.0 * std::min(std::exp2(std::floor(std::log2(rho))), 8.0);
+    ASSERT_DOUBLE_EQ(width, want) << "ring " << j << " at " << edges[j] << " m";
+  }
+  EXPECT_DOUBLE_EQ(edges[1] - edges[0], 30.0);
+  EXPECT_DOUBLE_EQ(edges.back() - edges[edges.size() - 2], 240.0);  // level 3, the coarsest
+}
+
+TEST(ClipCull, ConservativeNeverReportsHiddenABoxR3SeesEvenWhenLevelsLag) {
+  ClipWorld world(small_shape(terrain::Reduction::kMin));
+  auto map = world.map(small_shape(terrain::Reduction::kMin));
+  ClipmapUpdater updater = world.updater(map);
+  for (const auto& [col, row] : {std::pair{500.0, 350.0}, std::pair{130.0, 610.0}}) {
+    const Scene scene = make_scene(world, col, row);
+    ASSERT_GT(scene.r3_hidden, 200u) << "the scene must hide boxes to mean anything";
+    ASSERT_TRUE(updater.update_all({.col = col, .row = row}).ok());
+    for (int rays : {256, 2048}) {
+      ClipmapReader view(*map);
+      auto got = cull_on_clipmap(view, scene.eye, scene.boxes, {.mode = ClipMode::kConservative, .rays = rays});
+      ASSERT_TRUE(got.ok()) << got.error().message;
+      const Agreement a = compare(scene, *got);
+      EXPECT_EQ(a.false_hidden, 0u) << "eye (" << col << ", " << row << "), " << rays << " rays";
+      // Sound and still useful: most of what R3 hides is found hidden.
+      EXPECT_GT(a.hidden, scene.r3_hidden / 2) << rays << " rays: " << a.hidden << " of " << scene.r3_hidden;
+    }
+  }
+  // Levels 0 and 1 left at the far corner: the eye's surroundings come from level 2 or 3.
+  ASSERT_TRUE(updater.update_all({.col = 990.0, .row = 690.0}).ok());
+  const Scene scene = make_scene(world, 300.0, 300.0);
+  UpdaterOptions lagging;
+  lagging.every = {1000, 1000, 1, 1};
+  ClipmapUpdater slow = world.updater(map, lagging);
+  ASSERT_TRUE(slow.update({.col = 990.0, .row = 690.0}).ok());  // first pose: every level loads
+  ASSERT_TRUE(slow.update({.col = 300.0, .row = 300.0}).ok());  // only levels 2 and 3 follow
+  ClipmapReader view(*map);
+  auto got = cull_on_clipmap(view, scene.eye, scene.boxes, {.mode = ClipMode::kConservative, .rays = 1024});
+  ASSERT_TRUE(got.ok()) << got.error().message;
+  EXPECT_GT(got->stats.fallbacks, got->stats.samples / 4) << "the finest levels are elsewhere";
+  const Agreement a = compare(scene, *got);
+  EXPECT_EQ(a.false_hidden, 0u);
+  EXPECT_GT(a.hidden, 0u);
+}
+
+TEST(ClipCull, FastAgreesWithR3OnMostBoxes) {
+  ClipWorld world;
+  auto map = world.map();
+  ClipmapUpdater updater = world.updater(map);
+  const Scene scene = make_scene(world, 500.0, 350.0);
+  ASSERT_TRUE(updater.update_all({.col = 500.0, .row = 350.0}).ok());
+  ClipmapReader view(*map);
+  auto got = cull_on_clipmap(view, scene.eye, scene.boxes, {.mode = ClipMode::kFast, .rays = 2048, .threads = 2});
+  ASSERT_TRUE(got.ok()) << got.error().message;
+  const Agreement a = compare(scene, *got);
+  const double wrong = double(a.false_hidden + a.false_visible) / double(scene.boxes.size());
+  EXPECT_LT(wrong, 0.08) << a.false_hidden << " false hidden, " << a.false_visible << " false visible";
+  EXPECT_EQ(got->stats.fallbacks, 0u) << "every level is complete around the eye";
+}
+
+TEST(ClipCull, OnlyTheRaysTheBoxesNeedAreTracedAndOnlyAsFarAsThem) {
+  ClipWorld world;
+  auto map = world.map();
+  ClipmapUpdater updater = world.updater(map);
+  ASSERT_TRUE(updater.update_all({.col = 500.0, .row = 350.0}).ok());
+  ClipEye eye{500.0, 350.0, 900.0, 30.0, 30.0, 0.0};
+  // One box 100 cells due east: 3 km out, a cell wide.
+  BoxFootprint east;
+  east.cells = {600, 350, 601, 351};
+  east.z_min = 0.0;
+  east.z_max = 1000.0;
+  ClipmapReader view(*map);
+  auto got = cull_on_clipmap(view, eye, std::vector<BoxFootprint>{east}, {.mode = ClipMode::kFast, .rays = 1024});
+  ASSERT_TRUE(got.ok()) << got.error().message;
+  EXPECT_LE(got->stats.rays_traced, 2u);
+  const std::size_t rings = ring_edges(3000.0, 30.0, 1024, small_shape()).size();
+  EXPECT_LE(got->stats.rings, 2 * rings);
+  EXPECT_EQ(got->boxes[0].state, Visibility::kSeen) << "1000 m is above this terrain";
+  // Wrong reductions and ray counts are refused naming the field.
+  auto wrong = cull_on_clipmap(view, eye, std::vector<BoxFootprint>{east}, {.mode = ClipMode::kConservative});
+  ASSERT_FALSE(wrong.ok());
+  EXPECT_EQ(wrong.error().field, "mode");
+  auto rays = cull_on_clipmap(view, eye, std::vector<BoxFootprint>{east}, {.rays = 10});
+  ASSERT_FALSE(rays.ok());
+  EXPECT_EQ(rays.error().field, "rays");
+}
+
+}  // namespace
+}  // namespace horizon::clipmap
