@@ -72,7 +72,7 @@ Result<UpdateReport> ClipmapUpdater::run(const ClipPose& pose, bool all, const R
     const bool due = all || !loaded_[static_cast<std::size_t>(k)] ||
                      (!map_->full_extent(k) && pose_ % static_cast<std::uint64_t>(every_[static_cast<std::size_t>(k)]) == 0);
     if (!due) continue;
-    HORIZON_RETURN_IF_ERROR(bring(k, col, row, control, report));
+    HORIZON_RETURN_IF_ERROR(bring(k, col, row, pose.seq ? pose.seq : pose_, control, report));
     loaded_[static_cast<std::size_t>(k)] = true;
   }
   report.bytes_loaded = report.cells_loaded * sizeof(float);
@@ -80,7 +80,8 @@ Result<UpdateReport> ClipmapUpdater::run(const ClipPose& pose, bool all, const R
   return report;
 }
 
-Status ClipmapUpdater::bring(int k, double col, double row, const RunControl* control, UpdateReport& report) {
+Status ClipmapUpdater::bring(int k, double col, double row, std::uint64_t seq, const RunControl* control,
+                             UpdateReport& report) {
   const LevelOrigin origin = map_->origin_for(k, col, row);
   LevelOrigin current;
   std::uint64_t version = 0;
@@ -92,7 +93,7 @@ Status ClipmapUpdater::bring(int k, double col, double row, const RunControl* co
   LevelUpdate update;
   update.level = k;
   update.origin = origin;
-  update.pose = pose_;
+  update.pose = seq;
   update.keys = map_->missing_subtiles(k, origin);
   if (update.keys.empty() && origin == current && version > 0) return Status::Ok();
 

@@ -52,6 +52,7 @@ namespace horizon::clipmap {
 struct ClipPose {
   double col = 0.0, row = 0.0;              // source grid coordinates of the client
   double col_per_s = 0.0, row_per_s = 0.0;  // its velocity, cells per second
+  std::uint64_t seq = 0;                    // recorded as LevelState::pose; 0: the updater's own count
 };
 
 struct UpdaterOptions {
@@ -92,7 +93,7 @@ class ClipmapUpdater {
   ClipmapUpdater(std::shared_ptr<Clipmap> map, std::shared_ptr<const terrain::SourcePyramid> pyramid,
                  std::vector<int> every, double lead);
   Result<UpdateReport> run(const ClipPose& pose, bool all, const RunControl* control);
-  Status bring(int k, double col, double row, const RunControl* control, UpdateReport& report);
+  Status bring(int k, double col, double row, std::uint64_t seq, const RunControl* control, UpdateReport& report);
 
   std::shared_ptr<Clipmap> map_;
   std::shared_ptr<const terrain::SourcePyramid> pyramid_;

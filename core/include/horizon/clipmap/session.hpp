@@ -1,0 +1,149 @@
+// horizon/clipmap/session.hpp — one moving client's state: its clip-map,
+// its registered object boxes, and what it was last told about each.
+//
+//   auto session = clipmap::ClipSession::open(source, cache, pyramid, options, first_pose);
+//   session->add_boxes(boxes);                         // ids chosen by the client
+//   for (pose : flight) {
+//     auto answer = session->answer(pose);             // the boxes whose visibility changed
+//     ...                                              // answer->levels: versions, staleness
+//   }
+//
+// Poses. A pose is a position (dataset CRS or WGS84, height above ground or
+// absolute, as geodesy::PointSpec), a ground velocity in metres per second
+// east and north, and the client's sequence number. open() loads every level
+// around the first pose before it returns, so the first answer has data.
+// Each answer() hands the pose to the loader (SessionOptions::asynchronous:
+// a thread of the session's own, which never makes answer() wait for I/O;
+// otherwise the levels due are updated before answering) and culls every box
+// against one snapshot of the clip-map (clip_cull.hpp). The eye's ground is
+// read from the source itself (through the block cache), not from a level,
+// so a lagging level can never lower the eye.
+//
+// Answers. The first answer, and the first after a box is added or moved,
+// reports that box; after that only boxes whose visibility changed are
+// reported. Each answer says which pose it answers, each level's version and
+// the poses since it was last published (staleness), the samples that fell
+// back to a coarser level, and the work done. A synchronous session fails
+// an answer whose update cannot read the terrain; an asynchronous one
+// answers from what is resident and says what the loader could not read.
+//
+// Boxes are added, moved and removed by id, a batch at a time: a batch with
+// any bad entry (unknown or repeated id, bad box, over max_boxes) changes
+// nothing, and the error names the entry ("boxes[3].id").
+//
+// One client drives a session: its methods are not to be called
+// concurrently (the loader thread is the session's own business).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "horizon/clipmap/clip_cull.hpp"
+#include "horizon/clipmap/clipmap.hpp"
+#include "horizon/clipmap/clipmap_updater.hpp"
+#include "horizon/geodesy/observer.hpp"
+#include "horizon/terrain/source.hpp"
+#include "horizon/terrain/source_pyramid.hpp"
+#include "horizon/visibility/cull.hpp"
+
+namespace horizon::clipmap {
+
+struct SessionOptions {
+  ClipmapShape shape;  // its reduction is set from mode (mean for fast, min for conservative)
+  UpdaterOptions updater;
+  ClipMode mode = ClipMode::kFast;
+  int rays = 1024;
+  unsigned threads = 1;                // culling threads per answer (0: all cores)
+  bool asynchronous = true;            // load on the session's loader thread
+  std::size_t max_boxes = 100000;      // registered at once
+  double curvature_coefficient = 0.85714;  // as visibility::ViewshedOptions
+};
+
+struct SessionPose {
+  geodesy::PointSpec position;
+  double east_per_s = 0.0, north_per_s = 0.0;  // ground velocity, metres per second
+  std::uint64_t seq = 0;                       // the client's number for it
+};
+
+struct SessionBox {
+  std::uint64_t id = 0;
+  visibility::BoxSpec box;
+};
+
+struct BoxChange {
+  std::uint64_t id = 0;
+  visibility::Visibility state = visibility::Visibility::kSeen;
+  float ohf_min = 0.0f;
+};
+
+struct LevelReport {
+  LevelState state;
+  std::uint64_t staleness = 0;  // answers since the level was last published
+};
+
+struct SessionAnswer {
+  std::uint64_t seq = 0;        // the pose answered
+  double eye_elevation = 0.0;   // absolute metres
+  std::vector<BoxChange> changes;
+  std::size_t boxes = 0, visible = 0;
+  std::vector<LevelReport> levels;
+  ClipCullStats cull;
+  std::uint64_t subtiles_loaded = 0, bytes_loaded = 0;  // by this answer's update (asynchronous: since the last answer)
+  // Asynchronous loading: the last read the loader could not make (a missing
+  // or corrupt tile). The answer still stands, on the levels resident.
+  std::optional<Error> loader_error;
+  double seconds = 0.0;
+};
+
+class ClipSession {
+ public:
+  // `pyramid` must be of `source`, factor 2, with the mode's reduction and
+  // enough levels (pyramid_options_for(options.shape)). Errors name the
+  // option or the pose field at fault.
+  static Result<std::unique_ptr<ClipSession>> open(std::shared_ptr<const terrain::ElevationSource> source,
+                                                   terrain::BlockCache& cache,
+                                                   std::shared_ptr<const terrain::SourcePyramid> pyramid,
+                                                   const SessionOptions& options, const SessionPose& first,
+                                                   const RunControl* control = nullptr);
+  ~ClipSession();
+
+  const SessionOptions& options() const { return options_; }
+  std::size_t box_count() const { return entries_.size(); }
+  // Memory the session holds: clip-map, boxes, trace scratch.
+  std::uint64_t bytes() const;
+
+  Status add_boxes(std::span<const SessionBox> boxes);
+  Status move_boxes(std::span<const SessionBox> boxes);
+  Status remove_boxes(std::span<const std::uint64_t> ids);
+
+  Result<SessionAnswer> answer(const SessionPose& pose, const RunControl* control = nullptr);
+
+ private:
+  struct Entry {
+    std::uint64_t id = 0;
+    bool reported = false;
+    visibility::Visibility state = visibility::Visibility::kSeen;
+  };
+  ClipSession() = default;
+  Result<std::vector<visibility::BoxFootprint>> resolve(std::span<const SessionBox> boxes) const;
+  Result<ClipEye> eye_for(const SessionPose& pose, ClipPose& clip) const;
+
+  std::shared_ptr<const terrain::ElevationSource> source_;
+  terrain::BlockCache* cache_ = nullptr;
+  SessionOptions options_;
+  std::shared_ptr<Clipmap> map_;
+  std::unique_ptr<ClipmapUpdater> sync_;
+  std::unique_ptr<AsyncClipmapUpdater> async_;
+  LoaderStats last_loader_;
+  std::uint64_t answers_ = 0;
+  std::vector<Entry> entries_;
+  std::vector<visibility::BoxFootprint> footprints_;  // entries_' boxes, same order
+  std::unordered_map<std::uint64_t, std::size_t> index_;
+};
+
+}  // namespace horizon::clipmap

@@ -1,0 +1,221 @@
+// Sessions: a client that applies each answer's changes to what it was told
+// before holds, at every pose of a flight, exactly the session's culling of
+// every box, and in conservative mode never a box hidden that R3 on the
+// full-resolution terrain sees; boxes are added, moved and removed by id in
+// batches that change nothing when any entry is wrong; an asynchronous
+// session answers every pose while its loader follows.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <random>
+#include <vector>
+
+#include "clipmap_world.hpp"
+#include "horizon/clipmap/session.hpp"
+#include "horizon/visibility/r3.hpp"
+#include "horizon/visibility/view_frame.hpp"
+#include "horizon/visibility/viewshed.hpp"
+
+namespace horizon::clipmap {
+namespace {
+
+using testing::ClipWorld;
+using testing::kHeight;
+using testing::kWidth;
+using testing::small_shape;
+using visibility::Visibility;
+
+// Cell (col, row) of the world's grid in its CRS.
+double x_of(const ClipWorld& w, double col) { return w.dem.georef.transform.x_at(col); }
+double y_of(const ClipWorld& w, double row) { return w.dem.georef.transform.y_at(row); }
+
+SessionPose pose_at(const ClipWorld& w, double col, double row, std::uint64_t seq, double east = 0.0) {
+  SessionPose p;
+  p.position.x = x_of(w, col);
+  p.position.y = y_of(w, row);
+  p.position.height = 15.0;
+  p.east_per_s = east;
+  p.seq = seq;
+  return p;
+}
+
+// `count` boxes of 1-3 cells on the ground, ids from `first_id`.
+std::vector<SessionBox> boxes_on(const ClipWorld& w, int count, std::uint64_t first_id, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> cx(2, kWidth - 6), cy(2, kHeight - 6), side(1, 3);
+  std::uniform_real_distribution<double> tall(1.0, 30.0);
+  std::vector<SessionBox> out;
+  for (int i = 0; i < count; ++i) {
+    const int c = cx(rng), r = cy(rng), s = side(rng);
+    SessionBox b;
+    b.id = first_id + static_cast<std::uint64_t>(i);
+    // The rectangle of the cell centres c .. c+s-1, r .. r+s-1.
+    b.box.x_min = x_of(w, c);
+    b.box.x_max = x_of(w, c + s - 1);
+    b.box.y_min = y_of(w, r + s - 1);
+    b.box.y_max = y_of(w, r);
+    float ground = std::numeric_limits<float>::infinity();
+    for (int rr = r; rr < r + s; ++rr)
+      for (int cc = c; cc < c + s; ++cc) ground = std::min(ground, w.dem.elevation.at(cc, rr));
+    b.box.z_min = ground;
+    b.box.z_max = ground + tall(rng);
+    out.push_back(b);
+  }
+  return out;
+}
+
+SessionOptions options_for(ClipMode mode, bool asynchronous) {
+  SessionOptions o;
+  o.shape = small_shape();
+  o.mode = mode;
+  o.rays = 512;
+  o.asynchronous = asynchronous;
+  return o;
+}
+
+std::shared_ptr<const terrain::SourcePyramid> pyramid_for(const ClipWorld& w, ClipMode mode) {
+  ClipmapShape shape = small_shape(mode == ClipMode::kConservative ? terrain::Reduction::kMin : terrain::Reduction::kMean);
+  auto made = terrain::SourcePyramid::make(w.source, const_cast<terrain::BlockCache&>(w.cache), shape.reduction,
+                                           pyramid_options_for(shape));
+  EXPECT_TRUE(made.ok()) << made.error().message;
+  return *made;
+}
+
+// R3's answer for a box at cells [c0, c1] x [r0, r1] from the eye of `answer`.
+bool r3_sees(const ClipWorld& w, const visibility::ViewFrame& frame, const visibility::BoxFootprint& f) {
+  const terrain::HeightView z(w.dem.elevation);
+  float least = std::numeric_limits<float>::infinity();
+  for (int r = f.cells.row0; r < f.cells.row1; ++r)
+    for (int c = f.cells.col0; c < f.cells.col1; ++c) least = std::min(least, visibility::r3_ohf_at(z, frame, c, r));
+  return f.z_max + visibility::kTieTolerance >= least;
+}
+
+TEST(ClipSession, AClientApplyingTheChangesHoldsEveryBoxsStateAndConservativeNeverHidesWhatR3Sees) {
+  ClipWorld world;
+  auto first = pose_at(world, 100.0, 350.0, 1, 250.0);
+  auto session = ClipSession::open(world.source, world.cache, pyramid_for(world, ClipMode::kConservative),
+                                   options_for(ClipMode::kConservative, false), first);
+  ASSERT_TRUE(session.ok()) << session.error().message;
+  const std::vector<SessionBox> boxes = boxes_on(world, 400, 1000, 4);
+  ASSERT_TRUE((*session)->add_boxes(boxes).ok());
+  auto footprints = visibility::resolve_boxes(world.dem.georef, kWidth, kHeight, "test", [&] {
+    std::vector<visibility::BoxSpec> specs;
+    for (const auto& b : boxes) specs.push_back(b.box);
+    return specs;
+  }());
+  ASSERT_TRUE(footprints.ok());
+
+  std::map<std::uint64_t, Visibility> told;
+  std::size_t reported_after_first = 0, false_hidden = 0, hidden = 0;
+  for (int step = 0; step < 40; ++step) {
+    const double col = 100.0 + step * 20.0;  // 250 m/s at 30 m cells, 12 poses a second
+    auto answer = (*session)->answer(pose_at(world, col, 350.0, static_cast<std::uint64_t>(step + 1), 250.0));
+    ASSERT_TRUE(answer.ok()) << answer.error().message;
+    EXPECT_EQ(answer->seq, static_cast<std::uint64_t>(step + 1));
+    EXPECT_EQ(answer->boxes, boxes.size());
+    if (step == 0) EXPECT_EQ(answer->changes.size(), boxes.size()) << "the first answer tells every box";
+    else reported_after_first += answer->changes.size();
+    for (const BoxChange& c : answer->changes) told[c.id] = c.state;
+    ASSERT_EQ(told.size(), boxes.size());
+    std::size_t visible = 0;
+    for (const auto& [id, state] : told) visible += state == Visibility::kSeen;
+    EXPECT_EQ(visible, answer->visible) << "the client's picture is the session's";
+    if (step % 8 == 0) {  // against R3 on the full terrain
+      visibility::ViewshedOptions vo;
+      vo.max_distance = std::numeric_limits<double>::infinity();
+      geodesy::GridPoint eye;
+      eye.col = col;
+      eye.row = 350.0;
+      eye.x = x_of(world, col);
+      eye.y = y_of(world, 350.0);
+      eye.elevation = answer->eye_elevation;
+      auto frame = visibility::make_view_frame(world.dem, eye, vo);
+      ASSERT_TRUE(frame.ok());
+      for (std::size_t i = 0; i < boxes.size(); ++i) {
+        const bool seen = told[boxes[i].id] == Visibility::kSeen;
+        hidden += !seen;
+        false_hidden += !seen && r3_sees(world, *frame, (*footprints)[i]);
+      }
+    }
+  }
+  EXPECT_GT(reported_after_first, 0u) << "the flight changes what is seen";
+  EXPECT_LT(reported_after_first, 39u * boxes.size() / 4) << "and only changes are sent";
+  EXPECT_GT(hidden, 100u);
+  EXPECT_EQ(false_hidden, 0u);
+}
+
+TEST(ClipSession, BoxBatchesChangeNothingWhenAnyEntryIsWrong) {
+  ClipWorld world;
+  SessionOptions options = options_for(ClipMode::kFast, false);
+  options.max_boxes = 50;
+  auto session = ClipSession::open(world.source, world.cache, pyramid_for(world, ClipMode::kFast), options,
+                                   pose_at(world, 500.0, 350.0, 1));
+  ASSERT_TRUE(session.ok()) << session.error().message;
+  ClipSession& s = **session;
+  std::vector<SessionBox> boxes = boxes_on(world, 10, 1, 9);
+  ASSERT_TRUE(s.add_boxes(boxes).ok());
+  // A repeated id, an id already registered, a box off the dataset: nothing changes.
+  std::vector<SessionBox> more = boxes_on(world, 5, 100, 10);
+  more[3].id = 100;
+  Status repeated = s.add_boxes(more);
+  ASSERT_FALSE(repeated.ok());
+  EXPECT_EQ(repeated.error().field, "boxes[3].id");
+  more[3].id = 5;
+  EXPECT_EQ(s.add_boxes(more).error().field, "boxes[3].id");
+  more[3].id = 103;
+  more[4].box.x_max = x_of(world, kWidth + 10.0);
+  EXPECT_EQ(s.add_boxes(more).error().code, ErrorCode::kOutOfRange);
+  EXPECT_EQ(s.box_count(), 10u);
+  EXPECT_EQ(s.add_boxes(boxes_on(world, 41, 200, 11)).error().code, ErrorCode::kResourceExhausted);
+  // Moves and removals by id.
+  SessionBox unknown = boxes[0];
+  unknown.id = 77;
+  EXPECT_EQ(s.move_boxes(std::vector<SessionBox>{boxes[1], unknown}).error().field, "boxes[1].id");
+  const std::vector<std::uint64_t> gone{3, 4, 99};
+  EXPECT_EQ(s.remove_boxes(gone).error().field, "remove[2]");
+  EXPECT_EQ(s.box_count(), 10u);
+
+  auto first = s.answer(pose_at(world, 500.0, 350.0, 2));
+  ASSERT_TRUE(first.ok());
+  EXPECT_EQ(first->changes.size(), 10u);
+  auto same = s.answer(pose_at(world, 500.0, 350.0, 3));
+  ASSERT_TRUE(same.ok());
+  EXPECT_TRUE(same->changes.empty()) << "nothing moved";
+  ASSERT_TRUE(s.remove_boxes(std::vector<std::uint64_t>{3, 4}).ok());
+  SessionBox moved = boxes[6];
+  moved.box.z_max += 1.0;
+  ASSERT_TRUE(s.move_boxes(std::vector<SessionBox>{moved}).ok());
+  auto after = s.answer(pose_at(world, 500.0, 350.0, 4));
+  ASSERT_TRUE(after.ok());
+  ASSERT_EQ(after->changes.size(), 1u) << "a moved box is told again";
+  EXPECT_EQ(after->changes[0].id, 7u);
+  EXPECT_EQ(after->boxes, 8u);
+  // A pose off the dataset names the pose.
+  auto off = s.answer(pose_at(world, -40.0, 350.0, 5));
+  ASSERT_FALSE(off.ok());
+  EXPECT_EQ(off.error().code, ErrorCode::kOutOfRange);
+}
+
+TEST(ClipSession, AnAsynchronousSessionAnswersEveryPoseWhileItsLoaderFollows) {
+  ClipWorld world;
+  auto session = ClipSession::open(world.source, world.cache, pyramid_for(world, ClipMode::kFast),
+                                   options_for(ClipMode::kFast, true), pose_at(world, 60.0, 100.0, 1, 300.0));
+  ASSERT_TRUE(session.ok()) << session.error().message;
+  ASSERT_TRUE((*session)->add_boxes(boxes_on(world, 300, 1, 3)).ok());
+  std::uint64_t loaded = 0;
+  for (int step = 0; step < 120; ++step) {
+    auto answer = (*session)->answer(pose_at(world, 60.0 + step * 7.0, 100.0 + step * 4.0,
+                                             static_cast<std::uint64_t>(step + 2), 300.0));
+    ASSERT_TRUE(answer.ok()) << answer.error().message;
+    EXPECT_FALSE(answer->loader_error.has_value());
+    ASSERT_EQ(answer->levels.size(), 4u);
+    EXPECT_EQ(answer->levels[3].state.version, 1u) << "the full-extent level loads once";
+    loaded += answer->subtiles_loaded;
+  }
+  EXPECT_GT(loaded, 0u) << "the loader followed the flight";
+  EXPECT_GT((*session)->bytes(), 4u * 128u * 128u * 4u);
+}
+
+}  // namespace
+}  // namespace horizon::clipmap
