@@ -6,7 +6,8 @@
 
 namespace horizon::server {
 
-CallScope::CallScope(ServerEnv& env, grpc::CallbackServerContext* context, std::string_view method)
+CallScope::CallScope(ServerEnv& env, grpc::CallbackServerContext* context, std::string_view method,
+                     DefaultDeadline default_deadline)
     : env_(env), context_(context), started_(std::chrono::steady_clock::now()) {
   record_.method = method;
   env_.live_calls.fetch_add(1);
@@ -18,7 +19,7 @@ CallScope::CallScope(ServerEnv& env, grpc::CallbackServerContext* context, std::
   if (deadline < system_now + std::chrono::hours(24 * 365))
     control_.deadline =
         started_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(deadline - system_now);
-  else
+  else if (default_deadline == DefaultDeadline::kApply)
     control_.deadline = started_ + env.config.default_deadline;
 }
 

@@ -52,9 +52,14 @@ Error without_server_paths(Error error, const std::filesystem::path& data_root, 
 // rays and the ray_spacing behind them when those are most of the cost.
 std::string planned_work(const std::string& what, const visibility::Cost& cost, double ray_spacing);
 
+// Whether a call without a deadline of its own gets default_deadline_ms
+// (requests) or none (sessions, which end by idleness or the client).
+enum class DefaultDeadline { kApply, kNone };
+
 class CallScope {
  public:
-  CallScope(ServerEnv& env, grpc::CallbackServerContext* context, std::string_view method);
+  CallScope(ServerEnv& env, grpc::CallbackServerContext* context, std::string_view method,
+            DefaultDeadline default_deadline = DefaultDeadline::kApply);
   ~CallScope();
   CallScope(const CallScope&) = delete;
   CallScope& operator=(const CallScope&) = delete;

@@ -208,6 +208,37 @@ Status parse_limits(const Json& j, const std::string& source, Limits& limits) {
   return Status::Ok();
 }
 
+Status parse_sessions(const Json& j, const std::string& source, SessionConfig& sessions) {
+  if (!j.is_object()) return config_error(source, "sessions", "expected an object");
+  HORIZON_RETURN_IF_ERROR(check_keys(j, source, "sessions.",
+                                     {"max", "idle_ms", "max_boxes", "max_level_size", "level_size", "subtile"}));
+  struct Key {
+    const char* name;
+    std::uint64_t lo, hi;
+    std::uint32_t* out;
+  };
+  const Key keys[] = {{"max", 0, 10'000, &sessions.max},
+                      {"idle_ms", 100, 86'400'000, &sessions.idle_ms},
+                      {"max_boxes", 1, 1'000'000, &sessions.max_boxes},
+                      {"max_level_size", 64, 4096, &sessions.max_level_size},
+                      {"level_size", 64, 4096, &sessions.level_size},
+                      {"subtile", 8, 2048, &sessions.subtile}};
+  for (const Key& k : keys) {
+    if (!j.contains(k.name)) continue;
+    auto v = get_count(j, source, k.name, std::string("sessions.") + k.name, k.lo, k.hi);
+    if (!v.ok()) return v.error();
+    *k.out = static_cast<std::uint32_t>(*v);
+  }
+  for (const Key& k : {keys[3], keys[4], keys[5]})
+    if ((*k.out & (*k.out - 1)) != 0)
+      return config_error(source, std::string("sessions.") + k.name, "must be a power of two, got " + std::to_string(*k.out));
+  if (sessions.level_size > sessions.max_level_size)
+    return config_error(source, "sessions.level_size", "must not exceed sessions.max_level_size");
+  if (sessions.subtile * 2 > sessions.level_size)
+    return config_error(source, "sessions.subtile", "must be at most sessions.level_size / 2");
+  return Status::Ok();
+}
+
 Status parse_gpu(const Json& j, const std::string& source, GpuConfig& gpu) {
   if (!j.is_object()) return config_error(source, "gpu", "expected an object, got " + j.dump());
   HORIZON_RETURN_IF_ERROR(check_keys(j, source, "gpu.", {"contexts"}));
@@ -242,7 +273,7 @@ Result<Config> parse_config(const std::string& text, const std::string& source, 
                                      {"listen", "metrics_listen", "data_root", "datasets", "memory_budget_mb",
                                       "block_cache_mb", "io_threads", "worker_threads", "engine_threads", "limits",
                                       "gpu", "default_deadline_ms", "shutdown_grace_ms", "scratch_dir", "tls",
-                                      "health_listen", "plaintext", "auth_tokens_file"}));
+                                      "health_listen", "plaintext", "auth_tokens_file", "sessions"}));
   Config c;
   c.source = source;
   for (const char* required : {"listen", "data_root", "datasets", "memory_budget_mb"})
@@ -302,6 +333,7 @@ Result<Config> parse_config(const std::string& text, const std::string& source, 
   }
   if (j.contains("limits")) HORIZON_RETURN_IF_ERROR(parse_limits(j.at("limits"), source, c.limits));
   if (j.contains("gpu")) HORIZON_RETURN_IF_ERROR(parse_gpu(j.at("gpu"), source, c.gpu));
+  if (j.contains("sessions")) HORIZON_RETURN_IF_ERROR(parse_sessions(j.at("sessions"), source, c.sessions));
   if (j.contains("default_deadline_ms")) {
     auto v = get_count(j, source, "default_deadline_ms", "default_deadline_ms", 1, 3'600'000);
     if (!v.ok()) return v.error();
@@ -368,6 +400,12 @@ std::vector<std::string> keys_needing_restart(const Config& a, const Config& b) 
   differ(a.limits.max_boxes != b.limits.max_boxes, "limits.max_boxes");
   differ(a.limits.max_lines != b.limits.max_lines, "limits.max_lines");
   differ(a.limits.max_pending != b.limits.max_pending, "limits.max_pending");
+  differ(a.sessions.max != b.sessions.max, "sessions.max");
+  differ(a.sessions.idle_ms != b.sessions.idle_ms, "sessions.idle_ms");
+  differ(a.sessions.max_boxes != b.sessions.max_boxes, "sessions.max_boxes");
+  differ(a.sessions.max_level_size != b.sessions.max_level_size, "sessions.max_level_size");
+  differ(a.sessions.level_size != b.sessions.level_size, "sessions.level_size");
+  differ(a.sessions.subtile != b.sessions.subtile, "sessions.subtile");
   differ(a.gpu.contexts != b.gpu.contexts, "gpu.contexts");
   differ(a.default_deadline != b.default_deadline, "default_deadline_ms");
   differ(a.shutdown_grace != b.shutdown_grace, "shutdown_grace_ms");

@@ -23,6 +23,12 @@
 //                "max_boxes": 100000,       boxes in one CullBoxes call
 //                "max_lines": 10000,        sight lines in one LineOfSight call
 //                "max_pending": 64},        requests admitted at once (computing, queued or streaming)
+//     "sessions": {"max": 8,                clip-map sessions open at once (0: none); each holds its
+//                  "idle_ms": 60000,        clip-map in memory_budget_mb; ended after idle_ms without
+//                  "max_boxes": 100000,     a message; boxes per session; the largest level_size a
+//                  "max_level_size": 2048,  client may ask for, and the level_size and subtile a
+//                  "level_size": 1024,      client that asks for none gets (powers of two)
+//                  "subtile": 64},
 //     "gpu": {"contexts": 2},               GL contexts for the GPU backend, [0, 64]: one per request
 //                                           computing on the GPU at once; absent = one per worker
 //                                           thread (at most 64); 0 = no GPU, every request on the CPU
@@ -98,6 +104,16 @@ struct TlsConfig {
   std::string client_ca_pem;  // empty: no client certificate asked for
 };
 
+// Clip-map sessions (protos/horizon/v1/session.proto).
+struct SessionConfig {
+  std::uint32_t max = 8;                 // open at once; 0 = no sessions
+  std::uint32_t idle_ms = 60'000;        // a session without a message for this long is ended
+  std::uint32_t max_boxes = 100'000;     // boxes in one session
+  std::uint32_t max_level_size = 2048;   // the largest level_size a client may ask for
+  std::uint32_t level_size = 1024;       // when a client asks for none
+  std::uint32_t subtile = 64;            // when a client asks for none
+};
+
 struct GpuConfig {
   // EGL contexts, [0, 64]; nullopt = one per worker thread (at most 64); 0 = no GPU.
   std::optional<std::uint32_t> contexts;
@@ -115,6 +131,7 @@ struct Config {
   unsigned worker_threads = 2;
   unsigned engine_threads = 1;
   Limits limits;
+  SessionConfig sessions;
   GpuConfig gpu;
   std::chrono::milliseconds default_deadline{30'000};
   std::chrono::milliseconds shutdown_grace{10'000};

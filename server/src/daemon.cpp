@@ -22,13 +22,15 @@
 #include "request_log.hpp"
 #include "scratch_dir.hpp"
 #include "server_env.hpp"
+#include "session_service.hpp"
 #include "visibility_service.hpp"
 #include "worker_pool.hpp"
 
 namespace horizon::server {
 namespace {
 
-constexpr const char* kServices[] = {"", "horizon.v1.DatasetService", "horizon.v1.VisibilityService"};
+constexpr const char* kServices[] = {"", "horizon.v1.DatasetService", "horizon.v1.VisibilityService",
+                                     "horizon.v1.SessionService"};
 
 // Largest request accepted: a full CullBoxes (about 70 bytes per box on the
 // wire) or LineOfSight call, with room to spare.
@@ -85,8 +87,10 @@ struct Daemon::Impl {
         datasets(&cache, config.io_threads),
         pool(config.worker_threads),
         env{config, datasets, pool, memory, metrics, cache},
+        sessions(env),
         dataset_service(env),
-        visibility_service(env) {}
+        visibility_service(env),
+        session_service(env, sessions) {}
 
   void set_serving(bool serving) {
     if (!server) return;
@@ -111,8 +115,10 @@ struct Daemon::Impl {
   visibility::BackendPolicy backend;      // when requests use `gpu`; likewise
   WorkerPool pool;
   ServerEnv env;
+  SessionRegistry sessions;  // outlives every session call
   DatasetService dataset_service;
   VisibilityService visibility_service;
+  SessionService session_service;
   ScratchDir scratch;  // env.scratch; removed after the last call
   std::unique_ptr<grpc::Server> server;
   int port = 0;
@@ -185,6 +191,7 @@ Status Daemon::start() {
     builder.AddListeningPort(d.config.health_listen, grpc::InsecureServerCredentials(), &health_port);
   builder.RegisterService(&d.dataset_service);
   builder.RegisterService(&d.visibility_service);
+  builder.RegisterService(&d.session_service);
   builder.SetMaxReceiveMessageSize(max_receive_bytes(d.config.limits));
   d.server = builder.BuildAndStart();
   if (!d.server || port == 0 || (!d.config.health_listen.empty() && health_port == 0)) {
@@ -269,6 +276,7 @@ void Daemon::shutdown() {
     // left: calls past the grace, and the health watches load balancers hold
     // open for ever, which would otherwise keep it waiting the whole grace.
     d.env.draining.store(true);
+    d.sessions.drain();  // sessions end now, with UNAVAILABLE: they would never finish on their own
     const auto deadline = std::chrono::steady_clock::now() + d.config.shutdown_grace;
     while (d.env.live_calls.load() > 0 && std::chrono::steady_clock::now() < deadline)
       std::this_thread::sleep_for(std::chrono::milliseconds(5));

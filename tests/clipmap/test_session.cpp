@@ -160,9 +160,9 @@ TEST(ClipSession, BoxBatchesChangeNothingWhenAnyEntryIsWrong) {
   more[3].id = 100;
   Status repeated = s.add_boxes(more);
   ASSERT_FALSE(repeated.ok());
-  EXPECT_EQ(repeated.error().field, "boxes[3].id");
+  EXPECT_EQ(repeated.error().field, "add[3].id");
   more[3].id = 5;
-  EXPECT_EQ(s.add_boxes(more).error().field, "boxes[3].id");
+  EXPECT_EQ(s.add_boxes(more).error().field, "add[3].id");
   more[3].id = 103;
   more[4].box.x_max = x_of(world, kWidth + 10.0);
   EXPECT_EQ(s.add_boxes(more).error().code, ErrorCode::kOutOfRange);
@@ -171,9 +171,20 @@ TEST(ClipSession, BoxBatchesChangeNothingWhenAnyEntryIsWrong) {
   // Moves and removals by id.
   SessionBox unknown = boxes[0];
   unknown.id = 77;
-  EXPECT_EQ(s.move_boxes(std::vector<SessionBox>{boxes[1], unknown}).error().field, "boxes[1].id");
+  EXPECT_EQ(s.move_boxes(std::vector<SessionBox>{boxes[1], unknown}).error().field, "move[1].id");
   const std::vector<std::uint64_t> gone{3, 4, 99};
   EXPECT_EQ(s.remove_boxes(gone).error().field, "remove[2]");
+  EXPECT_EQ(s.box_count(), 10u);
+  // One delta: its adds are not kept when its move is wrong; an id removed may be added again in it.
+  BoxDelta mixed;
+  mixed.add = boxes_on(world, 2, 300, 12);
+  mixed.move = {unknown};
+  EXPECT_EQ(s.apply(mixed).error().field, "move[0].id");
+  EXPECT_EQ(s.box_count(), 10u);
+  BoxDelta again;
+  again.remove = {1};
+  again.add = {boxes[0]};
+  ASSERT_TRUE(s.apply(again).ok());
   EXPECT_EQ(s.box_count(), 10u);
 
   auto first = s.answer(pose_at(world, 500.0, 350.0, 2));

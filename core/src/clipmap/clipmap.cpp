@@ -19,6 +19,11 @@ int log2i(int v) { return std::countr_zero(static_cast<unsigned>(v)); }
 }  // namespace
 
 Result<std::shared_ptr<Clipmap>> Clipmap::make(int source_width, int source_height, const ClipmapShape& shape) {
+  HORIZON_RETURN_IF_ERROR(check(source_width, source_height, shape));
+  return std::shared_ptr<Clipmap>(new Clipmap(source_width, source_height, shape));
+}
+
+Status Clipmap::check(int source_width, int source_height, const ClipmapShape& shape) {
   if (source_width <= 0 || source_height <= 0)
     return make_error(ErrorCode::kInvalidArgument, "clip-map source has no cells", "source");
   if (shape.levels < 1 || shape.levels > ClipmapShape::kMaxLevels)
@@ -60,7 +65,17 @@ Result<std::shared_ptr<Clipmap>> Clipmap::make(int source_width, int source_heig
                           std::to_string(validity) + " positions over this source (at most " +
                           std::to_string(kMaxValidityBytes) + "): use a larger subtile",
                       "clipmap.subtile");
-  return std::shared_ptr<Clipmap>(new Clipmap(source_width, source_height, shape));
+  return Status::Ok();
+}
+
+std::uint64_t Clipmap::bytes_for(int source_width, int source_height, const ClipmapShape& shape) {
+  const std::uint64_t n2 = static_cast<std::uint64_t>(shape.level_size) * static_cast<std::uint64_t>(shape.level_size);
+  const std::uint64_t tiles = static_cast<std::uint64_t>(shape.level_size / shape.subtile);
+  const std::uint64_t validity =
+      static_cast<std::uint64_t>((source_width + shape.subtile - 1) / shape.subtile) *
+      static_cast<std::uint64_t>((source_height + shape.subtile - 1) / shape.subtile);
+  return static_cast<std::uint64_t>(shape.levels) * (n2 * sizeof(float) + tiles * tiles * sizeof(SubtileKey)) +
+         validity;
 }
 
 Clipmap::Clipmap(int width, int height, const ClipmapShape& shape)
@@ -82,11 +97,7 @@ Clipmap::Clipmap(int width, int height, const ClipmapShape& shape)
   }
 }
 
-std::uint64_t Clipmap::bytes() const {
-  const std::uint64_t n2 = static_cast<std::uint64_t>(shape_.level_size) * shape_.level_size;
-  const std::uint64_t tags = static_cast<std::uint64_t>(tiles_) * tiles_ * sizeof(SubtileKey);
-  return levels_.size() * (n2 * sizeof(float) + tags) + validity_.size();
-}
+std::uint64_t Clipmap::bytes() const { return bytes_for(width_, height_, shape_); }
 
 LevelOrigin Clipmap::origin_for(int k, double col, double row) const {
   assert(k >= 0 && k < shape_.levels);

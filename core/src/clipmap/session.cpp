@@ -12,8 +12,8 @@
 namespace horizon::clipmap {
 namespace {
 
-std::string entry_field(std::size_t i, const char* name) {
-  return "boxes[" + std::to_string(i) + "]" + (name[0] ? std::string(".") + name : std::string());
+std::string entry_field(const char* list, std::size_t i, const char* name) {
+  return std::string(list) + "[" + std::to_string(i) + "]" + (name[0] ? std::string(".") + name : std::string());
 }
 
 }  // namespace
@@ -23,9 +23,6 @@ Result<std::unique_ptr<ClipSession>> ClipSession::open(std::shared_ptr<const ter
                                                        std::shared_ptr<const terrain::SourcePyramid> pyramid,
                                                        const SessionOptions& options, const SessionPose& first,
                                                        const RunControl* control) {
-  if (options.rays < 64 || options.rays > 65536)
-    return make_error(ErrorCode::kInvalidArgument, "rays must be in [64, 65536], got " + std::to_string(options.rays),
-                      "rays");
   if (options.max_boxes < 1)
     return make_error(ErrorCode::kInvalidArgument, "max_boxes must be at least 1", "max_boxes");
   if (!(options.curvature_coefficient >= 0.0 && options.curvature_coefficient <= 1.0))
@@ -38,6 +35,8 @@ Result<std::unique_ptr<ClipSession>> ClipSession::open(std::shared_ptr<const ter
   s->options_ = options;
   s->options_.shape.reduction =
       options.mode == ClipMode::kConservative ? terrain::Reduction::kMin : terrain::Reduction::kMean;
+  auto bytes = bytes_for(s->options_, s->source_->width(), s->source_->height(), 0);  // checks rays and shape
+  if (!bytes.ok()) return bytes.error();
   auto map = Clipmap::make(s->source_->width(), s->source_->height(), s->options_.shape);
   if (!map.ok()) return map.error();
   s->map_ = *map;
@@ -57,13 +56,30 @@ Result<std::unique_ptr<ClipSession>> ClipSession::open(std::shared_ptr<const ter
 
 ClipSession::~ClipSession() = default;
 
+namespace {
+constexpr std::uint64_t kBytesPerBox = 128;  // entry, footprint, index, the trace's span and answer
+
+// The check open() makes of options that need no source, and the trace's scratch.
+Result<std::uint64_t> scratch_bytes(const SessionOptions& options, int width, int height) {
+  if (options.rays < 64 || options.rays > 65536)
+    return make_error(ErrorCode::kInvalidArgument, "rays must be in [64, 65536], got " + std::to_string(options.rays),
+                      "rays");
+  // Per traced column, one slope a ring out to the source's diagonal (rings do not depend on the cell's unit).
+  const std::uint64_t rings = ring_edges(std::hypot(width, height), 1.0, options.rays, options.shape).size();
+  return static_cast<std::uint64_t>(options.rays) * rings * sizeof(double);
+}
+}  // namespace
+
+Result<std::uint64_t> ClipSession::bytes_for(const SessionOptions& options, int width, int height, std::size_t boxes) {
+  HORIZON_RETURN_IF_ERROR(Clipmap::check(width, height, options.shape));
+  auto scratch = scratch_bytes(options, width, height);
+  if (!scratch.ok()) return scratch.error();
+  return Clipmap::bytes_for(width, height, options.shape) + *scratch + boxes * kBytesPerBox;
+}
+
 std::uint64_t ClipSession::bytes() const {
-  const double cell = 1.0;  // rings do not depend on the unit, only on cells
-  const double diagonal = std::hypot(source_->width(), source_->height());
-  const std::uint64_t rings = ring_edges(diagonal, cell, options_.rays, options_.shape).size();
-  const std::uint64_t scratch = static_cast<std::uint64_t>(options_.rays) * rings * sizeof(double);
-  const std::uint64_t per_box = sizeof(Entry) + sizeof(visibility::BoxFootprint) + 4 * sizeof(void*) + 16;
-  return map_->bytes() + scratch + entries_.size() * per_box;
+  auto bytes = bytes_for(options_, source_->width(), source_->height(), entries_.size());
+  return bytes.ok() ? *bytes : map_->bytes();
 }
 
 Result<ClipEye> ClipSession::eye_for(const SessionPose& pose, ClipPose& clip) const {
@@ -94,65 +110,58 @@ Result<ClipEye> ClipSession::eye_for(const SessionPose& pose, ClipPose& clip) co
   return eye;
 }
 
-Result<std::vector<visibility::BoxFootprint>> ClipSession::resolve(std::span<const SessionBox> boxes) const {
+Result<std::vector<visibility::BoxFootprint>> ClipSession::resolve(std::span<const SessionBox> boxes,
+                                                                   const char* list) const {
   std::vector<visibility::BoxSpec> specs;
   specs.reserve(boxes.size());
   for (const SessionBox& b : boxes) specs.push_back(b.box);
   const terrain::DemHeader& h = source_->header();
-  return visibility::resolve_boxes(h.georef, h.width, h.height, h.source, specs);
+  auto footprints = visibility::resolve_boxes(h.georef, h.width, h.height, h.source, specs);
+  if (footprints.ok()) return footprints;
+  Error e = footprints.error();  // "boxes[3].z_max" -> "add[3].z_max"
+  for (std::string* text : {&e.field, &e.message})
+    for (std::size_t at = text->find("boxes["); at != std::string::npos; at = text->find("boxes[", at + 1))
+      text->replace(at, 5, list);
+  return e;
 }
 
-Status ClipSession::add_boxes(std::span<const SessionBox> boxes) {
-  if (entries_.size() + boxes.size() > options_.max_boxes)
+Status ClipSession::apply(const BoxDelta& delta) {
+  // Checked whole against the state after each step (remove, move, add), then applied.
+  std::unordered_set<std::uint64_t> removed, moved, added;
+  for (std::size_t i = 0; i < delta.remove.size(); ++i)
+    if (!index_.count(delta.remove[i]) || !removed.insert(delta.remove[i]).second)
+      return make_error(ErrorCode::kNotFound,
+                        entry_field("remove", i, "") + ": no box " + std::to_string(delta.remove[i]) + " to remove",
+                        entry_field("remove", i, ""));
+  for (std::size_t i = 0; i < delta.move.size(); ++i) {
+    const std::uint64_t id = delta.move[i].id;
+    if (!index_.count(id) || removed.count(id))
+      return make_error(ErrorCode::kNotFound, entry_field("move", i, "id") + ": no box " + std::to_string(id),
+                        entry_field("move", i, "id"));
+    if (!moved.insert(id).second)
+      return make_error(ErrorCode::kInvalidArgument,
+                        entry_field("move", i, "id") + ": box " + std::to_string(id) + " is moved twice",
+                        entry_field("move", i, "id"));
+  }
+  for (std::size_t i = 0; i < delta.add.size(); ++i) {
+    const std::uint64_t id = delta.add[i].id;
+    if ((index_.count(id) && !removed.count(id)) || !added.insert(id).second)
+      return make_error(ErrorCode::kInvalidArgument,
+                        entry_field("add", i, "id") + ": box " + std::to_string(id) + " is already registered",
+                        entry_field("add", i, "id"));
+  }
+  const std::size_t after = entries_.size() - removed.size() + delta.add.size();
+  if (after > options_.max_boxes)
     return make_error(ErrorCode::kResourceExhausted,
-                      "adding " + std::to_string(boxes.size()) + " boxes to the session's " +
-                          std::to_string(entries_.size()) + " would pass its limit of " +
+                      "the session would hold " + std::to_string(after) + " boxes, more than its limit of " +
                           std::to_string(options_.max_boxes),
-                      "boxes");
-  std::unordered_set<std::uint64_t> seen;
-  for (std::size_t i = 0; i < boxes.size(); ++i)
-    if (index_.count(boxes[i].id) || !seen.insert(boxes[i].id).second)
-      return make_error(ErrorCode::kInvalidArgument,
-                        entry_field(i, "id") + ": box " + std::to_string(boxes[i].id) + " is already registered",
-                        entry_field(i, "id"));
-  auto footprints = resolve(boxes);
-  if (!footprints.ok()) return footprints.error();
-  for (std::size_t i = 0; i < boxes.size(); ++i) {
-    index_[boxes[i].id] = entries_.size();
-    entries_.push_back({boxes[i].id});
-    footprints_.push_back((*footprints)[i]);
-  }
-  return Status::Ok();
-}
+                      "add");
+  auto moved_footprints = resolve(delta.move, "move");
+  if (!moved_footprints.ok()) return moved_footprints.error();
+  auto added_footprints = resolve(delta.add, "add");
+  if (!added_footprints.ok()) return added_footprints.error();
 
-Status ClipSession::move_boxes(std::span<const SessionBox> boxes) {
-  std::unordered_set<std::uint64_t> seen;
-  for (std::size_t i = 0; i < boxes.size(); ++i) {
-    if (!index_.count(boxes[i].id))
-      return make_error(ErrorCode::kNotFound, entry_field(i, "id") + ": no box " + std::to_string(boxes[i].id),
-                        entry_field(i, "id"));
-    if (!seen.insert(boxes[i].id).second)
-      return make_error(ErrorCode::kInvalidArgument,
-                        entry_field(i, "id") + ": box " + std::to_string(boxes[i].id) + " is moved twice",
-                        entry_field(i, "id"));
-  }
-  auto footprints = resolve(boxes);
-  if (!footprints.ok()) return footprints.error();
-  for (std::size_t i = 0; i < boxes.size(); ++i) {
-    const std::size_t at = index_[boxes[i].id];
-    footprints_[at] = (*footprints)[i];
-    entries_[at].reported = false;
-  }
-  return Status::Ok();
-}
-
-Status ClipSession::remove_boxes(std::span<const std::uint64_t> ids) {
-  std::unordered_set<std::uint64_t> seen;
-  for (std::size_t i = 0; i < ids.size(); ++i)
-    if (!index_.count(ids[i]) || !seen.insert(ids[i]).second)
-      return make_error(ErrorCode::kNotFound, "remove[" + std::to_string(i) + "]: no box " + std::to_string(ids[i]),
-                        "remove[" + std::to_string(i) + "]");
-  for (std::uint64_t id : ids) {
+  for (std::uint64_t id : delta.remove) {
     const std::size_t at = index_[id];
     index_.erase(id);
     if (at + 1 != entries_.size()) {
@@ -163,7 +172,33 @@ Status ClipSession::remove_boxes(std::span<const std::uint64_t> ids) {
     entries_.pop_back();
     footprints_.pop_back();
   }
+  for (std::size_t i = 0; i < delta.move.size(); ++i) {
+    const std::size_t at = index_[delta.move[i].id];
+    footprints_[at] = (*moved_footprints)[i];
+    entries_[at].reported = false;
+  }
+  for (std::size_t i = 0; i < delta.add.size(); ++i) {
+    index_[delta.add[i].id] = entries_.size();
+    entries_.push_back({delta.add[i].id});
+    footprints_.push_back((*added_footprints)[i]);
+  }
   return Status::Ok();
+}
+
+Status ClipSession::add_boxes(std::span<const SessionBox> boxes) {
+  BoxDelta d;
+  d.add.assign(boxes.begin(), boxes.end());
+  return apply(d);
+}
+Status ClipSession::move_boxes(std::span<const SessionBox> boxes) {
+  BoxDelta d;
+  d.move.assign(boxes.begin(), boxes.end());
+  return apply(d);
+}
+Status ClipSession::remove_boxes(std::span<const std::uint64_t> ids) {
+  BoxDelta d;
+  d.remove.assign(ids.begin(), ids.end());
+  return apply(d);
 }
 
 Result<SessionAnswer> ClipSession::answer(const SessionPose& pose, const RunControl* control) {

@@ -106,6 +106,10 @@ class Clipmap {
   // Checks the shape against a source of width x height cells; errors name
   // the field ("clipmap.levels", "clipmap.level_size", "clipmap.subtile").
   static Result<std::shared_ptr<Clipmap>> make(int source_width, int source_height, const ClipmapShape& shape);
+  // make()'s checks alone, and the bytes such a clip-map holds: what a
+  // server reserves before it allocates one.
+  static Status check(int source_width, int source_height, const ClipmapShape& shape);
+  static std::uint64_t bytes_for(int source_width, int source_height, const ClipmapShape& shape);
 
   const ClipmapShape& shape() const { return shape_; }
   int source_width() const { return width_; }

@@ -27,9 +27,9 @@
 // an answer whose update cannot read the terrain; an asynchronous one
 // answers from what is resident and says what the loader could not read.
 //
-// Boxes are added, moved and removed by id, a batch at a time: a batch with
+// Boxes are added, moved and removed by id, a delta at a time: a delta with
 // any bad entry (unknown or repeated id, bad box, over max_boxes) changes
-// nothing, and the error names the entry ("boxes[3].id").
+// nothing, and the error names the entry ("add[3].id").
 //
 // One client drives a session: its methods are not to be called
 // concurrently (the loader thread is the session's own business).
@@ -75,6 +75,13 @@ struct SessionBox {
   visibility::BoxSpec box;
 };
 
+// Changes to a session's boxes, applied in this order: remove, move, add.
+struct BoxDelta {
+  std::vector<SessionBox> add;   // new ids (or ids removed by the same delta)
+  std::vector<SessionBox> move;  // ids in the session: new footprints or heights, reported at the next answer
+  std::vector<std::uint64_t> remove;
+};
+
 struct BoxChange {
   std::uint64_t id = 0;
   visibility::Visibility state = visibility::Visibility::kSeen;
@@ -117,9 +124,17 @@ class ClipSession {
   // Memory the session holds: clip-map, boxes, trace scratch.
   std::uint64_t bytes() const;
 
+  // The whole delta, or nothing: errors name the entry ("add[3].id",
+  // "move[0].id", "remove[2]", "add[5].z_max"; "add" past max_boxes).
+  Status apply(const BoxDelta& delta);
   Status add_boxes(std::span<const SessionBox> boxes);
   Status move_boxes(std::span<const SessionBox> boxes);
   Status remove_boxes(std::span<const std::uint64_t> ids);
+
+  // What a session of these options over a width x height source holds
+  // (clip-map, trace scratch, `boxes` boxes), before it is opened; the
+  // shape's errors as open() would give them.
+  static Result<std::uint64_t> bytes_for(const SessionOptions& options, int width, int height, std::size_t boxes);
 
   Result<SessionAnswer> answer(const SessionPose& pose, const RunControl* control = nullptr);
 
@@ -130,7 +145,7 @@ class ClipSession {
     visibility::Visibility state = visibility::Visibility::kSeen;
   };
   ClipSession() = default;
-  Result<std::vector<visibility::BoxFootprint>> resolve(std::span<const SessionBox> boxes) const;
+  Result<std::vector<visibility::BoxFootprint>> resolve(std::span<const SessionBox> boxes, const char* list) const;
   Result<ClipEye> eye_for(const SessionPose& pose, ClipPose& clip) const;
 
   std::shared_ptr<const terrain::ElevationSource> source_;
