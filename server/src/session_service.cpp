@@ -230,6 +230,7 @@ class SessionCall final : public grpc::ServerBidiReactor<v1::SessionRequest, v1:
     for (auto& r : replies) outbox_.push_back(std::move(r));
     if (fatal) end_locked(*fatal);
     busy_ = false;
+    last_activity_ = Clock::now();  // idleness counts from the last answer too
     pump(lock);
   }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <unordered_set>
 
@@ -40,6 +41,7 @@ Result<std::unique_ptr<ClipSession>> ClipSession::open(std::shared_ptr<const ter
   auto map = Clipmap::make(s->source_->width(), s->source_->height(), s->options_.shape);
   if (!map.ok()) return map.error();
   s->map_ = *map;
+  s->pyramid_ = pyramid;
   auto updater = ClipmapUpdater::make(s->map_, std::move(pyramid), options.updater);
   if (!updater.ok()) return updater.error();
   ClipPose clip;
@@ -125,6 +127,35 @@ Result<std::vector<visibility::BoxFootprint>> ClipSession::resolve(std::span<con
   return e;
 }
 
+Result<bool> ClipSession::touches_void(const visibility::BoxFootprint& f) const {
+  // Small footprints: their own cells. Larger ones (conservative mode): the
+  // min pyramid's cells over them, where -inf marks a void somewhere in the
+  // block, which errs only towards "visible".
+  constexpr std::uint64_t kMaxCells = 64 * 64;
+  if (f.cells.cell_count() <= kMaxCells) {
+    auto cells = source_->read(f.cells, cache_);
+    if (!cells.ok()) return cells.error();
+    for (int r = 0; r < cells->height(); ++r)
+      for (int c = 0; c < cells->width(); ++c)
+        if (std::isnan(cells->elevation.at(c, r))) return true;
+    return false;
+  }
+  if (!pyramid_ || pyramid_->reduction() != terrain::Reduction::kMin) return false;
+  int level = 1;
+  while (level < pyramid_->levels() &&
+         (static_cast<std::uint64_t>(f.cells.width() >> level) + 1) * (static_cast<std::uint64_t>(f.cells.height() >> level) + 1) >
+             kMaxCells)
+    ++level;
+  const terrain::Window w{f.cells.col0 >> level, f.cells.row0 >> level, ((f.cells.col1 - 1) >> level) + 1,
+                          ((f.cells.row1 - 1) >> level) + 1};
+  auto cells = pyramid_->read(level, w);
+  if (!cells.ok()) return cells.error();
+  for (int r = 0; r < cells->height(); ++r)
+    for (int c = 0; c < cells->width(); ++c)
+      if (cells->at(c, r) == -std::numeric_limits<float>::infinity()) return true;
+  return false;
+}
+
 Status ClipSession::apply(const BoxDelta& delta) {
   // Checked whole against the state after each step (remove, move, add), then applied.
   std::unordered_set<std::uint64_t> removed, moved, added;
@@ -160,6 +191,14 @@ Status ClipSession::apply(const BoxDelta& delta) {
   if (!moved_footprints.ok()) return moved_footprints.error();
   auto added_footprints = resolve(delta.add, "add");
   if (!added_footprints.ok()) return added_footprints.error();
+  // Boxes over voids are visible, as culling has them (cull.hpp): known before anything changes.
+  std::vector<bool> moved_voids, added_voids;
+  for (const auto& [footprints, voids] : {std::pair{&*moved_footprints, &moved_voids}, std::pair{&*added_footprints, &added_voids}})
+    for (const visibility::BoxFootprint& f : *footprints) {
+      auto v = touches_void(f);
+      if (!v.ok()) return v.error();
+      voids->push_back(*v);
+    }
 
   for (std::uint64_t id : delta.remove) {
     const std::size_t at = index_[id];
@@ -176,10 +215,12 @@ Status ClipSession::apply(const BoxDelta& delta) {
     const std::size_t at = index_[delta.move[i].id];
     footprints_[at] = (*moved_footprints)[i];
     entries_[at].reported = false;
+    entries_[at].on_void = moved_voids[i];
   }
   for (std::size_t i = 0; i < delta.add.size(); ++i) {
     index_[delta.add[i].id] = entries_.size();
     entries_.push_back({delta.add[i].id});
+    entries_.back().on_void = added_voids[i];
     footprints_.push_back((*added_footprints)[i]);
   }
   return Status::Ok();
@@ -237,7 +278,11 @@ Result<SessionAnswer> ClipSession::answer(const SessionPose& pose, const RunCont
   if (!culled.ok()) return culled.error();
   for (std::size_t i = 0; i < entries_.size(); ++i) {
     Entry& e = entries_[i];
-    const visibility::BoxVisibility& b = culled->boxes[i];
+    visibility::BoxVisibility& b = culled->boxes[i];
+    if (e.on_void && b.state == visibility::Visibility::kOccluded) {
+      b = {visibility::Visibility::kSeen, -std::numeric_limits<float>::infinity()};
+      ++culled->visible_count;
+    }
     if (!e.reported || b.state != e.state) out.changes.push_back({e.id, b.state, b.ohf_min});
     e.reported = true;
     e.state = b.state;

@@ -19,6 +19,12 @@
 // read from the source itself (through the block cache), not from a level,
 // so a lagging level can never lower the eye.
 //
+// Boxes follow culling's rule (visibility/cull.hpp): a box whose footprint
+// meets a void (no terrain, so no answer) is visible, with ohf_min -inf;
+// whether it does is found when the box is added or moved (its cells, or for
+// a footprint over 64 x 64 cells in conservative mode the min pyramid's,
+// which may also count a void just beside it).
+//
 // Answers. The first answer, and the first after a box is added or moved,
 // reports that box; after that only boxes whose visibility changed are
 // reported. Each answer says which pose it answers, each level's version and
@@ -141,17 +147,20 @@ class ClipSession {
  private:
   struct Entry {
     std::uint64_t id = 0;
+    bool on_void = false;  // its footprint meets a void: visible (cull.hpp's rule)
     bool reported = false;
     visibility::Visibility state = visibility::Visibility::kSeen;
   };
   ClipSession() = default;
   Result<std::vector<visibility::BoxFootprint>> resolve(std::span<const SessionBox> boxes, const char* list) const;
   Result<ClipEye> eye_for(const SessionPose& pose, ClipPose& clip) const;
+  Result<bool> touches_void(const visibility::BoxFootprint& footprint) const;
 
   std::shared_ptr<const terrain::ElevationSource> source_;
   terrain::BlockCache* cache_ = nullptr;
   SessionOptions options_;
   std::shared_ptr<Clipmap> map_;
+  std::shared_ptr<const terrain::SourcePyramid> pyramid_;
   std::unique_ptr<ClipmapUpdater> sync_;
   std::unique_ptr<AsyncClipmapUpdater> async_;
   LoaderStats last_loader_;
