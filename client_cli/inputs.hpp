@@ -6,12 +6,14 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "args.hpp"
 #include "horizon/common/error.hpp"
 #include "horizon/geodesy/crs.hpp"
 #include "horizon/geodesy/observer.hpp"
 #include "horizon/terrain/dem.hpp"
+#include "horizon/visibility/cull.hpp"
 
 namespace horizon::cli {
 
@@ -50,5 +52,11 @@ bool is_geographic(const terrain::Georeference& georef);
 // WGS84 position of a CRS point, when the CRS supports it.
 std::optional<geodesy::LonLat> lonlat_of(const terrain::Dem& dem, double x, double y);
 std::optional<geodesy::LonLat> lonlat_of(const terrain::Georeference& georef, double x, double y);
+
+// A boxes file for --boxes: one box a line, x_min,y_min,x_max,y_max,z_min,z_max
+// (the DEM's CRS, or WGS84 degrees when `lonlat`; absolute metres). Blank
+// lines, '#' comments and a first line that is not numbers (a header) are
+// skipped. Throws UsageError naming the file and line.
+std::vector<visibility::BoxSpec> read_boxes_file(const std::string& path, bool lonlat);
 
 }  // namespace horizon::cli

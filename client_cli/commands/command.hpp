@@ -42,6 +42,7 @@ const Command& bench_command();   // horizon_evaluation
 const Command& stress_command();  // horizon_evaluation
 const Command& cull_command();
 const Command& datasets_command();  // --server only
+const Command& session_command();
 
 // Prints "horizon: error: <message>" to stderr and returns kExitFailure.
 int report_error(const Error& error);

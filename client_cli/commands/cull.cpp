@@ -41,45 +41,6 @@ constexpr FlagSpec kFlags[] = {
 
 constexpr std::string_view kAlgorithms[] = {"fast", "exact", "conservative", "r3"};
 
-// The boxes file. Blank lines and '#' comments are skipped, and so is a first
-// line that is not numbers (a header). Errors name the file and line.
-std::vector<visibility::BoxSpec> read_boxes(const std::string& path, bool lonlat) {
-  std::ifstream in(path);
-  if (!in) throw UsageError("--boxes: cannot open '" + path + "'");
-  std::vector<visibility::BoxSpec> boxes;
-  std::string line;
-  int number = 0;
-  while (std::getline(in, line)) {
-    ++number;
-    if (const auto hash = line.find('#'); hash != std::string::npos) line.resize(hash);
-    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-    double v[6];
-    std::stringstream fields(line);
-    std::string field;
-    int n = 0;
-    bool numeric = true;
-    while (std::getline(fields, field, ',')) {
-      const auto first = field.find_first_not_of(" \t\r"), last = field.find_last_not_of(" \t\r");
-      const auto value =
-          first == std::string::npos ? std::nullopt : parse_finite(field.substr(first, last - first + 1));
-      if (!value || n >= 6) {
-        numeric = false;
-        break;
-      }
-      v[n++] = *value;
-    }
-    if (!numeric || n != 6) {
-      if (boxes.empty() && number == 1 && !numeric) continue;  // a header line
-      throw UsageError("--boxes: '" + path + "' line " + std::to_string(number) +
-                       ": expected six numbers x_min,y_min,x_max,y_max,z_min,z_max");
-    }
-    boxes.push_back(
-        {lonlat ? geodesy::PointFrame::kWgs84 : geodesy::PointFrame::kDatasetCrs, v[0], v[1], v[2], v[3], v[4], v[5]});
-  }
-  if (boxes.empty()) throw UsageError("--boxes: '" + path + "' holds no boxes");
-  return boxes;
-}
-
 int run_cull(const Args& args) {
   const std::string& path = single_operand(args, "DEM");
   const bool json = args.has("--json");
@@ -101,7 +62,7 @@ int run_cull(const Args& args) {
   (void)args.positive_integer("--band");
   const auto boxes_path = args.text("--boxes");
   if (!boxes_path) throw UsageError("missing --boxes FILE.csv");
-  const std::vector<visibility::BoxSpec> boxes = read_boxes(*boxes_path, args.has("--lonlat"));
+  const std::vector<visibility::BoxSpec> boxes = read_boxes_file(*boxes_path, args.has("--lonlat"));
 
   if (args.has("--server")) return remote::run_cull(args, path, observer, boxes, options, json);
 

@@ -64,6 +64,7 @@ Client::Client(const Args& args) {
   auto channel = grpc::CreateCustomChannel(address_, credentials, channel_args);
   datasets_ = v1::DatasetService::NewStub(channel);
   visibility_ = v1::VisibilityService::NewStub(channel);
+  sessions_ = v1::SessionService::NewStub(channel);
 }
 
 std::unique_ptr<grpc::ClientContext> Client::context() const {

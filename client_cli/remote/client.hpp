@@ -14,6 +14,7 @@
 #include "horizon/geodesy/crs.hpp"
 #include "horizon/geodesy/observer.hpp"
 #include "horizon/v1/datasets.grpc.pb.h"
+#include "horizon/v1/session.grpc.pb.h"
 #include "horizon/v1/visibility.grpc.pb.h"
 #include "horizon/visibility/options.hpp"
 #include "horizon/visibility/work_stats.hpp"
@@ -33,6 +34,7 @@ class Client {
 
   v1::DatasetService::Stub& datasets() { return *datasets_; }
   v1::VisibilityService::Stub& visibility() { return *visibility_; }
+  v1::SessionService::Stub& sessions() { return *sessions_; }
 
  private:
   std::string address_;
@@ -40,6 +42,7 @@ class Client {
   std::string token_;
   std::unique_ptr<v1::DatasetService::Stub> datasets_;
   std::unique_ptr<v1::VisibilityService::Stub> visibility_;
+  std::unique_ptr<v1::SessionService::Stub> sessions_;
 };
 
 // Prints "horizon: error: <message> (<CODE> from HOST:PORT[, field F])" and

@@ -16,6 +16,10 @@
 #include "horizon/visibility/line_of_sight.hpp"
 #include "horizon/visibility/options.hpp"
 
+namespace horizon::cli {
+struct SessionPlayback;
+}
+
 namespace horizon::cli::remote {
 
 // The flags every remote-capable command adds to its table.
@@ -49,5 +53,7 @@ int run_los(const Args& args, const std::string& dataset, const geodesy::PointSp
 int run_cull(const Args& args, const std::string& dataset, const geodesy::PointSpec& observer,
              const std::vector<visibility::BoxSpec>& boxes, const visibility::CullOptions& options, bool json);
 int run_datasets(const Args& args, bool json);
+// The flight over one session stream; prints the same report as embedded mode.
+int run_session(const Args& args, const SessionPlayback& playback, bool json, bool every_pose);
 
 }  // namespace horizon::cli::remote

@@ -37,12 +37,8 @@ Result<clipmap::SessionOptions> to_session_options(const v1::OpenSession& open, 
   o.shape.subtile = static_cast<int>(std::min<std::uint32_t>(t, 1u << 20));
   if (shape.levels()) {
     o.shape.levels = static_cast<int>(std::min<std::uint32_t>(shape.levels(), 1000));
-  } else {  // the fewest levels whose coarsest covers the dataset
-    const std::int64_t longest = std::max(width, height);
-    int levels = 1;
-    while (levels < clipmap::ClipmapShape::kMaxLevels && (static_cast<std::int64_t>(n) << (levels - 1)) < longest)
-      ++levels;
-    o.shape.levels = levels;
+  } else {
+    o.shape.levels = clipmap::levels_to_cover(o.shape.level_size, width, height);
   }
   for (int k = 0; k < shape.every_size(); ++k)
     o.updater.every.push_back(static_cast<int>(std::min<std::uint32_t>(shape.every(k), 1u << 30)));

@@ -65,6 +65,15 @@ struct ClipmapShape {
   terrain::Reduction reduction = terrain::Reduction::kMean;
 };
 
+// The fewest levels of `level_size` samples whose coarsest covers a source
+// of width x height cells (at most ClipmapShape::kMaxLevels).
+inline int levels_to_cover(int level_size, int width, int height) {
+  const long long longest = width > height ? width : height;
+  int levels = 1;
+  while (levels < ClipmapShape::kMaxLevels && (static_cast<long long>(level_size) << (levels - 1)) < longest) ++levels;
+  return levels;
+}
+
 // A level's place: level cells [col0, col0 + n) x [row0, row0 + n).
 struct LevelOrigin {
   int col0 = 0, row0 = 0;

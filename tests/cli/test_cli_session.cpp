@@ -1,0 +1,104 @@
+// `horizon session`: a conservative flight never counts fewer boxes visible
+// than exact culling from the same pose; every pose is answered in order
+// when the client waits for each; wrong files and shapes are usage errors
+// naming the line or the flag.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "test_support.hpp"
+
+namespace horizon::testing {
+namespace {
+
+using Json = nlohmann::json;
+
+std::string quote(const std::string& s) {
+  std::string out(1, '\'');
+  for (char c : s) {
+    if (c == '\'')
+      out.append("'\\''");
+    else
+      out.push_back(c);
+  }
+  out.push_back('\'');
+  return out;
+}
+
+CommandResult horizon(const std::vector<std::string>& args) {
+  std::string command = quote(HORIZON_CLI_PATH);
+  for (const std::string& a : args) {
+    command.push_back(' ');
+    command.append(quote(a));
+  }
+  command.append(" 2>&1");
+  return run_command(command);
+}
+
+struct Flight {
+  TempDir dir;
+  std::string poses = dir.file("flight.csv"), boxes = dir.file("boxes.csv");
+  const std::string dem = bundled_dem("rainier_summit_srtm3_400x400.tif");
+  Flight() {
+    std::ofstream p(poses);
+    p << "lon,lat,altitude,east,north\n";
+    for (int i = 0; i < 12; ++i) p << -121.86 + i * 0.01 << ",46.8529,3500,250,0\n";
+    std::ofstream b(boxes);
+    for (int i = 0; i < 60; ++i) {
+      const double x = -121.9 + 0.005 * i, y = 46.7 + 0.0045 * i;
+      b << x << "," << y << "," << x + 0.002 << "," << y + 0.001 << ",0," << 1800 + 35 * i << "\n";
+    }
+  }
+};
+
+TEST(CliSession, AConservativeFlightNeverCountsFewerVisibleThanExactCulling) {
+  Flight f;
+  const CommandResult r = horizon({"session", f.dem, "--path", f.poses, "--boxes", f.boxes, "--lonlat", "--absolute",
+                                   "--level-size", "64", "--subtile", "16", "--conservative", "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json j = Json::parse(r.output);
+  EXPECT_EQ(j["clipmap"]["levels"], 4);
+  EXPECT_EQ(j["answered"], 12);
+  EXPECT_EQ(j["dropped"], 0);
+  ASSERT_EQ(j["poses"].size(), 12u);
+  for (int i = 0; i < 12; i += 5) {
+    const Json& pose = j["poses"][static_cast<std::size_t>(i)];
+    EXPECT_EQ(pose["seq"], i + 1);
+    const CommandResult cull =
+        horizon({"cull", f.dem, "--lon", std::to_string(-121.86 + i * 0.01), "--lat", "46.8529", "--altitude", "3500",
+                 "--boxes", f.boxes, "--lonlat", "--algorithm", "exact", "--json"});
+    ASSERT_EQ(cull.exit_code, 0) << cull.output;
+    const int exact_visible = Json::parse(cull.output)["visible_count"];
+    EXPECT_GE(pose["visible"].get<int>(), exact_visible) << "pose " << i + 1;
+    EXPECT_LT(exact_visible, 60) << "the terrain hides something";
+  }
+}
+
+TEST(CliSession, WrongFilesAndShapesAreUsageErrorsNamingTheLineOrFlag) {
+  Flight f;
+  {
+    std::ofstream p(f.poses, std::ios::app);
+    p << "-121.7,46.8\n";
+  }
+  CommandResult r = horizon({"session", f.dem, "--path", f.poses, "--boxes", f.boxes, "--lonlat"});
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("line 14"), std::string::npos) << r.output;
+  Flight g;
+  r = horizon({"session", g.dem, "--path", g.poses, "--boxes", g.boxes, "--lonlat", "--absolute", "--level-size", "100"});
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--level-size"), std::string::npos) << r.output;
+  r = horizon({"session", g.dem, "--path", g.poses, "--boxes", g.boxes, "--lonlat", "--absolute", "--level-size", "64",
+               "--levels", "2"});
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--levels"), std::string::npos) << r.output;
+  r = horizon({"session", g.dem, "--boxes", g.boxes});
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--path"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace horizon::testing
