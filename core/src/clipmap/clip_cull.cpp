@@ -15,6 +15,7 @@ namespace {
 
 constexpr double kNegInf = -std::numeric_limits<double>::infinity();
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
+constexpr std::size_t kBlockColumns = 32;  // neighbouring columns traced together, ring by ring
 
 struct Geometry {
   double cell;    // metres of the finer cell side
@@ -39,13 +40,7 @@ Geometry geometry_of(double cell, int rays, const ClipmapShape& shape) {
   return {cell, kTwoPi / rays, shape.levels, cell * (shape.level_size / 2 - shape.subtile)};
 }
 
-// A box as the trace sees it: its columns (rays or wedges, unwrapped) and
-// ground distance range; `eye_inside` when its hull holds the eye.
-struct BoxSpan {
-  long a0 = 0, a1 = -1;
-  double near = 0.0, far = 0.0;
-  bool eye_inside = false;
-};
+using BoxSpan = ClipCullScratch::BoxSpan;
 
 BoxSpan span_of(const visibility::BoxFootprint& box, const ClipEye& eye, const Geometry& g, ClipMode mode) {
   BoxSpan s;
@@ -97,7 +92,8 @@ std::vector<double> ring_edges(double reach, double cell_metres, int rays, const
 
 Result<ClipCullResult> cull_on_clipmap(const ClipmapReader& view, const ClipEye& eye,
                                        std::span<const visibility::BoxFootprint> footprints,
-                                       const ClipCullOptions& options, const RunControl* control) {
+                                       const ClipCullOptions& options, const RunControl* control,
+                                       ClipCullScratch* scratch) {
   const auto start = std::chrono::steady_clock::now();
   const Clipmap& map = view.map();
   const terrain::Reduction want =
@@ -118,9 +114,13 @@ Result<ClipCullResult> cull_on_clipmap(const ClipmapReader& view, const ClipEye&
   ClipCullResult result;
   result.boxes.resize(footprints.size());
 
+  ClipCullScratch local;
+  ClipCullScratch& w = scratch ? *scratch : local;
   // The columns the boxes need, and how far.
-  std::vector<BoxSpan> spans(footprints.size());
-  std::vector<double> reach(static_cast<std::size_t>(rays), 0.0);
+  std::vector<BoxSpan>& spans = w.spans;
+  spans.resize(footprints.size());
+  std::vector<double>& reach = w.reach;
+  reach.assign(static_cast<std::size_t>(rays), 0.0);
   double farthest = 0.0;
   for (std::size_t i = 0; i < footprints.size(); ++i) {
     spans[i] = span_of(footprints[i], eye, g, options.mode);
@@ -135,61 +135,96 @@ Result<ClipCullResult> cull_on_clipmap(const ClipmapReader& view, const ClipEye&
   }
   const std::vector<double> edges = ring_edges(farthest, g.cell, rays, map.shape());
 
-  // before[a][j]: the horizon slope of column a over the rings before ring j.
-  std::vector<std::vector<double>> before(static_cast<std::size_t>(rays));
-  std::vector<SampleStats> column_stats(static_cast<std::size_t>(rays));
+  // horizon_at(a, j): the horizon slope of column a over the rings before
+  // ring j, for j up to traced[a] (0: column a not traced).
+  const std::size_t stride = edges.size();
+  if (w.horizons.size() < static_cast<std::size_t>(rays) * stride) w.horizons.resize(static_cast<std::size_t>(rays) * stride);
+  w.traced.assign(static_cast<std::size_t>(rays), 0);
+  w.stats.assign(static_cast<std::size_t>(rays), SampleStats{});
+  // Stored ring by ring (the trace writes a ring's columns side by side).
+  const std::size_t columns = static_cast<std::size_t>(rays);
+  auto horizon_at = [&](std::size_t a, std::size_t j) -> double& { return w.horizons[j * columns + a]; };
+  std::vector<SampleStats>& column_stats = w.stats;
   const double tangent = 1.0 / std::cos(g.dtheta / 2);
-  auto trace = [&](std::size_t a) {
-    if (reach[a] <= 0.0) return;
-    std::vector<double>& h = before[a];
-    SampleStats& stats = column_stats[a];
-    h.assign(1, kNegInf);
-    const double t0 = static_cast<double>(a) * g.dtheta, t1 = t0 + g.dtheta;
-    const double cx0 = std::cos(t0) / eye.metres_per_col, cy0 = std::sin(t0) / eye.metres_per_row;
-    const double cx1 = std::cos(t1) / eye.metres_per_col, cy1 = std::sin(t1) / eye.metres_per_row;
-    const double cxm = std::cos(t0 + g.dtheta / 2) / eye.metres_per_col, cym = std::sin(t0 + g.dtheta / 2) / eye.metres_per_row;
-    double horizon = kNegInf;
-    for (std::size_t j = 0; j + 1 < edges.size() && edges[j] < reach[a]; ++j) {
-      const double b0 = edges[j], b1 = edges[j + 1];
-      double slope = kNegInf;
-      if (options.mode == ClipMode::kFast) {
-        const double d = 0.5 * (b0 + b1);
-        const double lambda = g.lod(d);
-        const int k = static_cast<int>(lambda);
-        const double f = lambda - k;
-        const double col = eye.col + d * cx0, row = eye.row + d * cy0;
-        float z = view.sample(k, col, row, stats);
-        if (f > 0.0 && k + 1 < g.levels) z = static_cast<float>((1.0 - f) * z + f * view.sample(k + 1, col, row, stats));
-        if (z == z) slope = (z - eye.curvature * d * d - eye.elevation) / d;
-      } else {
-        // The wedge's piece of ring j: the rays' end points and the outer arc's tangent point.
-        const double xs[5] = {b0 * cx0, b1 * cx0, b0 * cx1, b1 * cx1, b1 * tangent * cxm};
-        const double ys[5] = {b0 * cy0, b1 * cy0, b0 * cy1, b1 * cy1, b1 * tangent * cym};
-        const auto [xmin, xmax] = std::minmax_element(xs, xs + 5);
-        const auto [ymin, ymax] = std::minmax_element(ys, ys + 5);
-        const float low = view.lowest(g.level_at(b0), static_cast<int>(std::floor(eye.col + *xmin)),
-                                      static_cast<int>(std::floor(eye.row + *ymin)),
-                                      static_cast<int>(std::ceil(eye.col + *xmax)),
-                                      static_cast<int>(std::ceil(eye.row + *ymax)), stats);
-        if (low > -std::numeric_limits<float>::infinity() && low < std::numeric_limits<float>::infinity()) {
-          const double rise = low - eye.curvature * b1 * b1 - eye.elevation;
-          slope = rise / (rise > 0.0 ? b1 : b0);
+  // Per ring, shared by every ray: its middle, level and blend, and the
+  // drop of curvature at its middle and far edge.
+  struct Ring {
+    double mid, near, far, mid_drop, far_drop;
+    int k, lowest_level;
+    float blend;  // weight of level k + 1
+  };
+  std::vector<Ring> rings(edges.size() > 0 ? edges.size() - 1 : 0);
+  for (std::size_t j = 0; j < rings.size(); ++j) {
+    Ring& r = rings[j];
+    r.near = edges[j];
+    r.far = edges[j + 1];
+    r.mid = 0.5 * (r.near + r.far);
+    const double lambda = g.lod(r.mid);
+    r.k = static_cast<int>(lambda);
+    r.blend = r.k + 1 < g.levels ? static_cast<float>(lambda - r.k) : 0.0f;
+    r.lowest_level = g.level_at(r.near);
+    r.mid_drop = eye.curvature * r.mid * r.mid;
+    r.far_drop = eye.curvature * r.far * r.far;
+  }
+  // The trace runs ring by ring across a block of neighbouring columns (one
+  // block a task), each column carrying its running maximum.
+  struct Column {
+    double cx0, cy0, cx1, cy1, cxm, cym;  // grid steps per metre along its rays (and mid-angle)
+    double horizon;
+  };
+  auto trace_block = [&](std::size_t first, std::size_t last) {
+    Column cols[kBlockColumns];
+    double block_reach = 0.0;
+    for (std::size_t a = first; a < last; ++a) {
+      Column& c = cols[a - first];
+      const double t0 = static_cast<double>(a) * g.dtheta, t1 = t0 + g.dtheta, tm = t0 + g.dtheta / 2;
+      c = {std::cos(t0) / eye.metres_per_col, std::sin(t0) / eye.metres_per_row, std::cos(t1) / eye.metres_per_col,
+           std::sin(t1) / eye.metres_per_row, std::cos(tm) / eye.metres_per_col, std::sin(tm) / eye.metres_per_row, kNegInf};
+      horizon_at(a, 0) = kNegInf;
+      block_reach = std::max(block_reach, reach[a]);
+    }
+    for (std::size_t j = 0; j < rings.size() && rings[j].near < block_reach; ++j) {
+      const Ring& ring = rings[j];
+      for (std::size_t a = first; a < last; ++a) {
+        if (!(ring.near < reach[a])) continue;
+        Column& c = cols[a - first];
+        SampleStats& stats = column_stats[a];
+        double slope = kNegInf;
+        if (options.mode == ClipMode::kFast) {
+          const double col = eye.col + ring.mid * c.cx0, row = eye.row + ring.mid * c.cy0;
+          float z = view.sample(ring.k, col, row, stats);
+          if (ring.blend > 0.0f) z += ring.blend * (view.sample(ring.k + 1, col, row, stats) - z);
+          if (z == z) slope = (z - ring.mid_drop - eye.elevation) / ring.mid;
+        } else {
+          // The wedge's piece of ring j: the rays' end points and the outer arc's tangent point.
+          const double b0 = ring.near, b1 = ring.far;
+          const double xs[5] = {b0 * c.cx0, b1 * c.cx0, b0 * c.cx1, b1 * c.cx1, b1 * tangent * c.cxm};
+          const double ys[5] = {b0 * c.cy0, b1 * c.cy0, b0 * c.cy1, b1 * c.cy1, b1 * tangent * c.cym};
+          const auto [xmin, xmax] = std::minmax_element(xs, xs + 5);
+          const auto [ymin, ymax] = std::minmax_element(ys, ys + 5);
+          const float low = view.lowest(ring.lowest_level, static_cast<int>(std::floor(eye.col + *xmin)),
+                                        static_cast<int>(std::floor(eye.row + *ymin)),
+                                        static_cast<int>(std::ceil(eye.col + *xmax)),
+                                        static_cast<int>(std::ceil(eye.row + *ymax)), stats);
+          if (low > -std::numeric_limits<float>::infinity() && low < std::numeric_limits<float>::infinity()) {
+            const double rise = low - ring.far_drop - eye.elevation;
+            slope = rise / (rise > 0.0 ? b1 : b0);
+          }
         }
+        c.horizon = std::max(c.horizon, slope);
+        horizon_at(a, j + 1) = c.horizon;
+        w.traced[a] = static_cast<std::uint32_t>(j + 1);
       }
-      horizon = std::max(horizon, slope);
-      h.push_back(horizon);
     }
   };
-  std::vector<std::size_t> columns;
-  for (std::size_t a = 0; a < reach.size(); ++a)
-    if (reach[a] > 0.0) columns.push_back(a);
-  const std::size_t chunk = 16;
-  HORIZON_RETURN_IF_ERROR(parallel_for((columns.size() + chunk - 1) / chunk, options.threads, control, [&](std::size_t c) {
-    for (std::size_t i = c * chunk; i < std::min(columns.size(), (c + 1) * chunk); ++i) trace(columns[i]);
+  const std::size_t blocks = (static_cast<std::size_t>(rays) + kBlockColumns - 1) / kBlockColumns;
+  HORIZON_RETURN_IF_ERROR(parallel_for(blocks, options.threads, control, [&](std::size_t b) {
+    trace_block(b * kBlockColumns, std::min(static_cast<std::size_t>(rays), (b + 1) * kBlockColumns));
   }));
 
   // Each box against its columns' horizons.
-  std::vector<std::uint64_t> tests(footprints.size(), 0);
+  std::vector<std::uint64_t>& tests = w.tests;
+  tests.assign(footprints.size(), 0);
   auto test = [&](std::size_t i) {
     const BoxSpan& s = spans[i];
     visibility::BoxVisibility& out = result.boxes[i];
@@ -200,11 +235,12 @@ Result<ClipCullResult> cull_on_clipmap(const ClipmapReader& view, const ClipEye&
       const std::size_t first_ring =
           static_cast<std::size_t>(std::upper_bound(edges.begin(), edges.end(), s.near) - edges.begin()) - 1;
       for (long a = s.a0; a <= last && least > kNegInf; ++a) {
-        const std::vector<double>& h = before[column_of(a, rays)];
-        for (std::size_t j = first_ring; j < h.size() && j + 1 < edges.size() && edges[j] < s.far; ++j) {
+        const std::size_t column = column_of(a, rays);
+        const std::size_t traced = w.traced[column];
+        for (std::size_t j = first_ring; j <= traced && j + 1 < edges.size() && edges[j] < s.far; ++j) {
           ++tests[i];
           const double lo = std::max(s.near, edges[j]), hi = std::min(s.far, edges[j + 1]);
-          least = std::min(least, least_ohf(eye.elevation, h[j], eye.curvature, lo, hi));
+          least = std::min(least, least_ohf(eye.elevation, horizon_at(column, j), eye.curvature, lo, hi));
         }
       }
     }
@@ -221,10 +257,10 @@ Result<ClipCullResult> cull_on_clipmap(const ClipmapReader& view, const ClipEye&
                                        }));
 
   for (const auto& b : result.boxes) result.visible_count += b.state == visibility::Visibility::kSeen;
-  for (std::size_t a = 0; a < before.size(); ++a) {
-    if (before[a].empty()) continue;
+  for (std::size_t a = 0; a < w.traced.size(); ++a) {
+    if (reach[a] <= 0.0) continue;
     ++result.stats.rays_traced;
-    result.stats.rings += before[a].size() - 1;
+    result.stats.rings += w.traced[a];
     result.stats.samples += column_stats[a].samples;
     result.stats.fallbacks += column_stats[a].fallbacks;
   }

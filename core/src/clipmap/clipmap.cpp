@@ -203,8 +203,8 @@ LevelState ClipmapReader::level(int k) const {
 }
 
 bool ClipmapReader::resident(int k, int i, int j) const {
-  return map_.resident(k, i >> map_.log_t_, j >> map_.log_t_) &&
-         map_.in_window(map_.levels_[static_cast<std::size_t>(k)].origin, i >> map_.log_t_, j >> map_.log_t_);
+  // A tag is dropped when its sub-tile leaves the level's window, so the tag alone says it.
+  return map_.resident(k, i >> map_.log_t_, j >> map_.log_t_);
 }
 
 float ClipmapReader::cell(int k, int i, int j) const {
@@ -228,18 +228,29 @@ float ClipmapReader::sample(int k, double col, double row, SampleStats& stats, i
   if (used) *used = map_.shape_.levels;
   if (!(col >= -0.5 && row >= -0.5 && col <= map_.width_ - 0.5 && row <= map_.height_ - 0.5))
     return std::numeric_limits<float>::quiet_NaN();
+  const int lt = map_.log_t_, ln = map_.log_n_, mask = map_.shape_.level_size - 1;
   for (int kk = level_for(k, col, row); kk < map_.shape_.levels; ++kk) {
-    const double scale = 1.0 / static_cast<double>(1 << kk);
+    const double scale = std::ldexp(1.0, -kk);
     const double u = (col + 0.5) * scale - 0.5, v = (row + 0.5) * scale - 0.5;
     const int w = map_.level_width(kk), h = map_.level_height(kk);
     const double fi = std::floor(u), fj = std::floor(v);
     const double a = u - fi, b = v - fj;
-    const int i0 = std::clamp(static_cast<int>(fi), 0, w - 1), i1 = std::clamp(static_cast<int>(fi) + 1, 0, w - 1);
-    const int j0 = std::clamp(static_cast<int>(fj), 0, h - 1), j1 = std::clamp(static_cast<int>(fj) + 1, 0, h - 1);
-    if (!resident(kk, i0, j0) || !resident(kk, i1, j0) || !resident(kk, i0, j1) || !resident(kk, i1, j1)) continue;
+    const int i0 = std::clamp(static_cast<int>(fi), 0, w - 1), i1 = std::min(static_cast<int>(fi) + 1, w - 1);
+    const int j0 = std::clamp(static_cast<int>(fj), 0, h - 1), j1 = std::min(static_cast<int>(fj) + 1, h - 1);
+    // Usually all four cells lie in one sub-tile: one tag to check.
+    if ((i0 >> lt) == (std::max(i1, 0) >> lt) && (j0 >> lt) == (std::max(j1, 0) >> lt)) {
+      if (!map_.resident(kk, i0 >> lt, j0 >> lt)) continue;
+    } else if (!resident(kk, i0, j0) || !resident(kk, std::max(i1, 0), j0) || !resident(kk, i0, std::max(j1, 0)) ||
+               !resident(kk, std::max(i1, 0), std::max(j1, 0))) {
+      continue;
+    }
     if (kk > k) ++stats.fallbacks;
     if (used) *used = kk;
-    const float z00 = cell(kk, i0, j0), z10 = cell(kk, i1, j0), z01 = cell(kk, i0, j1), z11 = cell(kk, i1, j1);
+    const float* cells = map_.levels_[static_cast<std::size_t>(kk)].samples.data();
+    const float* r0 = cells + (static_cast<std::size_t>(j0 & mask) << ln);
+    const float* r1 = cells + (static_cast<std::size_t>(std::max(j1, 0) & mask) << ln);
+    const int c0 = i0 & mask, c1 = std::max(i1, 0) & mask;
+    const float z00 = r0[c0], z10 = r0[c1], z01 = r1[c0], z11 = r1[c1];
     const double top = z00 + (z10 - z00) * a, bottom = z01 + (z11 - z01) * a;
     return static_cast<float>(top + (bottom - top) * b);
   }

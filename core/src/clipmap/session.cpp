@@ -274,7 +274,7 @@ Result<SessionAnswer> ClipSession::answer(const SessionPose& pose, const RunCont
   cull.mode = options_.mode;
   cull.rays = options_.rays;
   cull.threads = options_.threads;
-  auto culled = cull_on_clipmap(view, *eye, footprints_, cull, control);
+  auto culled = cull_on_clipmap(view, *eye, footprints_, cull, control, &scratch_);
   if (!culled.ok()) return culled.error();
   for (std::size_t i = 0; i < entries_.size(); ++i) {
     Entry& e = entries_[i];

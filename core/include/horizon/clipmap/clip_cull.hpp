@@ -85,6 +85,23 @@ struct ClipCullResult {
   ClipCullStats stats;
 };
 
+// Buffers a caller keeps between calls (a session keeps one), so that a
+// call 60 times a second allocates nothing once warm. Their contents are
+// the call's working data, of no use after it.
+struct ClipCullScratch {
+  struct BoxSpan {
+    long a0 = 0, a1 = -1;             // the box's columns (rays or wedges), unwrapped
+    double near = 0.0, far = 0.0;     // its ground distance range, metres
+    bool eye_inside = false;          // its hull holds the eye
+  };
+  std::vector<BoxSpan> spans;
+  std::vector<double> reach;          // per column: the farthest box on it
+  std::vector<double> horizons;       // per column, its horizons ring by ring
+  std::vector<std::uint32_t> traced;  // per column: rings traced
+  std::vector<SampleStats> stats;
+  std::vector<std::uint64_t> tests;
+};
+
 // Ring j's inner edge in metres for a reach of `reach` metres: the ring
 // edges the trace uses (the last is >= reach). Exposed for tests and plans.
 std::vector<double> ring_edges(double reach, double cell_metres, int rays, const ClipmapShape& shape);
@@ -92,8 +109,10 @@ std::vector<double> ring_edges(double reach, double cell_metres, int rays, const
 // Culls `footprints` (visibility::resolve_boxes over the clip-map's source)
 // from `eye`. kConservative needs a min clip-map and kFast a mean one
 // (kInvalidArgument "mode" otherwise). Honours `control` between rays.
+// `scratch` (may be null) lends the call its buffers.
 Result<ClipCullResult> cull_on_clipmap(const ClipmapReader& view, const ClipEye& eye,
                                        std::span<const visibility::BoxFootprint> footprints,
-                                       const ClipCullOptions& options, const RunControl* control = nullptr);
+                                       const ClipCullOptions& options, const RunControl* control = nullptr,
+                                       ClipCullScratch* scratch = nullptr);
 
 }  // namespace horizon::clipmap

@@ -167,6 +167,7 @@ class ClipSession {
   std::uint64_t answers_ = 0;
   std::vector<Entry> entries_;
   std::vector<visibility::BoxFootprint> footprints_;  // entries_' boxes, same order
+  ClipCullScratch scratch_;
   std::unordered_map<std::uint64_t, std::size_t> index_;
 };
 
