@@ -184,6 +184,10 @@ class SessionCall final : public grpc::ServerBidiReactor<v1::SessionRequest, v1:
     if (write) StartWrite(&out_);
     if (work) env_.pool.post([this] { run(); });
     if (finish) {
+      // The place is free before the client hears the status: a client that
+      // opens again at once must find it.
+      if (entered_) registry_.leave(this);
+      entered_ = false;
       scope_.record().boxes = boxes_;
       scope_.finish(*finish);
       Finish(*finish);
@@ -438,7 +442,10 @@ Result<std::shared_ptr<const terrain::SourcePyramid>> SessionRegistry::pyramid(
 void SessionRegistry::drain() {
   std::lock_guard lock(mutex_);
   draining_ = true;
-  for (SessionCall* call : calls_)
+  // A copy: a call may leave while it is ended. The others cannot go away
+  // meanwhile: leaving takes this lock, and a call finishes after it leaves.
+  const std::vector<SessionCall*> calls(calls_.begin(), calls_.end());
+  for (SessionCall* call : calls)
     call->end(grpc::Status(grpc::StatusCode::UNAVAILABLE,
                            "draining: horizond is shutting down; re-open the session on another replica from its "
                            "last pose"));
@@ -452,7 +459,8 @@ void SessionRegistry::sweep() {
     wake_.wait_for(lock, period, [this] { return stop_; });
     if (stop_) break;
     const auto now = Clock::now();
-    for (SessionCall* call : calls_) call->expire_if_idle(now, idle);
+    const std::vector<SessionCall*> calls(calls_.begin(), calls_.end());  // as in drain()
+    for (SessionCall* call : calls) call->expire_if_idle(now, idle);
   }
 }
 

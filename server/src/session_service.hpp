@@ -57,12 +57,14 @@ class SessionRegistry {
   void sweep();
 
   ServerEnv& env_;
-  mutable std::mutex mutex_;
+  // Recursive: ending a call from drain() or the sweeper may finish it, and a
+  // finishing call leaves the registry on the same thread.
+  mutable std::recursive_mutex mutex_;
   std::set<SessionCall*> calls_;
   bool draining_ = false;
   using PyramidKey = std::tuple<std::uint64_t, int, int, int>;  // source id, reduction, levels, block
   std::map<PyramidKey, std::shared_ptr<const terrain::SourcePyramid>> pyramids_;
-  std::condition_variable wake_;
+  std::condition_variable_any wake_;
   bool stop_ = false;
   std::thread sweeper_;
 };
