@@ -10,6 +10,7 @@ mid-stream, the standard health service and the Prometheus endpoint.
 import argparse
 import json
 import os
+import queue
 import signal
 import subprocess
 import sys
@@ -305,11 +306,77 @@ def run_checks(listening, log_path):
     # checks the daemon's side on a raster too big to buffer.) It still serves:
     assert get_dataset(GetReq(name="olinda"), timeout=10).width == 111
 
+    session_flight(api)
+
     # Prometheus metrics.
     metrics = urllib.request.urlopen("http://127.0.0.1:%d/metrics" % listening["metrics_port"], timeout=5).read().decode()
     for needle in ('horizon_requests_total{code="OK",method="CullBoxes"}', "horizon_request_duration_seconds_bucket",
                    "horizon_dataset_resident_bytes", "horizon_process_resident_bytes", 'code="NOT_FOUND"'):
         assert needle in metrics, needle
+
+
+def session_flight(api):
+    """A simulator's loop: open a clip-map session over Rainier with boxes, fly
+    east sending a pose and reading its answer, keep the picture up to date
+    from the changes, then add a box and close. The latest pose wins, so a
+    client that sends faster than it reads gets the newest answered."""
+    Request, Pose, SessionBox = (api.cls("horizon.v1." + n) for n in ("SessionRequest", "Pose", "SessionBox"))
+    Response = api.cls("horizon.v1.SessionResponse")
+    Point, Box = api.cls("horizon.v1.Point"), api.cls("horizon.v1.Box")
+    session = api.channel.stream_stream("/horizon.v1.SessionService/Session",
+                                        request_serializer=lambda x: x.SerializeToString(),
+                                        response_deserializer=Response.FromString)
+
+    def pose(i):  # absolute 3500 m, 250 m/s east
+        return Pose(position=Point(frame=2, x=-121.86 + 0.004 * i, y=46.8529, height=3500, height_mode=2),
+                    east_m_per_s=250, seq=i + 1)
+
+    boxes = [SessionBox(id=100 + i, box=Box(frame=2, x_min=-121.9 + 0.01 * i, y_min=46.75, x_max=-121.898 + 0.01 * i,
+                                            y_max=46.752, z_min=0, z_max=1500 + 60 * i)) for i in range(30)]
+    q = queue.Queue()
+    opening = Request()
+    opening.open.dataset = "rainier"
+    opening.open.clipmap.level_size = 64
+    opening.open.clipmap.subtile = 16
+    opening.open.mode = 2  # SESSION_MODE_CONSERVATIVE
+    opening.open.first_pose.CopyFrom(pose(0))
+    opening.open.boxes.extend(boxes)
+    q.put(opening)
+
+    def requests():
+        while True:
+            r = q.get()
+            if r is None:
+                return
+            yield r
+
+    replies = session(requests(), timeout=60, metadata=(("horizon-session-id", "py-flight"),))
+    opened = next(replies)
+    assert opened.WhichOneof("kind") == "opened", opened
+    assert opened.opened.session_id == "py-flight" and opened.opened.clipmap.levels == 4, opened
+    picture = {}
+    first = next(replies)
+    assert len(first.answer.changes) == 30, first
+    for c in first.answer.changes:
+        picture[c.id] = c.state
+    for i in range(1, 20):
+        q.put(Request(pose=pose(i)))
+        r = next(replies)
+        assert r.WhichOneof("kind") == "answer" and r.answer.seq == i + 1, r
+        for c in r.answer.changes:
+            picture[c.id] = c.state
+        assert sum(1 for v in picture.values() if v == 1) == r.answer.visible  # BOX_STATE_VISIBLE
+    delta = Request()
+    delta.boxes.add.add(id=7, box=Box(frame=2, x_min=-121.76, y_min=46.85, x_max=-121.759, y_max=46.851, z_min=0,
+                                      z_max=9000))
+    q.put(delta)
+    q.put(Request(pose=pose(20)))
+    r = next(replies)
+    seven = [c for c in r.answer.changes if c.id == 7]
+    assert len(seven) == 1 and seven[0].state == 1 and r.answer.boxes == 31, r  # new, told, and 9 km up: visible
+    q.put(None)  # close our side: the stream ends OK
+    assert list(replies) == []
+    assert replies.code() == grpc.StatusCode.OK
 
 
 if __name__ == "__main__":
