@@ -2,7 +2,8 @@
 # Builds the engine's concurrent parts' tests with ThreadSanitizer into
 # build-tsan/ and runs them: the executor and parallel_for (test_common),
 # the block cache, sources, and pyramids built from many threads
-# (test_terrain). Suppressions: tests/tsan.supp, each for a Debian library
+# (test_terrain), clip-maps read while their loader thread publishes, and
+# sessions with asynchronous loading (test_clipmap). Suppressions: tests/tsan.supp, each for a Debian library
 # built without TSan. Extra arguments go to every test binary (e.g.
 # --gtest_filter=BlockCache.*).
 #
@@ -14,7 +15,7 @@ set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
 build_dir="${HORIZON_TSAN_BUILD_DIR:-build-tsan}"
-binaries=(test_common test_terrain)
+binaries=(test_common test_terrain test_clipmap)
 cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHORIZON_TSAN=ON \
   -DHORIZON_BUILD_BENCH=OFF >/dev/null
 cmake --build "$build_dir" -j "$(nproc)" --target "${binaries[@]}"
