@@ -125,8 +125,26 @@ std::optional<geodesy::LonLat> lonlat_of(const terrain::Georeference& georef, do
   return *ll;
 }
 
-// The boxes file. Blank lines and '#' comments are skipped, and so is a first
-// line that is not numbers (a header). Errors name the file and line.
+CsvNumbers parse_csv_numbers(std::string line) {
+  CsvNumbers out;
+  if (const auto hash = line.find('#'); hash != std::string::npos) line.resize(hash);
+  if (line.find_first_not_of(" \t\r") == std::string::npos) return out;
+  out.blank = false;
+  std::stringstream fields(line);
+  std::string field;
+  while (std::getline(fields, field, ',')) {
+    const auto first = field.find_first_not_of(" \t\r"), last = field.find_last_not_of(" \t\r");
+    const auto value = first == std::string::npos ? std::nullopt : parse_finite(field.substr(first, last - first + 1));
+    if (!value) {
+      out.numeric = false;
+      out.values.clear();
+      return out;
+    }
+    out.values.push_back(*value);
+  }
+  return out;
+}
+
 std::vector<visibility::BoxSpec> read_boxes_file(const std::string& path, bool lonlat) {
   std::ifstream in(path);
   if (!in) throw UsageError("--boxes: cannot open '" + path + "'");
@@ -135,34 +153,17 @@ std::vector<visibility::BoxSpec> read_boxes_file(const std::string& path, bool l
   int number = 0;
   while (std::getline(in, line)) {
     ++number;
-    if (const auto hash = line.find('#'); hash != std::string::npos) line.resize(hash);
-    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-    double v[6];
-    std::stringstream fields(line);
-    std::string field;
-    int n = 0;
-    bool numeric = true;
-    while (std::getline(fields, field, ',')) {
-      const auto first = field.find_first_not_of(" \t\r"), last = field.find_last_not_of(" \t\r");
-      const auto value =
-          first == std::string::npos ? std::nullopt : parse_finite(field.substr(first, last - first + 1));
-      if (!value || n >= 6) {
-        numeric = false;
-        break;
-      }
-      v[n++] = *value;
-    }
-    if (!numeric || n != 6) {
-      if (boxes.empty() && number == 1 && !numeric) continue;  // a header line
+    const CsvNumbers row = parse_csv_numbers(line);
+    if (row.blank || (number == 1 && !row.numeric)) continue;  // a blank line, a comment, a header
+    if (row.values.size() != 6)
       throw UsageError("--boxes: '" + path + "' line " + std::to_string(number) +
                        ": expected six numbers x_min,y_min,x_max,y_max,z_min,z_max");
-    }
+    const std::vector<double>& v = row.values;
     boxes.push_back(
         {lonlat ? geodesy::PointFrame::kWgs84 : geodesy::PointFrame::kDatasetCrs, v[0], v[1], v[2], v[3], v[4], v[5]});
   }
   if (boxes.empty()) throw UsageError("--boxes: '" + path + "' holds no boxes");
   return boxes;
 }
-
 
 }  // namespace horizon::cli

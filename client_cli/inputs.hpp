@@ -53,6 +53,16 @@ bool is_geographic(const terrain::Georeference& georef);
 std::optional<geodesy::LonLat> lonlat_of(const terrain::Dem& dem, double x, double y);
 std::optional<geodesy::LonLat> lonlat_of(const terrain::Georeference& georef, double x, double y);
 
+// One line of a CSV file of numbers: blank (nothing but a '#' comment or
+// spaces), or its comma-separated fields as finite numbers (numeric false
+// and no values when one is not: a header, or a mistake).
+struct CsvNumbers {
+  bool blank = true;
+  bool numeric = true;
+  std::vector<double> values;
+};
+CsvNumbers parse_csv_numbers(std::string line);
+
 // A boxes file for --boxes: one box a line, x_min,y_min,x_max,y_max,z_min,z_max
 // (the DEM's CRS, or WGS84 degrees when `lonlat`; absolute metres). Blank
 // lines, '#' comments and a first line that is not numbers (a header) are

@@ -6,7 +6,6 @@
 #include <chrono>
 #include <fstream>
 #include <iostream>
-#include <sstream>
 #include <thread>
 
 #include "commands/command.hpp"
@@ -55,26 +54,12 @@ std::vector<clipmap::SessionPose> read_poses(const std::string& path, bool lonla
   int number = 0;
   while (std::getline(in, line)) {
     ++number;
-    if (const auto hash = line.find('#'); hash != std::string::npos) line.resize(hash);
-    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-    std::vector<double> v;
-    std::stringstream fields(line);
-    std::string field;
-    bool numeric = true;
-    while (std::getline(fields, field, ',')) {
-      const auto first = field.find_first_not_of(" \t\r"), last = field.find_last_not_of(" \t\r");
-      const auto value = first == std::string::npos ? std::nullopt : parse_finite(field.substr(first, last - first + 1));
-      if (!value) {
-        numeric = false;
-        break;
-      }
-      v.push_back(*value);
-    }
-    if (!numeric || (v.size() != 3 && v.size() != 5)) {
-      if (poses.empty() && number == 1 && !numeric) continue;  // a header line
+    const CsvNumbers row = parse_csv_numbers(line);
+    if (row.blank || (number == 1 && !row.numeric)) continue;  // a blank line, a comment, a header
+    const std::vector<double>& v = row.values;
+    if (v.size() != 3 && v.size() != 5)
       throw UsageError("--path: '" + path + "' line " + std::to_string(number) +
                        ": expected x,y,height or x,y,height,east_m_s,north_m_s");
-    }
     clipmap::SessionPose p;
     p.position.frame = lonlat ? geodesy::PointFrame::kWgs84 : geodesy::PointFrame::kDatasetCrs;
     p.position.x = v[0];

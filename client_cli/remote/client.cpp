@@ -129,6 +129,18 @@ visibility::WorkStats to_stats(const v1::WorkStats& s) {
   return w;
 }
 
+v1::Box to_proto_box(const visibility::BoxSpec& b) {
+  v1::Box out;
+  out.set_frame(b.frame == geodesy::PointFrame::kWgs84 ? v1::FRAME_WGS84 : v1::FRAME_DATASET_CRS);
+  out.set_x_min(b.x_min);
+  out.set_y_min(b.y_min);
+  out.set_x_max(b.x_max);
+  out.set_y_max(b.y_max);
+  out.set_z_min(b.z_min);
+  out.set_z_max(b.z_max);
+  return out;
+}
+
 v1::Point to_proto_point(const geodesy::PointSpec& spec) {
   v1::Point p;
   p.set_frame(spec.frame == geodesy::PointFrame::kWgs84 ? v1::FRAME_WGS84 : v1::FRAME_DATASET_CRS);

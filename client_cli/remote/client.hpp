@@ -16,6 +16,7 @@
 #include "horizon/v1/datasets.grpc.pb.h"
 #include "horizon/v1/session.grpc.pb.h"
 #include "horizon/v1/visibility.grpc.pb.h"
+#include "horizon/visibility/cull.hpp"
 #include "horizon/visibility/options.hpp"
 #include "horizon/visibility/work_stats.hpp"
 
@@ -56,6 +57,7 @@ std::optional<geodesy::LonLat> to_lonlat(const v1::ResolvedPoint& p);
 visibility::WorkStats to_stats(const v1::WorkStats& s);
 
 v1::Point to_proto_point(const geodesy::PointSpec& spec);
+v1::Box to_proto_box(const visibility::BoxSpec& box);
 v1::Algorithm to_proto_algorithm(visibility::Algorithm algorithm);
 v1::Backend to_proto_backend(visibility::Backend backend);
 v1::GpuMethod to_proto_gpu_method(visibility::GpuMethod method);

@@ -44,16 +44,7 @@ int run_cull(const Args& args, const std::string& dataset, const geodesy::PointS
   request.set_algorithm(to_proto_algorithm(options.viewshed.algorithm));
   request.set_curvature(options.viewshed.curvature_coefficient);
   request.mutable_boxes()->Reserve(static_cast<int>(boxes.size()));
-  for (const visibility::BoxSpec& b : boxes) {
-    v1::Box* out = request.add_boxes();
-    out->set_frame(b.frame == geodesy::PointFrame::kWgs84 ? v1::FRAME_WGS84 : v1::FRAME_DATASET_CRS);
-    out->set_x_min(b.x_min);
-    out->set_y_min(b.y_min);
-    out->set_x_max(b.x_max);
-    out->set_y_max(b.y_max);
-    out->set_z_min(b.z_min);
-    out->set_z_max(b.z_max);
-  }
+  for (const visibility::BoxSpec& b : boxes) *request.add_boxes() = to_proto_box(b);
   v1::CullBoxesResponse response;
   if (auto s = client.visibility().CullBoxes(client.context().get(), request, &response); !s.ok())
     return report_status(s, client.address());

@@ -23,16 +23,6 @@ v1::Pose to_proto_pose(const clipmap::SessionPose& p) {
   return out;
 }
 
-void fill_box(const visibility::BoxSpec& b, v1::Box& out) {
-  out.set_frame(b.frame == geodesy::PointFrame::kWgs84 ? v1::FRAME_WGS84 : v1::FRAME_DATASET_CRS);
-  out.set_x_min(b.x_min);
-  out.set_y_min(b.y_min);
-  out.set_x_max(b.x_max);
-  out.set_y_max(b.y_max);
-  out.set_z_min(b.z_min);
-  out.set_z_max(b.z_max);
-}
-
 PoseLine to_line(const v1::SessionResponse& r) {
   PoseLine line;
   if (r.has_rejected()) {
@@ -72,7 +62,7 @@ int run_session(const Args& args, const SessionPlayback& playback, bool json, bo
   for (const clipmap::SessionBox& b : playback.boxes) {
     v1::SessionBox* out = m->add_boxes();
     out->set_id(b.id);
-    fill_box(b.box, *out->mutable_box());
+    *out->mutable_box() = to_proto_box(b.box);
   }
 
   // A session lasts as long as its flight: only an explicit --deadline bounds it.

@@ -26,23 +26,12 @@ const std::string kAndes = "ecuador_andes_utm17s_10m_383x415.tif";  // EPSG:3271
 // Rainier's summit crater and a point on its western flank, both inside the crop.
 const std::vector<std::string> kSummit = {"--lat", "46.8529", "--lon", "-121.7604"};
 
-std::string quote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) {
-    if (c == '\'')
-      out.append("'\\''");
-    else
-      out.push_back(c);
-  }
-  out.push_back('\'');
-  return out;
-}
 
 CommandResult horizon(const std::vector<std::string>& args) {
-  std::string command = quote(HORIZON_CLI_PATH);
+  std::string command = shell_quote(HORIZON_CLI_PATH);
   for (const std::string& a : args) {
     command += ' ';
-    command += quote(a);
+    command += shell_quote(a);
   }
   return run_command(command);
 }
@@ -64,7 +53,7 @@ bool have_gdalinfo() {
 
 CommandResult gdalinfo_json(const std::string& path) {
   std::string command = "gdalinfo -json ";
-  command += quote(path);
+  command += shell_quote(path);
   return run_command(command);
 }
 
@@ -279,10 +268,10 @@ TEST(CliFailure, MissingImagePluginIsNamedAndNothingIsWritten) {
   const std::string env = "HORIZON_IMAGEIO_PLUGIN=/nonexistent/libhorizon_imageio.so ";
   auto with_env = [&env](const std::vector<std::string>& args) {
     std::string command = env;
-    command += quote(HORIZON_CLI_PATH);
+    command += shell_quote(HORIZON_CLI_PATH);
     for (const std::string& a : args) {
       command += ' ';
-      command += quote(a);
+      command += shell_quote(a);
     }
     return run_command(command);
   };
@@ -497,12 +486,12 @@ TEST_F(CliViewshed, GpuMethodAndPropagationAreEchoed) {
 TEST_F(CliViewshed, BackendGpuWithoutEglWarnsAndAnswersOnTheCpu) {
   // GLVND with no vendor library to load: no EGL display can be had.
   std::string command = "__EGL_VENDOR_LIBRARY_FILENAMES=/nonexistent.json ";
-  command += quote(HORIZON_CLI_PATH);
+  command += shell_quote(HORIZON_CLI_PATH);
   for (const std::string& a : concat({"viewshed", bundled_dem(kRainier), "--max-distance", "2000", "--backend", "gpu",
                                       "-o", dir.file("v.tif"), "--json"},
                                      kSummit)) {
     command += ' ';
-    command += quote(a);
+    command += shell_quote(a);
   }
   const auto r = run_command(command);
   ASSERT_EQ(r.exit_code, 0) << r.output;

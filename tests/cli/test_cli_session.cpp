@@ -17,23 +17,12 @@ namespace {
 
 using Json = nlohmann::json;
 
-std::string quote(const std::string& s) {
-  std::string out(1, '\'');
-  for (char c : s) {
-    if (c == '\'')
-      out.append("'\\''");
-    else
-      out.push_back(c);
-  }
-  out.push_back('\'');
-  return out;
-}
 
 CommandResult horizon(const std::vector<std::string>& args) {
-  std::string command = quote(HORIZON_CLI_PATH);
+  std::string command = shell_quote(HORIZON_CLI_PATH);
   for (const std::string& a : args) {
     command.push_back(' ');
-    command.append(quote(a));
+    command.append(shell_quote(a));
   }
   command.append(" 2>&1");
   return run_command(command);

@@ -160,4 +160,16 @@ void write_hgt(const std::string& dir, int lat, int lon, int n) {
     }
 }
 
+std::string shell_quote(const std::string& text) {
+  std::string out(1, '\'');
+  for (char c : text) {
+    if (c == '\'')
+      out.append("'\\''");
+    else
+      out.push_back(c);
+  }
+  out.push_back('\'');
+  return out;
+}
+
 }  // namespace horizon::testing

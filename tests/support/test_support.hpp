@@ -67,6 +67,8 @@ struct CommandResult {
   std::string output;
 };
 CommandResult run_command(const std::string& command);
+// `text` single-quoted for /bin/sh.
+std::string shell_quote(const std::string& text);
 
 // A parameterised test's name from free text: letters and digits kept, every
 // run of anything else one '_' (none at the ends), as gtest requires.
