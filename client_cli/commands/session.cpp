@@ -3,6 +3,7 @@
 #include "commands/session.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <fstream>
 #include <iostream>
@@ -36,6 +37,8 @@ constexpr FlagSpec kFlags[] = {
     {"--rate", "", "HZ", "Send poses at this rate, not waiting for answers (default: each after the last answer)"},
     {"--every-pose", "", "", "Print a line for every pose"},
     {"--json", "", "", "Print a JSON document with every pose"},
+    {"--session-id", "", "ID",
+     "With --server: the session's id (1-64 of A-Z a-z 0-9 _ -), sent as horizon-session-id for balancer affinity"},
     {"--band", "", "N", "DEM band to read, 1-based"},
     kValidRangeFlag,
     remote::kServerFlag,
@@ -171,6 +174,14 @@ int run_session(const Args& args) {
   playback.rate_hz = args.non_negative("--rate").value_or(0.0);
   if (args.has("--rate") && !(playback.rate_hz > 0.0)) throw UsageError("--rate must be more than 0 poses a second");
   (void)source_options(args);
+  if (auto id = args.text("--session-id")) {
+    if (!args.has("--server")) throw UsageError("--session-id needs --server");
+    const bool valid = !id->empty() && id->size() <= 64 &&
+                       std::all_of(id->begin(), id->end(), [](char c) {
+                         return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-';
+                       });
+    if (!valid) throw UsageError("--session-id: 1 to 64 characters of A-Z, a-z, 0-9, '_' and '-'");
+  }
   if (args.has("--server")) return remote::run_session(args, playback, json, every_pose);
   return run_embedded(args, playback, json, every_pose);
 }
@@ -214,6 +225,7 @@ void print_session(const SessionPlayback& playback, const SessionReport& report,
     j["mode"] = mode;
     j["rays"] = playback.options.rays;
     j["memory_bytes"] = report.memory_bytes;
+    if (!report.session_id.empty()) j["session_id"] = report.session_id;
     j["poses_sent"] = playback.poses.size();
     j["answered"] = answered;
     j["dropped"] = dropped;
@@ -244,7 +256,8 @@ void print_session(const SessionPlayback& playback, const SessionReport& report,
     print_json(j);
     return;
   }
-  std::cout << "Session over " << playback.dataset << (report.where.empty() ? "" : " " + report.where) << '\n'
+  std::cout << "Session over " << playback.dataset << (report.where.empty() ? "" : " " + report.where)
+            << (report.session_id.empty() ? "" : " (session " + report.session_id + ")") << '\n'
             << "  clip-map:   " << report.levels << " levels of " << report.level_size << " x " << report.level_size
             << " (sub-tiles " << report.subtile << "), " << mode << ", " << playback.options.rays << " rays; "
             << fixed(static_cast<double>(report.memory_bytes) / (1 << 20), 1) << " MiB\n"

@@ -33,6 +33,7 @@ struct PoseLine {
 
 struct SessionReport {
   std::string where;  // "" embedded, else "on HOST:PORT"
+  std::string session_id;  // the daemon's, with --server
   int levels = 0, level_size = 0, subtile = 0;
   std::uint64_t memory_bytes = 0;
   std::vector<PoseLine> poses;

@@ -68,6 +68,7 @@ int run_session(const Args& args, const SessionPlayback& playback, bool json, bo
   // A session lasts as long as its flight: only an explicit --deadline bounds it.
   auto context = client.context();
   if (!args.has("--deadline")) context->set_deadline(std::chrono::system_clock::time_point::max());
+  if (auto id = args.text("--session-id")) context->AddMetadata("horizon-session-id", *id);
   std::unique_ptr<Stream> stream = client.sessions().Session(context.get());
   SessionReport report;
   report.where = "on " + client.address();
@@ -82,6 +83,7 @@ int run_session(const Args& args, const SessionPlayback& playback, bool json, bo
   report.level_size = static_cast<int>(r.opened().clipmap().level_size());
   report.subtile = static_cast<int>(r.opened().clipmap().subtile());
   report.memory_bytes = r.opened().memory_bytes();
+  report.session_id = r.opened().session_id();
 
   // The first pose is answered at open. With a rate, a writer sends the rest
   // on the clock while this thread reads; without, each waits for its answer.

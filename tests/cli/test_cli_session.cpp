@@ -84,6 +84,13 @@ TEST(CliSession, WrongFilesAndShapesAreUsageErrorsNamingTheLineOrFlag) {
                "--levels", "2"});
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("--levels"), std::string::npos) << r.output;
+  r = horizon({"session", g.dem, "--path", g.poses, "--boxes", g.boxes, "--lonlat", "--session-id", "a"});
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--session-id needs --server"), std::string::npos) << r.output;
+  r = horizon({"session", "rainier", "--server", "127.0.0.1:1", "--path", g.poses, "--boxes", g.boxes, "--lonlat",
+               "--session-id", "no spaces"});
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--session-id: 1 to 64"), std::string::npos) << r.output;
   r = horizon({"session", g.dem, "--boxes", g.boxes});
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("--path"), std::string::npos) << r.output;

@@ -12,6 +12,9 @@ namespace horizon::clipmap {
 namespace {
 
 constexpr std::uint64_t kMaxValidityBytes = 16u << 20;
+// 2^-k: level-k cells per source cell.
+constexpr double kLevelScale[ClipmapShape::kMaxLevels] = {1.0, 0.5, 0.25, 0.125, 0.0625, 0.03125, 0.015625, 0.0078125,
+                                                          0.00390625, 0.001953125};
 
 bool power_of_two(int v) { return v > 0 && (v & (v - 1)) == 0; }
 int log2i(int v) { return std::countr_zero(static_cast<unsigned>(v)); }
@@ -230,7 +233,7 @@ float ClipmapReader::sample(int k, double col, double row, SampleStats& stats, i
     return std::numeric_limits<float>::quiet_NaN();
   const int lt = map_.log_t_, ln = map_.log_n_, mask = map_.shape_.level_size - 1;
   for (int kk = level_for(k, col, row); kk < map_.shape_.levels; ++kk) {
-    const double scale = std::ldexp(1.0, -kk);
+    const double scale = kLevelScale[kk];
     const double u = (col + 0.5) * scale - 0.5, v = (row + 0.5) * scale - 0.5;
     const int w = map_.level_width(kk), h = map_.level_height(kk);
     const double fi = std::floor(u), fj = std::floor(v);
