@@ -21,14 +21,15 @@
 //
 // Boxes follow culling's rule (visibility/cull.hpp): a box whose footprint
 // meets a void (no terrain, so no answer) is visible, with ohf_min -inf;
-// whether it does is found when the box is added or moved (its cells, or for
-// a footprint over 64 x 64 cells in conservative mode the min pyramid's,
-// which may also count a void just beside it).
+// whether it does is found when the box is added or moved: from its own
+// cells, or for a footprint over 64 x 64 cells from the min pyramid's in
+// conservative mode (which may also count a void just beside it; fast mode
+// does not check such a footprint).
 //
 // Answers. The first answer, and the first after a box is added or moved,
 // reports that box; after that only boxes whose visibility changed are
 // reported. Each answer says which pose it answers, each level's version and
-// the poses since it was last published (staleness), the samples that fell
+// the answers since it was last published (staleness), the samples that fell
 // back to a coarser level, and the work done. A synchronous session fails
 // an answer whose update cannot read the terrain; an asynchronous one
 // answers from what is resident and says what the loader could not read.
