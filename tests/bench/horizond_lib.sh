@@ -1,5 +1,5 @@
 # horizond_lib.sh — sourced by the daemon bench scripts (ab_daemon.sh,
-# soak.sh, scale_out.sh).
+# soak.sh, scale_out.sh, session_affinity.sh).
 #
 #   start_horizond BIN CONFIG LOG
 #
@@ -24,3 +24,6 @@ start_horizond() {
   horizond_port=$(grep -o '"grpc_port":[0-9]*' "$log" | head -1 | cut -d: -f2)
   horizond_metrics_port=$(grep -o '"metrics_port":[0-9]*' "$log" | head -1 | cut -d: -f2)
 }
+
+# A loopback TCP port free now (for a config that must name its port).
+free_port() { python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'; }

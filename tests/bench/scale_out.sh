@@ -42,7 +42,6 @@ cleanup() {
 }
 trap cleanup EXIT
 
-free_port() { python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'; }
 
 # Replica i on a fixed port (the balancer's config names it), metrics on another.
 ports=() metrics=()
