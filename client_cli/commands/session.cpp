@@ -109,9 +109,8 @@ int run_embedded(const Args& args, SessionPlayback& playback, bool json, bool ev
   if (o.shape.levels == 0)
     o.shape.levels = clipmap::levels_to_cover(o.shape.level_size, (*source)->width(), (*source)->height());
   throw_if_bad_shape(clipmap::ClipSession::bytes_for(o, (*source)->width(), (*source)->height(), 0));
-  clipmap::ClipmapShape shape = o.shape;
-  shape.reduction = o.mode == clipmap::ClipMode::kConservative ? terrain::Reduction::kMin : terrain::Reduction::kMean;
-  auto pyramid = terrain::SourcePyramid::make(*source, cache, shape.reduction, clipmap::pyramid_options_for(shape));
+  auto pyramid = terrain::SourcePyramid::make(*source, cache, clipmap::reduction_for(o.mode),
+                                              clipmap::pyramid_options_for(o.shape));
   if (!pyramid.ok()) return report_error(pyramid.error());
   InterruptScope interrupt;
   RunControl control;

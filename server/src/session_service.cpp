@@ -271,17 +271,12 @@ class SessionCall final : public grpc::ServerBidiReactor<v1::SessionRequest, v1:
                                  " MiB (its clip-map, trace and boxes), more than the daemon's memory budget has "
                                  "free; ask for fewer or smaller levels, or retry later",
                              "clipmap"));
-    const terrain::Reduction reduction =
-        options->mode == clipmap::ClipMode::kConservative ? terrain::Reduction::kMin : terrain::Reduction::kMean;
-    clipmap::ClipmapShape shape = options->shape;
-    shape.reduction = reduction;
-    auto pyramid = registry_.pyramid(source, reduction, clipmap::pyramid_options_for(shape));
+    auto pyramid = registry_.pyramid(source, clipmap::reduction_for(options->mode),
+                                     clipmap::pyramid_options_for(options->shape));
     if (!pyramid.ok()) return fail(pyramid.error());
-    first->seq = request.first_pose().seq();
     auto session = clipmap::ClipSession::open(source, env_.cache, *pyramid, *options, *first, scope_.control());
     if (!session.ok()) return fail(session.error());
     session_ = std::move(*session);
-    dataset_ = *dataset;
     if (Status added = session_->add_boxes(*boxes); !added.ok()) {
       Error e = added.error();  // "add[3].id" -> "open.boxes[3].id"
       for (std::string* text : {&e.field, &e.message})
@@ -318,7 +313,8 @@ class SessionCall final : public grpc::ServerBidiReactor<v1::SessionRequest, v1:
     const std::size_t after = session_->box_count() + d.add.size();
     if (after > reserved_boxes_ && after <= env_.config.sessions.max_boxes) {
       Reservation more;
-      const std::uint64_t bytes = (after - reserved_boxes_) * (MemoryBudget::kMessageBytesPerBox + 128);
+      const std::uint64_t bytes =
+          (after - reserved_boxes_) * (MemoryBudget::kMessageBytesPerBox + clipmap::ClipSession::kBytesPerBox);
       if (!env_.memory.try_reserve(bytes, more))
         return reject(make_error(ErrorCode::kResourceExhausted,
                                  "boxes.add: no room in the daemon's memory budget for " +
@@ -375,7 +371,6 @@ class SessionCall final : public grpc::ServerBidiReactor<v1::SessionRequest, v1:
 
   // The worker's (busy_ serialises them).
   std::unique_ptr<clipmap::ClipSession> session_;
-  std::shared_ptr<const Dataset> dataset_;
   Reservation memory_;
   std::vector<Reservation> box_memory_;
   std::size_t reserved_boxes_ = 0;

@@ -9,16 +9,6 @@
 namespace horizon::server {
 namespace {
 
-Error renamed(Error e, const std::string& prefix) {
-  if (!e.field.empty()) e.field = prefix + e.field;
-  return e;
-}
-
-void replace_prefix(std::string& text, const std::string& from, const std::string& to) {
-  for (std::size_t at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size()))
-    text.replace(at, from.size(), to);
-}
-
 }  // namespace
 
 Result<clipmap::SessionOptions> to_session_options(const v1::OpenSession& open, const SessionConfig& config,
@@ -57,7 +47,7 @@ Result<clipmap::SessionOptions> to_session_options(const v1::OpenSession& open, 
   }
   if (open.rays()) o.rays = static_cast<int>(std::min<std::uint32_t>(open.rays(), 1u << 30));
   auto curvature = to_curvature(open.has_curvature(), open.curvature());
-  if (!curvature.ok()) return renamed(curvature.error(), "open.");
+  if (!curvature.ok()) return curvature.error();  // "curvature": the caller names it open.curvature
   o.curvature_coefficient = *curvature;
   o.threads = threads;
   o.max_boxes = config.max_boxes;
@@ -92,12 +82,6 @@ Result<std::vector<clipmap::SessionBox>> to_session_boxes(
     out[static_cast<std::size_t>(i)] = {in.id(), {*frame, b.x_min(), b.y_min(), b.x_max(), b.y_max(), b.z_min(), b.z_max()}};
   }
   return out;
-}
-
-Error rename_box_field(Error error, const std::string& field) {
-  replace_prefix(error.field, "boxes[", field + "[");
-  replace_prefix(error.message, "boxes[", field + "[");
-  return error;
 }
 
 void fill_shape(const clipmap::SessionOptions& options, v1::ClipmapShape& out) {

@@ -22,8 +22,6 @@ Result<clipmap::SessionPose> to_session_pose(const v1::Pose& pose, const std::st
 // Boxes with their ids; `field` is the list's path ("boxes.add", "open.boxes").
 Result<std::vector<clipmap::SessionBox>> to_session_boxes(
     const google::protobuf::RepeatedPtrField<v1::SessionBox>& boxes, const std::string& field);
-// An engine error about boxes ("boxes[3].id") renamed to the list's path ("boxes.add[3].id").
-Error rename_box_field(Error error, const std::string& field);
 
 void fill_shape(const clipmap::SessionOptions& options, v1::ClipmapShape& out);
 void fill_answer(const clipmap::SessionAnswer& answer, std::uint64_t dropped, v1::PoseAnswer& out);

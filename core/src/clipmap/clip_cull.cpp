@@ -75,13 +75,18 @@ std::size_t column_of(long a, int rays) { return static_cast<std::size_t>(((a % 
 // The least of eye + d h + curvature d² over d in [lo, hi].
 double least_ohf(double eye, double h, double curvature, double lo, double hi) {
   if (h == kNegInf) return kNegInf;
-  double d = lo;
-  if (curvature > 0.0) d = std::clamp(-h / (2.0 * curvature), lo, hi);
-  else if (h < 0.0) d = hi;
-  return std::min({eye + lo * h + curvature * lo * lo, eye + hi * h + curvature * hi * hi, eye + d * h + curvature * d * d});
+  auto ohf = [&](double d) { return eye + d * h + curvature * d * d; };
+  const double ends = std::min(ohf(lo), ohf(hi));
+  return curvature > 0.0 ? std::min(ends, ohf(std::clamp(-h / (2.0 * curvature), lo, hi))) : ends;
 }
 
 }  // namespace
+
+Status check_rays(int rays) {
+  if (rays < 64 || rays > 65536)
+    return make_error(ErrorCode::kInvalidArgument, "rays must be in [64, 65536], got " + std::to_string(rays), "rays");
+  return Status::Ok();
+}
 
 std::vector<double> ring_edges(double reach, double cell_metres, int rays, const ClipmapShape& shape) {
   const Geometry g = geometry_of(cell_metres, rays, shape);
@@ -96,16 +101,12 @@ Result<ClipCullResult> cull_on_clipmap(const ClipmapReader& view, const ClipEye&
                                        ClipCullScratch* scratch) {
   const auto start = std::chrono::steady_clock::now();
   const Clipmap& map = view.map();
-  const terrain::Reduction want =
-      options.mode == ClipMode::kConservative ? terrain::Reduction::kMin : terrain::Reduction::kMean;
-  if (map.shape().reduction != want)
+  if (map.shape().reduction != reduction_for(options.mode))
     return make_error(ErrorCode::kInvalidArgument,
                       options.mode == ClipMode::kConservative ? "conservative culling needs a min clip-map"
                                                               : "fast culling needs a mean clip-map",
                       "mode");
-  if (options.rays < 64 || options.rays > 65536)
-    return make_error(ErrorCode::kInvalidArgument, "rays must be in [64, 65536], got " + std::to_string(options.rays),
-                      "rays");
+  HORIZON_RETURN_IF_ERROR(check_rays(options.rays));
   if (!std::isfinite(eye.col) || !std::isfinite(eye.row) || !std::isfinite(eye.elevation))
     return make_error(ErrorCode::kInvalidArgument, "eye: position or elevation is not a finite number", "eye");
 

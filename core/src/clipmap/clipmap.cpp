@@ -238,21 +238,21 @@ float ClipmapReader::sample(int k, double col, double row, SampleStats& stats, i
     const int w = map_.level_width(kk), h = map_.level_height(kk);
     const double fi = std::floor(u), fj = std::floor(v);
     const double a = u - fi, b = v - fj;
+    // col, row >= -0.5 make u, v >= -0.5: fi, fj >= -1, so i1, j1 >= 0.
     const int i0 = std::clamp(static_cast<int>(fi), 0, w - 1), i1 = std::min(static_cast<int>(fi) + 1, w - 1);
     const int j0 = std::clamp(static_cast<int>(fj), 0, h - 1), j1 = std::min(static_cast<int>(fj) + 1, h - 1);
     // Usually all four cells lie in one sub-tile: one tag to check.
-    if ((i0 >> lt) == (std::max(i1, 0) >> lt) && (j0 >> lt) == (std::max(j1, 0) >> lt)) {
+    if ((i0 >> lt) == (i1 >> lt) && (j0 >> lt) == (j1 >> lt)) {
       if (!map_.resident(kk, i0 >> lt, j0 >> lt)) continue;
-    } else if (!resident(kk, i0, j0) || !resident(kk, std::max(i1, 0), j0) || !resident(kk, i0, std::max(j1, 0)) ||
-               !resident(kk, std::max(i1, 0), std::max(j1, 0))) {
+    } else if (!resident(kk, i0, j0) || !resident(kk, i1, j0) || !resident(kk, i0, j1) || !resident(kk, i1, j1)) {
       continue;
     }
     if (kk > k) ++stats.fallbacks;
     if (used) *used = kk;
     const float* cells = map_.levels_[static_cast<std::size_t>(kk)].samples.data();
     const float* r0 = cells + (static_cast<std::size_t>(j0 & mask) << ln);
-    const float* r1 = cells + (static_cast<std::size_t>(std::max(j1, 0) & mask) << ln);
-    const int c0 = i0 & mask, c1 = std::max(i1, 0) & mask;
+    const float* r1 = cells + (static_cast<std::size_t>(j1 & mask) << ln);
+    const int c0 = i0 & mask, c1 = i1 & mask;
     const float z00 = r0[c0], z10 = r0[c1], z01 = r1[c0], z11 = r1[c1];
     const double top = z00 + (z10 - z00) * a, bottom = z01 + (z11 - z01) * a;
     return static_cast<float>(top + (bottom - top) * b);

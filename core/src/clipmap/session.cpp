@@ -34,8 +34,7 @@ Result<std::unique_ptr<ClipSession>> ClipSession::open(std::shared_ptr<const ter
   s->source_ = std::move(source);
   s->cache_ = &cache;
   s->options_ = options;
-  s->options_.shape.reduction =
-      options.mode == ClipMode::kConservative ? terrain::Reduction::kMin : terrain::Reduction::kMean;
+  s->options_.shape.reduction = reduction_for(options.mode);
   auto bytes = bytes_for(s->options_, s->source_->width(), s->source_->height(), 0);  // checks rays and shape
   if (!bytes.ok()) return bytes.error();
   auto map = Clipmap::make(s->source_->width(), s->source_->height(), s->options_.shape);
@@ -59,13 +58,10 @@ Result<std::unique_ptr<ClipSession>> ClipSession::open(std::shared_ptr<const ter
 ClipSession::~ClipSession() = default;
 
 namespace {
-constexpr std::uint64_t kBytesPerBox = 128;  // entry, footprint, index, the trace's span and answer
 
 // The check open() makes of options that need no source, and the trace's scratch.
 Result<std::uint64_t> scratch_bytes(const SessionOptions& options, int width, int height) {
-  if (options.rays < 64 || options.rays > 65536)
-    return make_error(ErrorCode::kInvalidArgument, "rays must be in [64, 65536], got " + std::to_string(options.rays),
-                      "rays");
+  HORIZON_RETURN_IF_ERROR(check_rays(options.rays));
   // Per traced column, one slope a ring out to the source's diagonal (rings do not depend on the cell's unit).
   const std::uint64_t rings = ring_edges(std::hypot(width, height), 1.0, options.rays, options.shape).size();
   return static_cast<std::uint64_t>(options.rays) * rings * sizeof(double);

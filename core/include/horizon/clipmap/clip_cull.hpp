@@ -56,6 +56,14 @@ namespace horizon::clipmap {
 
 enum class ClipMode { kFast, kConservative };
 
+// The levels a mode reads: mean for fast, min for conservative.
+constexpr terrain::Reduction reduction_for(ClipMode mode) {
+  return mode == ClipMode::kConservative ? terrain::Reduction::kMin : terrain::Reduction::kMean;
+}
+
+// Ok, or kInvalidArgument "rays" outside [64, 65536].
+Status check_rays(int rays);
+
 // The eye in the clip-map's source grid.
 struct ClipEye {
   double col = 0.0, row = 0.0;  // source grid coordinates

@@ -116,6 +116,10 @@ struct SessionAnswer {
 
 class ClipSession {
  public:
+  // Bytes one registered box holds: its entry, footprint, index slot, and its
+  // share of the trace's spans and the answer.
+  static constexpr std::uint64_t kBytesPerBox = 128;
+
   // `pyramid` must be of `source`, factor 2, with the mode's reduction and
   // enough levels (pyramid_options_for(options.shape)). Errors name the
   // option or the pose field at fault.
