@@ -186,6 +186,23 @@ TEST(ClipCull, OnlyTheRaysTheBoxesNeedAreTracedAndOnlyAsFarAsThem) {
   auto rays = cull_on_clipmap(view, eye, std::vector<BoxFootprint>{east}, {.rays = 10});
   ASSERT_FALSE(rays.ok());
   EXPECT_EQ(rays.error().field, "rays");
+  // The box tests are counted before any tracing: a box over the west of
+  // the terrain spans about half the rays and most rings; past the limit
+  // the call is refused.
+  BoxFootprint everything;
+  everything.cells = {0, 0, 400, kHeight};
+  everything.z_min = 0.0;
+  everything.z_max = 1.0;
+  ClipCullOptions bounded;
+  bounded.rays = 1024;
+  bounded.max_box_tests = 10000;
+  auto refused = cull_on_clipmap(view, eye, std::vector<BoxFootprint>{everything}, bounded);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ErrorCode::kResourceExhausted);
+  EXPECT_EQ(refused.error().field, "boxes");
+  auto small = cull_on_clipmap(view, eye, std::vector<BoxFootprint>{east}, bounded);
+  ASSERT_TRUE(small.ok()) << small.error().message;
+  EXPECT_LE(small->stats.box_tests, 10000u);
 }
 
 }  // namespace

@@ -135,6 +135,22 @@ Result<ClipCullResult> cull_on_clipmap(const ClipmapReader& view, const ClipEye&
     farthest = std::max(farthest, s.far);
   }
   const std::vector<double> edges = ring_edges(farthest, g.cell, rays, map.shape());
+  // The box tests this will take, bounded before any tracing.
+  std::uint64_t planned = 0;
+  for (const BoxSpan& s : spans) {
+    if (s.eye_inside) continue;
+    const auto first = std::upper_bound(edges.begin(), edges.end(), s.near);
+    const auto last = std::lower_bound(edges.begin(), edges.end(), s.far);
+    const std::uint64_t ring_count = static_cast<std::uint64_t>(std::max<std::ptrdiff_t>(last - first + 1, 1));
+    const std::uint64_t column_count = static_cast<std::uint64_t>(std::min<long>(s.a1 - s.a0 + 1, rays));
+    planned += ring_count * column_count;
+  }
+  if (planned > options.max_box_tests)
+    return make_error(ErrorCode::kResourceExhausted,
+                      "the boxes would need " + std::to_string(planned) + " box tests from this eye (at most " +
+                          std::to_string(options.max_box_tests) +
+                          "): some footprints span too many rays and rings; register smaller boxes or use fewer rays",
+                      "boxes");
 
   // horizon_at(a, j): the horizon slope of column a over the rings before
   // ring j, for j up to traced[a] (0: column a not traced).

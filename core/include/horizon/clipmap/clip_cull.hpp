@@ -76,6 +76,12 @@ struct ClipCullOptions {
   ClipMode mode = ClipMode::kFast;
   int rays = 1024;       // azimuths around the eye, in [64, 65536]
   unsigned threads = 1;  // 0: all cores
+  // The most (ray or wedge, ring) pairs the boxes may need tested: a call
+  // whose boxes would need more is refused before any tracing
+  // (kResourceExhausted "boxes"). A box costs the rays it spans times the
+  // rings its distance range meets, so a few boxes as large as the dataset
+  // can cost more than every small box of a scene.
+  std::uint64_t max_box_tests = std::uint64_t{1} << 28;
 };
 
 struct ClipCullStats {
