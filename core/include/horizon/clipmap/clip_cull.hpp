@@ -120,6 +120,10 @@ struct ClipCullScratch {
 // edges the trace uses (the last is >= reach). Exposed for tests and plans.
 std::vector<double> ring_edges(double reach, double cell_metres, int rays, const ClipmapShape& shape);
 
+// The checks a cull makes before it plans: the clip-map's reduction
+// against the mode ("mode"), the rays ("rays"), a finite eye ("eye").
+Status check_cull_inputs(const ClipmapReader& view, const ClipEye& eye, const ClipCullOptions& options);
+
 // Culls `footprints` (visibility::resolve_boxes over the clip-map's source)
 // from `eye`. kConservative needs a min clip-map and kFast a mean one
 // (kInvalidArgument "mode" otherwise). Honours `control` between rays.

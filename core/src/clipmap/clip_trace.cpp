@@ -1,0 +1,190 @@
+#include "clip_trace.hpp"
+
+#include <algorithm>
+#include <limits>
+#include <numbers>
+#include <string>
+
+#include "horizon/common/parallel.hpp"
+
+namespace horizon::clipmap {
+namespace detail {
+namespace {
+
+constexpr double kNegInf = -std::numeric_limits<double>::infinity();
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+
+using BoxSpan = ClipCullScratch::BoxSpan;
+
+BoxSpan span_of(const visibility::BoxFootprint& box, const ClipEye& eye, const Geometry& g, ClipMode mode) {
+  BoxSpan s;
+  const double c0 = box.cells.col0, c1 = box.cells.col1 - 1, r0 = box.cells.row0, r1 = box.cells.row1 - 1;
+  if (eye.col >= c0 && eye.col <= c1 && eye.row >= r0 && eye.row <= r1) {
+    s.eye_inside = true;
+    return s;
+  }
+  auto mx = [&](double c) { return (c - eye.col) * eye.metres_per_col; };
+  auto my = [&](double r) { return (r - eye.row) * eye.metres_per_row; };
+  const double nx = mx(std::clamp(eye.col, c0, c1)), ny = my(std::clamp(eye.row, r0, r1));
+  s.near = std::hypot(nx, ny);
+  const double centre = std::atan2(my((r0 + r1) / 2), mx((c0 + c1) / 2));
+  double lo = 0.0, hi = 0.0;
+  for (double c : {c0, c1})
+    for (double r : {r0, r1}) {
+      s.far = std::max(s.far, std::hypot(mx(c), my(r)));
+      double delta = std::atan2(my(r), mx(c)) - centre;
+      if (delta > std::numbers::pi) delta -= kTwoPi;
+      if (delta < -std::numbers::pi) delta += kTwoPi;
+      lo = std::min(lo, delta);
+      hi = std::max(hi, delta);
+    }
+  s.a0 = static_cast<long>(std::floor((centre + lo) / g.dtheta));
+  s.a1 = mode == ClipMode::kFast ? static_cast<long>(std::ceil((centre + hi) / g.dtheta))
+                                 : static_cast<long>(std::floor((centre + hi) / g.dtheta));
+  return s;
+}
+
+std::size_t column_of(long a, int rays) { return static_cast<std::size_t>(((a % rays) + rays) % rays); }
+
+// The least of eye + d h + curvature d² over d in [lo, hi].
+double least_ohf(double eye, double h, double curvature, double lo, double hi) {
+  if (h == kNegInf) return kNegInf;
+  auto ohf = [&](double d) { return eye + d * h + curvature * d * d; };
+  const double ends = std::min(ohf(lo), ohf(hi));
+  return curvature > 0.0 ? std::min(ends, ohf(std::clamp(-h / (2.0 * curvature), lo, hi))) : ends;
+}
+
+}  // namespace
+
+Geometry geometry_of(double cell, int rays, const ClipmapShape& shape) {
+  // A level's origin is snapped to its sub-tile grid: its window reaches
+  // n/2 - t cells from the clip centre at least.
+  return {cell, kTwoPi / rays, shape.levels, cell * (shape.level_size / 2 - shape.subtile)};
+}
+
+Result<TracePlan> plan_trace(const ClipEye& eye, std::span<const visibility::BoxFootprint> footprints,
+                             const ClipCullOptions& options, const ClipmapShape& shape, ClipCullScratch& w) {
+  TracePlan plan{geometry_of(std::min(eye.metres_per_col, eye.metres_per_row), options.rays, shape), options.rays,
+                 {}, {}, 0};
+  const int rays = options.rays;
+  // The columns the boxes need, and how far.
+  w.spans.resize(footprints.size());
+  w.reach.assign(static_cast<std::size_t>(rays), 0.0);
+  double farthest = 0.0;
+  for (std::size_t i = 0; i < footprints.size(); ++i) {
+    const BoxSpan& s = w.spans[i] = span_of(footprints[i], eye, plan.g, options.mode);
+    if (s.eye_inside) continue;
+    const long last = std::min(s.a1, s.a0 + rays - 1);
+    for (long a = s.a0; a <= last; ++a) {
+      double& r = w.reach[column_of(a, rays)];
+      r = std::max(r, s.far);
+    }
+    farthest = std::max(farthest, s.far);
+  }
+  plan.edges = ring_edges(farthest, plan.g.cell, rays, shape);
+  // The box tests this will take, bounded before any tracing.
+  const auto& edges = plan.edges;
+  for (const BoxSpan& s : w.spans) {
+    if (s.eye_inside) continue;
+    const auto first = std::upper_bound(edges.begin(), edges.end(), s.near);
+    const auto last = std::lower_bound(edges.begin(), edges.end(), s.far);
+    const std::uint64_t ring_count = static_cast<std::uint64_t>(std::max<std::ptrdiff_t>(last - first + 1, 1));
+    const std::uint64_t column_count = static_cast<std::uint64_t>(std::min<long>(s.a1 - s.a0 + 1, rays));
+    plan.box_tests += ring_count * column_count;
+  }
+  if (plan.box_tests > options.max_box_tests)
+    return make_error(ErrorCode::kResourceExhausted,
+                      "the boxes would need " + std::to_string(plan.box_tests) + " box tests from this eye (at most " +
+                          std::to_string(options.max_box_tests) +
+                          "): some footprints span too many rays and rings; register smaller boxes or use fewer rays",
+                      "boxes");
+  plan.rings.resize(edges.size() > 0 ? edges.size() - 1 : 0);
+  for (std::size_t j = 0; j < plan.rings.size(); ++j) {
+    Ring& r = plan.rings[j];
+    r.near = edges[j];
+    r.far = edges[j + 1];
+    r.mid = 0.5 * (r.near + r.far);
+    r.inv_mid = 1.0 / r.mid;
+    const double lambda = plan.g.lod(r.mid);
+    r.k = static_cast<int>(lambda);
+    r.blend = r.k + 1 < plan.g.levels ? static_cast<float>(lambda - r.k) : 0.0f;
+    r.lowest_level = plan.g.level_at(r.near);
+    r.mid_drop = eye.curvature * r.mid * r.mid;
+    r.far_drop = eye.curvature * r.far * r.far;
+  }
+  return plan;
+}
+
+void prepare_horizons(const TracePlan& plan, ClipCullScratch& w) {
+  const std::size_t columns = static_cast<std::size_t>(plan.rays);
+  if (w.horizons.size() < columns * plan.edges.size()) w.horizons.resize(columns * plan.edges.size());
+  w.traced.assign(columns, 0);
+  w.stats.assign(columns, SampleStats{});
+}
+
+Status test_boxes(const TracePlan& plan, const ClipEye& eye, std::span<const visibility::BoxFootprint> footprints,
+                  const ClipCullOptions& options, const RunControl* control, ClipCullScratch& w,
+                  ClipCullResult& result) {
+  const auto& edges = plan.edges;
+  const int rays = plan.rays;
+  result.boxes.resize(footprints.size());
+  w.tests.assign(footprints.size(), 0);
+  auto test = [&](std::size_t i) {
+    const BoxSpan& s = w.spans[i];
+    visibility::BoxVisibility& out = result.boxes[i];
+    double least = kNegInf;
+    if (!s.eye_inside && s.near >= edges.front()) {
+      least = std::numeric_limits<double>::infinity();
+      const long last = std::min(s.a1, s.a0 + rays - 1);
+      const std::size_t first_ring =
+          static_cast<std::size_t>(std::upper_bound(edges.begin(), edges.end(), s.near) - edges.begin()) - 1;
+      for (long a = s.a0; a <= last && least > kNegInf; ++a) {
+        const std::size_t column = column_of(a, rays);
+        const std::size_t traced = w.traced[column];
+        for (std::size_t j = first_ring; j <= traced && j + 1 < edges.size() && edges[j] < s.far; ++j) {
+          ++w.tests[i];
+          const double lo = std::max(s.near, edges[j]), hi = std::min(s.far, edges[j + 1]);
+          least = std::min(least, least_ohf(eye.elevation, horizon_at(w, rays, column, j), eye.curvature, lo, hi));
+        }
+      }
+    }
+    out.ohf_min = static_cast<float>(least);
+    out.state = footprints[i].z_max + visibility::kTieTolerance >= least ? visibility::Visibility::kSeen
+                                                                          : visibility::Visibility::kOccluded;
+  };
+  const std::size_t box_chunk = 256;
+  HORIZON_RETURN_IF_ERROR(parallel_for((footprints.size() + box_chunk - 1) / box_chunk, options.threads, control,
+                                       [&](std::size_t c) {
+                                         for (std::size_t i = c * box_chunk;
+                                              i < std::min(footprints.size(), (c + 1) * box_chunk); ++i)
+                                           test(i);
+                                       }));
+  result.visible_count = 0;
+  for (const auto& b : result.boxes) result.visible_count += b.state == visibility::Visibility::kSeen;
+  for (std::size_t a = 0; a < w.traced.size(); ++a) {
+    if (w.reach[a] <= 0.0) continue;
+    ++result.stats.rays_traced;
+    result.stats.rings += w.traced[a];
+    result.stats.samples += w.stats[a].samples;
+    result.stats.fallbacks += w.stats[a].fallbacks;
+  }
+  for (std::uint64_t t : w.tests) result.stats.box_tests += t;
+  return Status::Ok();
+}
+
+}  // namespace detail
+
+Status check_rays(int rays) {
+  if (rays < 64 || rays > 65536)
+    return make_error(ErrorCode::kInvalidArgument, "rays must be in [64, 65536], got " + std::to_string(rays), "rays");
+  return Status::Ok();
+}
+
+std::vector<double> ring_edges(double reach, double cell_metres, int rays, const ClipmapShape& shape) {
+  const detail::Geometry g = detail::geometry_of(cell_metres, rays, shape);
+  std::vector<double> edges{0.5 * cell_metres};
+  while (edges.back() < reach) edges.push_back(edges.back() + std::ldexp(cell_metres, g.level_at(edges.back())));
+  return edges;
+}
+
+}  // namespace horizon::clipmap

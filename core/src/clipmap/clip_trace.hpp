@@ -1,0 +1,77 @@
+// clip_trace.hpp (internal) — the stages of clip_cull.hpp's culling that
+// every backend shares: the plan (which columns, how far, the rings and
+// their levels), and the box tests against the traced horizons. A backend
+// (the CPU trace in clip_cull.cpp, the GL one in clip_cull_gl.cpp) only
+// fills TraceBuffers::horizons and ::traced from the plan.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "horizon/clipmap/clip_cull.hpp"
+
+namespace horizon::clipmap::detail {
+
+struct Geometry {
+  double cell;    // metres of the finer cell side
+  double dtheta;  // radians between rays
+  int levels;
+  double reach0;  // metres level 0's window reaches from its clip centre in every direction
+  // The fractional level to read at distance d: the one whose samples are as
+  // far apart as neighbouring rays there (fractional: fast mode blends the
+  // two around it), but never finer than the finest level whose window
+  // reaches that far (whole: blending never crosses a level's edge).
+  double lod(double d) const {
+    const double rays_apart = std::log2(std::max(d * dtheta / cell, 1.0));
+    const double window = std::ceil(std::log2(std::max(d / reach0, 1.0)));
+    return std::min(std::max(rays_apart, window), static_cast<double>(levels - 1));
+  }
+  int level_at(double d) const { return static_cast<int>(lod(d)); }
+};
+
+Geometry geometry_of(double cell, int rays, const ClipmapShape& shape);
+
+// One ring, shared by every ray: its edges and middle, the level it reads
+// and the blend towards the next, the curvature drop at its middle and far
+// edge.
+struct Ring {
+  double near, far, mid, inv_mid, mid_drop, far_drop;
+  int k;             // fast mode: the level read, and k + 1 blended in
+  int lowest_level;  // conservative mode: the level lowest() reads
+  float blend;       // weight of level k + 1
+};
+
+// What a call traces: columns are rays (fast) or wedges (conservative);
+// column a is traced over rings [0, traced) while ring.near < reach[a].
+struct TracePlan {
+  Geometry g;
+  int rays = 0;
+  std::vector<double> edges;  // ring edges, metres (ring_edges())
+  std::vector<Ring> rings;    // edges.size() - 1 of them
+  std::uint64_t box_tests = 0;  // planned (ray or wedge, ring) pairs
+};
+
+// Fills scratch.spans and scratch.reach for `footprints` and returns the
+// plan, or kResourceExhausted "boxes" when the boxes would need more than
+// options.max_box_tests tests: nothing is traced before this says yes.
+Result<TracePlan> plan_trace(const ClipEye& eye, std::span<const visibility::BoxFootprint> footprints,
+                             const ClipCullOptions& options, const ClipmapShape& shape, ClipCullScratch& scratch);
+
+// The horizon slope of column a over the rings before ring j (j in
+// [0, traced[a]]), stored ring by ring.
+inline double& horizon_at(ClipCullScratch& w, int rays, std::size_t a, std::size_t j) {
+  return w.horizons[j * static_cast<std::size_t>(rays) + a];
+}
+// Sizes scratch.horizons, .traced and .stats for the plan (traced all 0).
+void prepare_horizons(const TracePlan& plan, ClipCullScratch& scratch);
+
+// Tests every footprint against the horizons, fills result.boxes,
+// visible_count and the stats' box tests, rays, rings, samples and
+// fallbacks (from scratch.stats).
+Status test_boxes(const TracePlan& plan, const ClipEye& eye, std::span<const visibility::BoxFootprint> footprints,
+                  const ClipCullOptions& options, const RunControl* control, ClipCullScratch& scratch,
+                  ClipCullResult& result);
+
+}  // namespace horizon::clipmap::detail
