@@ -9,6 +9,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <cstring>
 #include <random>
 #include <set>
 #include <thread>
@@ -165,6 +166,70 @@ TEST(Clipmap, SlotsLeftBehindAreNeverReadAndSamplesFallBackToTheNextCoarserLevel
   for (double r = 0.0; r < kHeight; r += 7.3)
     for (double c = 0.0; c < kWidth; c += 7.7)
       ASSERT_TRUE(std::isfinite(view.sample(0, c, r, stats, &used))) << c << ", " << r;
+}
+
+// Level k's update to `origin` with every other missing sub-tile (half a move).
+LevelUpdate half_update(const ClipWorld& world, const Clipmap& map, int k, const LevelOrigin& origin) {
+  LevelUpdate update{k, origin, 0, {}, {}};
+  const int t = map.shape().subtile;
+  const Grid<float>& level = world.levels[static_cast<std::size_t>(k)];
+  const auto missing = map.missing_subtiles(k, origin);
+  for (std::size_t i = 0; i < missing.size(); i += 2) {
+    update.keys.push_back(missing[i]);
+    for (int r = 0; r < t; ++r)
+      for (int c = 0; c < t; ++c) {
+        const int col = missing[i].tx * t + c, row = missing[i].ty * t + r;
+        update.samples.push_back(col < level.width() && row < level.height() ? level.at(col, row) : NAN);
+      }
+  }
+  return update;
+}
+
+TEST(Clipmap, SamplingManyPointsAtOnceEqualsSamplingEachBitForBit) {
+  ClipWorld world;
+  auto map = world.map();
+  ClipmapUpdater updater = world.updater(map);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> cols(-20.0, kWidth + 20.0), rows(-20.0, kHeight + 20.0);
+  std::uint64_t fast_levels = 0, partial_levels = 0, fallbacks = 0;
+  for (int step = 0; step < 24; ++step) {
+    const double col = cols(rng), row = rows(rng);
+    if (step % 3 == 2) {
+      // Levels 0 and 1 half moved: incomplete, with slots left behind.
+      for (int k = 0; k < 2; ++k) map->publish(half_update(world, *map, k, map->origin_for(k, col, row)));
+    } else {
+      ASSERT_TRUE(updater.update_all({.col = col, .row = row}).ok());
+    }
+    ClipmapReader view(*map);
+    for (int k = 0; k < map->shape().levels; ++k) {
+      // Points around the clip centre (in and past the level's window) and anywhere on the map.
+      std::vector<double> xs, ys;
+      std::normal_distribution<double> near_x(col, 40.0 * (1 << k)), near_y(row, 40.0 * (1 << k));
+      for (int i = 0; i < 3000; ++i) {
+        xs.push_back(i % 3 ? near_x(rng) : cols(rng));
+        ys.push_back(i % 3 ? near_y(rng) : rows(rng));
+      }
+      xs.push_back(-0.5), ys.push_back(-0.5);
+      xs.push_back(kWidth - 0.5), ys.push_back(kHeight - 0.5);
+      std::vector<float> many(xs.size());
+      SampleStats each_stats, many_stats;
+      view.sample_many(k, xs.size(), xs.data(), ys.data(), many.data(), many_stats);
+      for (std::size_t i = 0; i < xs.size(); ++i) {
+        const float one = view.sample(k, xs[i], ys[i], each_stats);
+        ASSERT_TRUE(std::memcmp(&one, &many[i], sizeof one) == 0 || (std::isnan(one) && std::isnan(many[i])))
+            << "level " << k << " at (" << xs[i] << ", " << ys[i] << "): " << many[i] << " != " << one;
+      }
+      EXPECT_EQ(many_stats.samples, each_stats.samples);
+      EXPECT_EQ(many_stats.fallbacks, each_stats.fallbacks);
+      fallbacks += many_stats.fallbacks;
+      (view.level(k).resident_subtiles == window_tiles(*map, k, view.level(k).origin).size() ? fast_levels
+                                                                                             : partial_levels)++;
+    }
+  }
+  // Both kinds of level, and samples that fell back, were met.
+  EXPECT_GT(fast_levels, 20u);
+  EXPECT_GT(partial_levels, 8u);
+  EXPECT_GT(fallbacks, 1000u);
 }
 
 TEST(Clipmap, LevelsFollowTheirOwnSchedules) {

@@ -37,19 +37,40 @@ Status trace_cpu(const detail::TracePlan& plan, const ClipmapReader& view, const
       detail::horizon_at(w, rays, a, 0) = kNegInf;
       block_reach = std::max(block_reach, w.reach[a]);
     }
+    SampleStats& stats = w.stats[first];
     for (std::size_t j = 0; j < rings.size() && rings[j].near < block_reach; ++j) {
       const detail::Ring& ring = rings[j];
+      if (options.mode == ClipMode::kFast) {
+        // The block's columns still going, sampled together.
+        std::size_t active[kBlockColumns], count = 0;
+        double xs[kBlockColumns], ys[kBlockColumns];
+        float z[kBlockColumns], z1[kBlockColumns];
+        for (std::size_t a = first; a < last; ++a) {
+          if (!(ring.near < w.reach[a])) continue;
+          const Column& c = cols[a - first];
+          xs[count] = eye.col + ring.mid * c.cx0;
+          ys[count] = eye.row + ring.mid * c.cy0;
+          active[count++] = a;
+        }
+        view.sample_many(ring.k, count, xs, ys, z, stats);
+        if (ring.blend > 0.0f) {
+          view.sample_many(ring.k + 1, count, xs, ys, z1, stats);
+          for (std::size_t i = 0; i < count; ++i) z[i] += ring.blend * (z1[i] - z[i]);
+        }
+        for (std::size_t i = 0; i < count; ++i) {
+          const std::size_t a = active[i];
+          Column& c = cols[a - first];
+          if (z[i] == z[i]) c.horizon = std::max(c.horizon, (z[i] - ring.mid_drop - eye.elevation) * ring.inv_mid);
+          detail::horizon_at(w, rays, a, j + 1) = c.horizon;
+          w.traced[a] = static_cast<std::uint32_t>(j + 1);
+        }
+        continue;
+      }
       for (std::size_t a = first; a < last; ++a) {
         if (!(ring.near < w.reach[a])) continue;
         Column& c = cols[a - first];
-        SampleStats& stats = w.stats[a];
         double slope = kNegInf;
-        if (options.mode == ClipMode::kFast) {
-          const double col = eye.col + ring.mid * c.cx0, row = eye.row + ring.mid * c.cy0;
-          float z = view.sample(ring.k, col, row, stats);
-          if (ring.blend > 0.0f) z += ring.blend * (view.sample(ring.k + 1, col, row, stats) - z);
-          if (z == z) slope = (z - ring.mid_drop - eye.elevation) * ring.inv_mid;
-        } else {
+        {
           // The wedge's piece of ring j: the rays' end points and the outer arc's tangent point.
           const double b0 = ring.near, b1 = ring.far;
           const double xs[5] = {b0 * c.cx0, b1 * c.cx0, b0 * c.cx1, b1 * c.cx1, b1 * tangent * c.cxm};

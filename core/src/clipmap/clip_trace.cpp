@@ -162,11 +162,11 @@ Status test_boxes(const TracePlan& plan, const ClipEye& eye, std::span<const vis
   result.visible_count = 0;
   for (const auto& b : result.boxes) result.visible_count += b.state == visibility::Visibility::kSeen;
   for (std::size_t a = 0; a < w.traced.size(); ++a) {
+    result.stats.samples += w.stats[a].samples;
+    result.stats.fallbacks += w.stats[a].fallbacks;
     if (w.reach[a] <= 0.0) continue;
     ++result.stats.rays_traced;
     result.stats.rings += w.traced[a];
-    result.stats.samples += w.stats[a].samples;
-    result.stats.fallbacks += w.stats[a].fallbacks;
   }
   for (std::uint64_t t : w.tests) result.stats.box_tests += t;
   return Status::Ok();

@@ -65,6 +65,8 @@ inline double& horizon_at(ClipCullScratch& w, int rays, std::size_t a, std::size
   return w.horizons[j * static_cast<std::size_t>(rays) + a];
 }
 // Sizes scratch.horizons, .traced and .stats for the plan (traced all 0).
+// A backend may count a block's samples on any one column of it: only
+// their sum is reported.
 void prepare_horizons(const TracePlan& plan, ClipCullScratch& scratch);
 
 // Tests every footprint against the horizons, fills result.boxes,

@@ -194,6 +194,12 @@ void Clipmap::publish(const LevelUpdate& update) {
   level.loaded_once = true;
   ++level.version;
   level.pose = update.pose;
+  // Complete: every sub-tile of the window that lies in the source is resident.
+  std::uint64_t inside = 0;
+  const int x0 = level.origin.col0 >> log_t_, y0 = level.origin.row0 >> log_t_;
+  for (int ty = y0; ty < y0 + tiles_; ++ty)
+    for (int tx = x0; tx < x0 + tiles_; ++tx) inside += inside_source(k, tx, ty);
+  level.complete = level.resident == inside;
 }
 
 // --- ClipmapReader ---
@@ -224,6 +230,45 @@ int ClipmapReader::level_for(int k, double col, double row) const {
       map_.validity_[static_cast<std::size_t>(py) * static_cast<std::size_t>(map_.valid_w_) + static_cast<std::size_t>(px)];
   if (v == Clipmap::kNoLevel) return map_.shape_.levels;
   return std::max(k, static_cast<int>(v));
+}
+
+void ClipmapReader::sample_many(int k, std::size_t count, const double* cols, const double* rows, float* out,
+                                SampleStats& stats) const {
+  const Clipmap::Level& level = map_.levels_[static_cast<std::size_t>(k)];
+  if (!level.complete) {
+    for (std::size_t i = 0; i < count; ++i) out[i] = sample(k, cols[i], rows[i], stats);
+    return;
+  }
+  // Level k is whole over its window: a sample whose four cells lie in the
+  // window and in the level (no clamping) reads level k, as sample() would
+  // (validity there is k or finer), with the same arithmetic.
+  const int n = map_.shape_.level_size, ln = map_.log_n_, mask = n - 1;
+  const double scale = kLevelScale[k];
+  const double lo_u = std::max(level.origin.col0, 0), lo_v = std::max(level.origin.row0, 0);
+  const double hi_u = std::min(level.origin.col0 + n, map_.level_width(k)) - 1;  // i1 <= hi: i0 < hi
+  const double hi_v = std::min(level.origin.row0 + n, map_.level_height(k)) - 1;
+  const double max_col = map_.width_ - 0.5, max_row = map_.height_ - 0.5;
+  const float* cells = level.samples.data();
+  std::size_t slow = 0;
+  for (std::size_t i = 0; i < count; ++i) {
+    const double col = cols[i], row = rows[i];
+    const double u = (col + 0.5) * scale - 0.5, v = (row + 0.5) * scale - 0.5;
+    const double fi = std::floor(u), fj = std::floor(v);
+    if (!(fi >= lo_u && fi < hi_u && fj >= lo_v && fj < hi_v && col <= max_col && row <= max_row)) {
+      out[i] = sample(k, col, row, stats);
+      ++slow;
+      continue;
+    }
+    const double a = u - fi, b = v - fj;
+    const int i0 = static_cast<int>(fi), j0 = static_cast<int>(fj);
+    const float* r0 = cells + (static_cast<std::size_t>(j0 & mask) << ln);
+    const float* r1 = cells + (static_cast<std::size_t>((j0 + 1) & mask) << ln);
+    const int c0 = i0 & mask, c1 = (i0 + 1) & mask;
+    const float z00 = r0[c0], z10 = r0[c1], z01 = r1[c0], z11 = r1[c1];
+    const double top = z00 + (z10 - z00) * a, bottom = z01 + (z11 - z01) * a;
+    out[i] = static_cast<float>(top + (bottom - top) * b);
+  }
+  stats.samples += count - slow;
 }
 
 float ClipmapReader::sample(int k, double col, double row, SampleStats& stats, int* used) const {

@@ -147,6 +147,7 @@ class Clipmap {
   struct Level {
     LevelOrigin origin;
     bool loaded_once = false;
+    bool complete = false;           // every window sub-tile inside the source is resident
     std::uint64_t version = 0, pose = 0, resident = 0;
     std::vector<float> samples;      // n * n, slot-addressed
     std::vector<SubtileKey> tags;    // (n/t)^2, kEmptyTag when none
@@ -198,6 +199,11 @@ class ClipmapReader {
   // (and where the level's reduction gives NaN: a block of voids). Adds to
   // `stats`; `*used` (may be null) gets the level read.
   float sample(int k, double col, double row, SampleStats& stats, int* used = nullptr) const;
+  // out[i] = sample(k, cols[i], rows[i], stats) for i < count, the same
+  // values and counts, faster where level k is complete (no tag or
+  // validity look-ups inside its window).
+  void sample_many(int k, std::size_t count, const double* cols, const double* rows, float* out,
+                   SampleStats& stats) const;
 
   // The least level-k cell (or coarser, as sample() falls back) among those
   // meeting source cells [col0, col1] x [row0, row1] (inclusive, clipped to
