@@ -30,6 +30,7 @@ constexpr FlagSpec kFlags[] = {
     {"--lonlat", "", "", "The poses' and boxes' x/y are WGS84 longitude/latitude"},
     {"--absolute", "", "", "Pose heights are absolute altitudes (default: above the ground)"},
     {"--conservative", "", "", "Never report hidden a box R3 sees (min levels for occluders)"},
+    {"--exact", "", "", "R3's answers from the full-resolution terrain at every pose (no clip-map; slow)"},
     {"--levels", "", "L", "Clip-map levels, 1..10 (default: the fewest that cover the dataset)"},
     {"--level-size", "", "N", "Samples per side of a level, a power of two in [64, 4096] (default 1024)"},
     {"--subtile", "", "T", "Sub-tile side, a power of two in [8, N/2] (default 64)"},
@@ -165,7 +166,10 @@ int run_session(const Args& args) {
   const std::vector<visibility::BoxSpec> specs = read_boxes_file(*boxes, lonlat);
   for (std::size_t i = 0; i < specs.size(); ++i) playback.boxes.push_back({i + 1, specs[i]});
   clipmap::SessionOptions& o = playback.options;
-  o.mode = args.has("--conservative") ? clipmap::ClipMode::kConservative : clipmap::ClipMode::kFast;
+  if (args.has("--conservative") && args.has("--exact")) throw UsageError("give --conservative or --exact, not both");
+  o.mode = args.has("--conservative") ? clipmap::ClipMode::kConservative
+           : args.has("--exact")      ? clipmap::ClipMode::kExact
+                                      : clipmap::ClipMode::kFast;
   o.shape.levels = args.positive_integer("--levels").value_or(0);
   o.shape.level_size = args.positive_integer("--level-size").value_or(1024);
   o.shape.subtile = args.positive_integer("--subtile").value_or(std::min(64, std::max(8, o.shape.level_size / 2)));
@@ -214,13 +218,14 @@ void print_session(const SessionPlayback& playback, const SessionReport& report,
   for (const PoseLine& p : report.poses)
     if (p.rejected.empty()) last = &p;
   const std::size_t answered = seconds.size();
-  const char* mode = playback.options.mode == clipmap::ClipMode::kConservative ? "conservative" : "fast";
+  const char* mode = clipmap::mode_name(playback.options.mode);
   if (json) {
     Json j;
     j["dem"] = playback.dataset;
     j["poses_file"] = playback.poses_path;
     j["boxes_file"] = playback.boxes_path;
-    j["clipmap"] = {{"levels", report.levels}, {"level_size", report.level_size}, {"subtile", report.subtile}};
+    if (playback.options.mode != clipmap::ClipMode::kExact)
+      j["clipmap"] = {{"levels", report.levels}, {"level_size", report.level_size}, {"subtile", report.subtile}};
     j["mode"] = mode;
     j["rays"] = playback.options.rays;
     j["memory_bytes"] = report.memory_bytes;
@@ -257,9 +262,13 @@ void print_session(const SessionPlayback& playback, const SessionReport& report,
   }
   std::cout << "Session over " << playback.dataset << (report.where.empty() ? "" : " " + report.where)
             << (report.session_id.empty() ? "" : " (session " + report.session_id + ")") << '\n'
-            << "  clip-map:   " << report.levels << " levels of " << report.level_size << " x " << report.level_size
-            << " (sub-tiles " << report.subtile << "), " << mode << ", " << playback.options.rays << " rays; "
-            << fixed(static_cast<double>(report.memory_bytes) / (1 << 20), 1) << " MiB\n"
+            << "  clip-map:   ";
+  if (playback.options.mode == clipmap::ClipMode::kExact)
+    std::cout << "none: exact, R3 on the full-resolution terrain at every pose; ";
+  else
+    std::cout << report.levels << " levels of " << report.level_size << " x " << report.level_size << " (sub-tiles "
+              << report.subtile << "), " << mode << ", " << playback.options.rays << " rays; ";
+  std::cout << fixed(static_cast<double>(report.memory_bytes) / (1 << 20), 1) << " MiB\n"
             << "  poses:      " << with_separators(playback.poses.size()) << " from " << playback.poses_path << ": "
             << with_separators(answered) << " answered, " << with_separators(dropped) << " dropped (a newer pose came), "
             << with_separators(rejected) << " rejected\n"

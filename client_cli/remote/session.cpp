@@ -56,7 +56,9 @@ int run_session(const Args& args, const SessionPlayback& playback, bool json, bo
   m->mutable_clipmap()->set_levels(static_cast<std::uint32_t>(o.shape.levels));
   m->mutable_clipmap()->set_level_size(static_cast<std::uint32_t>(o.shape.level_size));
   m->mutable_clipmap()->set_subtile(static_cast<std::uint32_t>(o.shape.subtile));
-  m->set_mode(o.mode == clipmap::ClipMode::kConservative ? v1::SESSION_MODE_CONSERVATIVE : v1::SESSION_MODE_FAST);
+  m->set_mode(o.mode == clipmap::ClipMode::kConservative ? v1::SESSION_MODE_CONSERVATIVE
+              : o.mode == clipmap::ClipMode::kExact       ? v1::SESSION_MODE_EXACT
+                                                          : v1::SESSION_MODE_FAST);
   m->set_rays(static_cast<std::uint32_t>(o.rays));
   *m->mutable_first_pose() = to_proto_pose(playback.poses.front());
   for (const clipmap::SessionBox& b : playback.boxes) {

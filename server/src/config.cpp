@@ -211,7 +211,8 @@ Status parse_limits(const Json& j, const std::string& source, Limits& limits) {
 Status parse_sessions(const Json& j, const std::string& source, SessionConfig& sessions) {
   if (!j.is_object()) return config_error(source, "sessions", "expected an object");
   HORIZON_RETURN_IF_ERROR(check_keys(j, source, "sessions.",
-                                     {"max", "idle_ms", "max_boxes", "max_level_size", "level_size", "subtile"}));
+                                     {"max", "idle_ms", "max_boxes", "max_level_size", "level_size", "subtile",
+                                      "exact_mb"}));
   struct Key {
     const char* name;
     std::uint64_t lo, hi;
@@ -222,7 +223,8 @@ Status parse_sessions(const Json& j, const std::string& source, SessionConfig& s
                       {"max_boxes", 1, 1'000'000, &sessions.max_boxes},
                       {"max_level_size", 64, 4096, &sessions.max_level_size},
                       {"level_size", 64, 4096, &sessions.level_size},
-                      {"subtile", 8, 2048, &sessions.subtile}};
+                      {"subtile", 8, 2048, &sessions.subtile},
+                      {"exact_mb", 1, 1'048'576, &sessions.exact_mb}};
   for (const Key& k : keys) {
     if (!j.contains(k.name)) continue;
     auto v = get_count(j, source, k.name, std::string("sessions.") + k.name, k.lo, k.hi);
@@ -404,6 +406,7 @@ std::vector<std::string> keys_needing_restart(const Config& a, const Config& b) 
   differ(a.sessions.idle_ms != b.sessions.idle_ms, "sessions.idle_ms");
   differ(a.sessions.max_boxes != b.sessions.max_boxes, "sessions.max_boxes");
   differ(a.sessions.max_level_size != b.sessions.max_level_size, "sessions.max_level_size");
+  differ(a.sessions.exact_mb != b.sessions.exact_mb, "sessions.exact_mb");
   differ(a.sessions.level_size != b.sessions.level_size, "sessions.level_size");
   differ(a.sessions.subtile != b.sessions.subtile, "sessions.subtile");
   differ(a.gpu.contexts != b.gpu.contexts, "gpu.contexts");

@@ -28,7 +28,8 @@
 //                  "max_boxes": 100000,     a message; boxes per session; the largest level_size a
 //                  "max_level_size": 2048,  client may ask for, and the level_size and subtile a
 //                  "level_size": 1024,      client that asks for none gets (powers of two)
-//                  "subtile": 64},
+//                  "subtile": 64,           exact sessions: the engine memory each reserves for
+//                  "exact_mb": 256},        its answers (an answer that needs more is refused)
 //     "gpu": {"contexts": 2},               GL contexts for the GPU backend, [0, 64]: one per request
 //                                           computing on the GPU at once; absent = one per worker
 //                                           thread (at most 64); 0 = no GPU, every request on the CPU
@@ -112,6 +113,7 @@ struct SessionConfig {
   std::uint32_t max_level_size = 2048;   // the largest level_size a client may ask for
   std::uint32_t level_size = 1024;       // when a client asks for none
   std::uint32_t subtile = 64;            // when a client asks for none
+  std::uint32_t exact_mb = 256;          // engine memory an exact session reserves for its answers
 };
 
 struct GpuConfig {

@@ -41,6 +41,9 @@ Result<clipmap::SessionOptions> to_session_options(const v1::OpenSession& open, 
     case v1::SESSION_MODE_CONSERVATIVE:
       o.mode = clipmap::ClipMode::kConservative;
       break;
+    case v1::SESSION_MODE_EXACT:
+      o.mode = clipmap::ClipMode::kExact;
+      break;
     default:
       return make_error(ErrorCode::kInvalidArgument, "open.mode: unknown value " + std::to_string(open.mode()),
                         "open.mode");
@@ -51,6 +54,7 @@ Result<clipmap::SessionOptions> to_session_options(const v1::OpenSession& open, 
   o.curvature_coefficient = *curvature;
   o.threads = threads;
   o.max_boxes = config.max_boxes;
+  o.exact_bytes = std::uint64_t{config.exact_mb} << 20;
   return o;
 }
 

@@ -67,6 +67,29 @@ TEST(CliSession, AConservativeFlightNeverCountsFewerVisibleThanExactCulling) {
   }
 }
 
+TEST(CliSession, AnExactFlightCountsWhatExactCullingCountsAtEveryPose) {
+  Flight f;
+  const CommandResult r = horizon({"session", f.dem, "--path", f.poses, "--boxes", f.boxes, "--lonlat", "--absolute",
+                                   "--exact", "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json j = Json::parse(r.output);
+  EXPECT_EQ(j["mode"], "exact");
+  EXPECT_FALSE(j.contains("clipmap")) << "an exact session keeps no clip-map";
+  ASSERT_EQ(j["poses"].size(), 12u);
+  for (int i = 0; i < 12; i += 4) {
+    const CommandResult cull =
+        horizon({"cull", f.dem, "--lon", std::to_string(-121.86 + i * 0.01), "--lat", "46.8529", "--altitude", "3500",
+                 "--boxes", f.boxes, "--lonlat", "--algorithm", "exact", "--json"});
+    ASSERT_EQ(cull.exit_code, 0) << cull.output;
+    EXPECT_EQ(j["poses"][static_cast<std::size_t>(i)]["visible"], Json::parse(cull.output)["visible_count"])
+        << "pose " << i + 1;
+  }
+  const CommandResult both = horizon({"session", f.dem, "--path", f.poses, "--boxes", f.boxes, "--lonlat",
+                                      "--absolute", "--exact", "--conservative"});
+  EXPECT_EQ(both.exit_code, 2) << both.output;
+  EXPECT_NE(both.output.find("--conservative or --exact"), std::string::npos) << both.output;
+}
+
 TEST(CliSession, WrongFilesAndShapesAreUsageErrorsNamingTheLineOrFlag) {
   Flight f;
   {

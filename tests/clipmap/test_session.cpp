@@ -145,6 +145,59 @@ TEST(ClipSession, AClientApplyingTheChangesHoldsEveryBoxsStateAndConservativeNev
   EXPECT_EQ(false_hidden, 0u);
 }
 
+TEST(ClipSession, AnExactSessionAnswersEveryBoxAsR3DoesAndBoundsItsMemory) {
+  ClipWorld world;
+  SessionOptions options = options_for(ClipMode::kExact, false);
+  auto first = pose_at(world, 300.0, 200.0, 1, 250.0);
+  auto session = ClipSession::open(world.source, world.cache, pyramid_for(world, ClipMode::kConservative), options,
+                                   first);
+  ASSERT_TRUE(session.ok()) << session.error().message;
+  const std::vector<SessionBox> boxes = boxes_on(world, 300, 1, 9);
+  ASSERT_TRUE((*session)->add_boxes(boxes).ok());
+  EXPECT_EQ((*session)->bytes(), options.exact_bytes + boxes.size() * ClipSession::kBytesPerBox);
+  std::vector<visibility::BoxSpec> specs;
+  for (const auto& b : boxes) specs.push_back(b.box);
+  auto footprints = visibility::resolve_boxes(world.dem.georef, kWidth, kHeight, "test", specs);
+  ASSERT_TRUE(footprints.ok());
+  std::map<std::uint64_t, Visibility> told;
+  std::size_t hidden = 0, checked = 0;
+  for (int step = 0; step < 3; ++step) {
+    const double col = 300.0 + step * 140.0, row = 200.0 + step * 80.0;
+    auto answer = (*session)->answer(pose_at(world, col, row, static_cast<std::uint64_t>(step + 1), 250.0));
+    ASSERT_TRUE(answer.ok()) << answer.error().message;
+    EXPECT_TRUE(answer->levels.empty()) << "no clip-map";
+    for (const BoxChange& c : answer->changes) told[c.id] = c.state;
+    ASSERT_EQ(told.size(), boxes.size());
+    visibility::ViewshedOptions vo;
+    vo.max_distance = std::numeric_limits<double>::infinity();
+    geodesy::GridPoint eye;
+    eye.col = col;
+    eye.row = row;
+    eye.x = x_of(world, col);
+    eye.y = y_of(world, row);
+    eye.elevation = answer->eye_elevation;
+    auto frame = visibility::make_view_frame(world.dem, eye, vo);
+    ASSERT_TRUE(frame.ok());
+    for (std::size_t i = 0; i < boxes.size(); ++i) {
+      const bool seen = told[boxes[i].id] == Visibility::kSeen;
+      hidden += !seen;
+      ++checked;
+      ASSERT_EQ(seen, r3_sees(world, *frame, (*footprints)[i])) << "box " << boxes[i].id << " at step " << step;
+    }
+  }
+  EXPECT_GT(hidden, checked / 10) << "the scene hides boxes";
+  EXPECT_LT(hidden, checked * 9 / 10) << "and shows some";
+  // A memory allowance too small for the boxes' reach refuses the answer, naming the boxes.
+  options.exact_bytes = 1 << 16;
+  auto small = ClipSession::open(world.source, world.cache, nullptr, options, first);
+  ASSERT_TRUE(small.ok()) << small.error().message;
+  ASSERT_TRUE((*small)->add_boxes(boxes).ok());
+  auto refused = (*small)->answer(first);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ErrorCode::kResourceExhausted);
+  EXPECT_EQ(refused.error().field, "boxes");
+}
+
 TEST(ClipSession, BoxBatchesChangeNothingWhenAnyEntryIsWrong) {
   ClipWorld world;
   SessionOptions options = options_for(ClipMode::kFast, false);

@@ -162,6 +162,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"sessions subtile too large", document(R"("sessions": {"level_size": 64, "subtile": 64})"),
                 "sessions.subtile"},
         BadCase{"sessions idle_ms too short", document(R"("sessions": {"idle_ms": 5})"), "sessions.idle_ms"},
+        BadCase{"sessions exact_mb zero", document(R"("sessions": {"exact_mb": 0})"), "sessions.exact_mb"},
         BadCase{"listen port too large", document(R"("listen": "localhost:70000")"), "listen"},
         BadCase{"listen not a string", document(R"("listen": 50051)"), "listen"},
         BadCase{"metrics_listen bad", document(R"("metrics_listen": "localhost:http")"), "metrics_listen"},

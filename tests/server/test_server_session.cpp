@@ -166,6 +166,50 @@ TEST(ServerSession, AFlightsChangesNeverHideWhatExactCullingSees) {
   EXPECT_TRUE(logged) << daemon.log();
 }
 
+TEST(ServerSession, AnExactSessionAnswersAsExactCullingDoes) {
+  DaemonOptions options;
+  options.extra_json = R"("sessions": {"exact_mb": 64},)";
+  DaemonProcess daemon(options);
+  ASSERT_TRUE(daemon.ready()) << daemon.error();
+  const auto start = boxes(80, 1, 3);
+  Session s(daemon);
+  ASSERT_TRUE(s.stream->Write(open_request(start, v1::SESSION_MODE_EXACT)));
+  const v1::SessionResponse opened = s.read();
+  ASSERT_TRUE(opened.has_opened()) << opened.DebugString() << s.close().error_message();
+  EXPECT_GE(opened.opened().memory_bytes(), 64u << 20) << "sessions.exact_mb reserved";
+  std::map<std::uint64_t, v1::BoxState> told;
+  auto stub = v1::VisibilityService::NewStub(daemon.channel());
+  for (int step = 0; step <= 8; step += 4) {
+    if (step > 0) {
+      v1::SessionRequest r;
+      *r.mutable_pose() = pose(kLon0 + step * kLonStep, kLat, static_cast<std::uint64_t>(step + 1));
+      ASSERT_TRUE(s.stream->Write(r));
+    }
+    const v1::SessionResponse answer = s.read();
+    ASSERT_TRUE(answer.has_answer()) << answer.DebugString();
+    EXPECT_EQ(answer.answer().seq(), static_cast<std::uint64_t>(step + 1));
+    EXPECT_EQ(answer.answer().levels_size(), 0) << "no clip-map";
+    for (const auto& c : answer.answer().changes()) told[c.id()] = c.state();
+    v1::CullBoxesRequest request;
+    request.set_dataset("rainier");
+    *request.mutable_observer() = point(kLon0 + step * kLonStep, kLat, 3500.0, v1::FRAME_WGS84);
+    request.mutable_observer()->set_height_mode(v1::HEIGHT_MODE_ABSOLUTE);
+    request.set_algorithm(v1::ALGORITHM_EXACT);
+    for (const auto& b : start) *request.add_boxes() = b.box();
+    v1::CullBoxesResponse exact;
+    auto context = context_with_deadline();
+    ASSERT_TRUE(stub->CullBoxes(context.get(), request, &exact).ok());
+    std::size_t hidden = 0;
+    for (int i = 0; i < 80; ++i) {
+      const bool session_hidden = told[start[static_cast<std::size_t>(i)].id()] == v1::BOX_STATE_HIDDEN;
+      hidden += session_hidden;
+      EXPECT_EQ(session_hidden, !exact.boxes(i).visible()) << "box " << i << " at step " << step;
+    }
+    EXPECT_GT(hidden, 0u) << "step " << step;
+  }
+  EXPECT_TRUE(s.close().ok());
+}
+
 TEST(ServerSession, TheLatestPoseWinsWhenTheClientDoesNotRead) {
   DaemonProcess daemon;
   ASSERT_TRUE(daemon.ready()) << daemon.error();

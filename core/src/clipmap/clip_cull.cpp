@@ -101,6 +101,8 @@ Status trace_cpu(const detail::TracePlan& plan, const ClipmapReader& view, const
 }  // namespace
 
 Status check_cull_inputs(const ClipmapReader& view, const ClipEye& eye, const ClipCullOptions& options) {
+  if (options.mode == ClipMode::kExact)
+    return make_error(ErrorCode::kInvalidArgument, "exact answers come from the source, not a clip-map", "mode");
   if (view.map().shape().reduction != reduction_for(options.mode))
     return make_error(ErrorCode::kInvalidArgument,
                       options.mode == ClipMode::kConservative ? "conservative culling needs a min clip-map"

@@ -37,10 +37,16 @@ Result<std::unique_ptr<ClipSession>> ClipSession::open(std::shared_ptr<const ter
   s->options_.shape.reduction = reduction_for(options.mode);
   auto bytes = bytes_for(s->options_, s->source_->width(), s->source_->height(), 0);  // checks rays and shape
   if (!bytes.ok()) return bytes.error();
+  s->pyramid_ = pyramid;
+  if (options.mode == ClipMode::kExact) {
+    ClipPose clip;
+    auto eye = s->eye_for(first, clip);  // the first pose's errors at open, as in the other modes
+    if (!eye.ok()) return eye.error();
+    return s;
+  }
   auto map = Clipmap::make(s->source_->width(), s->source_->height(), s->options_.shape);
   if (!map.ok()) return map.error();
   s->map_ = *map;
-  s->pyramid_ = pyramid;
   auto updater = ClipmapUpdater::make(s->map_, std::move(pyramid), options.updater);
   if (!updater.ok()) return updater.error();
   ClipPose clip;
@@ -69,6 +75,7 @@ Result<std::uint64_t> scratch_bytes(const SessionOptions& options, int width, in
 }  // namespace
 
 Result<std::uint64_t> ClipSession::bytes_for(const SessionOptions& options, int width, int height, std::size_t boxes) {
+  if (options.mode == ClipMode::kExact) return options.exact_bytes + boxes * kBytesPerBox;
   HORIZON_RETURN_IF_ERROR(Clipmap::check(width, height, options.shape));
   auto scratch = scratch_bytes(options, width, height);
   if (!scratch.ok()) return scratch.error();
@@ -77,7 +84,7 @@ Result<std::uint64_t> ClipSession::bytes_for(const SessionOptions& options, int 
 
 std::uint64_t ClipSession::bytes() const {
   auto bytes = bytes_for(options_, source_->width(), source_->height(), entries_.size());
-  return bytes.ok() ? *bytes : map_->bytes();
+  return bytes.ok() ? *bytes : map_ ? map_->bytes() : options_.exact_bytes;
 }
 
 Result<ClipEye> ClipSession::eye_for(const SessionPose& pose, ClipPose& clip) const {
@@ -202,14 +209,17 @@ Status ClipSession::apply(const BoxDelta& delta) {
     if (at + 1 != entries_.size()) {
       entries_[at] = entries_.back();
       footprints_[at] = footprints_.back();
+      specs_[at] = specs_.back();
       index_[entries_[at].id] = at;
     }
     entries_.pop_back();
     footprints_.pop_back();
+    specs_.pop_back();
   }
   for (std::size_t i = 0; i < delta.move.size(); ++i) {
     const std::size_t at = index_[delta.move[i].id];
     footprints_[at] = (*moved_footprints)[i];
+    specs_[at] = delta.move[i].box;
     entries_[at].reported = false;
     entries_[at].on_void = moved_voids[i];
   }
@@ -218,6 +228,7 @@ Status ClipSession::apply(const BoxDelta& delta) {
     entries_.push_back({delta.add[i].id});
     entries_.back().on_void = added_voids[i];
     footprints_.push_back((*added_footprints)[i]);
+    specs_.push_back(delta.add[i].box);
   }
   return Status::Ok();
 }
@@ -238,6 +249,34 @@ Status ClipSession::remove_boxes(std::span<const std::uint64_t> ids) {
   return apply(d);
 }
 
+Result<ClipCullResult> ClipSession::cull_exact(const SessionPose& pose, const RunControl* control) {
+  ClipCullResult out;
+  if (specs_.empty()) return out;
+  const auto start = std::chrono::steady_clock::now();
+  visibility::CullQuery query{pose.position, specs_, {}};
+  query.options.viewshed.algorithm = visibility::Algorithm::kExact;
+  query.options.viewshed.curvature_coefficient = options_.curvature_coefficient;
+  query.options.viewshed.threads = options_.threads;
+  auto plan = visibility::plan_cull_boxes(*source_, std::move(query));
+  if (!plan.ok()) return plan.error();
+  if (plan->cost.bytes > options_.exact_bytes)
+    return make_error(ErrorCode::kResourceExhausted,
+                      "an exact answer from this pose needs " + std::to_string(plan->cost.bytes >> 20) +
+                          " MiB of working memory, more than the session's " +
+                          std::to_string(options_.exact_bytes >> 20) +
+                          " MiB: the boxes reach too far for exact mode; use conservative mode or fewer, nearer boxes",
+                      "boxes");
+  auto run = visibility::run_cull_boxes(*plan, *source_, cache_, control, nullptr, nullptr, &workspace_);
+  if (!run.ok()) return run.error();
+  workspace_.trim();
+  out.boxes = std::move(run->result.boxes);
+  out.visible_count = run->result.visible_count;
+  out.stats.samples = run->result.stats.terrain_samples;
+  out.stats.box_tests = run->result.pyramid_cells_read;
+  out.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return out;
+}
+
 Result<SessionAnswer> ClipSession::answer(const SessionPose& pose, const RunControl* control) {
   const auto start = std::chrono::steady_clock::now();
   ClipPose clip;
@@ -247,7 +286,9 @@ Result<SessionAnswer> ClipSession::answer(const SessionPose& pose, const RunCont
   out.seq = pose.seq;
   out.eye_elevation = eye->elevation;
   clip.seq = ++answers_ + 1;  // open() published at 1
-  if (async_) {
+  if (options_.mode == ClipMode::kExact) {
+    // No clip-map: nothing to load or report per level.
+  } else if (async_) {
     async_->post(clip);
     const LoaderStats now = async_->stats();
     out.subtiles_loaded = now.subtiles_loaded - last_loader_.subtiles_loaded;
@@ -261,16 +302,21 @@ Result<SessionAnswer> ClipSession::answer(const SessionPose& pose, const RunCont
     out.bytes_loaded = report->bytes_loaded;
   }
 
-  ClipmapReader view(*map_);
-  for (int k = 0; k < map_->shape().levels; ++k) {
-    const LevelState state = view.level(k);
-    out.levels.push_back({state, clip.seq > state.pose ? clip.seq - state.pose : 0});
+  Result<ClipCullResult> culled = ClipCullResult{};
+  if (options_.mode == ClipMode::kExact) {
+    culled = cull_exact(pose, control);
+  } else {
+    ClipmapReader view(*map_);
+    for (int k = 0; k < map_->shape().levels; ++k) {
+      const LevelState state = view.level(k);
+      out.levels.push_back({state, clip.seq > state.pose ? clip.seq - state.pose : 0});
+    }
+    ClipCullOptions cull;
+    cull.mode = options_.mode;
+    cull.rays = options_.rays;
+    cull.threads = options_.threads;
+    culled = cull_on_clipmap(view, *eye, footprints_, cull, control, &scratch_);
   }
-  ClipCullOptions cull;
-  cull.mode = options_.mode;
-  cull.rays = options_.rays;
-  cull.threads = options_.threads;
-  auto culled = cull_on_clipmap(view, *eye, footprints_, cull, control, &scratch_);
   if (!culled.ok()) return culled.error();
   for (std::size_t i = 0; i < entries_.size(); ++i) {
     Entry& e = entries_[i];

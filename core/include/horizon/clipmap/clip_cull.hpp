@@ -54,11 +54,19 @@
 
 namespace horizon::clipmap {
 
-enum class ClipMode { kFast, kConservative };
+// kExact is a session mode only (session.hpp): its answers come from R3 on
+// the full-resolution source, not from a clip-map; cull_on_clipmap refuses it.
+enum class ClipMode { kFast, kConservative, kExact };
 
-// The levels a mode reads: mean for fast, min for conservative.
+// "fast", "conservative", "exact".
+constexpr const char* mode_name(ClipMode mode) {
+  return mode == ClipMode::kFast ? "fast" : mode == ClipMode::kConservative ? "conservative" : "exact";
+}
+
+// The levels a mode reads: mean for fast, min for conservative (and exact,
+// whose session keeps no clip-map but checks voids on the min pyramid).
 constexpr terrain::Reduction reduction_for(ClipMode mode) {
-  return mode == ClipMode::kConservative ? terrain::Reduction::kMin : terrain::Reduction::kMean;
+  return mode == ClipMode::kFast ? terrain::Reduction::kMean : terrain::Reduction::kMin;
 }
 
 // Ok, or kInvalidArgument "rays" outside [64, 65536].
@@ -120,8 +128,8 @@ struct ClipCullScratch {
 // edges the trace uses (the last is >= reach). Exposed for tests and plans.
 std::vector<double> ring_edges(double reach, double cell_metres, int rays, const ClipmapShape& shape);
 
-// The checks a cull makes before it plans: the clip-map's reduction
-// against the mode ("mode"), the rays ("rays"), a finite eye ("eye").
+// The checks a cull makes before it plans: a clip-map mode whose reduction
+// the clip-map has ("mode"), the rays ("rays"), a finite eye ("eye").
 Status check_cull_inputs(const ClipmapReader& view, const ClipEye& eye, const ClipCullOptions& options);
 
 // Culls `footprints` (visibility::resolve_boxes over the clip-map's source)

@@ -19,6 +19,15 @@
 // read from the source itself (through the block cache), not from a level,
 // so a lagging level can never lower the eye.
 //
+// Modes. Fast and conservative sessions cull against their clip-map
+// (clip_cull.hpp). An exact session keeps no clip-map: each answer is R3's,
+// computed on the full-resolution source around the eye out to the boxes'
+// reach (visibility/plan.hpp, Algorithm::kExact, through the block cache:
+// it waits for the terrain it needs and never falls back). It costs what a
+// CullBoxes request of the same boxes costs; an answer whose plan needs more
+// than SessionOptions::exact_bytes of engine memory is refused
+// (kResourceExhausted "boxes") before anything is read.
+//
 // Boxes follow culling's rule (visibility/cull.hpp): a box whose footprint
 // meets a void (no terrain, so no answer) is visible, with ohf_min -inf;
 // whether it does is found when the box is added or moved: from its own
@@ -57,6 +66,7 @@
 #include "horizon/terrain/source.hpp"
 #include "horizon/terrain/source_pyramid.hpp"
 #include "horizon/visibility/cull.hpp"
+#include "horizon/visibility/plan.hpp"
 
 namespace horizon::clipmap {
 
@@ -69,6 +79,8 @@ struct SessionOptions {
   bool asynchronous = true;            // load on the session's loader thread
   std::size_t max_boxes = 100000;      // registered at once
   double curvature_coefficient = 0.85714;  // as visibility::ViewshedOptions
+  // Exact mode: the most engine memory one answer may take (visibility::Cost::bytes).
+  std::uint64_t exact_bytes = std::uint64_t{512} << 20;
 };
 
 struct SessionPose {
@@ -116,9 +128,9 @@ struct SessionAnswer {
 
 class ClipSession {
  public:
-  // Bytes one registered box holds: its entry, footprint, index slot, and its
-  // share of the trace's spans and the answer.
-  static constexpr std::uint64_t kBytesPerBox = 128;
+  // Bytes one registered box holds: its entry, box, footprint, index slot,
+  // and its share of the trace's spans and the answer.
+  static constexpr std::uint64_t kBytesPerBox = 200;
 
   // `pyramid` must be of `source`, factor 2, with the mode's reduction and
   // enough levels (pyramid_options_for(options.shape)). Errors name the
@@ -143,8 +155,8 @@ class ClipSession {
   Status remove_boxes(std::span<const std::uint64_t> ids);
 
   // What a session of these options over a width x height source holds
-  // (clip-map, trace scratch, `boxes` boxes), before it is opened; the
-  // shape's errors as open() would give them.
+  // (clip-map and trace scratch, or exact_bytes in exact mode; `boxes`
+  // boxes), before it is opened; the shape's errors as open() would give them.
   static Result<std::uint64_t> bytes_for(const SessionOptions& options, int width, int height, std::size_t boxes);
 
   Result<SessionAnswer> answer(const SessionPose& pose, const RunControl* control = nullptr);
@@ -160,6 +172,7 @@ class ClipSession {
   Result<std::vector<visibility::BoxFootprint>> resolve(std::span<const SessionBox> boxes, const char* list) const;
   Result<ClipEye> eye_for(const SessionPose& pose, ClipPose& clip) const;
   Result<bool> touches_void(const visibility::BoxFootprint& footprint) const;
+  Result<ClipCullResult> cull_exact(const SessionPose& pose, const RunControl* control);
 
   std::shared_ptr<const terrain::ElevationSource> source_;
   terrain::BlockCache* cache_ = nullptr;
@@ -172,6 +185,8 @@ class ClipSession {
   std::uint64_t answers_ = 0;
   std::vector<Entry> entries_;
   std::vector<visibility::BoxFootprint> footprints_;  // entries_' boxes, same order
+  std::vector<visibility::BoxSpec> specs_;            // and as the client gave them (exact mode plans from them)
+  visibility::Workspace workspace_;                    // exact mode's buffers between answers
   ClipCullScratch scratch_;
   std::unordered_map<std::uint64_t, std::size_t> index_;
 };
