@@ -14,9 +14,11 @@ namespace {
 constexpr double kNegInf = -std::numeric_limits<double>::infinity();
 constexpr std::size_t kBlockColumns = 32;  // neighbouring columns traced together, ring by ring
 
+}  // namespace
+
 // The CPU trace: ring by ring across a block of neighbouring columns (one
 // block a task), each column carrying its running maximum.
-Status trace_cpu(const detail::TracePlan& plan, const ClipmapReader& view, const ClipEye& eye,
+Status detail::trace_cpu(const detail::TracePlan& plan, const ClipmapReader& view, const ClipEye& eye,
                  const ClipCullOptions& options, const RunControl* control, ClipCullScratch& w) {
   const int rays = plan.rays;
   const double dtheta = plan.g.dtheta;
@@ -98,8 +100,6 @@ Status trace_cpu(const detail::TracePlan& plan, const ClipmapReader& view, const
   });
 }
 
-}  // namespace
-
 Status check_cull_inputs(const ClipmapReader& view, const ClipEye& eye, const ClipCullOptions& options) {
   if (options.mode == ClipMode::kExact)
     return make_error(ErrorCode::kInvalidArgument, "exact answers come from the source, not a clip-map", "mode");
@@ -126,7 +126,7 @@ Result<ClipCullResult> cull_on_clipmap(const ClipmapReader& view, const ClipEye&
   if (!planned.ok()) return planned.error();
   const detail::TracePlan& plan = *planned;
   detail::prepare_horizons(plan, w);
-  HORIZON_RETURN_IF_ERROR(trace_cpu(plan, view, eye, options, control, w));
+  HORIZON_RETURN_IF_ERROR(detail::trace_cpu(plan, view, eye, options, control, w));
   ClipCullResult result;
   HORIZON_RETURN_IF_ERROR(detail::test_boxes(plan, eye, footprints, options, control, w, result));
   result.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -56,6 +56,9 @@ double least_ohf(double eye, double h, double curvature, double lo, double hi) {
 
 }  // namespace
 
+// The ring table of plan.edges.
+void set_rings(TracePlan& plan, const ClipEye& eye);
+
 Geometry geometry_of(double cell, int rays, const ClipmapShape& shape) {
   // A level's origin is snapped to its sub-tile grid: its window reaches
   // n/2 - t cells from the clip centre at least.
@@ -98,6 +101,23 @@ Result<TracePlan> plan_trace(const ClipEye& eye, std::span<const visibility::Box
                           std::to_string(options.max_box_tests) +
                           "): some footprints span too many rays and rings; register smaller boxes or use fewer rays",
                       "boxes");
+  set_rings(plan, eye);
+  return plan;
+}
+
+TracePlan plan_reach(const ClipEye& eye, const ClipCullOptions& options, const ClipmapShape& shape, double reach,
+                     ClipCullScratch& w) {
+  TracePlan plan{geometry_of(std::min(eye.metres_per_col, eye.metres_per_row), options.rays, shape), options.rays,
+                 {}, {}, 0};
+  w.spans.clear();
+  w.reach.assign(static_cast<std::size_t>(options.rays), reach);
+  plan.edges = ring_edges(reach, plan.g.cell, options.rays, shape);
+  set_rings(plan, eye);
+  return plan;
+}
+
+void set_rings(TracePlan& plan, const ClipEye& eye) {
+  const auto& edges = plan.edges;
   plan.rings.resize(edges.size() > 0 ? edges.size() - 1 : 0);
   for (std::size_t j = 0; j < plan.rings.size(); ++j) {
     Ring& r = plan.rings[j];
@@ -112,7 +132,6 @@ Result<TracePlan> plan_trace(const ClipEye& eye, std::span<const visibility::Box
     r.mid_drop = eye.curvature * r.mid * r.mid;
     r.far_drop = eye.curvature * r.far * r.far;
   }
-  return plan;
 }
 
 void prepare_horizons(const TracePlan& plan, ClipCullScratch& w) {

@@ -59,6 +59,16 @@ struct TracePlan {
 Result<TracePlan> plan_trace(const ClipEye& eye, std::span<const visibility::BoxFootprint> footprints,
                              const ClipCullOptions& options, const ClipmapShape& shape, ClipCullScratch& scratch);
 
+// The plan of a trace whose every column runs out to `reach` metres (a
+// viewshed's): scratch.spans emptied, scratch.reach set.
+TracePlan plan_reach(const ClipEye& eye, const ClipCullOptions& options, const ClipmapShape& shape, double reach,
+                     ClipCullScratch& scratch);
+
+// The CPU trace of a plan (clip_cull.cpp): fills scratch.horizons, .traced
+// and .stats after prepare_horizons().
+Status trace_cpu(const TracePlan& plan, const ClipmapReader& view, const ClipEye& eye, const ClipCullOptions& options,
+                 const RunControl* control, ClipCullScratch& scratch);
+
 // The horizon slope of column a over the rings before ring j (j in
 // [0, traced[a]]), stored ring by ring.
 inline double& horizon_at(ClipCullScratch& w, int rays, std::size_t a, std::size_t j) {
