@@ -31,6 +31,7 @@ constexpr FlagSpec kFlags[] = {
     {"--absolute", "", "", "Pose heights are absolute altitudes (default: above the ground)"},
     {"--conservative", "", "", "Never report hidden a box R3 sees (min levels for occluders)"},
     {"--exact", "", "", "R3's answers from the full-resolution terrain at every pose (no clip-map; slow)"},
+    {"--viewshed-radius", "", "METRES", "Also count the cells seen and hidden within this distance at every pose"},
     {"--levels", "", "L", "Clip-map levels, 1..10 (default: the fewest that cover the dataset)"},
     {"--level-size", "", "N", "Samples per side of a level, a power of two in [64, 4096] (default 1024)"},
     {"--subtile", "", "T", "Sub-tile side, a power of two in [8, N/2] (default 64)"},
@@ -143,6 +144,7 @@ int run_embedded(const Args& args, SessionPlayback& playback, bool json, bool ev
       line.subtiles_loaded = answer->subtiles_loaded;
       line.bytes_loaded = answer->bytes_loaded;
       line.seconds = answer->seconds;
+      if (answer->viewshed) line.viewshed = {answer->viewshed->visible_cells, answer->viewshed->hidden_cells};
     }
     report.poses.push_back(line);
   }
@@ -174,6 +176,7 @@ int run_session(const Args& args) {
   o.shape.level_size = args.positive_integer("--level-size").value_or(1024);
   o.shape.subtile = args.positive_integer("--subtile").value_or(std::min(64, std::max(8, o.shape.level_size / 2)));
   o.rays = args.positive_integer("--rays").value_or(1024);
+  o.viewshed_radius = args.non_negative("--viewshed-radius").value_or(0.0);
   playback.rate_hz = args.non_negative("--rate").value_or(0.0);
   if (args.has("--rate") && !(playback.rate_hz > 0.0)) throw UsageError("--rate must be more than 0 poses a second");
   (void)source_options(args);
@@ -252,6 +255,7 @@ void print_session(const SessionPlayback& playback, const SessionReport& report,
         e["subtiles_loaded"] = p.subtiles_loaded;
         e["bytes_loaded"] = p.bytes_loaded;
         e["seconds"] = p.seconds;
+        if (p.viewshed) e["viewshed"] = {{"visible_cells", (*p.viewshed)[0]}, {"hidden_cells", (*p.viewshed)[1]}};
       }
       list.push_back(std::move(e));
     }
@@ -294,6 +298,9 @@ void print_session(const SessionPlayback& playback, const SessionReport& report,
     std::cout << p.changes << " changed, " << p.visible << " of " << p.boxes << " visible, "
               << fixed(p.seconds * 1e3, 2) << " ms, " << p.fallbacks << " fallbacks, " << p.subtiles_loaded
               << " sub-tiles loaded" << (p.dropped ? ", " + std::to_string(p.dropped) + " dropped before it" : "")
+              << (p.viewshed ? "; viewshed " + with_separators((*p.viewshed)[0]) + " cells seen, " +
+                                   with_separators((*p.viewshed)[1]) + " hidden"
+                             : "")
               << '\n';
   }
 }

@@ -2,7 +2,9 @@
 // session, embedded or on a daemon (--server), reported alike.
 #pragma once
 
+#include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,6 +30,8 @@ struct PoseLine {
   std::size_t changes = 0, boxes = 0, visible = 0;
   std::uint64_t samples = 0, fallbacks = 0, subtiles_loaded = 0, bytes_loaded = 0;
   double seconds = 0.0;  // the engine's time for it (the server's, with --server)
+  // With --viewshed-radius: cells within it {seen, hidden}.
+  std::optional<std::array<std::uint64_t, 2>> viewshed;
   std::string rejected;  // why, when the pose was rejected
 };
 

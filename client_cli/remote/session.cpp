@@ -41,6 +41,7 @@ PoseLine to_line(const v1::SessionResponse& r) {
   line.subtiles_loaded = a.subtiles_loaded();
   line.bytes_loaded = a.bytes_loaded();
   line.seconds = a.seconds();
+  if (a.has_viewshed()) line.viewshed = {a.viewshed().visible_cells(), a.viewshed().hidden_cells()};
   return line;
 }
 
@@ -60,6 +61,7 @@ int run_session(const Args& args, const SessionPlayback& playback, bool json, bo
               : o.mode == clipmap::ClipMode::kExact       ? v1::SESSION_MODE_EXACT
                                                           : v1::SESSION_MODE_FAST);
   m->set_rays(static_cast<std::uint32_t>(o.rays));
+  if (o.viewshed_radius > 0.0) m->set_viewshed_radius_m(o.viewshed_radius);
   *m->mutable_first_pose() = to_proto_pose(playback.poses.front());
   for (const clipmap::SessionBox& b : playback.boxes) {
     v1::SessionBox* out = m->add_boxes();

@@ -55,6 +55,7 @@ Result<clipmap::SessionOptions> to_session_options(const v1::OpenSession& open, 
   o.threads = threads;
   o.max_boxes = config.max_boxes;
   o.exact_bytes = std::uint64_t{config.exact_mb} << 20;
+  if (open.has_viewshed_radius_m()) o.viewshed_radius = open.viewshed_radius_m();  // checked by the engine
   return o;
 }
 
@@ -128,6 +129,16 @@ void fill_answer(const clipmap::SessionAnswer& a, std::uint64_t dropped, v1::Pos
   out.set_bytes_loaded(a.bytes_loaded);
   out.set_seconds(a.seconds);
   if (a.loader_error) out.set_loader_error(a.loader_error->message);
+  if (a.viewshed) {
+    v1::PoseViewshed* v = out.mutable_viewshed();
+    v->set_visible_cells(a.viewshed->visible_cells);
+    v->set_hidden_cells(a.viewshed->hidden_cells);
+    v->set_col0(a.viewshed->window.col0);
+    v->set_row0(a.viewshed->window.row0);
+    v->set_width(static_cast<std::uint32_t>(a.viewshed->window.width()));
+    v->set_height(static_cast<std::uint32_t>(a.viewshed->window.height()));
+    v->set_seconds(a.viewshed->seconds);
+  }
 }
 
 }  // namespace horizon::server

@@ -90,6 +90,42 @@ TEST(CliSession, AnExactFlightCountsWhatExactCullingCountsAtEveryPose) {
   EXPECT_NE(both.output.find("--conservative or --exact"), std::string::npos) << both.output;
 }
 
+TEST(CliSession, PerPoseViewshedsCountWhatTheViewshedCommandCounts) {
+  Flight f;
+  for (const char* mode : {"--exact", "--conservative"}) {
+    const CommandResult r = horizon({"session", f.dem, "--path", f.poses, "--boxes", f.boxes, "--lonlat", "--absolute",
+                                     "--level-size", "64", "--subtile", "16", mode, "--viewshed-radius", "6000",
+                                     "--json"});
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const Json j = Json::parse(r.output);
+    for (int i = 0; i < 12; i += 6) {
+      const Json& v = j["poses"][static_cast<std::size_t>(i)]["viewshed"];
+      TempDir out;
+      const CommandResult exact =
+          horizon({"viewshed", f.dem, "--lon", std::to_string(-121.86 + i * 0.01), "--lat", "46.8529", "--altitude",
+                   "3500", "--max-distance", "6000", "--algorithm", "exact", "--json", "-o", out.file("v.tif")});
+      ASSERT_EQ(exact.exit_code, 0) << exact.output;
+      const Json e = Json::parse(exact.output);
+      EXPECT_GT(e["hidden_cells"].get<int>(), 100) << "the terrain hides something";
+      const int cells = e["visible_cells"].get<int>() + e["hidden_cells"].get<int>();
+      if (std::string(mode) == "--exact") {
+        EXPECT_EQ(v["visible_cells"], e["visible_cells"]) << "pose " << i + 1;
+        EXPECT_EQ(v["hidden_cells"], e["hidden_cells"]) << "pose " << i + 1;
+      } else {
+        // The clip-map measures the radius with the eye's cell size (flat), the viewshed along the
+        // geographic grid's rows: on this lon/lat DEM their discs differ by a few per cent.
+        const int got = v["visible_cells"].get<int>() + v["hidden_cells"].get<int>();
+        EXPECT_NEAR(got, cells, cells * 0.06) << "pose " << i + 1;
+        EXPECT_LE(v["hidden_cells"].get<int>(), e["hidden_cells"].get<int>() + cells * 0.06) << "pose " << i + 1;
+      }
+    }
+  }
+  const CommandResult bad = horizon({"session", f.dem, "--path", f.poses, "--boxes", f.boxes, "--lonlat",
+                                     "--absolute", "--viewshed-radius", "-3"});
+  EXPECT_EQ(bad.exit_code, 2) << bad.output;
+  EXPECT_NE(bad.output.find("--viewshed-radius"), std::string::npos) << bad.output;
+}
+
 TEST(CliSession, WrongFilesAndShapesAreUsageErrorsNamingTheLineOrFlag) {
   Flight f;
   {

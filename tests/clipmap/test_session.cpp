@@ -6,6 +6,7 @@
 // session answers every pose while its loader follows.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <map>
 #include <random>
@@ -196,6 +197,69 @@ TEST(ClipSession, AnExactSessionAnswersEveryBoxAsR3DoesAndBoundsItsMemory) {
   ASSERT_FALSE(refused.ok());
   EXPECT_EQ(refused.error().code, ErrorCode::kResourceExhausted);
   EXPECT_EQ(refused.error().field, "boxes");
+}
+
+// The session's viewshed mask against R3 at every cell it answers: {cells, false hidden, false visible}.
+std::array<std::size_t, 3> against_r3(const ClipWorld& w, const SessionAnswer& answer, double col, double row) {
+  visibility::ViewshedOptions vo;
+  vo.max_distance = std::numeric_limits<double>::infinity();
+  geodesy::GridPoint eye;
+  eye.col = col;
+  eye.row = row;
+  eye.x = x_of(w, col);
+  eye.y = y_of(w, row);
+  eye.elevation = answer.eye_elevation;
+  auto frame = visibility::make_view_frame(w.dem, eye, vo);
+  EXPECT_TRUE(frame.ok());
+  const terrain::HeightView z(w.dem.elevation);
+  std::array<std::size_t, 3> out{};
+  const ViewshedSummary& v = *answer.viewshed;
+  for (int r = v.window.row0; r < v.window.row1; ++r)
+    for (int c = v.window.col0; c < v.window.col1; ++c) {
+      const std::uint8_t code = v.mask.at(c - v.window.col0, r - v.window.row0);
+      if (code == visibility::kNoAnswer) continue;
+      const bool r3 =
+          visibility::min_target_height_at(visibility::r3_ohf_at(z, *frame, c, r), w.dem.elevation.at(c, r)) <= 0.0f;
+      ++out[0];
+      out[1] += r3 && code == visibility::kHidden;
+      out[2] += !r3 && code == visibility::kVisible;
+    }
+  return out;
+}
+
+TEST(ClipSession, EachAnswerCarriesAViewshedConservativeNeverHidingWhatR3SeesAndExactEqualToIt) {
+  ClipWorld world;
+  for (ClipMode mode : {ClipMode::kConservative, ClipMode::kExact}) {
+    SessionOptions options = options_for(mode, false);
+    options.viewshed_radius = 1500.0;  // 50 cells
+    auto session = ClipSession::open(world.source, world.cache, pyramid_for(world, ClipMode::kConservative), options,
+                                     pose_at(world, 200.0, 300.0, 1));
+    ASSERT_TRUE(session.ok()) << session.error().message;
+    std::size_t hidden = 0, all = 0;
+    for (int step = 0; step < 3; ++step) {
+      const double col = 200.0 + step * 150.0, row = 300.0 + step * 40.0;
+      auto answer = (*session)->answer(pose_at(world, col, row, static_cast<std::uint64_t>(step + 1)));
+      ASSERT_TRUE(answer.ok()) << answer.error().message;
+      ASSERT_TRUE(answer->viewshed.has_value());
+      const auto [cells, false_hidden, false_visible] = against_r3(world, *answer, col, row);
+      EXPECT_GT(cells, 7000u) << "about pi 50² cells";
+      EXPECT_EQ(answer->viewshed->visible_cells + answer->viewshed->hidden_cells, cells);
+      hidden += answer->viewshed->hidden_cells;
+      all += cells;
+      EXPECT_EQ(false_hidden, 0u) << mode_name(mode) << " at step " << step;
+      if (mode == ClipMode::kExact) {
+        EXPECT_EQ(false_visible, 0u) << "exact is R3 at step " << step;
+      }
+    }
+    // R3 hides a third or more of these cells; the conservative bound finds some of them.
+    EXPECT_GT(hidden, mode == ClipMode::kExact ? all / 3 : all / 50) << mode_name(mode);
+  }
+  SessionOptions bad = options_for(ClipMode::kFast, false);
+  bad.viewshed_radius = -1.0;
+  auto refused = ClipSession::open(world.source, world.cache, pyramid_for(world, ClipMode::kFast), bad,
+                                   pose_at(world, 200.0, 300.0, 1));
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().field, "viewshed_radius");
 }
 
 TEST(ClipSession, BoxBatchesChangeNothingWhenAnyEntryIsWrong) {

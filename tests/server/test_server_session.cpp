@@ -173,7 +173,9 @@ TEST(ServerSession, AnExactSessionAnswersAsExactCullingDoes) {
   ASSERT_TRUE(daemon.ready()) << daemon.error();
   const auto start = boxes(80, 1, 3);
   Session s(daemon);
-  ASSERT_TRUE(s.stream->Write(open_request(start, v1::SESSION_MODE_EXACT)));
+  v1::SessionRequest open = open_request(start, v1::SESSION_MODE_EXACT);
+  open.mutable_open()->set_viewshed_radius_m(5000.0);
+  ASSERT_TRUE(s.stream->Write(open));
   const v1::SessionResponse opened = s.read();
   ASSERT_TRUE(opened.has_opened()) << opened.DebugString() << s.close().error_message();
   EXPECT_GE(opened.opened().memory_bytes(), 64u << 20) << "sessions.exact_mb reserved";
@@ -189,6 +191,10 @@ TEST(ServerSession, AnExactSessionAnswersAsExactCullingDoes) {
     ASSERT_TRUE(answer.has_answer()) << answer.DebugString();
     EXPECT_EQ(answer.answer().seq(), static_cast<std::uint64_t>(step + 1));
     EXPECT_EQ(answer.answer().levels_size(), 0) << "no clip-map";
+    const v1::PoseViewshed& seen = answer.answer().viewshed();
+    EXPECT_GT(seen.visible_cells(), 1000u);
+    EXPECT_GT(seen.hidden_cells(), 0u);
+    EXPECT_LE(seen.visible_cells() + seen.hidden_cells(), std::uint64_t{seen.width()} * seen.height());
     for (const auto& c : answer.answer().changes()) told[c.id()] = c.state();
     v1::CullBoxesRequest request;
     request.set_dataset("rainier");

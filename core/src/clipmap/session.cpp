@@ -75,11 +75,16 @@ Result<std::uint64_t> scratch_bytes(const SessionOptions& options, int width, in
 }  // namespace
 
 Result<std::uint64_t> ClipSession::bytes_for(const SessionOptions& options, int width, int height, std::size_t boxes) {
-  if (options.mode == ClipMode::kExact) return options.exact_bytes + boxes * kBytesPerBox;
+  if (!(options.viewshed_radius >= 0.0) || !std::isfinite(options.viewshed_radius))
+    return make_error(ErrorCode::kInvalidArgument, "viewshed_radius must be a number of metres >= 0 (0: none)",
+                      "viewshed_radius");
+  // A pose's viewshed mask: at most ClipViewshed::kMaxCells bytes (a larger one is refused when answered).
+  const std::uint64_t mask = options.viewshed_radius > 0.0 ? ClipViewshed::kMaxCells : 0;
+  if (options.mode == ClipMode::kExact) return options.exact_bytes + mask + boxes * kBytesPerBox;
   HORIZON_RETURN_IF_ERROR(Clipmap::check(width, height, options.shape));
   auto scratch = scratch_bytes(options, width, height);
   if (!scratch.ok()) return scratch.error();
-  return Clipmap::bytes_for(width, height, options.shape) + *scratch + boxes * kBytesPerBox;
+  return Clipmap::bytes_for(width, height, options.shape) + *scratch + mask + boxes * kBytesPerBox;
 }
 
 std::uint64_t ClipSession::bytes() const {
@@ -277,6 +282,39 @@ Result<ClipCullResult> ClipSession::cull_exact(const SessionPose& pose, const Ru
   return out;
 }
 
+Result<ViewshedSummary> ClipSession::viewshed_exact(const SessionPose& pose, const RunControl* control) {
+  const auto start = std::chrono::steady_clock::now();
+  visibility::ViewshedQuery query{pose.position, {}};
+  query.options.algorithm = visibility::Algorithm::kExact;
+  query.options.max_distance = options_.viewshed_radius;
+  query.options.curvature_coefficient = options_.curvature_coefficient;
+  query.options.threads = options_.threads;
+  auto plan = visibility::plan_viewshed(*source_, query);
+  if (!plan.ok()) return plan.error();
+  if (plan->cost.bytes > options_.exact_bytes || plan->cost.cells > ClipViewshed::kMaxCells)
+    return make_error(ErrorCode::kResourceExhausted,
+                      "an exact viewshed of " + number_text(options_.viewshed_radius) + " m needs " +
+                          std::to_string(plan->cost.bytes >> 20) + " MiB of working memory and " +
+                          std::to_string(plan->cost.cells) + " cells, more than the session's " +
+                          std::to_string(options_.exact_bytes >> 20) + " MiB or " +
+                          std::to_string(ClipViewshed::kMaxCells) + " cells",
+                      "viewshed_radius");
+  auto run = visibility::run_viewshed(*plan, *source_, cache_, control, nullptr, nullptr, &workspace_);
+  if (!run.ok()) return run.error();
+  ViewshedSummary out;
+  out.window = run->window;
+  out.mask = visibility::visibility_mask(run->result, 0.0);
+  for (int r = 0; r < out.mask.height(); ++r)
+    for (int c = 0; c < out.mask.width(); ++c) {
+      out.visible_cells += out.mask.at(c, r) == visibility::kVisible;
+      out.hidden_cells += out.mask.at(c, r) == visibility::kHidden;
+    }
+  workspace_.recycle(std::move(run->result));
+  workspace_.trim();
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return out;
+}
+
 Result<SessionAnswer> ClipSession::answer(const SessionPose& pose, const RunControl* control) {
   const auto start = std::chrono::steady_clock::now();
   ClipPose clip;
@@ -318,6 +356,24 @@ Result<SessionAnswer> ClipSession::answer(const SessionPose& pose, const RunCont
     culled = cull_on_clipmap(view, *eye, footprints_, cull, control, &scratch_);
   }
   if (!culled.ok()) return culled.error();
+  if (options_.viewshed_radius > 0.0) {
+    if (options_.mode == ClipMode::kExact) {
+      auto seen = viewshed_exact(pose, control);
+      if (!seen.ok()) return seen.error();
+      out.viewshed = std::move(*seen);
+    } else {
+      ClipmapReader view(*map_);
+      ClipViewshedOptions vo;
+      vo.mode = options_.mode;
+      vo.rays = options_.rays;
+      vo.threads = options_.threads;
+      vo.radius = options_.viewshed_radius;
+      auto seen = viewshed_on_clipmap(view, *eye, vo, control, &scratch_);
+      if (!seen.ok()) return seen.error();
+      out.viewshed = ViewshedSummary{seen->window, std::move(seen->mask), seen->visible_cells, seen->hidden_cells,
+                                     seen->stats.seconds};
+    }
+  }
   for (std::size_t i = 0; i < entries_.size(); ++i) {
     Entry& e = entries_[i];
     visibility::BoxVisibility& b = culled->boxes[i];

@@ -35,6 +35,11 @@
 // conservative mode (which may also count a void just beside it; fast mode
 // does not check such a footprint).
 //
+// Viewsheds. With SessionOptions::viewshed_radius, each answer also says
+// which cells within that radius of the eye are seen (clip_viewshed.hpp on
+// the same snapshot; R3's in exact mode), counted and as a mask; its cells
+// are bounded (ClipViewshed::kMaxCells) and held in the session's memory.
+//
 // Answers. The first answer, and the first after a box is added or moved,
 // reports that box; after that only boxes whose visibility changed are
 // reported. Each answer says which pose it answers, each level's version and
@@ -60,6 +65,7 @@
 #include <vector>
 
 #include "horizon/clipmap/clip_cull.hpp"
+#include "horizon/clipmap/clip_viewshed.hpp"
 #include "horizon/clipmap/clipmap.hpp"
 #include "horizon/clipmap/clipmap_updater.hpp"
 #include "horizon/geodesy/observer.hpp"
@@ -79,6 +85,9 @@ struct SessionOptions {
   bool asynchronous = true;            // load on the session's loader thread
   std::size_t max_boxes = 100000;      // registered at once
   double curvature_coefficient = 0.85714;  // as visibility::ViewshedOptions
+  // A viewshed summary with every answer: the cells within this many metres
+  // of the eye seen and hidden (clip_viewshed.hpp; exact mode: R3's). 0: none.
+  double viewshed_radius = 0.0;
   // Exact mode: the most engine memory one answer may take (visibility::Cost::bytes).
   std::uint64_t exact_bytes = std::uint64_t{512} << 20;
 };
@@ -107,6 +116,15 @@ struct BoxChange {
   float ohf_min = 0.0f;
 };
 
+// The cells within SessionOptions::viewshed_radius of the eye, from the
+// same snapshot (or, exact mode, the same source) as the boxes' answer.
+struct ViewshedSummary {
+  terrain::Window window;  // source cells of `mask`
+  terrain::Grid<std::uint8_t> mask;  // visibility::kVisible / kHidden / kNoAnswer (beyond the radius, voids)
+  std::uint64_t visible_cells = 0, hidden_cells = 0;
+  double seconds = 0.0;
+};
+
 struct LevelReport {
   LevelState state;
   std::uint64_t staleness = 0;  // answers since the level was last published
@@ -123,6 +141,7 @@ struct SessionAnswer {
   // Asynchronous loading: the last read the loader could not make (a missing
   // or corrupt tile). The answer still stands, on the levels resident.
   std::optional<Error> loader_error;
+  std::optional<ViewshedSummary> viewshed;  // with SessionOptions::viewshed_radius
   double seconds = 0.0;
 };
 
@@ -173,6 +192,7 @@ class ClipSession {
   Result<ClipEye> eye_for(const SessionPose& pose, ClipPose& clip) const;
   Result<bool> touches_void(const visibility::BoxFootprint& footprint) const;
   Result<ClipCullResult> cull_exact(const SessionPose& pose, const RunControl* control);
+  Result<ViewshedSummary> viewshed_exact(const SessionPose& pose, const RunControl* control);
 
   std::shared_ptr<const terrain::ElevationSource> source_;
   terrain::BlockCache* cache_ = nullptr;
