@@ -19,7 +19,10 @@
 // with exact culling (R3's OHF, bit for bit) of the same boxes: false hidden
 // (R3 sees it, reported hidden) and false visible. Prints one line per
 // baseline: per-pose time p50 / p99 / max, the poses late for their slot,
-// sub-tiles and bytes loaded per pose, fallbacks.
+// sub-tiles and bytes loaded per pose, fallbacks. --viewshed-radius M adds a
+// viewshed of the cells within M metres to every answer (timed with it); with
+// --accuracy its mask is compared with exact's (run_viewshed, Algorithm::kExact)
+// on the cells both answer: IoU of the visible sets, false hidden and visible.
 //
 // Options: --mode fast|conservative, --levels L --level-size N --subtile T
 // (default 0 = enough to cover, 1024, 64), --rays R (1024), --threads N culling threads a session
@@ -53,7 +56,7 @@ namespace {
 
 struct Options {
   std::string dem, baseline = "session", mode = "fast";
-  double x = 0, y = 0, speed = 250, height = 100, rate = 60, radius = 10000;
+  double x = 0, y = 0, speed = 250, height = 100, rate = 60, radius = 10000, viewshed_radius = 0;
   int poses = 600, boxes = 10000, sessions = 1, accuracy = 0;
   int levels = 0, level_size = 1024, subtile = 64, rays = 1024, cache_mb = 256, threads = 1;
 };
@@ -79,6 +82,7 @@ Options parse(int argc, char** argv) {
     else if (flag == "--height") o.height = num();
     else if (flag == "--rate") o.rate = num();
     else if (flag == "--radius") o.radius = num();
+    else if (flag == "--viewshed-radius") o.viewshed_radius = num();
     else if (flag == "--poses") o.poses = static_cast<int>(num());
     else if (flag == "--boxes") o.boxes = static_cast<int>(num());
     else if (flag == "--sessions") o.sessions = static_cast<int>(num());
@@ -138,6 +142,8 @@ struct Timing {
   std::uint64_t late = 0, subtiles = 0, bytes = 0, samples = 0, fallbacks = 0, answers = 0, rings = 0, tests = 0;
   double cull_seconds = 0;
   std::uint64_t false_hidden = 0, false_visible = 0, checked = 0;
+  std::uint64_t cells = 0, cells_false_hidden = 0, cells_false_visible = 0, cells_both = 0, cells_either = 0;
+  double viewshed_seconds = 0;
   std::mutex mutex;
 };
 
@@ -158,6 +164,33 @@ std::vector<bool> exact_states(const terrain::ElevationSource& source, terrain::
   return out;
 }
 
+// The session's viewshed mask against exact's from the same pose, on the cells both answer.
+void compare_viewshed(const Options& o, const terrain::ElevationSource& source, terrain::BlockCache& cache,
+                      const clipmap::SessionPose& pose, const clipmap::ViewshedSummary& ours, Timing& timing) {
+  visibility::ViewshedQuery q{pose.position, {}};
+  q.options.algorithm = visibility::Algorithm::kExact;
+  q.options.max_distance = o.viewshed_radius;
+  q.options.threads = 0;
+  auto plan = visibility::plan_viewshed(source, q);
+  if (!plan.ok()) usage(plan.error().message.c_str());
+  auto run = visibility::run_viewshed(*plan, source, &cache);
+  if (!run.ok()) usage(run.error().message.c_str());
+  const terrain::Grid<std::uint8_t> exact = visibility::visibility_mask(run->result, 0.0);
+  for (int r = 0; r < exact.height(); ++r)
+    for (int c = 0; c < exact.width(); ++c) {
+      const int col = run->window.col0 + c - ours.window.col0, row = run->window.row0 + r - ours.window.row0;
+      if (col < 0 || row < 0 || col >= ours.mask.width() || row >= ours.mask.height()) continue;
+      const std::uint8_t a = exact.at(c, r), b = ours.mask.at(col, row);
+      if (a == visibility::kNoAnswer || b == visibility::kNoAnswer) continue;
+      const bool e = a == visibility::kVisible, s = b == visibility::kVisible;
+      ++timing.cells;
+      timing.cells_false_hidden += e && !s;
+      timing.cells_false_visible += !e && s;
+      timing.cells_both += e && s;
+      timing.cells_either += e || s;
+    }
+}
+
 void fly_session(const Options& o, const std::shared_ptr<const terrain::ElevationSource>& source,
                  terrain::BlockCache& cache, const std::shared_ptr<const terrain::SourcePyramid>& pyramid,
                  unsigned seed, Timing& timing) {
@@ -170,6 +203,7 @@ void fly_session(const Options& o, const std::shared_ptr<const terrain::Elevatio
   so.rays = o.rays;
   so.threads = static_cast<unsigned>(o.threads);
   so.asynchronous = o.baseline == "session";
+  so.viewshed_radius = o.viewshed_radius;
   if (o.baseline == "sync-all") so.updater.every.assign(static_cast<std::size_t>(so.shape.levels), 1);
   auto session = clipmap::ClipSession::open(source, cache, pyramid, so, pose_at(o, 0));
   if (!session.ok()) usage(session.error().message.c_str());
@@ -194,6 +228,7 @@ void fly_session(const Options& o, const std::shared_ptr<const terrain::Elevatio
     timing.rings += answer->cull.rings;
     timing.tests += answer->cull.box_tests;
     timing.cull_seconds += answer->cull.seconds;
+    if (answer->viewshed) timing.viewshed_seconds += answer->viewshed->seconds;
     ++timing.answers;
     if (o.accuracy > 0 && i % o.accuracy == 0 && seed == 1) {
       const std::vector<bool> exact = exact_states(*source, cache, pose_at(o, i), boxes);
@@ -203,6 +238,7 @@ void fly_session(const Options& o, const std::shared_ptr<const terrain::Elevatio
         timing.false_visible += !exact[b] && ours;
         ++timing.checked;
       }
+      if (answer->viewshed) compare_viewshed(o, *source, cache, pose_at(o, i), *answer->viewshed, timing);
     }
   }
 }
@@ -284,6 +320,13 @@ int main(int argc, char** argv) {
                 static_cast<unsigned long long>(timing.false_hidden), static_cast<unsigned long long>(timing.false_visible),
                 static_cast<unsigned long long>(timing.checked),
                 100.0 * (1.0 - static_cast<double>(timing.false_hidden + timing.false_visible) / static_cast<double>(timing.checked)));
+  if (o.viewshed_radius > 0) std::printf("; viewshed %.2f ms a pose", timing.viewshed_seconds / n * 1e3);
+  if (timing.cells)
+    std::printf("; viewshed vs exact: IoU %.4f, %.3f %% false hidden, %.3f %% false visible of %llu cells",
+                static_cast<double>(timing.cells_both) / static_cast<double>(std::max<std::uint64_t>(timing.cells_either, 1)),
+                100.0 * static_cast<double>(timing.cells_false_hidden) / static_cast<double>(timing.cells),
+                100.0 * static_cast<double>(timing.cells_false_visible) / static_cast<double>(timing.cells),
+                static_cast<unsigned long long>(timing.cells));
   std::printf("\n");
   return 0;
 }

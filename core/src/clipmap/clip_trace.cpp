@@ -23,24 +23,35 @@ BoxSpan span_of(const visibility::BoxFootprint& box, const ClipEye& eye, const G
     s.eye_inside = true;
     return s;
   }
-  auto mx = [&](double c) { return (c - eye.col) * eye.metres_per_col; };
-  auto my = [&](double r) { return (r - eye.row) * eye.metres_per_row; };
-  const double nx = mx(std::clamp(eye.col, c0, c1)), ny = my(std::clamp(eye.row, r0, r1));
-  s.near = std::hypot(nx, ny);
-  const double centre = std::atan2(my((r0 + r1) / 2), mx((c0 + c1) / 2));
-  double lo = 0.0, hi = 0.0;
-  for (double c : {c0, c1})
-    for (double r : {r0, r1}) {
-      s.far = std::max(s.far, std::hypot(mx(c), my(r)));
-      double delta = std::atan2(my(r), mx(c)) - centre;
-      if (delta > std::numbers::pi) delta -= kTwoPi;
-      if (delta < -std::numbers::pi) delta += kTwoPi;
-      lo = std::min(lo, delta);
-      hi = std::max(hi, delta);
-    }
-  s.a0 = static_cast<long>(std::floor((centre + lo) / g.dtheta));
-  s.a1 = mode == ClipMode::kFast ? static_cast<long>(std::ceil((centre + hi) / g.dtheta))
-                                 : static_cast<long>(std::floor((centre + hi) / g.dtheta));
+  const double x0 = (c0 - eye.col) * eye.metres_per_col, x1 = (c1 - eye.col) * eye.metres_per_col;
+  const double y0 = (r0 - eye.row) * eye.metres_per_row, y1 = (r1 - eye.row) * eye.metres_per_row;
+  const double nx = x0 > 0.0 ? x0 : x1 < 0.0 ? x1 : 0.0, ny = y0 > 0.0 ? y0 : y1 < 0.0 ? y1 : 0.0;
+  s.near = std::sqrt(nx * nx + ny * ny);
+  const double fx = std::max(x0 * x0, x1 * x1), fy = std::max(y0 * y0, y1 * y1);
+  s.far = std::sqrt(fx + fy);
+  // The two corners on the rectangle's silhouette from the eye, from which
+  // side of the box the eye is on (sx, sy: the box's side of the eye).
+  const int sx = x0 > 0.0 ? 1 : x1 < 0.0 ? -1 : 0, sy = y0 > 0.0 ? 1 : y1 < 0.0 ? -1 : 0;
+  double ax, ay, bx, by;
+  if (sy == 0) {  // level with the box: its near edge
+    ax = bx = sx > 0 ? x0 : x1;
+    ay = y0, by = y1;
+  } else if (sx == 0) {
+    ay = by = sy > 0 ? y0 : y1;
+    ax = x0, bx = x1;
+  } else if (sx == sy) {  // diagonally off a corner: the other diagonal's corners
+    ax = x1, ay = y0, bx = x0, by = y1;
+  } else {
+    ax = x0, ay = y0, bx = x1, by = y1;
+  }
+  const double ta = std::atan2(ay, ax);
+  double span = std::atan2(by, bx) - ta;
+  if (span > std::numbers::pi) span -= kTwoPi;
+  if (span < -std::numbers::pi) span += kTwoPi;
+  const double lo = span < 0.0 ? ta + span : ta, hi = span < 0.0 ? ta : ta + span;
+  s.a0 = static_cast<long>(std::floor(lo / g.dtheta));
+  s.a1 = mode == ClipMode::kFast ? static_cast<long>(std::ceil(hi / g.dtheta))
+                                 : static_cast<long>(std::floor(hi / g.dtheta));
   return s;
 }
 
