@@ -16,7 +16,8 @@
 // i 2^k + (2^k - 1) / 2. Each level is a torus of (n/t) x (n/t) sub-tiles of
 // t x t samples (t = subtile) with an origin of its own, a multiple of t in
 // level cells: the level covers level cells [origin, origin + n) per axis,
-// and level cell (i, j) lives in slot (i mod n, j mod n), so moving the
+// and level cell (i, j) lives in slot (i mod n, j mod n) (stored in 4 x 4
+// bricks, one cache line each: sample_index()), so moving the
 // origin by one sub-tile makes room for exactly the newly revealed sub-tiles
 // and nothing resident moves. A level with n >= its width and height is a
 // full-extent level: origin (0, 0) for good, always complete once loaded.
@@ -156,6 +157,14 @@ class Clipmap {
 
   Clipmap(int width, int height, const ClipmapShape& shape);
   int slot_of(int tx, int ty) const { return (ty & (tiles_ - 1)) * tiles_ + (tx & (tiles_ - 1)); }
+  // Where level cell (i, j) lives in a level's samples: toroidal (i, j mod n)
+  // and in 4 x 4 bricks of 64 bytes, so that a bilinear sample's four cells
+  // and a ray's next ones mostly share a cache line.
+  std::size_t sample_index(int i, int j) const {
+    const unsigned mask = static_cast<unsigned>(shape_.level_size - 1);
+    const unsigned u = static_cast<unsigned>(i) & mask, v = static_cast<unsigned>(j) & mask;
+    return (static_cast<std::size_t>(v >> 2) << (log_n_ + 2)) + ((u >> 2) << 4) + ((v & 3u) << 2) + (u & 3u);
+  }
   bool in_window(const LevelOrigin& o, int tx, int ty) const;
   bool resident(int k, int tx, int ty) const;  // caller holds a lock
   bool inside_source(int k, int tx, int ty) const;
