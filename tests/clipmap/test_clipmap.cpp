@@ -191,7 +191,7 @@ TEST(Clipmap, SamplingManyPointsAtOnceEqualsSamplingEachBitForBit) {
   ClipmapUpdater updater = world.updater(map);
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> cols(-20.0, kWidth + 20.0), rows(-20.0, kHeight + 20.0);
-  std::uint64_t fast_levels = 0, partial_levels = 0, fallbacks = 0;
+  std::uint64_t fast_levels = 0, partial_levels = 0, fallbacks = 0, lowest_checked = 0;
   for (int step = 0; step < 24; ++step) {
     const double col = cols(rng), row = rows(rng);
     if (step % 3 == 2) {
@@ -222,6 +222,26 @@ TEST(Clipmap, SamplingManyPointsAtOnceEqualsSamplingEachBitForBit) {
       EXPECT_EQ(many_stats.samples, each_stats.samples);
       EXPECT_EQ(many_stats.fallbacks, each_stats.fallbacks);
       fallbacks += many_stats.fallbacks;
+      // lowest() over small rectangles inside a complete level's window: the least reference cell.
+      const LevelState state = view.level(k);
+      if (state.resident_subtiles == window_tiles(*map, k, state.origin).size()) {
+        const Grid<float>& ref = world.levels[static_cast<std::size_t>(k)];
+        for (int i = 0; i < 200; ++i) {
+          const int c0 = static_cast<int>(near_x(rng)), r0 = static_cast<int>(near_y(rng));
+          const int c1 = c0 + static_cast<int>(rng() % 9), r1 = r0 + static_cast<int>(rng() % 9);
+          const int i0 = std::max(c0, 0) >> k, i1 = std::min(c1, kWidth - 1) >> k;
+          const int j0 = std::max(r0, 0) >> k, j1 = std::min(r1, kHeight - 1) >> k;
+          const int n = map->shape().level_size;
+          if (c1 < 0 || r1 < 0 || c0 >= kWidth || r0 >= kHeight || i0 < state.origin.col0 || i1 >= state.origin.col0 + n ||
+              j0 < state.origin.row0 || j1 >= state.origin.row0 + n)
+            continue;
+          float want = std::numeric_limits<float>::infinity();
+          for (int j = j0; j <= j1; ++j)
+            for (int ii = i0; ii <= i1; ++ii) want = std::min(want, ref.at(ii, j));
+          ASSERT_EQ(view.lowest(k, c0, r0, c1, r1, many_stats), want) << "level " << k << " at " << c0 << ", " << r0;
+          ++lowest_checked;
+        }
+      }
       (view.level(k).resident_subtiles == window_tiles(*map, k, view.level(k).origin).size() ? fast_levels
                                                                                              : partial_levels)++;
     }
@@ -230,6 +250,7 @@ TEST(Clipmap, SamplingManyPointsAtOnceEqualsSamplingEachBitForBit) {
   EXPECT_GT(fast_levels, 20u);
   EXPECT_GT(partial_levels, 8u);
   EXPECT_GT(fallbacks, 1000u);
+  EXPECT_GT(lowest_checked, 1000u);
 }
 
 TEST(Clipmap, LevelsFollowTheirOwnSchedules) {

@@ -307,6 +307,24 @@ float ClipmapReader::lowest(int k, int col0, int row0, int col1, int row1, Sampl
   col1 = std::min(col1, map_.width_ - 1);
   row1 = std::min(row1, map_.height_ - 1);
   if (col0 > col1 || row0 > row1) return std::numeric_limits<float>::infinity();
+  {
+    // Level k complete and the rectangle's cells inside its window: all
+    // resident, and validity there is k or finer, so no look-ups.
+    const Clipmap::Level& level = map_.levels_[static_cast<std::size_t>(k)];
+    const int i0 = col0 >> k, i1 = col1 >> k, j0 = row0 >> k, j1 = row1 >> k, n = map_.shape_.level_size;
+    if (level.complete && i0 >= level.origin.col0 && i1 < level.origin.col0 + n && j0 >= level.origin.row0 &&
+        j1 < level.origin.row0 + n) {
+      const float* cells = level.samples.data();
+      float least = std::numeric_limits<float>::infinity();
+      for (int j = j0; j <= j1; ++j)
+        for (int i = i0; i <= i1; ++i) {
+          const float z = cells[map_.sample_index(i, j)];
+          if (z != z) return -std::numeric_limits<float>::infinity();
+          least = std::min(least, z);
+        }
+      return least;
+    }
+  }
   int start = std::max({level_for(k, col0, row0), level_for(k, col1, row0), level_for(k, col0, row1),
                         level_for(k, col1, row1)});
   for (int kk = start; kk < map_.shape_.levels; ++kk) {
