@@ -83,6 +83,19 @@ std::shared_ptr<const terrain::SourcePyramid> pyramid_for(const ClipWorld& w, Cl
   return *made;
 }
 
+// R3's frame for an eye at (col, row), `elevation` metres absolute, with no distance limit.
+Result<visibility::ViewFrame> frame_at(const ClipWorld& w, double col, double row, double elevation) {
+  visibility::ViewshedOptions vo;
+  vo.max_distance = std::numeric_limits<double>::infinity();
+  geodesy::GridPoint eye;
+  eye.col = col;
+  eye.row = row;
+  eye.x = x_of(w, col);
+  eye.y = y_of(w, row);
+  eye.elevation = elevation;
+  return visibility::make_view_frame(w.dem, eye, vo);
+}
+
 // R3's answer for a box at cells [c0, c1] x [r0, r1] from the eye of `answer`.
 bool r3_sees(const ClipWorld& w, const visibility::ViewFrame& frame, const visibility::BoxFootprint& f) {
   const terrain::HeightView z(w.dem.elevation);
@@ -123,15 +136,7 @@ TEST(ClipSession, AClientApplyingTheChangesHoldsEveryBoxsStateAndConservativeNev
     for (const auto& [id, state] : told) visible += state == Visibility::kSeen;
     EXPECT_EQ(visible, answer->visible) << "the client's picture is the session's";
     if (step % 8 == 0) {  // against R3 on the full terrain
-      visibility::ViewshedOptions vo;
-      vo.max_distance = std::numeric_limits<double>::infinity();
-      geodesy::GridPoint eye;
-      eye.col = col;
-      eye.row = 350.0;
-      eye.x = x_of(world, col);
-      eye.y = y_of(world, 350.0);
-      eye.elevation = answer->eye_elevation;
-      auto frame = visibility::make_view_frame(world.dem, eye, vo);
+      auto frame = frame_at(world, col, 350.0, answer->eye_elevation);
       ASSERT_TRUE(frame.ok());
       for (std::size_t i = 0; i < boxes.size(); ++i) {
         const bool seen = told[boxes[i].id] == Visibility::kSeen;
@@ -169,15 +174,7 @@ TEST(ClipSession, AnExactSessionAnswersEveryBoxAsR3DoesAndBoundsItsMemory) {
     EXPECT_TRUE(answer->levels.empty()) << "no clip-map";
     for (const BoxChange& c : answer->changes) told[c.id] = c.state;
     ASSERT_EQ(told.size(), boxes.size());
-    visibility::ViewshedOptions vo;
-    vo.max_distance = std::numeric_limits<double>::infinity();
-    geodesy::GridPoint eye;
-    eye.col = col;
-    eye.row = row;
-    eye.x = x_of(world, col);
-    eye.y = y_of(world, row);
-    eye.elevation = answer->eye_elevation;
-    auto frame = visibility::make_view_frame(world.dem, eye, vo);
+    auto frame = frame_at(world, col, row, answer->eye_elevation);
     ASSERT_TRUE(frame.ok());
     for (std::size_t i = 0; i < boxes.size(); ++i) {
       const bool seen = told[boxes[i].id] == Visibility::kSeen;
@@ -201,15 +198,7 @@ TEST(ClipSession, AnExactSessionAnswersEveryBoxAsR3DoesAndBoundsItsMemory) {
 
 // The session's viewshed mask against R3 at every cell it answers: {cells, false hidden, false visible}.
 std::array<std::size_t, 3> against_r3(const ClipWorld& w, const SessionAnswer& answer, double col, double row) {
-  visibility::ViewshedOptions vo;
-  vo.max_distance = std::numeric_limits<double>::infinity();
-  geodesy::GridPoint eye;
-  eye.col = col;
-  eye.row = row;
-  eye.x = x_of(w, col);
-  eye.y = y_of(w, row);
-  eye.elevation = answer.eye_elevation;
-  auto frame = visibility::make_view_frame(w.dem, eye, vo);
+  auto frame = frame_at(w, col, row, answer.eye_elevation);
   EXPECT_TRUE(frame.ok());
   const terrain::HeightView z(w.dem.elevation);
   std::array<std::size_t, 3> out{};

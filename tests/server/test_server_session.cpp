@@ -70,6 +70,19 @@ v1::SessionRequest open_request(const std::vector<v1::SessionBox>& start, v1::Se
   return r;
 }
 
+// Exact CullBoxes of `boxes` from (lon, kLat) at 3500 m.
+grpc::Status exact_cull(v1::VisibilityService::Stub& stub, double lon, const std::vector<v1::SessionBox>& boxes,
+                        v1::CullBoxesResponse& out) {
+  v1::CullBoxesRequest request;
+  request.set_dataset("rainier");
+  *request.mutable_observer() = point(lon, kLat, 3500.0, v1::FRAME_WGS84);
+  request.mutable_observer()->set_height_mode(v1::HEIGHT_MODE_ABSOLUTE);
+  request.set_algorithm(v1::ALGORITHM_EXACT);
+  for (const auto& b : boxes) *request.add_boxes() = b.box();
+  auto context = context_with_deadline();
+  return stub.CullBoxes(context.get(), request, &out);
+}
+
 struct Session {
   std::unique_ptr<v1::SessionService::Stub> stub;
   grpc::ClientContext context;
@@ -141,15 +154,8 @@ TEST(ServerSession, AFlightsChangesNeverHideWhatExactCullingSees) {
     EXPECT_EQ(answer.answer().boxes(), 150u);
     if (step % 10 != 0) continue;
     // The same boxes by exact culling (R3's OHF) from the same eye.
-    v1::CullBoxesRequest request;
-    request.set_dataset("rainier");
-    *request.mutable_observer() = point(lon, kLat, 3500.0, v1::FRAME_WGS84);
-    request.mutable_observer()->set_height_mode(v1::HEIGHT_MODE_ABSOLUTE);
-    request.set_algorithm(v1::ALGORITHM_EXACT);
-    for (const auto& b : start) *request.add_boxes() = b.box();
     v1::CullBoxesResponse exact;
-    auto context = context_with_deadline();
-    ASSERT_TRUE(stub->CullBoxes(context.get(), request, &exact).ok());
+    ASSERT_TRUE(exact_cull(*stub, lon, start, exact).ok());
     for (int i = 0; i < 150; ++i) {
       const bool session_hidden = told[start[static_cast<std::size_t>(i)].id()] == v1::BOX_STATE_HIDDEN;
       hidden += session_hidden;
@@ -196,15 +202,8 @@ TEST(ServerSession, AnExactSessionAnswersAsExactCullingDoes) {
     EXPECT_GT(seen.hidden_cells(), 0u);
     EXPECT_LE(seen.visible_cells() + seen.hidden_cells(), std::uint64_t{seen.width()} * seen.height());
     for (const auto& c : answer.answer().changes()) told[c.id()] = c.state();
-    v1::CullBoxesRequest request;
-    request.set_dataset("rainier");
-    *request.mutable_observer() = point(kLon0 + step * kLonStep, kLat, 3500.0, v1::FRAME_WGS84);
-    request.mutable_observer()->set_height_mode(v1::HEIGHT_MODE_ABSOLUTE);
-    request.set_algorithm(v1::ALGORITHM_EXACT);
-    for (const auto& b : start) *request.add_boxes() = b.box();
     v1::CullBoxesResponse exact;
-    auto context = context_with_deadline();
-    ASSERT_TRUE(stub->CullBoxes(context.get(), request, &exact).ok());
+    ASSERT_TRUE(exact_cull(*stub, kLon0 + step * kLonStep, start, exact).ok());
     std::size_t hidden = 0;
     for (int i = 0; i < 80; ++i) {
       const bool session_hidden = told[start[static_cast<std::size_t>(i)].id()] == v1::BOX_STATE_HIDDEN;
