@@ -1,6 +1,7 @@
 #include "horizon/clipmap/clipmap.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <cassert>
 #include <cmath>
@@ -83,6 +84,10 @@ std::uint64_t Clipmap::bytes_for(int source_width, int source_height, const Clip
 
 Clipmap::Clipmap(int width, int height, const ClipmapShape& shape)
     : shape_(shape),
+      id_([] {
+        static std::atomic<std::uint64_t> made{0};
+        return ++made;
+      }()),
       width_(width),
       height_(height),
       tiles_(shape.level_size / shape.subtile),
@@ -344,6 +349,18 @@ float ClipmapReader::lowest(int k, int col0, int row0, int col1, int row1, Sampl
     return least;
   }
   return -std::numeric_limits<float>::infinity();  // nothing resident: no bound
+}
+
+void ClipmapReader::copy_level(int k, float* samples, std::uint8_t* resident) const {
+  const Clipmap::Level& level = map_.levels_[static_cast<std::size_t>(k)];
+  const int n = map_.shape_.level_size;
+  const float* cells = level.samples.data();
+  for (int v = 0; v < n; ++v) {
+    float* row = samples + static_cast<std::size_t>(v) * static_cast<std::size_t>(n);
+    for (int u = 0; u < n; u += 4) std::memcpy(row + u, cells + map_.sample_index(u, v), 4 * sizeof(float));
+  }
+  for (std::size_t slot = 0; slot < level.tags.size(); ++slot)
+    resident[slot] = level.tags[slot] == Clipmap::kEmptyTag ? 0 : 1;
 }
 
 }  // namespace horizon::clipmap

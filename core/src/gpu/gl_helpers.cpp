@@ -91,6 +91,40 @@ void StorageBuffer::upload(GLuint binding, const void* data, std::size_t bytes) 
   glBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, static_cast<GLsizeiptr>(bytes), data);
 }
 
+void StorageBuffer::reserve(GLuint binding, std::size_t bytes) {
+  if (id == 0) glGenBuffers(1, &id);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, binding, id);
+  if (bytes > capacity) {
+    capacity = std::max(bytes, 2 * capacity);
+    glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(capacity), nullptr, GL_DYNAMIC_READ);
+  }
+}
+
+void StorageBuffer::download(void* data, std::size_t bytes) const {
+  glBindBuffer(GL_SHADER_STORAGE_BUFFER, id);
+  glGetBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, static_cast<GLsizeiptr>(bytes), data);
+}
+
+TextureArray::~TextureArray() {
+  if (texture != 0) glDeleteTextures(1, &texture);
+}
+
+bool TextureArray::ensure(int w, int h, int layer_count) {
+  if (texture != 0 && w == width && h == height && layer_count == layers) return false;
+  if (texture != 0) glDeleteTextures(1, &texture);
+  width = w;
+  height = h;
+  layers = layer_count;
+  glGenTextures(1, &texture);
+  glBindTexture(GL_TEXTURE_2D_ARRAY, texture);
+  glTexStorage3D(GL_TEXTURE_2D_ARRAY, 1, format, width, height, layers);
+  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_S, GL_REPEAT);
+  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_T, GL_REPEAT);
+  return true;
+}
+
 Status gl_status(const char* stage) {
   if (glGetGraphicsResetStatus() != GL_NO_ERROR)
     return make_error(ErrorCode::kInternal, std::string("gpu: the GL context was lost during ") + stage, "gpu");

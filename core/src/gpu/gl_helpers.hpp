@@ -51,6 +51,25 @@ struct StorageBuffer {
   ~StorageBuffer();
   // Binds the buffer to `binding` of GL_SHADER_STORAGE_BUFFER and copies `bytes` in.
   void upload(GLuint binding, const void* data, std::size_t bytes);
+  // Binds it with room for at least `bytes` (contents undefined after a growth).
+  void reserve(GLuint binding, std::size_t bytes);
+  // Copies its first `bytes` out (waits for the writes before it).
+  void download(void* data, std::size_t bytes) const;
+};
+
+// A 2D texture array of one mip level, w x h x layers, re-created whenever
+// its shape changes. Nearest filtering, GL_REPEAT wrapping.
+struct TextureArray {
+  GLuint texture = 0;
+  GLenum format = GL_R32F;
+  int width = 0, height = 0, layers = 0;
+
+  explicit TextureArray(GLenum internal_format) : format(internal_format) {}
+  TextureArray(const TextureArray&) = delete;
+  TextureArray& operator=(const TextureArray&) = delete;
+  ~TextureArray();
+  // Exactly w x h x layers texels; true when it was (re-)created (contents undefined).
+  bool ensure(int w, int h, int layer_count);
 };
 
 // Ok, or the first pending GL error (the rest are drained) or a lost context,

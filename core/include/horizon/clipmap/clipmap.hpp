@@ -122,6 +122,9 @@ class Clipmap {
   static std::uint64_t bytes_for(int source_width, int source_height, const ClipmapShape& shape);
 
   const ClipmapShape& shape() const { return shape_; }
+  // A number no other clip-map made in this process has: with a level's
+  // version it names that level's contents (what a GPU copy is keyed by).
+  std::uint64_t id() const { return id_; }
   int source_width() const { return width_; }
   int source_height() const { return height_; }
   int level_width(int k) const { return ((width_ - 1) >> k) + 1; }
@@ -171,6 +174,7 @@ class Clipmap {
   void refresh_validity(int k, int tx, int ty);  // under the write lock
 
   ClipmapShape shape_;
+  std::uint64_t id_;
   int width_, height_;
   int tiles_;     // n / t
   int log_t_;     // log2 t
@@ -220,6 +224,15 @@ class ClipmapReader {
   // terrain is below. +infinity when the rectangle misses the source;
   // -infinity where a void meets it or no level holds it (nothing bounds it).
   float lowest(int k, int col0, int row0, int col1, int row1, SampleStats& stats) const;
+
+  // Level k as its slots hold it, for a copy elsewhere (a GPU texture):
+  // samples[v n + u] is slot (u, v), where level cell (i, j) lives when
+  // u = i mod n and v = j mod n (NaN where nothing was ever written), and
+  // resident[ty (n/t) + tx] is 1 where sub-tile slot (tx, ty) holds a
+  // sub-tile of the level's window (cell (i, j) is resident exactly when it
+  // lies in the window and its slot's byte is 1). Both hold n^2 and
+  // (n/t)^2 entries.
+  void copy_level(int k, float* samples, std::uint8_t* resident) const;
 
  private:
   int level_for(int k, double col, double row) const;
