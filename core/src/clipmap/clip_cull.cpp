@@ -117,7 +117,7 @@ Status check_cull_inputs(const ClipmapReader& view, const ClipEye& eye, const Cl
 Result<ClipCullResult> cull_on_clipmap(const ClipmapReader& view, const ClipEye& eye,
                                        std::span<const visibility::BoxFootprint> footprints,
                                        const ClipCullOptions& options, const RunControl* control,
-                                       ClipCullScratch* scratch) {
+                                       ClipCullScratch* scratch, gpu::Lease* gpu) {
   const auto start = std::chrono::steady_clock::now();
   HORIZON_RETURN_IF_ERROR(check_cull_inputs(view, eye, options));
   ClipCullScratch local;
@@ -126,8 +126,8 @@ Result<ClipCullResult> cull_on_clipmap(const ClipmapReader& view, const ClipEye&
   if (!planned.ok()) return planned.error();
   const detail::TracePlan& plan = *planned;
   detail::prepare_horizons(plan, w);
-  HORIZON_RETURN_IF_ERROR(detail::trace_cpu(plan, view, eye, options, control, w));
   ClipCullResult result;
+  HORIZON_RETURN_IF_ERROR(detail::trace(plan, view, eye, options, control, gpu, w, result.stats));
   HORIZON_RETURN_IF_ERROR(detail::test_boxes(plan, eye, footprints, options, control, w, result));
   result.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;

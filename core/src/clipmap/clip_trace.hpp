@@ -1,7 +1,7 @@
 // clip_trace.hpp (internal) — the stages of clip_cull.hpp's culling that
 // every backend shares: the plan (which columns, how far, the rings and
 // their levels), and the box tests against the traced horizons. A backend
-// (the CPU trace in clip_cull.cpp, the GL one in clip_cull_gl.cpp) only
+// (the CPU trace in clip_cull.cpp, the GL one in clip_trace_gl.cpp) only
 // fills TraceBuffers::horizons and ::traced from the plan.
 #pragma once
 
@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "horizon/clipmap/clip_cull.hpp"
+#include "horizon/gpu/context_pool.hpp"
 
 namespace horizon::clipmap::detail {
 
@@ -68,6 +69,25 @@ TracePlan plan_reach(const ClipEye& eye, const ClipCullOptions& options, const C
 // and .stats after prepare_horizons().
 Status trace_cpu(const TracePlan& plan, const ClipmapReader& view, const ClipEye& eye, const ClipCullOptions& options,
                  const RunControl* control, ClipCullScratch& scratch);
+
+// The GL trace of a plan on `lease`'s context (clip_trace_gl.cpp): fills the
+// same buffers with the same values as trace_cpu (the shader repeats its
+// arithmetic), after bringing the context's copy of the levels up to the
+// view's snapshot; `uploaded` gets the bytes that copy took (0 when no
+// level changed since the context last traced this clip-map). A GL failure
+// marks the lease failed.
+Status trace_gl(const TracePlan& plan, const ClipmapReader& view, const ClipEye& eye, const ClipCullOptions& options,
+                const RunControl* control, gpu::Lease& lease, ClipCullScratch& scratch, std::uint64_t& uploaded);
+
+// trace_gl on `gpu` when given, trace_cpu otherwise; stats.gpu and
+// .bytes_uploaded say which ran and what it copied.
+inline Status trace(const TracePlan& plan, const ClipmapReader& view, const ClipEye& eye,
+                    const ClipCullOptions& options, const RunControl* control, gpu::Lease* gpu,
+                    ClipCullScratch& scratch, ClipCullStats& stats) {
+  stats.gpu = gpu != nullptr;
+  if (gpu) return trace_gl(plan, view, eye, options, control, *gpu, scratch, stats.bytes_uploaded);
+  return trace_cpu(plan, view, eye, options, control, scratch);
+}
 
 // The horizon slope of column a over the rings before ring j (j in
 // [0, traced[a]]), stored ring by ring.

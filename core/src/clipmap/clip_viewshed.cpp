@@ -48,7 +48,7 @@ Result<terrain::Window> clip_viewshed_window(const Clipmap& map, const ClipEye& 
 
 Result<ClipViewshed> viewshed_on_clipmap(const ClipmapReader& view, const ClipEye& eye,
                                          const ClipViewshedOptions& options, const RunControl* control,
-                                         ClipCullScratch* scratch) {
+                                         ClipCullScratch* scratch, gpu::Lease* gpu) {
   const auto start = std::chrono::steady_clock::now();
   ClipCullOptions cull;
   cull.mode = options.mode;
@@ -64,9 +64,9 @@ Result<ClipViewshed> viewshed_on_clipmap(const ClipmapReader& view, const ClipEy
   ClipCullScratch& w = scratch ? *scratch : local;
   const detail::TracePlan plan = detail::plan_reach(eye, cull, view.map().shape(), options.radius, w);
   detail::prepare_horizons(plan, w);
-  HORIZON_RETURN_IF_ERROR(detail::trace_cpu(plan, view, eye, cull, control, w));
-
   ClipViewshed out;
+  HORIZON_RETURN_IF_ERROR(detail::trace(plan, view, eye, cull, control, gpu, w, out.stats));
+
   out.window = *window;
   out.mask = terrain::Grid<std::uint8_t>(window->width(), window->height(), visibility::kNoAnswer);
   const int rays = plan.rays;

@@ -50,6 +50,7 @@
 
 #include "horizon/clipmap/clipmap.hpp"
 #include "horizon/common/control.hpp"
+#include "horizon/gpu/context_pool.hpp"
 #include "horizon/visibility/cull.hpp"
 
 namespace horizon::clipmap {
@@ -98,6 +99,8 @@ struct ClipCullStats {
   std::uint64_t samples = 0;      // clip-map reads (bilinear samples or lowest() calls)
   std::uint64_t fallbacks = 0;    // of which read a coarser level than asked
   std::uint64_t box_tests = 0;    // (ray or wedge, ring) pairs tested against boxes
+  bool gpu = false;               // traced on a GL context
+  std::uint64_t bytes_uploaded = 0;  // GL: level bytes copied to the context (only levels changed since its last trace)
   double seconds = 0.0;
 };
 
@@ -136,9 +139,20 @@ Status check_cull_inputs(const ClipmapReader& view, const ClipEye& eye, const Cl
 // from `eye`. kConservative needs a min clip-map and kFast a mean one
 // (kInvalidArgument "mode" otherwise). Honours `control` between rays.
 // `scratch` (may be null) lends the call its buffers.
+//
+// GPU. With `gpu` (a context borrowed from gpu::ContextPool, current on
+// this thread), the trace runs there: the levels are copied into one R32F
+// texture array (layer k = level k, toroidally addressed: level cell (i, j)
+// is texel (i mod n, j mod n)) with an R8UI array of sub-tile residency,
+// only the levels whose version changed since that context last traced
+// this clip-map, and a compute shader marches each column's rings with the
+// CPU trace's arithmetic (fallbacks included); the box tests are the CPU's.
+// On an IEEE device (Mesa llvmpipe in the tests) the answers are the CPU's
+// exactly; a GL failure is an error (kInternal or kResourceExhausted, field
+// "gpu") and marks the lease failed, and the caller may run the CPU form.
 Result<ClipCullResult> cull_on_clipmap(const ClipmapReader& view, const ClipEye& eye,
                                        std::span<const visibility::BoxFootprint> footprints,
                                        const ClipCullOptions& options, const RunControl* control = nullptr,
-                                       ClipCullScratch* scratch = nullptr);
+                                       ClipCullScratch* scratch = nullptr, gpu::Lease* gpu = nullptr);
 
 }  // namespace horizon::clipmap

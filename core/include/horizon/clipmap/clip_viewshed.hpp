@@ -57,9 +57,11 @@ struct ClipViewshed {
 Result<terrain::Window> clip_viewshed_window(const Clipmap& map, const ClipEye& eye, double radius);
 
 // Errors: check_cull_inputs()'s, clip_viewshed_window()'s, and
-// "target_height" when negative or not finite. Honours `control`.
+// "target_height" when negative or not finite. Honours `control`. With
+// `gpu`, the trace runs on that GL context as cull_on_clipmap's does (the
+// same horizons); the cells are resolved on the CPU.
 Result<ClipViewshed> viewshed_on_clipmap(const ClipmapReader& view, const ClipEye& eye,
                                          const ClipViewshedOptions& options, const RunControl* control = nullptr,
-                                         ClipCullScratch* scratch = nullptr);
+                                         ClipCullScratch* scratch = nullptr, gpu::Lease* gpu = nullptr);
 
 }  // namespace horizon::clipmap
