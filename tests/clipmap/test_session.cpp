@@ -334,5 +334,65 @@ TEST(ClipSession, AnAsynchronousSessionAnswersEveryPoseWhileItsLoaderFollows) {
   EXPECT_GT((*session)->bytes(), 4u * 128u * 128u * 4u);
 }
 
+TEST(ClipSession, AGpuSessionAnswersEveryPoseAsTheCpuSessionDoes) {
+  ClipWorld world;
+  static auto pool = gpu::ContextPool::create({.contexts = 1});
+  ASSERT_TRUE(pool.ok()) << pool.error().message;
+  for (const ClipMode mode : {ClipMode::kFast, ClipMode::kConservative}) {
+    SessionOptions cpu_options = options_for(mode, false);
+    cpu_options.viewshed_radius = 4000.0;
+    SessionOptions gpu_options = cpu_options;
+    gpu_options.use_gpu = true;
+    gpu_options.gpu = pool->get();
+    const SessionPose first = pose_at(world, 80.0, 120.0, 1, 250.0);
+    auto cpu = ClipSession::open(world.source, world.cache, pyramid_for(world, mode), cpu_options, first);
+    auto gl = ClipSession::open(world.source, world.cache, pyramid_for(world, mode), gpu_options, first);
+    ASSERT_TRUE(cpu.ok() && gl.ok()) << (cpu.ok() ? gl.error().message : cpu.error().message);
+    const std::vector<SessionBox> boxes = boxes_on(world, 400, 1, 8);
+    ASSERT_TRUE((*cpu)->add_boxes(boxes).ok());
+    ASSERT_TRUE((*gl)->add_boxes(boxes).ok());
+    std::size_t changes = 0;
+    for (int step = 0; step < 40; ++step) {  // a diagonal flight: levels move and lag
+      const SessionPose pose = pose_at(world, 80.0 + step * 19.0, 120.0 + step * 11.0,
+                                       static_cast<std::uint64_t>(step + 2), 250.0);
+      auto a = (*cpu)->answer(pose);
+      auto b = (*gl)->answer(pose);
+      ASSERT_TRUE(a.ok() && b.ok()) << (a.ok() ? b.error().message : a.error().message);
+      EXPECT_FALSE(a->cull.gpu);
+      EXPECT_TRUE(b->cull.gpu) << b->gpu_fallback;
+      EXPECT_TRUE(b->gpu_fallback.empty()) << b->gpu_fallback;
+      ASSERT_EQ(a->changes.size(), b->changes.size()) << mode_name(mode) << " pose " << pose.seq;
+      for (std::size_t i = 0; i < a->changes.size(); ++i) {
+        EXPECT_EQ(a->changes[i].id, b->changes[i].id);
+        EXPECT_EQ(a->changes[i].state, b->changes[i].state);
+        EXPECT_EQ(a->changes[i].ohf_min, b->changes[i].ohf_min);
+      }
+      EXPECT_EQ(a->cull.fallbacks, b->cull.fallbacks);
+      ASSERT_TRUE(a->viewshed && b->viewshed);
+      EXPECT_EQ(a->viewshed->hidden_cells, b->viewshed->hidden_cells);
+      if (step > 0) changes += a->changes.size();
+    }
+    EXPECT_GT(changes, 0u) << "boxes must change state along the flight to mean anything";
+  }
+  // Without contexts every answer says why it ran on the CPU; exact sessions refuse the GPU.
+  SessionOptions no_pool = options_for(ClipMode::kFast, false);
+  no_pool.use_gpu = true;
+  auto session = ClipSession::open(world.source, world.cache, pyramid_for(world, ClipMode::kFast), no_pool,
+                                   pose_at(world, 300.0, 300.0, 1));
+  ASSERT_TRUE(session.ok()) << session.error().message;
+  auto answer = (*session)->answer(pose_at(world, 300.0, 300.0, 2));
+  ASSERT_TRUE(answer.ok());
+  EXPECT_FALSE(answer->cull.gpu);
+  EXPECT_NE(answer->gpu_fallback.find("no GPU"), std::string::npos) << answer->gpu_fallback;
+  SessionOptions exact = options_for(ClipMode::kExact, false);
+  exact.use_gpu = true;
+  exact.gpu = pool->get();
+  auto refused = ClipSession::open(world.source, world.cache, pyramid_for(world, ClipMode::kConservative), exact,
+                                   pose_at(world, 300.0, 300.0, 1));
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_EQ(refused.error().field, "backend");
+}
+
 }  // namespace
 }  // namespace horizon::clipmap

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <string>
 #include <unordered_set>
 
@@ -30,6 +31,9 @@ Result<std::unique_ptr<ClipSession>> ClipSession::open(std::shared_ptr<const ter
     return make_error(ErrorCode::kInvalidArgument,
                       "curvature_coefficient must be in [0, 1], got " + number_text(options.curvature_coefficient),
                       "curvature_coefficient");
+  if (options.use_gpu && options.mode == ClipMode::kExact)
+    return make_error(ErrorCode::kInvalidArgument, "exact sessions run on the CPU: the GPU traces clip-maps only",
+                      "backend");
   std::unique_ptr<ClipSession> s(new ClipSession());
   s->source_ = std::move(source);
   s->cache_ = &cache;
@@ -315,6 +319,45 @@ Result<ViewshedSummary> ClipSession::viewshed_exact(const SessionPose& pose, con
   return out;
 }
 
+// One snapshot's cull, on `gl` when given; a GL failure (field "gpu") runs
+// it again on the CPU and says why.
+Result<ClipCullResult> ClipSession::cull_clipmap(const ClipEye& eye, const RunControl* control, gpu::Lease* gl,
+                                                 SessionAnswer& out) {
+  ClipmapReader view(*map_);
+  for (int k = 0; k < map_->shape().levels; ++k) {
+    const LevelState state = view.level(k);
+    out.levels.push_back({state, answers_ + 1 > state.pose ? answers_ + 1 - state.pose : 0});
+  }
+  ClipCullOptions cull;
+  cull.mode = options_.mode;
+  cull.rays = options_.rays;
+  cull.threads = options_.threads;
+  auto culled = cull_on_clipmap(view, eye, footprints_, cull, control, &scratch_, gl);
+  if (gl && !culled.ok() && culled.error().field == "gpu") {
+    out.gpu_fallback = culled.error().message;
+    culled = cull_on_clipmap(view, eye, footprints_, cull, control, &scratch_);
+  }
+  return culled;
+}
+
+Result<ViewshedSummary> ClipSession::viewshed_clipmap(const ClipEye& eye, const RunControl* control, gpu::Lease* gl,
+                                                      SessionAnswer& out) {
+  ClipmapReader view(*map_);
+  ClipViewshedOptions vo;
+  vo.mode = options_.mode;
+  vo.rays = options_.rays;
+  vo.threads = options_.threads;
+  vo.radius = options_.viewshed_radius;
+  auto seen = viewshed_on_clipmap(view, eye, vo, control, &scratch_, gl);
+  if (gl && !seen.ok() && seen.error().field == "gpu") {
+    out.gpu_fallback = seen.error().message;
+    seen = viewshed_on_clipmap(view, eye, vo, control, &scratch_);
+  }
+  if (!seen.ok()) return seen.error();
+  return ViewshedSummary{seen->window, std::move(seen->mask), seen->visible_cells, seen->hidden_cells,
+                         seen->stats.seconds};
+}
+
 Result<SessionAnswer> ClipSession::answer(const SessionPose& pose, const RunControl* control) {
   const auto start = std::chrono::steady_clock::now();
   ClipPose clip;
@@ -340,39 +383,32 @@ Result<SessionAnswer> ClipSession::answer(const SessionPose& pose, const RunCont
     out.bytes_loaded = report->bytes_loaded;
   }
 
+  // A context for the trace and the viewshed, held for the answer.
+  std::optional<Result<gpu::Lease>> lease;
+  gpu::Lease* gl = nullptr;
+  if (options_.use_gpu) {
+    if (!options_.gpu) {
+      out.gpu_fallback = "no GPU contexts to trace on";
+    } else {
+      lease.emplace(options_.gpu->borrow());
+      if (lease->ok())
+        gl = &**lease;
+      else
+        out.gpu_fallback = lease->error().message;
+    }
+  }
   Result<ClipCullResult> culled = ClipCullResult{};
   if (options_.mode == ClipMode::kExact) {
     culled = cull_exact(pose, control);
   } else {
-    ClipmapReader view(*map_);
-    for (int k = 0; k < map_->shape().levels; ++k) {
-      const LevelState state = view.level(k);
-      out.levels.push_back({state, clip.seq > state.pose ? clip.seq - state.pose : 0});
-    }
-    ClipCullOptions cull;
-    cull.mode = options_.mode;
-    cull.rays = options_.rays;
-    cull.threads = options_.threads;
-    culled = cull_on_clipmap(view, *eye, footprints_, cull, control, &scratch_);
+    culled = cull_clipmap(*eye, control, gl, out);
   }
   if (!culled.ok()) return culled.error();
   if (options_.viewshed_radius > 0.0) {
-    if (options_.mode == ClipMode::kExact) {
-      auto seen = viewshed_exact(pose, control);
-      if (!seen.ok()) return seen.error();
-      out.viewshed = std::move(*seen);
-    } else {
-      ClipmapReader view(*map_);
-      ClipViewshedOptions vo;
-      vo.mode = options_.mode;
-      vo.rays = options_.rays;
-      vo.threads = options_.threads;
-      vo.radius = options_.viewshed_radius;
-      auto seen = viewshed_on_clipmap(view, *eye, vo, control, &scratch_);
-      if (!seen.ok()) return seen.error();
-      out.viewshed = ViewshedSummary{seen->window, std::move(seen->mask), seen->visible_cells, seen->hidden_cells,
-                                     seen->stats.seconds};
-    }
+    auto seen = options_.mode == ClipMode::kExact ? viewshed_exact(pose, control)
+                                                  : viewshed_clipmap(*eye, control, out.gpu_fallback.empty() ? gl : nullptr, out);
+    if (!seen.ok()) return seen.error();
+    out.viewshed = std::move(*seen);
   }
   for (std::size_t i = 0; i < entries_.size(); ++i) {
     Entry& e = entries_[i];

@@ -69,6 +69,7 @@
 #include "horizon/clipmap/clipmap.hpp"
 #include "horizon/clipmap/clipmap_updater.hpp"
 #include "horizon/geodesy/observer.hpp"
+#include "horizon/gpu/context_pool.hpp"
 #include "horizon/terrain/source.hpp"
 #include "horizon/terrain/source_pyramid.hpp"
 #include "horizon/visibility/cull.hpp"
@@ -90,6 +91,13 @@ struct SessionOptions {
   double viewshed_radius = 0.0;
   // Exact mode: the most engine memory one answer may take (visibility::Cost::bytes).
   std::uint64_t exact_bytes = std::uint64_t{512} << 20;
+  // Trace on the GPU (fast and conservative modes; exact refuses it,
+  // "backend"): each answer borrows a context of `gpu` for its trace and
+  // viewshed (clip_cull.hpp: the same answers as the CPU trace). An answer
+  // that cannot (no pool, or its GL work failed) is traced on the CPU and
+  // says why in SessionAnswer::gpu_fallback.
+  bool use_gpu = false;
+  gpu::ContextPool* gpu = nullptr;
 };
 
 struct SessionPose {
@@ -142,6 +150,9 @@ struct SessionAnswer {
   // or corrupt tile). The answer still stands, on the levels resident.
   std::optional<Error> loader_error;
   std::optional<ViewshedSummary> viewshed;  // with SessionOptions::viewshed_radius
+  // SessionOptions::use_gpu: why this answer was traced on the CPU (empty
+  // when it ran on the GPU; cull.gpu says where it ran).
+  std::string gpu_fallback;
   double seconds = 0.0;
 };
 
@@ -193,6 +204,10 @@ class ClipSession {
   Result<bool> touches_void(const visibility::BoxFootprint& footprint) const;
   Result<ClipCullResult> cull_exact(const SessionPose& pose, const RunControl* control);
   Result<ViewshedSummary> viewshed_exact(const SessionPose& pose, const RunControl* control);
+  Result<ClipCullResult> cull_clipmap(const ClipEye& eye, const RunControl* control, gpu::Lease* gl,
+                                      SessionAnswer& out);
+  Result<ViewshedSummary> viewshed_clipmap(const ClipEye& eye, const RunControl* control, gpu::Lease* gl,
+                                           SessionAnswer& out);
 
   std::shared_ptr<const terrain::ElevationSource> source_;
   terrain::BlockCache* cache_ = nullptr;
