@@ -7,6 +7,8 @@
 #include <chrono>
 #include <fstream>
 #include <iostream>
+#include <memory>
+#include <string_view>
 #include <thread>
 
 #include "commands/command.hpp"
@@ -32,6 +34,9 @@ constexpr FlagSpec kFlags[] = {
     {"--conservative", "", "", "Never report hidden a box R3 sees (min levels for occluders)"},
     {"--exact", "", "", "R3's answers from the full-resolution terrain at every pose (no clip-map; slow)"},
     {"--viewshed-radius", "", "METRES", "Also count the cells seen and hidden within this distance at every pose"},
+    {"--backend", "", "B",
+     "Where the trace runs: cpu (default) or gpu (a GL context: the same answers; Mesa llvmpipe where there is "
+     "no GPU, which is slower than the CPU). Not with --exact"},
     {"--levels", "", "L", "Clip-map levels, 1..10 (default: the fewest that cover the dataset)"},
     {"--level-size", "", "N", "Samples per side of a level, a power of two in [64, 4096] (default 1024)"},
     {"--subtile", "", "T", "Sub-tile side, a power of two in [8, N/2] (default 64)"},
@@ -114,6 +119,17 @@ int run_embedded(const Args& args, SessionPlayback& playback, bool json, bool ev
   auto pyramid = terrain::SourcePyramid::make(*source, cache, clipmap::reduction_for(o.mode),
                                               clipmap::pyramid_options_for(o.shape));
   if (!pyramid.ok()) return report_error(pyramid.error());
+  // --backend gpu: one context; without one the answers say why they ran on the CPU.
+  std::unique_ptr<gpu::ContextPool> pool;
+  std::string no_gpu;
+  if (o.use_gpu) {
+    auto created = gpu::ContextPool::create({.contexts = 1});
+    if (created.ok())
+      pool = std::move(created).value();
+    else
+      no_gpu = created.error().message;
+    o.gpu = pool.get();
+  }
   InterruptScope interrupt;
   RunControl control;
   control.cancel = &interrupt.token();
@@ -145,6 +161,8 @@ int run_embedded(const Args& args, SessionPlayback& playback, bool json, bool ev
       line.bytes_loaded = answer->bytes_loaded;
       line.seconds = answer->seconds;
       if (answer->viewshed) line.viewshed = {answer->viewshed->visible_cells, answer->viewshed->hidden_cells};
+      line.gpu = answer->cull.gpu;
+      line.gpu_fallback = no_gpu.empty() ? answer->gpu_fallback : no_gpu;
     }
     report.poses.push_back(line);
   }
@@ -177,6 +195,10 @@ int run_session(const Args& args) {
   o.shape.subtile = args.positive_integer("--subtile").value_or(std::min(64, std::max(8, o.shape.level_size / 2)));
   o.rays = args.positive_integer("--rays").value_or(1024);
   o.viewshed_radius = args.non_negative("--viewshed-radius").value_or(0.0);
+  static constexpr std::string_view kBackends[] = {"cpu", "gpu"};
+  o.use_gpu = args.choice("--backend", kBackends).value_or("cpu") == "gpu";
+  if (o.use_gpu && o.mode == clipmap::ClipMode::kExact)
+    throw UsageError("--backend gpu traces clip-maps: --exact runs on the CPU");
   playback.rate_hz = args.non_negative("--rate").value_or(0.0);
   if (args.has("--rate") && !(playback.rate_hz > 0.0)) throw UsageError("--rate must be more than 0 poses a second");
   (void)source_options(args);
@@ -204,12 +226,16 @@ double percentile(std::vector<double> values, double p) {
 void print_session(const SessionPlayback& playback, const SessionReport& report, bool json, bool every_pose) {
   std::vector<double> seconds;
   std::uint64_t dropped = 0, rejected = 0, changes = 0, samples = 0, fallbacks = 0, loaded = 0, bytes = 0;
+  std::uint64_t on_gpu = 0;
+  std::string gpu_fallback;  // the first answer's reason
   for (const PoseLine& p : report.poses) {
     dropped += p.dropped;
     if (!p.rejected.empty()) {
       ++rejected;
       continue;
     }
+    on_gpu += p.gpu;
+    if (gpu_fallback.empty()) gpu_fallback = p.gpu_fallback;
     seconds.push_back(p.seconds);
     changes += p.changes;
     samples += p.samples;
@@ -231,6 +257,9 @@ void print_session(const SessionPlayback& playback, const SessionReport& report,
       j["clipmap"] = {{"levels", report.levels}, {"level_size", report.level_size}, {"subtile", report.subtile}};
     j["mode"] = mode;
     j["rays"] = playback.options.rays;
+    j["backend"] = playback.options.use_gpu ? "gpu" : "cpu";
+    j["answers_on_gpu"] = on_gpu;
+    if (!gpu_fallback.empty()) j["gpu_fallback"] = gpu_fallback;
     j["memory_bytes"] = report.memory_bytes;
     if (!report.session_id.empty()) j["session_id"] = report.session_id;
     j["poses_sent"] = playback.poses.size();
@@ -255,6 +284,8 @@ void print_session(const SessionPlayback& playback, const SessionReport& report,
         e["subtiles_loaded"] = p.subtiles_loaded;
         e["bytes_loaded"] = p.bytes_loaded;
         e["seconds"] = p.seconds;
+        e["backend"] = p.gpu ? "gpu" : "cpu";
+        if (!p.gpu_fallback.empty()) e["gpu_fallback"] = p.gpu_fallback;
         if (p.viewshed) e["viewshed"] = {{"visible_cells", (*p.viewshed)[0]}, {"hidden_cells", (*p.viewshed)[1]}};
       }
       list.push_back(std::move(e));
@@ -288,6 +319,10 @@ void print_session(const SessionPlayback& playback, const SessionReport& report,
             << "  fallbacks:  " << with_separators(fallbacks) << " of " << with_separators(samples)
             << " samples read a coarser level than asked\n"
             << "  total:      " << fixed(report.total_seconds, 3) << " s\n";
+  if (playback.options.use_gpu)
+    std::cout << "  gpu:        " << with_separators(on_gpu) << " of " << with_separators(answered)
+              << " answers traced on the GPU" << (gpu_fallback.empty() ? "" : "; the CPU traced others: " + gpu_fallback)
+              << '\n';
   if (!every_pose) return;
   for (const PoseLine& p : report.poses) {
     std::cout << "  pose " << p.seq << ": ";

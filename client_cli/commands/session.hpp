@@ -33,6 +33,8 @@ struct PoseLine {
   // With --viewshed-radius: cells within it {seen, hidden}.
   std::optional<std::array<std::uint64_t, 2>> viewshed;
   std::string rejected;  // why, when the pose was rejected
+  bool gpu = false;           // its trace ran on a GL context
+  std::string gpu_fallback;   // with --backend gpu: why it ran on the CPU
 };
 
 struct SessionReport {

@@ -42,6 +42,8 @@ PoseLine to_line(const v1::SessionResponse& r) {
   line.bytes_loaded = a.bytes_loaded();
   line.seconds = a.seconds();
   if (a.has_viewshed()) line.viewshed = {a.viewshed().visible_cells(), a.viewshed().hidden_cells()};
+  line.gpu = a.backend() == "gpu";
+  line.gpu_fallback = a.gpu_fallback();
   return line;
 }
 
@@ -62,6 +64,7 @@ int run_session(const Args& args, const SessionPlayback& playback, bool json, bo
                                                           : v1::SESSION_MODE_FAST);
   m->set_rays(static_cast<std::uint32_t>(o.rays));
   if (o.viewshed_radius > 0.0) m->set_viewshed_radius_m(o.viewshed_radius);
+  if (o.use_gpu) m->set_backend(v1::BACKEND_GPU);
   *m->mutable_first_pose() = to_proto_pose(playback.poses.front());
   for (const clipmap::SessionBox& b : playback.boxes) {
     v1::SessionBox* out = m->add_boxes();

@@ -248,7 +248,7 @@ class SessionCall final : public grpc::ServerBidiReactor<v1::SessionRequest, v1:
     if (!dataset.ok()) return fail(dataset.error());
     const auto& source = (*dataset)->source;
     auto options = to_session_options(request, env_.config.sessions, env_.config.engine_threads, source->width(),
-                                      source->height());
+                                      source->height(), env_.gpu);
     if (!options.ok()) return fail(options.error());
     if (!request.has_first_pose())
       return fail(make_error(ErrorCode::kInvalidArgument, "open.first_pose: required", "first_pose"));

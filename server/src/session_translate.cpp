@@ -12,7 +12,8 @@ namespace {
 }  // namespace
 
 Result<clipmap::SessionOptions> to_session_options(const v1::OpenSession& open, const SessionConfig& config,
-                                                   unsigned threads, int width, int height) {
+                                                   unsigned threads, int width, int height,
+                                                   gpu::ContextPool* gpu) {
   clipmap::SessionOptions o;
   const v1::ClipmapShape& shape = open.clipmap();
   const std::uint32_t n = shape.level_size() ? shape.level_size() : config.level_size;
@@ -56,6 +57,23 @@ Result<clipmap::SessionOptions> to_session_options(const v1::OpenSession& open, 
   o.max_boxes = config.max_boxes;
   o.exact_bytes = std::uint64_t{config.exact_mb} << 20;
   if (open.has_viewshed_radius_m()) o.viewshed_radius = open.viewshed_radius_m();  // checked by the engine
+  switch (open.backend()) {
+    case v1::BACKEND_UNSPECIFIED:
+    case v1::BACKEND_AUTO:
+    case v1::BACKEND_CPU:
+      break;
+    case v1::BACKEND_GPU:
+      if (o.mode == clipmap::ClipMode::kExact)  // before any memory is reserved for it
+        return make_error(ErrorCode::kInvalidArgument,
+                          "open.backend: exact sessions run on the CPU: the GPU traces clip-maps only",
+                          "open.backend");
+      o.use_gpu = true;
+      o.gpu = gpu;
+      break;
+    default:
+      return make_error(ErrorCode::kInvalidArgument, "open.backend: unknown value " + std::to_string(open.backend()),
+                        "open.backend");
+  }
   return o;
 }
 
@@ -129,6 +147,8 @@ void fill_answer(const clipmap::SessionAnswer& a, std::uint64_t dropped, v1::Pos
   out.set_bytes_loaded(a.bytes_loaded);
   out.set_seconds(a.seconds);
   if (a.loader_error) out.set_loader_error(a.loader_error->message);
+  if (!a.levels.empty()) out.set_backend(a.cull.gpu ? "gpu" : "cpu");  // exact answers have no trace
+  out.set_gpu_fallback(a.gpu_fallback);
   if (a.viewshed) {
     v1::PoseViewshed* v = out.mutable_viewshed();
     v->set_visible_cells(a.viewshed->visible_cells);

@@ -15,8 +15,11 @@ namespace horizon::server {
 // An OpenSession's options, with the server's defaults filled in and its
 // limits applied (sessions.max_level_size, sessions.max_boxes); the
 // dataset's width x height decides the default number of levels.
+// BACKEND_GPU asks for the trace on `gpu` (the daemon's contexts, null when
+// it has none: the answers then say so in gpu_fallback).
 Result<clipmap::SessionOptions> to_session_options(const v1::OpenSession& open, const SessionConfig& config,
-                                                   unsigned threads, int width, int height);
+                                                   unsigned threads, int width, int height,
+                                                   gpu::ContextPool* gpu);
 // A pose; `field` is its path ("pose", "open.first_pose").
 Result<clipmap::SessionPose> to_session_pose(const v1::Pose& pose, const std::string& field);
 // Boxes with their ids; `field` is the list's path ("boxes.add", "open.boxes").

@@ -1,5 +1,5 @@
-// `horizon session`: a conservative flight never counts fewer boxes visible
-// than exact culling from the same pose; every pose is answered in order
+// `horizon session`: a conservative flight, traced on the CPU or the GPU,
+// never counts fewer boxes visible than exact culling from the same pose; every pose is answered in order
 // when the client waits for each; wrong files and shapes are usage errors
 // naming the line or the flag.
 #include <gtest/gtest.h>
@@ -44,26 +44,32 @@ struct Flight {
   }
 };
 
-TEST(CliSession, AConservativeFlightNeverCountsFewerVisibleThanExactCulling) {
+TEST(CliSession, AConservativeFlightNeverCountsFewerVisibleThanExactCullingOnTheCpuOrTheGpu) {
   Flight f;
-  const CommandResult r = horizon({"session", f.dem, "--path", f.poses, "--boxes", f.boxes, "--lonlat", "--absolute",
-                                   "--level-size", "64", "--subtile", "16", "--conservative", "--json"});
-  ASSERT_EQ(r.exit_code, 0) << r.output;
-  const Json j = Json::parse(r.output);
-  EXPECT_EQ(j["clipmap"]["levels"], 4);
-  EXPECT_EQ(j["answered"], 12);
-  EXPECT_EQ(j["dropped"], 0);
-  ASSERT_EQ(j["poses"].size(), 12u);
-  for (int i = 0; i < 12; i += 5) {
-    const Json& pose = j["poses"][static_cast<std::size_t>(i)];
-    EXPECT_EQ(pose["seq"], i + 1);
-    const CommandResult cull =
-        horizon({"cull", f.dem, "--lon", std::to_string(-121.86 + i * 0.01), "--lat", "46.8529", "--altitude", "3500",
-                 "--boxes", f.boxes, "--lonlat", "--algorithm", "exact", "--json"});
-    ASSERT_EQ(cull.exit_code, 0) << cull.output;
-    const int exact_visible = Json::parse(cull.output)["visible_count"];
-    EXPECT_GE(pose["visible"].get<int>(), exact_visible) << "pose " << i + 1;
-    EXPECT_LT(exact_visible, 60) << "the terrain hides something";
+  for (const std::string backend : {"cpu", "gpu"}) {
+    const CommandResult r = horizon({"session", f.dem, "--path", f.poses, "--boxes", f.boxes, "--lonlat", "--absolute",
+                                     "--level-size", "64", "--subtile", "16", "--conservative", "--backend", backend,
+                                     "--json"});
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const Json j = Json::parse(r.output);
+    EXPECT_EQ(j["clipmap"]["levels"], 4);
+    EXPECT_EQ(j["answered"], 12);
+    EXPECT_EQ(j["dropped"], 0);
+    EXPECT_EQ(j["backend"], backend);
+    EXPECT_EQ(j["answers_on_gpu"], backend == "gpu" ? 12 : 0) << j.value("gpu_fallback", "");
+    ASSERT_EQ(j["poses"].size(), 12u);
+    for (int i = 0; i < 12; i += 5) {
+      const Json& pose = j["poses"][static_cast<std::size_t>(i)];
+      EXPECT_EQ(pose["seq"], i + 1);
+      EXPECT_EQ(pose["backend"], backend);
+      const CommandResult cull =
+          horizon({"cull", f.dem, "--lon", std::to_string(-121.86 + i * 0.01), "--lat", "46.8529", "--altitude",
+                   "3500", "--boxes", f.boxes, "--lonlat", "--algorithm", "exact", "--json"});
+      ASSERT_EQ(cull.exit_code, 0) << cull.output;
+      const int exact_visible = Json::parse(cull.output)["visible_count"];
+      EXPECT_GE(pose["visible"].get<int>(), exact_visible) << backend << " pose " << i + 1;
+      EXPECT_LT(exact_visible, 60) << "the terrain hides something";
+    }
   }
 }
 
@@ -150,6 +156,12 @@ TEST(CliSession, WrongFilesAndShapesAreUsageErrorsNamingTheLineOrFlag) {
                "--session-id", "no spaces"});
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("--session-id: 1 to 64"), std::string::npos) << r.output;
+  r = horizon({"session", g.dem, "--path", g.poses, "--boxes", g.boxes, "--lonlat", "--exact", "--backend", "gpu"});
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--backend gpu traces clip-maps"), std::string::npos) << r.output;
+  r = horizon({"session", g.dem, "--path", g.poses, "--boxes", g.boxes, "--lonlat", "--backend", "tpu"});
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--backend"), std::string::npos) << r.output;
   r = horizon({"session", g.dem, "--boxes", g.boxes});
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("--path"), std::string::npos) << r.output;

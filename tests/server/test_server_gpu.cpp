@@ -3,16 +3,19 @@
 // llvmpipe on a machine without one) and equals the CPU's answer, GPU with
 // another algorithm is refused naming options.backend, a daemon without
 // contexts answers on the CPU and says why (response, log line, metrics), and
-// `horizon viewshed --server` carries the backend flags both ways.
+// `horizon viewshed --server` carries the backend flags both ways; a
+// session asked for on the GPU traces there and answers as a CPU session.
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "daemon_process.hpp"
+#include "horizon/v1/session.grpc.pb.h"
 #include "horizon/visibility/viewshed.hpp"
 #include "rpc_helpers.hpp"
 
@@ -216,6 +219,115 @@ TEST_F(ServerGpu, CliSendsTheBackendAndReportsTheFallback) {
   const Json k = json_of(cpu);
   EXPECT_EQ(k["stats"]["backend"], "cpu") << cpu.output;
   EXPECT_FALSE(k["stats"]["gpu_fallback"].is_null()) << cpu.output;
+}
+
+// 300 boxes along a diagonal over the summit, ids 1..300.
+std::vector<v1::SessionBox> session_boxes() {
+  std::vector<v1::SessionBox> out(300);
+  for (int i = 0; i < 300; ++i) {
+    out[static_cast<std::size_t>(i)].set_id(static_cast<std::uint64_t>(i + 1));
+    v1::Box* box = out[static_cast<std::size_t>(i)].mutable_box();
+    box->set_frame(v1::FRAME_WGS84);
+    const double x = -121.91 + 0.001 * i, y = 46.70 + 0.00093 * i;
+    box->set_x_min(x);
+    box->set_x_max(x + 0.0015);
+    box->set_y_min(y);
+    box->set_y_max(y + 0.001);
+    box->set_z_min(0.0);
+    box->set_z_max(1500.0 + 9.0 * i);
+  }
+  return out;
+}
+
+// A flight of 12 poses east across the summit with session_boxes(); every answer.
+std::vector<v1::PoseAnswer> fly(const DaemonProcess& daemon, v1::Backend backend, v1::SessionMode mode,
+                                grpc::Status& status) {
+  auto stub = v1::SessionService::NewStub(daemon.channel());
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+  auto stream = stub->Session(&context);
+  auto pose = [](int i) {
+    v1::Pose p;
+    *p.mutable_position() = point(-121.86 + 0.01 * i, kRainierLat, 3500.0, v1::FRAME_WGS84);
+    p.mutable_position()->set_height_mode(v1::HEIGHT_MODE_ABSOLUTE);
+    p.set_east_m_per_s(250.0);
+    p.set_seq(static_cast<std::uint64_t>(i + 1));
+    return p;
+  };
+  v1::SessionRequest open;
+  v1::OpenSession* o = open.mutable_open();
+  o->set_dataset("rainier");
+  o->mutable_clipmap()->set_level_size(64);
+  o->mutable_clipmap()->set_subtile(16);
+  o->set_mode(mode);
+  o->set_rays(512);
+  o->set_backend(backend);
+  *o->mutable_first_pose() = pose(0);
+  for (const v1::SessionBox& b : session_boxes()) *o->add_boxes() = b;
+  std::vector<v1::PoseAnswer> answers;
+  EXPECT_TRUE(stream->Write(open));
+  v1::SessionResponse r;
+  // Each pose after the last answer: none is dropped, so both flights answer the same poses.
+  for (int i = 1; i <= 12 && stream->Read(&r); ++i) {
+    if (r.has_opened() && !stream->Read(&r)) break;
+    if (r.has_answer()) answers.push_back(r.answer());
+    v1::SessionRequest next;
+    *next.mutable_pose() = pose(i);
+    if (i < 12) {
+      EXPECT_TRUE(stream->Write(next));
+    }
+  }
+  stream->WritesDone();
+  while (stream->Read(&r))
+    if (r.has_answer()) answers.push_back(r.answer());
+  status = stream->Finish();
+  return answers;
+}
+
+TEST_F(ServerGpu, ASessionOnTheGpuTracesThereAndNeverHidesWhatExactCullingSees) {
+  grpc::Status gpu_status, fallback_status, exact_status;
+  const auto gl = fly(with_gpu(), v1::BACKEND_GPU, v1::SESSION_MODE_CONSERVATIVE, gpu_status);
+  ASSERT_TRUE(gpu_status.ok()) << gpu_status.error_message();
+  ASSERT_EQ(gl.size(), 12u);
+  // The client's picture, from the changes, against exact culling at each pose.
+  auto stub = v1::VisibilityService::NewStub(with_gpu().channel());
+  std::map<std::uint64_t, v1::BoxState> state;
+  std::size_t hidden = 0, false_hidden = 0;
+  for (std::size_t i = 0; i < gl.size(); ++i) {
+    EXPECT_EQ(gl[i].backend(), "gpu") << gl[i].gpu_fallback();
+    EXPECT_TRUE(gl[i].gpu_fallback().empty()) << gl[i].gpu_fallback();
+    for (const v1::BoxChange& c : gl[i].changes()) state[c.id()] = c.state();
+    v1::CullBoxesRequest request;
+    request.set_dataset("rainier");
+    *request.mutable_observer() = point(-121.86 + 0.01 * static_cast<double>(gl[i].seq() - 1), kRainierLat, 3500.0,
+                                        v1::FRAME_WGS84);
+    request.mutable_observer()->set_height_mode(v1::HEIGHT_MODE_ABSOLUTE);
+    request.set_algorithm(v1::ALGORITHM_EXACT);
+    for (const v1::SessionBox& b : session_boxes()) *request.add_boxes() = b.box();
+    v1::CullBoxesResponse exact;
+    auto context = context_with_deadline();
+    ASSERT_TRUE(stub->CullBoxes(context.get(), request, &exact).ok());
+    ASSERT_EQ(exact.boxes_size(), 300);
+    for (int b = 0; b < 300; ++b) {
+      const bool session_hidden = state[static_cast<std::uint64_t>(b + 1)] == v1::BOX_STATE_HIDDEN;
+      hidden += session_hidden;
+      false_hidden += session_hidden && exact.boxes(b).state() != v1::BOX_STATE_HIDDEN;
+    }
+  }
+  EXPECT_EQ(false_hidden, 0u);
+  EXPECT_GT(hidden, 0u) << "the flight must hide boxes to mean anything";
+  // No contexts: the CPU answers, and says why.
+  const auto fallback = fly(cpu_only(), v1::BACKEND_GPU, v1::SESSION_MODE_FAST, fallback_status);
+  ASSERT_TRUE(fallback_status.ok()) << fallback_status.error_message();
+  ASSERT_FALSE(fallback.empty());
+  EXPECT_EQ(fallback[0].backend(), "cpu");
+  EXPECT_FALSE(fallback[0].gpu_fallback().empty());
+  // Exact sessions run on the CPU only.
+  const auto exact = fly(with_gpu(), v1::BACKEND_GPU, v1::SESSION_MODE_EXACT, exact_status);
+  EXPECT_EQ(exact_status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(exact_status.error_message().find("exact sessions run on the CPU"), std::string::npos)
+      << exact_status.error_message();
+  EXPECT_EQ(violated_field(exact_status), "open.backend");
 }
 
 }  // namespace
