@@ -26,7 +26,9 @@
 //
 // Options: --mode fast|conservative, --levels L --level-size N --subtile T
 // (default 0 = enough to cover, 1024, 64), --rays R (1024), --threads N culling threads a session
-// (1; 0 = all cores), --cache-mb M (256).
+// (1; 0 = all cores), --cache-mb M (256), --backend cpu|gpu (session
+// baselines: trace on a GL context, one per session; prints the answers
+// traced there and the level bytes copied to the context a pose).
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -44,6 +46,7 @@
 
 #include "horizon/clipmap/clipmap_updater.hpp"
 #include "horizon/clipmap/session.hpp"
+#include "horizon/gpu/context_pool.hpp"
 #include "horizon/terrain/block_cache.hpp"
 #include "horizon/terrain/source.hpp"
 #include "horizon/terrain/source_pyramid.hpp"
@@ -55,7 +58,7 @@ using Clock = std::chrono::steady_clock;
 namespace {
 
 struct Options {
-  std::string dem, baseline = "session", mode = "fast";
+  std::string dem, baseline = "session", mode = "fast", backend = "cpu";
   double x = 0, y = 0, speed = 250, height = 100, rate = 60, radius = 10000, viewshed_radius = 0;
   int poses = 600, boxes = 10000, sessions = 1, accuracy = 0;
   int levels = 0, level_size = 1024, subtile = 64, rays = 1024, cache_mb = 256, threads = 1;
@@ -76,6 +79,7 @@ Options parse(int argc, char** argv) {
     if (flag == "--dem") o.dem = v;
     else if (flag == "--baseline") o.baseline = v;
     else if (flag == "--mode") o.mode = v;
+    else if (flag == "--backend") o.backend = v;
     else if (flag == "--x") o.x = num();
     else if (flag == "--y") o.y = num();
     else if (flag == "--speed") o.speed = num();
@@ -97,6 +101,8 @@ Options parse(int argc, char** argv) {
   }
   if (o.dem.empty()) usage("--dem is required");
   if (o.baseline != "session" && o.baseline != "sync-all" && o.baseline != "cullboxes") usage("unknown --baseline");
+  if (o.backend != "cpu" && o.backend != "gpu") usage("--backend is cpu or gpu");
+  if (o.backend == "gpu" && o.baseline == "cullboxes") usage("--backend gpu traces sessions: not with --baseline cullboxes");
   if (o.mode != "fast" && o.mode != "conservative") usage("unknown --mode");
   return o;
 }
@@ -140,6 +146,7 @@ clipmap::SessionPose pose_at(const Options& o, int i) {
 struct Timing {
   std::vector<double> seconds;
   std::uint64_t late = 0, subtiles = 0, bytes = 0, samples = 0, fallbacks = 0, answers = 0, rings = 0, tests = 0;
+  std::uint64_t on_gpu = 0, uploaded = 0;
   double cull_seconds = 0;
   std::uint64_t false_hidden = 0, false_visible = 0, checked = 0;
   std::uint64_t cells = 0, cells_false_hidden = 0, cells_false_visible = 0, cells_both = 0, cells_either = 0;
@@ -193,7 +200,7 @@ void compare_viewshed(const Options& o, const terrain::ElevationSource& source, 
 
 void fly_session(const Options& o, const std::shared_ptr<const terrain::ElevationSource>& source,
                  terrain::BlockCache& cache, const std::shared_ptr<const terrain::SourcePyramid>& pyramid,
-                 unsigned seed, Timing& timing) {
+                 gpu::ContextPool* gpu, unsigned seed, Timing& timing) {
   const std::vector<clipmap::SessionBox> boxes = make_boxes(o, *source, cache, seed);
   clipmap::SessionOptions so;
   so.mode = o.mode == "conservative" ? clipmap::ClipMode::kConservative : clipmap::ClipMode::kFast;
@@ -204,6 +211,8 @@ void fly_session(const Options& o, const std::shared_ptr<const terrain::Elevatio
   so.threads = static_cast<unsigned>(o.threads);
   so.asynchronous = o.baseline == "session";
   so.viewshed_radius = o.viewshed_radius;
+  so.use_gpu = gpu != nullptr;
+  so.gpu = gpu;
   if (o.baseline == "sync-all") so.updater.every.assign(static_cast<std::size_t>(so.shape.levels), 1);
   auto session = clipmap::ClipSession::open(source, cache, pyramid, so, pose_at(o, 0));
   if (!session.ok()) usage(session.error().message.c_str());
@@ -228,6 +237,8 @@ void fly_session(const Options& o, const std::shared_ptr<const terrain::Elevatio
     timing.rings += answer->cull.rings;
     timing.tests += answer->cull.box_tests;
     timing.cull_seconds += answer->cull.seconds;
+    timing.on_gpu += answer->cull.gpu;
+    timing.uploaded += answer->cull.bytes_uploaded;
     if (answer->viewshed) timing.viewshed_seconds += answer->viewshed->seconds;
     ++timing.answers;
     if (o.accuracy > 0 && i % o.accuracy == 0 && seed == 1) {
@@ -298,8 +309,16 @@ int main(int argc, char** argv) {
     auto pyramid = terrain::SourcePyramid::make(*source, cache, shape.reduction, clipmap::pyramid_options_for(shape));
     if (!pyramid.ok()) usage(pyramid.error().message.c_str());
     std::vector<std::thread> flights;
+    std::unique_ptr<gpu::ContextPool> pool;
+    if (o.backend == "gpu") {
+      auto created = gpu::ContextPool::create({.contexts = o.sessions});
+      if (!created.ok()) usage(created.error().message.c_str());
+      pool = std::move(created).value();
+      std::printf("gpu: %s (%s)\n", pool->device().renderer.c_str(), pool->device().version.c_str());
+    }
     for (int s = 0; s < o.sessions; ++s)
-      flights.emplace_back([&, s] { fly_session(o, *source, cache, *pyramid, static_cast<unsigned>(s + 1), timing); });
+      flights.emplace_back(
+          [&, s] { fly_session(o, *source, cache, *pyramid, pool.get(), static_cast<unsigned>(s + 1), timing); });
     for (auto& f : flights) f.join();
   }
   const double wall = std::chrono::duration<double>(Clock::now() - started).count();
@@ -321,6 +340,9 @@ int main(int argc, char** argv) {
                 static_cast<unsigned long long>(timing.checked),
                 100.0 * (1.0 - static_cast<double>(timing.false_hidden + timing.false_visible) / static_cast<double>(timing.checked)));
   if (o.viewshed_radius > 0) std::printf("; viewshed %.2f ms a pose", timing.viewshed_seconds / n * 1e3);
+  if (o.backend == "gpu")
+    std::printf("; %llu answers traced on the GPU, %.1f KiB copied to it a pose",
+                static_cast<unsigned long long>(timing.on_gpu), static_cast<double>(timing.uploaded) / 1024.0 / n);
   if (timing.cells)
     std::printf("; viewshed vs exact: IoU %.4f, %.3f %% false hidden, %.3f %% false visible of %llu cells",
                 static_cast<double>(timing.cells_both) / static_cast<double>(std::max<std::uint64_t>(timing.cells_either, 1)),
