@@ -28,7 +28,8 @@
 // (default 0 = enough to cover, 1024, 64), --rays R (1024), --threads N culling threads a session
 // (1; 0 = all cores), --cache-mb M (256), --backend cpu|gpu (session
 // baselines: trace on a GL context, one per session; prints the answers
-// traced there and the level bytes copied to the context a pose).
+// traced there and the level bytes copied to the context a pose), --isa
+// scalar|avx2 (caps the clip-map sampler's SIMD form; default: the CPU's best).
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -51,6 +52,7 @@
 #include "horizon/terrain/source.hpp"
 #include "horizon/terrain/source_pyramid.hpp"
 #include "horizon/visibility/plan.hpp"
+#include "visibility/simd.hpp"
 
 using namespace horizon;
 using Clock = std::chrono::steady_clock;
@@ -58,7 +60,7 @@ using Clock = std::chrono::steady_clock;
 namespace {
 
 struct Options {
-  std::string dem, baseline = "session", mode = "fast", backend = "cpu";
+  std::string dem, baseline = "session", mode = "fast", backend = "cpu", isa;
   double x = 0, y = 0, speed = 250, height = 100, rate = 60, radius = 10000, viewshed_radius = 0;
   int poses = 600, boxes = 10000, sessions = 1, accuracy = 0;
   int levels = 0, level_size = 1024, subtile = 64, rays = 1024, cache_mb = 256, threads = 1;
@@ -80,6 +82,7 @@ Options parse(int argc, char** argv) {
     else if (flag == "--baseline") o.baseline = v;
     else if (flag == "--mode") o.mode = v;
     else if (flag == "--backend") o.backend = v;
+    else if (flag == "--isa") o.isa = v;
     else if (flag == "--x") o.x = num();
     else if (flag == "--y") o.y = num();
     else if (flag == "--speed") o.speed = num();
@@ -102,6 +105,7 @@ Options parse(int argc, char** argv) {
   if (o.dem.empty()) usage("--dem is required");
   if (o.baseline != "session" && o.baseline != "sync-all" && o.baseline != "cullboxes") usage("unknown --baseline");
   if (o.backend != "cpu" && o.backend != "gpu") usage("--backend is cpu or gpu");
+  if (!o.isa.empty() && o.isa != "scalar" && o.isa != "avx2") usage("--isa is scalar or avx2");
   if (o.backend == "gpu" && o.baseline == "cullboxes") usage("--backend gpu traces sessions: not with --baseline cullboxes");
   if (o.mode != "fast" && o.mode != "conservative") usage("unknown --mode");
   return o;
@@ -291,6 +295,8 @@ double percentile(std::vector<double> v, double p) {
 
 int main(int argc, char** argv) {
   const Options o = parse(argc, argv);
+  using visibility::sweep::simd::Isa;
+  if (!o.isa.empty()) visibility::sweep::simd::isa_limit() = o.isa == "scalar" ? Isa::kScalar : Isa::kAvx2;
   auto source = terrain::ElevationSource::open(o.dem);
   if (!source.ok()) usage(source.error().message.c_str());
   terrain::BlockCache::Options co;

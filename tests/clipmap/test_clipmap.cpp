@@ -19,6 +19,7 @@
 #include "horizon/clipmap/clipmap.hpp"
 #include "horizon/clipmap/clipmap_updater.hpp"
 #include "clipmap_world.hpp"
+#include "visibility/simd.hpp"
 
 namespace horizon::clipmap {
 namespace {
@@ -185,6 +186,8 @@ LevelUpdate half_update(const ClipWorld& world, const Clipmap& map, int k, const
   return update;
 }
 
+using visibility::sweep::simd::Isa;
+
 TEST(Clipmap, SamplingManyPointsAtOnceEqualsSamplingEachBitForBit) {
   ClipWorld world;
   auto map = world.map();
@@ -211,17 +214,24 @@ TEST(Clipmap, SamplingManyPointsAtOnceEqualsSamplingEachBitForBit) {
       }
       xs.push_back(-0.5), ys.push_back(-0.5);
       xs.push_back(kWidth - 0.5), ys.push_back(kHeight - 0.5);
-      std::vector<float> many(xs.size());
-      SampleStats each_stats, many_stats;
-      view.sample_many(k, xs.size(), xs.data(), ys.data(), many.data(), many_stats);
-      for (std::size_t i = 0; i < xs.size(); ++i) {
-        const float one = view.sample(k, xs[i], ys[i], each_stats);
-        ASSERT_TRUE(std::memcmp(&one, &many[i], sizeof one) == 0 || (std::isnan(one) && std::isnan(many[i])))
-            << "level " << k << " at (" << xs[i] << ", " << ys[i] << "): " << many[i] << " != " << one;
+      // Every form of the batch sampler this CPU runs: the scalar loop and the AVX2 one.
+      for (const Isa isa : {Isa::kScalar, Isa::kAvx2}) {
+        if (isa > visibility::sweep::simd::cpu_isa()) continue;
+        visibility::sweep::simd::isa_limit() = isa;
+        std::vector<float> many(xs.size());
+        SampleStats each_stats, many_stats;
+        view.sample_many(k, xs.size(), xs.data(), ys.data(), many.data(), many_stats);
+        visibility::sweep::simd::isa_limit() = Isa::kAvx512;
+        for (std::size_t i = 0; i < xs.size(); ++i) {
+          const float one = view.sample(k, xs[i], ys[i], each_stats);
+          ASSERT_TRUE(std::memcmp(&one, &many[i], sizeof one) == 0 || (std::isnan(one) && std::isnan(many[i])))
+              << "level " << k << " at (" << xs[i] << ", " << ys[i] << "), isa " << static_cast<int>(isa) << ": "
+              << many[i] << " != " << one;
+        }
+        EXPECT_EQ(many_stats.samples, each_stats.samples);
+        EXPECT_EQ(many_stats.fallbacks, each_stats.fallbacks);
+        fallbacks += many_stats.fallbacks;
       }
-      EXPECT_EQ(many_stats.samples, each_stats.samples);
-      EXPECT_EQ(many_stats.fallbacks, each_stats.fallbacks);
-      fallbacks += many_stats.fallbacks;
       // lowest() over small rectangles inside a complete level's window: the least reference cell.
       const LevelState state = view.level(k);
       if (state.resident_subtiles == window_tiles(*map, k, state.origin).size()) {
@@ -238,7 +248,8 @@ TEST(Clipmap, SamplingManyPointsAtOnceEqualsSamplingEachBitForBit) {
           float want = std::numeric_limits<float>::infinity();
           for (int j = j0; j <= j1; ++j)
             for (int ii = i0; ii <= i1; ++ii) want = std::min(want, ref.at(ii, j));
-          ASSERT_EQ(view.lowest(k, c0, r0, c1, r1, many_stats), want) << "level " << k << " at " << c0 << ", " << r0;
+          SampleStats lowest_stats;
+          ASSERT_EQ(view.lowest(k, c0, r0, c1, r1, lowest_stats), want) << "level " << k << " at " << c0 << ", " << r0;
           ++lowest_checked;
         }
       }

@@ -9,6 +9,8 @@
 #include <mutex>
 #include <string>
 
+#include "visibility/simd.hpp"
+
 namespace horizon::clipmap {
 namespace {
 
@@ -236,6 +238,61 @@ int ClipmapReader::level_for(int k, double col, double row) const {
   return std::max(k, static_cast<int>(v));
 }
 
+namespace {
+
+// The window of a complete level inside which sample_many's direct path
+// holds: a sample whose four cells lie in the window and the level (no
+// clamping) reads level k, as sample() would (validity there is k or finer).
+struct DirectWindow {
+  const float* cells;
+  double scale, lo_u, lo_v, hi_u, hi_v, max_col, max_row;
+  unsigned mask;  // n - 1
+  int log_n;
+};
+
+#ifdef HORIZON_SIMD_AVX2
+// Four samples of the direct path at once, with the scalar path's double
+// and float operations (no fused multiply-add: AVX2 alone carries none).
+// Returns false, writing nothing, unless all four lie in the window.
+HORIZON_AVX2 bool direct_four(const DirectWindow& d, const double* cols, const double* rows, float* out) {
+  const __m256d half = _mm256_set1_pd(0.5), scale = _mm256_set1_pd(d.scale);
+  const __m256d col = _mm256_loadu_pd(cols), row = _mm256_loadu_pd(rows);
+  const __m256d u = _mm256_sub_pd(_mm256_mul_pd(_mm256_add_pd(col, half), scale), half);
+  const __m256d v = _mm256_sub_pd(_mm256_mul_pd(_mm256_add_pd(row, half), scale), half);
+  const __m256d fi = _mm256_floor_pd(u), fj = _mm256_floor_pd(v);
+  __m256d in = _mm256_and_pd(_mm256_cmp_pd(fi, _mm256_set1_pd(d.lo_u), _CMP_GE_OQ),
+                             _mm256_cmp_pd(fi, _mm256_set1_pd(d.hi_u), _CMP_LT_OQ));
+  in = _mm256_and_pd(in, _mm256_cmp_pd(fj, _mm256_set1_pd(d.lo_v), _CMP_GE_OQ));
+  in = _mm256_and_pd(in, _mm256_cmp_pd(fj, _mm256_set1_pd(d.hi_v), _CMP_LT_OQ));
+  in = _mm256_and_pd(in, _mm256_cmp_pd(col, _mm256_set1_pd(d.max_col), _CMP_LE_OQ));
+  in = _mm256_and_pd(in, _mm256_cmp_pd(row, _mm256_set1_pd(d.max_row), _CMP_LE_OQ));
+  if (_mm256_movemask_pd(in) != 0xf) return false;
+  const __m256d a = _mm256_sub_pd(u, fi), b = _mm256_sub_pd(v, fj);
+  // Clipmap::sample_index for the four corners, in 32-bit lanes.
+  const __m128i mask = _mm_set1_epi32(static_cast<int>(d.mask)), three = _mm_set1_epi32(3), one = _mm_set1_epi32(1);
+  const __m128i i0 = _mm256_cvttpd_epi32(fi), j0 = _mm256_cvttpd_epi32(fj);
+  const __m128i row_shift = _mm_cvtsi32_si128(d.log_n + 2);
+  auto index = [&](__m128i i, __m128i j) {
+    const __m128i uu = _mm_and_si128(i, mask), vv = _mm_and_si128(j, mask);
+    const __m128i brick_row = _mm_sll_epi32(_mm_srli_epi32(vv, 2), row_shift);
+    const __m128i brick_col = _mm_slli_epi32(_mm_srli_epi32(uu, 2), 4);
+    const __m128i inner = _mm_add_epi32(_mm_slli_epi32(_mm_and_si128(vv, three), 2), _mm_and_si128(uu, three));
+    return _mm_add_epi32(_mm_add_epi32(brick_row, brick_col), inner);
+  };
+  const __m128i i1 = _mm_add_epi32(i0, one), j1 = _mm_add_epi32(j0, one);
+  const __m128 z00 = _mm_i32gather_ps(d.cells, index(i0, j0), 4), z10 = _mm_i32gather_ps(d.cells, index(i1, j0), 4);
+  const __m128 z01 = _mm_i32gather_ps(d.cells, index(i0, j1), 4), z11 = _mm_i32gather_ps(d.cells, index(i1, j1), 4);
+  const __m256d d0 = _mm256_cvtps_pd(_mm_sub_ps(z10, z00)), d1 = _mm256_cvtps_pd(_mm_sub_ps(z11, z01));
+  const __m256d top = _mm256_add_pd(_mm256_cvtps_pd(z00), _mm256_mul_pd(d0, a));
+  const __m256d bottom = _mm256_add_pd(_mm256_cvtps_pd(z01), _mm256_mul_pd(d1, a));
+  const __m256d z = _mm256_add_pd(top, _mm256_mul_pd(_mm256_sub_pd(bottom, top), b));
+  _mm_storeu_ps(out, _mm256_cvtpd_ps(z));
+  return true;
+}
+#endif
+
+}  // namespace
+
 void ClipmapReader::sample_many(int k, std::size_t count, const double* cols, const double* rows, float* out,
                                 SampleStats& stats) const {
   const Clipmap::Level& level = map_.levels_[static_cast<std::size_t>(k)];
@@ -247,29 +304,42 @@ void ClipmapReader::sample_many(int k, std::size_t count, const double* cols, co
   // window and in the level (no clamping) reads level k, as sample() would
   // (validity there is k or finer), with the same arithmetic.
   const int n = map_.shape_.level_size;
-  const double scale = kLevelScale[k];
-  const double lo_u = std::max(level.origin.col0, 0), lo_v = std::max(level.origin.row0, 0);
-  const double hi_u = std::min(level.origin.col0 + n, map_.level_width(k)) - 1;  // i1 <= hi: i0 < hi
-  const double hi_v = std::min(level.origin.row0 + n, map_.level_height(k)) - 1;
-  const double max_col = map_.width_ - 0.5, max_row = map_.height_ - 0.5;
-  const float* cells = level.samples.data();
+  const DirectWindow d{level.samples.data(),
+                       kLevelScale[k],
+                       static_cast<double>(std::max(level.origin.col0, 0)),
+                       static_cast<double>(std::max(level.origin.row0, 0)),
+                       static_cast<double>(std::min(level.origin.col0 + n, map_.level_width(k)) - 1),  // i1 <= hi
+                       static_cast<double>(std::min(level.origin.row0 + n, map_.level_height(k)) - 1),
+                       map_.width_ - 0.5,
+                       map_.height_ - 0.5,
+                       static_cast<unsigned>(n - 1),
+                       map_.log_n_};
   std::size_t slow = 0;
-  for (std::size_t i = 0; i < count; ++i) {
+  auto one = [&](std::size_t i) {
     const double col = cols[i], row = rows[i];
-    const double u = (col + 0.5) * scale - 0.5, v = (row + 0.5) * scale - 0.5;
+    const double u = (col + 0.5) * d.scale - 0.5, v = (row + 0.5) * d.scale - 0.5;
     const double fi = std::floor(u), fj = std::floor(v);
-    if (!(fi >= lo_u && fi < hi_u && fj >= lo_v && fj < hi_v && col <= max_col && row <= max_row)) {
+    if (!(fi >= d.lo_u && fi < d.hi_u && fj >= d.lo_v && fj < d.hi_v && col <= d.max_col && row <= d.max_row)) {
       out[i] = sample(k, col, row, stats);
       ++slow;
-      continue;
+      return;
     }
     const double a = u - fi, b = v - fj;
     const int i0 = static_cast<int>(fi), j0 = static_cast<int>(fj);
+    const float* cells = d.cells;
     const float z00 = cells[map_.sample_index(i0, j0)], z10 = cells[map_.sample_index(i0 + 1, j0)];
     const float z01 = cells[map_.sample_index(i0, j0 + 1)], z11 = cells[map_.sample_index(i0 + 1, j0 + 1)];
     const double top = z00 + (z10 - z00) * a, bottom = z01 + (z11 - z01) * a;
     out[i] = static_cast<float>(top + (bottom - top) * b);
-  }
+  };
+  std::size_t i = 0;
+#ifdef HORIZON_SIMD_AVX2
+  if (visibility::sweep::simd::kernel_isa() >= visibility::sweep::simd::Isa::kAvx2)
+    for (; i + 4 <= count; i += 4)
+      if (!direct_four(d, cols + i, rows + i, out + i))
+        for (std::size_t j = i; j < i + 4; ++j) one(j);
+#endif
+  for (; i < count; ++i) one(i);
   stats.samples += count - slow;
 }
 

@@ -1,4 +1,5 @@
-// Private to the radial sweep: the SIMD vocabulary its kernels share.
+// Private to core: the SIMD vocabulary the radial sweep's kernels (and the
+// clip-map's sampler, clipmap/clipmap.cpp) share.
 //
 // Each kernel of the sweep has a scalar loop and, on x86-64, an AVX2 form
 // (eight lanes) and an AVX-512 form (sixteen lanes, mask registers), chosen
