@@ -82,6 +82,18 @@ struct ClipWorld {
     EXPECT_TRUE(made.ok()) << made.error().message;
     return std::move(*made);
   }
+  // Levels 0 and 1 of `m` left at the far corner (990, 690) and the coarser
+  // levels brought to (col, row): the terrain around (col, row) then comes
+  // from levels 2 and 3, and samples there fall back.
+  void lag_finest_levels(const std::shared_ptr<Clipmap>& m, double col, double row) const {
+    ClipmapUpdater all = updater(m);
+    ASSERT_TRUE(all.update_all({.col = 990.0, .row = 690.0}).ok());
+    UpdaterOptions lagging;
+    lagging.every = {1000, 1000, 1, 1};
+    ClipmapUpdater slow = updater(m, lagging);
+    ASSERT_TRUE(slow.update({.col = 990.0, .row = 690.0}).ok());  // first pose: every level in place
+    ASSERT_TRUE(slow.update({.col = col, .row = row}).ok());      // only levels 2 and 3 follow
+  }
   // The reference bilinear sample of level k at source coordinates, as ClipmapReader::sample defines it.
   float bilinear(int k, double col, double row) const {
     const Grid<float>& g = levels[static_cast<std::size_t>(k)];
