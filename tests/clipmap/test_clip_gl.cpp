@@ -2,7 +2,9 @@
 // whatever EGL device this machine has (Mesa llvmpipe in CI, so it runs in
 // every test run): boxes and viewshed cells come out the same, with the
 // same work counted, fallbacks included, for both modes and with levels
-// lagging; only levels whose version changed are copied to the context.
+// lagging; only levels whose version changed are copied to the context;
+// the OHF sweep and the clip-map trace keep their resources side by side
+// on one context.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -14,6 +16,7 @@
 #include "horizon/clipmap/clip_cull.hpp"
 #include "horizon/clipmap/clip_viewshed.hpp"
 #include "horizon/gpu/context_pool.hpp"
+#include "horizon/visibility/viewshed.hpp"
 
 namespace horizon::clipmap {
 namespace {
@@ -159,6 +162,46 @@ TEST(ClipGl, OnlyLevelsWhoseVersionChangedAreCopiedToTheContext) {
   ClipmapUpdater other_updater = world.updater(other);
   ASSERT_TRUE(other_updater.update_all({.col = 400.0, .row = 300.0}).ok());
   EXPECT_EQ(uploaded(*other, 400.0, 300.0), shape.levels * level_bytes);
+}
+
+TEST(ClipGl, TheOhfSweepAndTheClipTraceKeepTheirResourcesOnOneContext) {
+  ClipWorld world;
+  auto map = world.map();
+  ClipmapUpdater updater = world.updater(map);
+  ASSERT_TRUE(updater.update_all({.col = 500.0, .row = 350.0}).ok());
+  const std::vector<BoxFootprint> boxes = boxes_over(world);
+  geodesy::GridPoint eye;
+  eye.col = 500.0;
+  eye.row = 350.0;
+  eye.x = world.dem.georef.transform.x_at(eye.col);
+  eye.y = world.dem.georef.transform.y_at(eye.row);
+  eye.elevation = world.bilinear(0, 500.0, 350.0) + 15.0;
+  visibility::ViewshedOptions vo;
+  vo.backend = visibility::Backend::kGpu;
+  vo.max_distance = 6000.0;
+  auto sweep = [&] {
+    auto r = visibility::compute_viewshed(world.dem, eye, vo, nullptr, &pool());  // borrows the one context
+    EXPECT_TRUE(r.ok()) << r.error().message;
+    if (r.ok()) {
+      EXPECT_EQ(r->stats.backend, "gpu") << r->stats.gpu_fallback;
+    }
+    return r.ok() ? std::vector<float>(r->ohf.values().begin(), r->ohf.values().end()) : std::vector<float>{};
+  };
+  auto trace = [&] {
+    auto lease = pool().borrow();
+    EXPECT_TRUE(lease.ok());
+    ClipmapReader view(*map);
+    auto got = cull_on_clipmap(view, eye_at(world, 500.0, 350.0), boxes, {.rays = 512}, nullptr, nullptr, &*lease);
+    EXPECT_TRUE(got.ok()) << got.error().message;
+    EXPECT_EQ(lease->resource_kinds(), 2u) << "both algorithms' resources on the context";
+    return got.ok() ? got->stats.bytes_uploaded : 0;
+  };
+  const std::vector<float> first = sweep();
+  EXPECT_GT(trace(), 0u) << "the clip-map's first trace on this context copies its levels";
+  const std::vector<float> second = sweep();
+  EXPECT_EQ(trace(), 0u) << "the sweep between did not take the trace's copy away";
+  ASSERT_FALSE(first.empty());
+  EXPECT_TRUE(std::ranges::equal(first, second, [](float a, float b) { return a == b || (a != a && b != b); }));
 }
 
 }  // namespace

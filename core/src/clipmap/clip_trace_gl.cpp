@@ -91,9 +91,7 @@ Status trace_gl(const TracePlan& plan, const ClipmapReader& view, const ClipEye&
     lease.fail();
     return status;
   };
-  auto& slot = lease.resources();
-  if (!slot || !dynamic_cast<ClipTraceResources*>(slot.get())) slot = std::make_unique<ClipTraceResources>();
-  auto& gl = static_cast<ClipTraceResources&>(*slot);
+  auto& gl = lease.resources<ClipTraceResources>();  // beside the OHF sweep's on the same context
   if (!gl.error.empty()) return fail(make_error(ErrorCode::kInternal, gl.error, "gpu"));
 
   const Clipmap& map = view.map();

@@ -156,7 +156,7 @@ struct ContextPool::Impl {
   DeviceInfo info;
   struct Slot {
     EGLContext context = EGL_NO_CONTEXT;
-    std::unique_ptr<ContextResources> resources;
+    std::vector<std::pair<std::type_index, std::unique_ptr<ContextResources>>> resources;  // one per type
     bool lent = false;
   };
   std::vector<Slot> slots;
@@ -167,9 +167,9 @@ struct ContextPool::Impl {
   // Destroys a slot's context, its resources first with the context current.
   void destroy(Slot& slot) {
     if (slot.context == EGL_NO_CONTEXT) return;
-    if (slot.resources) {
+    if (!slot.resources.empty()) {
       eglMakeCurrent(display.display, EGL_NO_SURFACE, EGL_NO_SURFACE, slot.context);
-      slot.resources.reset();
+      slot.resources.clear();
       eglMakeCurrent(display.display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
     }
     eglDestroyContext(display.display, slot.context);
@@ -263,7 +263,7 @@ void ContextPool::give_back(int index, bool failed) {
   Impl::Slot& slot = impl_->slots[static_cast<std::size_t>(index)];
   if (failed) {
     // Resources first, with the context still current, then the context.
-    slot.resources.reset();
+    slot.resources.clear();
   }
   eglMakeCurrent(impl_->display.display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
   {
@@ -294,8 +294,17 @@ const DeviceInfo& Lease::device() const {
   return pool_->device();
 }
 
-std::unique_ptr<ContextResources>& Lease::resources() {
-  return pool_->impl_->slots[static_cast<std::size_t>(index_)].resources;
+std::size_t Lease::resource_kinds() const {
+  std::size_t kinds = 0;
+  for (const auto& held : pool_->impl_->slots[static_cast<std::size_t>(index_)].resources) kinds += held.second != nullptr;
+  return kinds;
+}
+
+std::unique_ptr<ContextResources>& Lease::resources_of(std::type_index type) {
+  auto& held = pool_->impl_->slots[static_cast<std::size_t>(index_)].resources;
+  for (auto& [kind, resources] : held)
+    if (kind == type) return resources;
+  return held.emplace_back(type, nullptr).second;
 }
 
 void Lease::fail() {

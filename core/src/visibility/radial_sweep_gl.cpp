@@ -166,9 +166,7 @@ Status prepare_radial_gl(gpu::ContextPool& pool) {
     threads.emplace_back([&, i] {
       auto lease = pool.borrow();
       if (lease.ok()) {
-        auto& slot = lease->resources();
-        if (!slot) slot = std::make_unique<OhfResources>();
-        errors[static_cast<std::size_t>(i)] = static_cast<OhfResources&>(*slot).error;
+        errors[static_cast<std::size_t>(i)] = lease->resources<OhfResources>().error;
       } else {
         errors[static_cast<std::size_t>(i)] = lease.error().message;
       }
@@ -204,9 +202,7 @@ Status radial_ohf_gl(gpu::Lease& lease, const terrain::HeightView& z, const View
   reset_output(ohf, w);
   if (sectors.empty()) return Status::Ok();  // a one-cell window: only the eye's cell, below
 
-  auto& slot = lease.resources();
-  if (!slot) slot = std::make_unique<OhfResources>();
-  auto& gl = static_cast<OhfResources&>(*slot);
+  auto& gl = lease.resources<OhfResources>();
   if (!gl.error.empty()) return fail(make_error(ErrorCode::kInternal, gl.error, "gpu"));
 
   const double curvature = f.curvature;

@@ -14,8 +14,10 @@
 // desktop OpenGL 4.3 core context (compute shaders, R32F/RG32F targets) bound
 // with no surface. A context is current only on the thread holding its lease.
 //
-// Per-context GL objects (programs, textures, framebuffers) are kept in a
-// ContextResources the GL code hangs on the context (Lease::resources()), so
+// Per-context GL objects (programs, textures, framebuffers) are kept in
+// ContextResources the GL code hangs on the context, one per algorithm
+// (Lease::resources<R>(): the OHF sweep's and the clip-map trace's side by
+// side on the same context), so
 // shaders are compiled once per context and images are reallocated only when
 // a request needs more room than any before it.
 //
@@ -31,6 +33,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <typeindex>
 
 #include "horizon/common/error.hpp"
 
@@ -74,8 +77,19 @@ class Lease {
   ~Lease();
 
   const DeviceInfo& device() const;
-  // The context's resources slot (null until the GL code sets it).
-  std::unique_ptr<ContextResources>& resources();
+  // The context's resources of type R (a ContextResources): each GL
+  // algorithm keeps its own on the context, default-constructed the first
+  // time that context runs it.
+  template <class R>
+  R& resources() {
+    std::unique_ptr<ContextResources>& slot = resources_of(typeid(R));
+    if (!slot) slot = std::make_unique<R>();
+    return static_cast<R&>(*slot);
+  }
+  // The slot of one type's resources (null until set).
+  std::unique_ptr<ContextResources>& resources_of(std::type_index type);
+  // How many kinds of resources the context holds.
+  std::size_t resource_kinds() const;
   // Marks the context unusable: it is destroyed when returned and replaced.
   void fail();
   bool failed() const { return failed_; }
