@@ -321,8 +321,8 @@ void print_session(const SessionPlayback& playback, const SessionReport& report,
             << "  total:      " << fixed(report.total_seconds, 3) << " s\n";
   if (playback.options.use_gpu)
     std::cout << "  gpu:        " << with_separators(on_gpu) << " of " << with_separators(answered)
-              << " answers traced on the GPU" << (gpu_fallback.empty() ? "" : "; the CPU traced others: " + gpu_fallback)
-              << '\n';
+              << " answers traced on the GPU"
+              << (gpu_fallback.empty() ? "" : "; the CPU traced others: " + gpu_fallback) << '\n';
   if (!every_pose) return;
   for (const PoseLine& p : report.poses) {
     std::cout << "  pose " << p.seq << ": ";

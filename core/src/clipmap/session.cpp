@@ -405,8 +405,9 @@ Result<SessionAnswer> ClipSession::answer(const SessionPose& pose, const RunCont
   }
   if (!culled.ok()) return culled.error();
   if (options_.viewshed_radius > 0.0) {
+    gpu::Lease* viewshed_gl = out.gpu_fallback.empty() ? gl : nullptr;  // not again after a GL failure
     auto seen = options_.mode == ClipMode::kExact ? viewshed_exact(pose, control)
-                                                  : viewshed_clipmap(*eye, control, out.gpu_fallback.empty() ? gl : nullptr, out);
+                                                  : viewshed_clipmap(*eye, control, viewshed_gl, out);
     if (!seen.ok()) return seen.error();
     out.viewshed = std::move(*seen);
   }
