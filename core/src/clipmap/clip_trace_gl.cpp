@@ -59,8 +59,9 @@ void upload_levels(ClipTraceResources& gl, const ClipmapReader& view, std::uint6
   const Clipmap& map = view.map();
   const ClipmapShape& shape = map.shape();
   const int n = shape.level_size, tiles = n / shape.subtile;
-  const bool fresh = gl.cells.ensure(n, n, shape.levels) | gl.resident.ensure(tiles, tiles, shape.levels);
-  if (fresh || gl.map_id != map.id()) {
+  const bool new_cells = gl.cells.ensure(n, n, shape.levels);  // both arrays sized, whichever was re-created
+  const bool new_resident = gl.resident.ensure(tiles, tiles, shape.levels);
+  if (new_cells || new_resident || gl.map_id != map.id()) {
     gl.map_id = map.id();
     std::fill(std::begin(gl.versions), std::end(gl.versions), ClipTraceResources::kNone);
   }
