@@ -63,11 +63,7 @@ Result<clipmap::SessionOptions> to_session_options(const v1::OpenSession& open, 
     case v1::BACKEND_CPU:
       break;
     case v1::BACKEND_GPU:
-      if (o.mode == clipmap::ClipMode::kExact)  // before any memory is reserved for it
-        return make_error(ErrorCode::kInvalidArgument,
-                          "open.backend: exact sessions run on the CPU: the GPU traces clip-maps only",
-                          "open.backend");
-      o.use_gpu = true;
+      o.use_gpu = true;  // exact mode refuses it in ClipSession::bytes_for, before memory is reserved
       o.gpu = gpu;
       break;
     default:

@@ -31,15 +31,13 @@ Result<std::unique_ptr<ClipSession>> ClipSession::open(std::shared_ptr<const ter
     return make_error(ErrorCode::kInvalidArgument,
                       "curvature_coefficient must be in [0, 1], got " + number_text(options.curvature_coefficient),
                       "curvature_coefficient");
-  if (options.use_gpu && options.mode == ClipMode::kExact)
-    return make_error(ErrorCode::kInvalidArgument, "exact sessions run on the CPU: the GPU traces clip-maps only",
-                      "backend");
   std::unique_ptr<ClipSession> s(new ClipSession());
   s->source_ = std::move(source);
   s->cache_ = &cache;
   s->options_ = options;
   s->options_.shape.reduction = reduction_for(options.mode);
-  auto bytes = bytes_for(s->options_, s->source_->width(), s->source_->height(), 0);  // checks rays and shape
+  // Checks rays, shape and backend.
+  auto bytes = bytes_for(s->options_, s->source_->width(), s->source_->height(), 0);
   if (!bytes.ok()) return bytes.error();
   s->pyramid_ = pyramid;
   if (options.mode == ClipMode::kExact) {
@@ -84,7 +82,12 @@ Result<std::uint64_t> ClipSession::bytes_for(const SessionOptions& options, int 
                       "viewshed_radius");
   // A pose's viewshed mask: at most ClipViewshed::kMaxCells bytes (a larger one is refused when answered).
   const std::uint64_t mask = options.viewshed_radius > 0.0 ? ClipViewshed::kMaxCells : 0;
-  if (options.mode == ClipMode::kExact) return options.exact_bytes + mask + boxes * kBytesPerBox;
+  if (options.mode == ClipMode::kExact) {
+    if (options.use_gpu)
+      return make_error(ErrorCode::kInvalidArgument, "exact sessions run on the CPU: the GPU traces clip-maps only",
+                        "backend");
+    return options.exact_bytes + mask + boxes * kBytesPerBox;
+  }
   HORIZON_RETURN_IF_ERROR(Clipmap::check(width, height, options.shape));
   auto scratch = scratch_bytes(options, width, height);
   if (!scratch.ok()) return scratch.error();

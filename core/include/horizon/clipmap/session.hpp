@@ -186,7 +186,8 @@ class ClipSession {
 
   // What a session of these options over a width x height source holds
   // (clip-map and trace scratch, or exact_bytes in exact mode; `boxes`
-  // boxes), before it is opened; the shape's errors as open() would give them.
+  // boxes), before it is opened; the shape's and backend's errors as open()
+  // would give them.
   static Result<std::uint64_t> bytes_for(const SessionOptions& options, int width, int height, std::size_t boxes);
 
   Result<SessionAnswer> answer(const SessionPose& pose, const RunControl* control = nullptr);
