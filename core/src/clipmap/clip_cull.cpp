@@ -24,18 +24,14 @@ Status detail::trace_cpu(const detail::TracePlan& plan, const ClipmapReader& vie
   const double dtheta = plan.g.dtheta;
   const double tangent = 1.0 / std::cos(dtheta / 2);
   const auto& rings = plan.rings;
-  struct Column {
-    double cx0, cy0, cx1, cy1, cxm, cym;  // grid steps per metre along its rays (and mid-angle)
+  struct Column : detail::ColumnRays {
     double horizon;
   };
   auto trace_block = [&](std::size_t first, std::size_t last) {
     Column cols[kBlockColumns];
     double block_reach = 0.0;
     for (std::size_t a = first; a < last; ++a) {
-      Column& c = cols[a - first];
-      const double t0 = static_cast<double>(a) * dtheta, t1 = t0 + dtheta, tm = t0 + dtheta / 2;
-      c = {std::cos(t0) / eye.metres_per_col, std::sin(t0) / eye.metres_per_row, std::cos(t1) / eye.metres_per_col,
-           std::sin(t1) / eye.metres_per_row, std::cos(tm) / eye.metres_per_col, std::sin(tm) / eye.metres_per_row, kNegInf};
+      cols[a - first] = {detail::column_rays(a, dtheta, eye), kNegInf};
       detail::horizon_at(w, rays, a, 0) = kNegInf;
       block_reach = std::max(block_reach, w.reach[a]);
     }

@@ -54,6 +54,18 @@ struct TracePlan {
   std::uint64_t box_tests = 0;  // planned (ray or wedge, ring) pairs
 };
 
+// Column a's rays in grid steps per metre: the ray at θ_a, the one at
+// θ_a+1 (the wedge's other side) and the one between them.
+struct ColumnRays {
+  double cx0, cy0, cx1, cy1, cxm, cym;
+};
+inline ColumnRays column_rays(std::size_t a, double dtheta, const ClipEye& eye) {
+  const double t0 = static_cast<double>(a) * dtheta, t1 = t0 + dtheta, tm = t0 + dtheta / 2;
+  return {std::cos(t0) / eye.metres_per_col, std::sin(t0) / eye.metres_per_row,
+          std::cos(t1) / eye.metres_per_col, std::sin(t1) / eye.metres_per_row,
+          std::cos(tm) / eye.metres_per_col, std::sin(tm) / eye.metres_per_row};
+}
+
 // Fills scratch.spans and scratch.reach for `footprints` and returns the
 // plan, or kResourceExhausted "boxes" when the boxes would need more than
 // options.max_box_tests tests: nothing is traced before this says yes.

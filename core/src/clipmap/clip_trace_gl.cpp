@@ -4,6 +4,7 @@
 // copied into one texture array; the box tests and viewshed cells that read
 // the horizons are the CPU's own (test_boxes, clip_viewshed.cpp).
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -41,8 +42,12 @@ struct ClipTraceResources final : gpu::ContextResources {
   std::uint64_t map_id = 0;
   std::uint64_t versions[ClipmapShape::kMaxLevels];
   gpu::StorageBuffer rings, columns, horizons, counts;
+  // Host-side tables, kept so that a warm context allocates nothing per trace.
   std::vector<float> staging;
   std::vector<std::uint8_t> staging_resident;
+  std::vector<GlRing> ring_table;
+  std::vector<GlColumn> column_table;
+  std::vector<std::uint32_t> count_table;
 
   ClipTraceResources() {
     std::fill(std::begin(versions), std::end(versions), kNone);
@@ -102,21 +107,19 @@ Status trace_gl(const TracePlan& plan, const ClipmapReader& view, const ClipEye&
   upload_levels(gl, view, uploaded);
   if (auto s = gpu::gl_status("the clip-map upload"); !s.ok()) return fail(s);
 
-  // The plan's rings and the columns' directions, as trace_cpu computes them.
-  std::vector<GlRing> rings;
-  rings.reserve(plan.rings.size());
+  // The plan's rings and the columns' rays, as trace_cpu has them.
+  std::vector<GlRing>& rings = gl.ring_table;
+  rings.clear();
   for (const Ring& r : plan.rings)
     rings.push_back({r.near, r.far, r.mid, r.inv_mid, r.mid_drop, r.far_drop, static_cast<double>(r.blend), r.k,
                      r.lowest_level});
   if (rings.empty()) rings.push_back({});  // a buffer of no rings still needs a binding
-  std::vector<GlColumn> cols(columns);
+  std::vector<GlColumn>& cols = gl.column_table;
+  cols.resize(columns);
   const double dtheta = plan.g.dtheta;
   for (std::size_t a = 0; a < columns; ++a) {
-    const double t0 = static_cast<double>(a) * dtheta, t1 = t0 + dtheta, tm = t0 + dtheta / 2;
-    cols[a] = {std::cos(t0) / eye.metres_per_col, std::sin(t0) / eye.metres_per_row,
-               std::cos(t1) / eye.metres_per_col, std::sin(t1) / eye.metres_per_row,
-               std::cos(tm) / eye.metres_per_col, std::sin(tm) / eye.metres_per_row,
-               w.reach[a], 0.0};
+    const ColumnRays c = column_rays(a, dtheta, eye);
+    cols[a] = {c.cx0, c.cy0, c.cx1, c.cy1, c.cxm, c.cym, w.reach[a], 0.0};
   }
   const std::size_t horizon_values = columns * plan.edges.size();
   gl.rings.upload(0, rings.data(), rings.size() * sizeof(GlRing));
@@ -134,7 +137,7 @@ Status trace_gl(const TracePlan& plan, const ClipmapReader& view, const ClipEye&
   glBindTexture(GL_TEXTURE_2D_ARRAY, gl.resident.texture);
   gpu::set_uniform(p, "u_resident", 1);
   gpu::set_uniform(p, "u_n", shape.level_size);
-  gpu::set_uniform(p, "u_log_t", static_cast<int>(std::log2(shape.subtile) + 0.5));
+  gpu::set_uniform(p, "u_log_t", std::countr_zero(static_cast<unsigned>(shape.subtile)));  // t: a power of two
   gpu::set_uniform(p, "u_levels", shape.levels);
   gpu::set_uniform(p, "u_rays", rays);
   gpu::set_uniform(p, "u_rings", static_cast<int>(plan.rings.size()));
@@ -167,7 +170,8 @@ Status trace_gl(const TracePlan& plan, const ClipmapReader& view, const ClipEye&
   // Horizons for every ring of every column, as trace_cpu leaves them.
   if (w.horizons.size() < horizon_values) w.horizons.resize(horizon_values);
   gl.horizons.download(w.horizons.data(), horizon_values * sizeof(double));
-  std::vector<std::uint32_t> counts(columns * 4);
+  std::vector<std::uint32_t>& counts = gl.count_table;
+  counts.resize(columns * 4);
   gl.counts.download(counts.data(), counts.size() * sizeof(std::uint32_t));
   if (auto s = gpu::gl_status("reading the horizons back"); !s.ok()) return fail(s);
   for (std::size_t a = 0; a < columns; ++a) {
