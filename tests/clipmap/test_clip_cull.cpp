@@ -2,14 +2,19 @@
 // conservative mode never reports hidden a box R3 sees, with the levels
 // complete and with the finest level left behind (fallbacks); the fast mode
 // agrees with R3 on most boxes; only the rays the boxes need are traced;
-// ring edges follow the level-selection rule.
+// ring edges follow the level-selection rule and the plan finds a
+// distance's ring as a binary search would; the CPU's fused trace and box
+// tests answer as the whole table of horizons does.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <bit>
 #include <cmath>
 #include <numbers>
 #include <random>
 #include <vector>
 
+#include "clipmap/clip_trace.hpp"
 #include "clipmap_world.hpp"
 #include "horizon/clipmap/clip_cull.hpp"
 #include "horizon/visibility/r3.hpp"
@@ -198,6 +203,88 @@ TEST(ClipCull, OnlyTheRaysTheBoxesNeedAreTracedAndOnlyAsFarAsThem) {
   auto small = cull_on_clipmap(view, eye, std::vector<BoxFootprint>{east}, bounded);
   ASSERT_TRUE(small.ok()) << small.error().message;
   EXPECT_LE(small->stats.box_tests, 10000u);
+}
+
+}  // namespace
+}  // namespace horizon::clipmap
+
+namespace horizon::clipmap {
+namespace {
+
+TEST(ClipCull, ThePlanFindsADistancesRingAsABinarySearchWould) {
+  ClipWorld world;
+  ClipmapShape shape = small_shape();
+  std::mt19937 rng(3);
+  for (const double reach : {40.0, 9000.0, 400000.0}) {  // 400 km: wider buckets than a cell
+    ClipCullScratch w;
+    const ClipEye eye{500.0, 350.0, 900.0, 30.0, 30.0, 0.0};
+    const detail::TracePlan plan = detail::plan_reach(eye, {.rays = 512}, shape, reach, w);
+    const auto& edges = plan.edges;
+    std::vector<double> probes{-1.0, 0.0, edges.back() + 1.0, 2.0 * edges.back()};
+    for (double e : edges) probes.insert(probes.end(), {e, std::nextafter(e, 0.0), std::nextafter(e, 1e300)});
+    std::uniform_real_distribution<double> any(0.0, edges.back() * 1.01);
+    for (int i = 0; i < 5000; ++i) probes.push_back(any(rng));
+    for (double d : probes) {
+      ASSERT_EQ(plan.edges_upto(d), std::size_t(std::upper_bound(edges.begin(), edges.end(), d) - edges.begin()))
+          << d << " m, reach " << reach;
+      ASSERT_EQ(plan.edges_below(d), std::size_t(std::lower_bound(edges.begin(), edges.end(), d) - edges.begin()))
+          << d << " m, reach " << reach;
+    }
+  }
+}
+
+// The table path (what the GL trace feeds): every column traced into the
+// whole rings x rays table, then every box tested against it.
+ClipCullResult by_table(const ClipmapReader& view, const ClipEye& eye, const std::vector<BoxFootprint>& boxes,
+                        const ClipCullOptions& options) {
+  ClipCullScratch w;
+  auto plan = detail::plan_trace(eye, boxes, options, view.map().shape(), w);
+  EXPECT_TRUE(plan.ok());
+  detail::prepare_horizons(*plan, w);
+  ClipCullResult result;
+  EXPECT_TRUE(detail::trace_cpu(*plan, view, eye, options, nullptr, w).ok());
+  EXPECT_TRUE(detail::test_boxes(*plan, eye, boxes, options, nullptr, w, result).ok());
+  return result;
+}
+
+TEST(ClipCull, TheFusedTraceAndTestsAnswerAsTheWholeTableOfHorizons) {
+  for (const terrain::Reduction reduction : {terrain::Reduction::kMean, terrain::Reduction::kMin}) {
+    const ClipMode mode = reduction == terrain::Reduction::kMean ? ClipMode::kFast : ClipMode::kConservative;
+    ClipWorld world(small_shape(reduction));
+    auto map = world.map(small_shape(reduction));
+    ClipmapUpdater updater = world.updater(map);
+    ASSERT_TRUE(updater.update_all({.col = 500.0, .row = 350.0}).ok());
+    Scene scene = make_scene(world, 500.0, 350.0);
+    // Boxes over the seams: one holding the eye, one across azimuth 0
+    // (its columns wrap through column 0), one over many blocks of columns.
+    BoxFootprint eye_box{{495, 345, 505, 355}, 0.0, 2000.0}, across_zero{{540, 340, 560, 361}, 0.0, 1300.0},
+        wide{{100, 600, 900, 640}, 0.0, 1200.0};
+    scene.boxes.insert(scene.boxes.end(), {eye_box, across_zero, wide});
+    for (int rays : {64, 100, 1000, 2048}) {  // 100 and 1000: a last block shorter than the rest
+      for (unsigned threads : {1u, 2u}) {
+        ClipmapReader view(*map);
+        const ClipCullOptions options{.mode = mode, .rays = rays, .threads = threads};
+        auto fused = cull_on_clipmap(view, scene.eye, scene.boxes, options);
+        ASSERT_TRUE(fused.ok()) << fused.error().message;
+        const ClipCullResult table = by_table(view, scene.eye, scene.boxes, options);
+        std::size_t differ = 0;
+        for (std::size_t i = 0; i < scene.boxes.size(); ++i)
+          differ += fused->boxes[i].state != table.boxes[i].state ||
+                    std::bit_cast<std::uint32_t>(fused->boxes[i].ohf_min) !=
+                        std::bit_cast<std::uint32_t>(table.boxes[i].ohf_min);
+        EXPECT_EQ(differ, 0u) << rays << " rays, " << threads << " threads";
+        EXPECT_EQ(fused->visible_count, table.visible_count);
+        EXPECT_GT(scene.boxes.size() - fused->visible_count, 200u) << "the scene must hide boxes to mean anything";
+        EXPECT_EQ(fused->stats.rays_traced, table.stats.rays_traced);
+        EXPECT_EQ(fused->stats.rings, table.stats.rings);
+        EXPECT_EQ(fused->stats.samples, table.stats.samples);
+        EXPECT_EQ(fused->stats.box_tests, table.stats.box_tests);
+        const std::size_t n = scene.boxes.size();
+        EXPECT_EQ(fused->boxes[n - 3].state, Visibility::kSeen) << "a hull holding the eye is visible";
+        EXPECT_EQ(fused->boxes[n - 3].ohf_min, -std::numeric_limits<float>::infinity());
+      }
+    }
+  }
 }
 
 }  // namespace

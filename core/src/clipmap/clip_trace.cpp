@@ -55,8 +55,6 @@ BoxSpan span_of(const visibility::BoxFootprint& box, const ClipEye& eye, const G
   return s;
 }
 
-std::size_t column_of(long a, int rays) { return static_cast<std::size_t>(((a % rays) + rays) % rays); }
-
 // The least of eye + d h + curvature d² over d in [lo, hi].
 double least_ohf(double eye, double h, double curvature, double lo, double hi) {
   if (h == kNegInf) return kNegInf;
@@ -67,8 +65,35 @@ double least_ohf(double eye, double h, double curvature, double lo, double hi) {
 
 }  // namespace
 
-// The ring table of plan.edges.
+// The ring table and bucket index of plan.edges.
 void set_rings(TracePlan& plan, const ClipEye& eye);
+
+namespace {
+
+// The bucket's first edge beyond it, moved until `before(edge, d)` holds
+// for exactly the edges ahead of it: the count of edges before d.
+template <class Before>
+std::size_t count_before(const TracePlan& plan, double d, Before before) {
+  const auto& edges = plan.edges;
+  std::size_t i = 0;
+  if (d >= 0.0) {
+    const double b = std::floor(d * plan.inv_bucket_width);
+    i = b < static_cast<double>(plan.bucket_first.size()) ? plan.bucket_first[static_cast<std::size_t>(b)]
+                                                           : edges.size();
+  }
+  while (i > 0 && !before(edges[i - 1], d)) --i;
+  while (i < edges.size() && before(edges[i], d)) ++i;
+  return i;
+}
+
+}  // namespace
+
+std::size_t TracePlan::edges_upto(double d) const {
+  return count_before(*this, d, [](double e, double x) { return e <= x; });
+}
+std::size_t TracePlan::edges_below(double d) const {
+  return count_before(*this, d, [](double e, double x) { return e < x; });
+}
 
 Geometry geometry_of(double cell, int rays, const ClipmapShape& shape) {
   // A level's origin is snapped to its sub-tile grid: its window reaches
@@ -78,8 +103,9 @@ Geometry geometry_of(double cell, int rays, const ClipmapShape& shape) {
 
 Result<TracePlan> plan_trace(const ClipEye& eye, std::span<const visibility::BoxFootprint> footprints,
                              const ClipCullOptions& options, const ClipmapShape& shape, ClipCullScratch& w) {
-  TracePlan plan{geometry_of(std::min(eye.metres_per_col, eye.metres_per_row), options.rays, shape), options.rays,
-                 {}, {}, 0};
+  TracePlan plan;
+  plan.g = geometry_of(std::min(eye.metres_per_col, eye.metres_per_row), options.rays, shape);
+  plan.rays = options.rays;
   const int rays = options.rays;
   // The columns the boxes need, and how far.
   w.spans.resize(footprints.size());
@@ -96,13 +122,13 @@ Result<TracePlan> plan_trace(const ClipEye& eye, std::span<const visibility::Box
     farthest = std::max(farthest, s.far);
   }
   plan.edges = ring_edges(farthest, plan.g.cell, rays, shape);
+  set_rings(plan, eye);
   // The box tests this will take, bounded before any tracing.
-  const auto& edges = plan.edges;
-  for (const BoxSpan& s : w.spans) {
+  for (BoxSpan& s : w.spans) {
     if (s.eye_inside) continue;
-    const auto first = std::upper_bound(edges.begin(), edges.end(), s.near);
-    const auto last = std::lower_bound(edges.begin(), edges.end(), s.far);
-    const std::uint64_t ring_count = static_cast<std::uint64_t>(std::max<std::ptrdiff_t>(last - first + 1, 1));
+    const std::size_t first = plan.edges_upto(s.near), last = plan.edges_below(s.far);
+    s.first_ring = static_cast<std::uint32_t>(first > 0 ? first - 1 : 0);
+    const std::uint64_t ring_count = last + 1 > first ? last + 1 - first : 1;
     const std::uint64_t column_count = static_cast<std::uint64_t>(std::min<long>(s.a1 - s.a0 + 1, rays));
     plan.box_tests += ring_count * column_count;
   }
@@ -112,14 +138,14 @@ Result<TracePlan> plan_trace(const ClipEye& eye, std::span<const visibility::Box
                           std::to_string(options.max_box_tests) +
                           "): some footprints span too many rays and rings; register smaller boxes or use fewer rays",
                       "boxes");
-  set_rings(plan, eye);
   return plan;
 }
 
 TracePlan plan_reach(const ClipEye& eye, const ClipCullOptions& options, const ClipmapShape& shape, double reach,
                      ClipCullScratch& w) {
-  TracePlan plan{geometry_of(std::min(eye.metres_per_col, eye.metres_per_row), options.rays, shape), options.rays,
-                 {}, {}, 0};
+  TracePlan plan;
+  plan.g = geometry_of(std::min(eye.metres_per_col, eye.metres_per_row), options.rays, shape);
+  plan.rays = options.rays;
   w.spans.clear();
   w.reach.assign(static_cast<std::size_t>(options.rays), reach);
   plan.edges = ring_edges(reach, plan.g.cell, options.rays, shape);
@@ -129,6 +155,20 @@ TracePlan plan_reach(const ClipEye& eye, const ClipCullOptions& options, const C
 
 void set_rings(TracePlan& plan, const ClipEye& eye) {
   const auto& edges = plan.edges;
+  // Buckets no wider than the finest ring (so one holds at most an edge or
+  // two), and at most 65 536 of them for the longest reach.
+  plan.bucket_first.clear();
+  if (!edges.empty()) {
+    const double width = std::max(plan.g.cell, edges.back() / 65536.0);
+    const std::size_t buckets = static_cast<std::size_t>(edges.back() / width) + 1;
+    plan.inv_bucket_width = 1.0 / width;
+    plan.bucket_first.resize(buckets);
+    std::size_t i = 0;
+    for (std::size_t b = 0; b < buckets; ++b) {
+      while (i < edges.size() && edges[i] <= static_cast<double>(b) * width) ++i;
+      plan.bucket_first[b] = static_cast<std::uint32_t>(i);
+    }
+  }
   plan.rings.resize(edges.size() > 0 ? edges.size() - 1 : 0);
   for (std::size_t j = 0; j < plan.rings.size(); ++j) {
     Ring& r = plan.rings[j];
@@ -152,35 +192,37 @@ void prepare_horizons(const TracePlan& plan, ClipCullScratch& w) {
   w.stats.assign(columns, SampleStats{});
 }
 
+double least_on_column(const TracePlan& plan, const ClipEye& eye, const BoxSpan& s, const double* horizons,
+                       std::size_t stride, std::size_t traced, std::uint64_t& tests) {
+  const auto& edges = plan.edges;
+  double least = std::numeric_limits<double>::infinity();
+  for (std::size_t j = s.first_ring; j <= traced && j + 1 < edges.size() && edges[j] < s.far; ++j) {
+    ++tests;
+    const double lo = std::max(s.near, edges[j]), hi = std::min(s.far, edges[j + 1]);
+    least = std::min(least, least_ohf(eye.elevation, horizons[j * stride], eye.curvature, lo, hi));
+  }
+  return least;
+}
+
 Status test_boxes(const TracePlan& plan, const ClipEye& eye, std::span<const visibility::BoxFootprint> footprints,
                   const ClipCullOptions& options, const RunControl* control, ClipCullScratch& w,
                   ClipCullResult& result) {
-  const auto& edges = plan.edges;
   const int rays = plan.rays;
   result.boxes.resize(footprints.size());
   w.tests.assign(footprints.size(), 0);
   auto test = [&](std::size_t i) {
     const BoxSpan& s = w.spans[i];
-    visibility::BoxVisibility& out = result.boxes[i];
     double least = kNegInf;
-    if (!s.eye_inside && s.near >= edges.front()) {
+    if (testable(s, plan)) {
       least = std::numeric_limits<double>::infinity();
       const long last = std::min(s.a1, s.a0 + rays - 1);
-      const std::size_t first_ring =
-          static_cast<std::size_t>(std::upper_bound(edges.begin(), edges.end(), s.near) - edges.begin()) - 1;
-      for (long a = s.a0; a <= last && least > kNegInf; ++a) {
+      for (long a = s.a0; a <= last; ++a) {
         const std::size_t column = column_of(a, rays);
-        const std::size_t traced = w.traced[column];
-        for (std::size_t j = first_ring; j <= traced && j + 1 < edges.size() && edges[j] < s.far; ++j) {
-          ++w.tests[i];
-          const double lo = std::max(s.near, edges[j]), hi = std::min(s.far, edges[j + 1]);
-          least = std::min(least, least_ohf(eye.elevation, horizon_at(w, rays, column, j), eye.curvature, lo, hi));
-        }
+        least = std::min(least, least_on_column(plan, eye, s, &horizon_at(w, rays, column, 0),
+                                                static_cast<std::size_t>(rays), w.traced[column], w.tests[i]));
       }
     }
-    out.ohf_min = static_cast<float>(least);
-    out.state = footprints[i].z_max + visibility::kTieTolerance >= least ? visibility::Visibility::kSeen
-                                                                          : visibility::Visibility::kOccluded;
+    set_answer(result.boxes[i], least, footprints[i]);
   };
   const std::size_t box_chunk = 256;
   HORIZON_RETURN_IF_ERROR(parallel_for((footprints.size() + box_chunk - 1) / box_chunk, options.threads, control,
@@ -189,6 +231,13 @@ Status test_boxes(const TracePlan& plan, const ClipEye& eye, std::span<const vis
                                               i < std::min(footprints.size(), (c + 1) * box_chunk); ++i)
                                            test(i);
                                        }));
+  std::uint64_t tests = 0;
+  for (std::uint64_t t : w.tests) tests += t;
+  summarize(w, tests, result);
+  return Status::Ok();
+}
+
+void summarize(const ClipCullScratch& w, std::uint64_t box_tests, ClipCullResult& result) {
   result.visible_count = 0;
   for (const auto& b : result.boxes) result.visible_count += b.state == visibility::Visibility::kSeen;
   for (std::size_t a = 0; a < w.traced.size(); ++a) {
@@ -198,8 +247,7 @@ Status test_boxes(const TracePlan& plan, const ClipEye& eye, std::span<const vis
     ++result.stats.rays_traced;
     result.stats.rings += w.traced[a];
   }
-  for (std::uint64_t t : w.tests) result.stats.box_tests += t;
-  return Status::Ok();
+  result.stats.box_tests += box_tests;
 }
 
 }  // namespace detail

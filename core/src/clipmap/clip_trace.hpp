@@ -2,7 +2,9 @@
 // every backend shares: the plan (which columns, how far, the rings and
 // their levels), and the box tests against the traced horizons. A backend
 // (the CPU trace in clip_cull.cpp, the GL one in clip_trace_gl.cpp) only
-// fills TraceBuffers::horizons and ::traced from the plan.
+// fills ClipCullScratch::horizons and ::traced from the plan; culling on
+// the CPU fuses trace and tests block by block (trace_and_test_cpu) and
+// never fills the whole table.
 #pragma once
 
 #include <cmath>
@@ -52,6 +54,16 @@ struct TracePlan {
   std::vector<double> edges;  // ring edges, metres (ring_edges())
   std::vector<Ring> rings;    // edges.size() - 1 of them
   std::uint64_t box_tests = 0;  // planned (ray or wedge, ring) pairs
+
+  // How many edges are <= d (std::upper_bound's index) and < d
+  // (std::lower_bound's), in constant time: a table gives the first edge
+  // beyond each bucket of distance and a comparison or two with the edges
+  // themselves settles the rest, so the answers are the searches' exactly.
+  std::size_t edges_upto(double d) const;
+  std::size_t edges_below(double d) const;
+
+  std::vector<std::uint32_t> bucket_first;  // bucket b: the first edge > b * bucket_width
+  double inv_bucket_width = 0.0;
 };
 
 // Column a's rays in grid steps per metre: the ray at θ_a, the one at
@@ -82,6 +94,14 @@ TracePlan plan_reach(const ClipEye& eye, const ClipCullOptions& options, const C
 Status trace_cpu(const TracePlan& plan, const ClipmapReader& view, const ClipEye& eye, const ClipCullOptions& options,
                  const RunControl* control, ClipCullScratch& scratch);
 
+// trace_cpu and test_boxes in one pass over the columns (clip_cull.cpp):
+// each block of columns is tested against its boxes while its horizons are
+// in cache. Fills what the two fill, except scratch.horizons, with the
+// same values.
+Status trace_and_test_cpu(const TracePlan& plan, const ClipmapReader& view, const ClipEye& eye,
+                          std::span<const visibility::BoxFootprint> footprints, const ClipCullOptions& options,
+                          const RunControl* control, ClipCullScratch& scratch, ClipCullResult& result);
+
 // The GL trace of a plan on `lease`'s context (clip_trace_gl.cpp): fills the
 // same buffers with the same values as trace_cpu (the shader repeats its
 // arithmetic), after bringing the context's copy of the levels up to the
@@ -101,6 +121,9 @@ inline Status trace(const TracePlan& plan, const ClipmapReader& view, const Clip
   return trace_cpu(plan, view, eye, options, control, scratch);
 }
 
+// Column a of `rays`, for an unwrapped a.
+inline std::size_t column_of(long a, int rays) { return static_cast<std::size_t>(((a % rays) + rays) % rays); }
+
 // The horizon slope of column a over the rings before ring j (j in
 // [0, traced[a]]), stored ring by ring.
 inline double& horizon_at(ClipCullScratch& w, int rays, std::size_t a, std::size_t j) {
@@ -111,11 +134,33 @@ inline double& horizon_at(ClipCullScratch& w, int rays, std::size_t a, std::size
 // their sum is reported.
 void prepare_horizons(const TracePlan& plan, ClipCullScratch& scratch);
 
+// True when span s is tested against horizons; a hull holding the eye, or
+// nearer than the first ring, is visible without a test (least OHF -inf).
+inline bool testable(const ClipCullScratch::BoxSpan& s, const TracePlan& plan) {
+  return !s.eye_inside && s.near >= plan.edges.front();
+}
+
+// The least OHF over span s's part of one column: `horizons[j * stride]` is
+// the column's horizon over the rings before ring j, for j <= traced. Adds
+// the (column, ring) pairs tested to `tests`.
+double least_on_column(const TracePlan& plan, const ClipEye& eye, const ClipCullScratch::BoxSpan& s,
+                       const double* horizons, std::size_t stride, std::size_t traced, std::uint64_t& tests);
+
+// Sets a box's answer from its least OHF.
+inline void set_answer(visibility::BoxVisibility& out, double least, const visibility::BoxFootprint& box) {
+  out.ohf_min = static_cast<float>(least);
+  out.state = box.z_max + visibility::kTieTolerance >= least ? visibility::Visibility::kSeen
+                                                             : visibility::Visibility::kOccluded;
+}
+
 // Tests every footprint against the horizons, fills result.boxes,
-// visible_count and the stats' box tests, rays, rings, samples and
-// fallbacks (from scratch.stats).
+// visible_count and the stats (summarize).
 Status test_boxes(const TracePlan& plan, const ClipEye& eye, std::span<const visibility::BoxFootprint> footprints,
                   const ClipCullOptions& options, const RunControl* control, ClipCullScratch& scratch,
                   ClipCullResult& result);
+
+// Fills result.visible_count and the stats' rays, rings, samples and
+// fallbacks (from scratch) and box tests (`box_tests`).
+void summarize(const ClipCullScratch& scratch, std::uint64_t box_tests, ClipCullResult& result);
 
 }  // namespace horizon::clipmap::detail

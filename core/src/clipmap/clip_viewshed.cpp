@@ -103,7 +103,7 @@ Result<ClipViewshed> viewshed_on_clipmap(const ClipmapReader& view, const ClipEy
         const std::size_t a = static_cast<std::size_t>(std::min<double>(std::floor(at), rays - 1));
         // The rings wholly nearer than the cell; fast mode adds the cell's own
         // ring when its sample (the ring's middle) is nearer than the cell.
-        std::size_t j = static_cast<std::size_t>(std::upper_bound(edges.begin(), edges.end(), d) - edges.begin()) - 1;
+        std::size_t j = plan.edges_upto(d) - 1;
         if (fast && j < plan.rings.size() && plan.rings[j].mid < d) ++j;
         double h = detail::horizon_at(w, rays, a, std::min<std::size_t>(j, w.traced[a]));
         if (fast) {

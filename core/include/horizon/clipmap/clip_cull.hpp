@@ -117,6 +117,7 @@ struct ClipCullScratch {
   struct BoxSpan {
     long a0 = 0, a1 = -1;             // the box's columns (rays or wedges), unwrapped
     double near = 0.0, far = 0.0;     // its ground distance range, metres
+    std::uint32_t first_ring = 0;     // the ring holding `near`
     bool eye_inside = false;          // its hull holds the eye
   };
   std::vector<BoxSpan> spans;
@@ -125,6 +126,15 @@ struct ClipCullScratch {
   std::vector<std::uint32_t> traced;  // per column: rings traced
   std::vector<SampleStats> stats;
   std::vector<std::uint64_t> tests;
+  // The CPU's fused trace and tests: each box's columns cut at the trace's
+  // block boundaries, grouped by block, with each piece's least OHF.
+  struct BoxPiece {
+    std::uint32_t box, col0, col1;  // columns col0..col1 of one block
+  };
+  std::vector<BoxPiece> pieces;
+  std::vector<std::uint32_t> block_first, block_fill;  // block b's pieces: [block_first[b], block_first[b + 1])
+  std::vector<double> piece_least, least;
+  std::vector<std::uint64_t> piece_tests;
 };
 
 // Ring j's inner edge in metres for a reach of `reach` metres: the ring
