@@ -284,6 +284,16 @@ TEST(ClipCull, TheFusedTraceAndTestsAnswerAsTheWholeTableOfHorizons) {
         EXPECT_EQ(fused->boxes[n - 3].ohf_min, -std::numeric_limits<float>::infinity());
       }
     }
+    // One wide box alone is more pieces than a box may have: the table path, the same answer.
+    const std::vector<BoxFootprint> alone{wide};
+    ClipmapReader view(*map);
+    const ClipCullOptions options{.mode = mode, .rays = 2048};
+    auto fused = cull_on_clipmap(view, scene.eye, alone, options);
+    ASSERT_TRUE(fused.ok());
+    const ClipCullResult table = by_table(view, scene.eye, alone, options);
+    EXPECT_EQ(fused->boxes[0].ohf_min, table.boxes[0].ohf_min);
+    EXPECT_EQ(fused->stats.box_tests, table.stats.box_tests);
+    EXPECT_GT(fused->stats.rays_traced, 32u * detail::kPiecesPerBox) << "the box must meet more blocks than that";
   }
 }
 

@@ -142,7 +142,9 @@ std::size_t block_count(int rays) { return (static_cast<std::size_t>(rays) + kBl
 // Cuts each tested box's columns at block boundaries (a box's columns on
 // one block are contiguous, a box may wrap through column 0) and groups
 // the pieces by block: counted, then placed.
-void place_pieces(const detail::TracePlan& plan, ClipCullScratch& w) {
+// Returns false, placing nothing, when they would be more than
+// kPiecesPerBox a box (boxes over many blocks).
+bool place_pieces(const detail::TracePlan& plan, ClipCullScratch& w) {
   const std::size_t rays = static_cast<std::size_t>(plan.rays), blocks = block_count(plan.rays);
   auto for_each_piece = [&](auto&& piece) {
     for (std::size_t i = 0; i < w.spans.size(); ++i) {
@@ -163,11 +165,13 @@ void place_pieces(const detail::TracePlan& plan, ClipCullScratch& w) {
   w.block_first.assign(blocks + 1, 0);
   for_each_piece([&](std::size_t b, const ClipCullScratch::BoxPiece&) { ++w.block_first[b + 1]; });
   for (std::size_t b = 0; b < blocks; ++b) w.block_first[b + 1] += w.block_first[b];
+  if (w.block_first[blocks] > detail::kPiecesPerBox * w.spans.size()) return false;
   w.pieces.resize(w.block_first[blocks]);
   w.piece_least.resize(w.pieces.size());
   w.piece_tests.resize(w.pieces.size());
   w.block_fill.assign(w.block_first.begin(), w.block_first.end() - 1);
   for_each_piece([&](std::size_t b, const ClipCullScratch::BoxPiece& p) { w.pieces[w.block_fill[b]++] = p; });
+  return true;
 }
 
 }  // namespace
@@ -193,9 +197,14 @@ Status detail::trace_and_test_cpu(const detail::TracePlan& plan, const ClipmapRe
                                   const ClipCullOptions& options, const RunControl* control, ClipCullScratch& w,
                                   ClipCullResult& result) {
   const std::size_t rays = static_cast<std::size_t>(plan.rays);
+  if (!place_pieces(plan, w)) {
+    // Boxes over many blocks: the whole table, whose bytes a session reserves.
+    detail::prepare_horizons(plan, w);
+    HORIZON_RETURN_IF_ERROR(detail::trace_cpu(plan, view, eye, options, control, w));
+    return detail::test_boxes(plan, eye, footprints, options, control, w, result);
+  }
   w.traced.assign(rays, 0);
   w.stats.assign(rays, SampleStats{});
-  place_pieces(plan, w);
   HORIZON_RETURN_IF_ERROR(parallel_for(block_count(plan.rays), options.threads, control, [&](std::size_t b) {
     thread_local std::vector<double> table;
     if (table.size() < plan.edges.size() * kBlockColumns) table.resize(plan.edges.size() * kBlockColumns);

@@ -97,7 +97,11 @@ Status trace_cpu(const TracePlan& plan, const ClipmapReader& view, const ClipEye
 // trace_cpu and test_boxes in one pass over the columns (clip_cull.cpp):
 // each block of columns is tested against its boxes while its horizons are
 // in cache. Fills what the two fill, except scratch.horizons, with the
-// same values.
+// same values. Its buffers: kPiecesPerBox pieces a box at most (a box
+// meets one or two blocks of 32 columns unless it is wide; past that it
+// runs trace_cpu and test_boxes themselves), and a table of 32 columns'
+// horizons per worker thread.
+constexpr std::size_t kPiecesPerBox = 2;
 Status trace_and_test_cpu(const TracePlan& plan, const ClipmapReader& view, const ClipEye& eye,
                           std::span<const visibility::BoxFootprint> footprints, const ClipCullOptions& options,
                           const RunControl* control, ClipCullScratch& scratch, ClipCullResult& result);

@@ -159,8 +159,10 @@ struct SessionAnswer {
 class ClipSession {
  public:
   // Bytes one registered box holds: its entry, box, footprint, index slot,
-  // and its share of the trace's spans and the answer.
-  static constexpr std::uint64_t kBytesPerBox = 200;
+  // and its share of the trace's spans, box pieces (the CPU culls two a
+  // box at most, else the table of horizons, reserved with the scratch)
+  // and the answer.
+  static constexpr std::uint64_t kBytesPerBox = 264;
 
   // `pyramid` must be of `source`, factor 2, with the mode's reduction and
   // enough levels (pyramid_options_for(options.shape)). Errors name the
