@@ -214,8 +214,8 @@ TEST(Clipmap, SamplingManyPointsAtOnceEqualsSamplingEachBitForBit) {
       }
       xs.push_back(-0.5), ys.push_back(-0.5);
       xs.push_back(kWidth - 0.5), ys.push_back(kHeight - 0.5);
-      // Every form of the batch sampler this CPU runs: the scalar loop and the AVX2 one.
-      for (const Isa isa : {Isa::kScalar, Isa::kAvx2}) {
+      // Every form of the batch sampler this CPU runs: the scalar loop, the AVX2 and AVX-512 ones.
+      for (const Isa isa : {Isa::kScalar, Isa::kAvx2, Isa::kAvx512}) {
         if (isa > visibility::sweep::simd::cpu_isa()) continue;
         visibility::sweep::simd::isa_limit() = isa;
         std::vector<float> many(xs.size());
