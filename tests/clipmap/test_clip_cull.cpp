@@ -211,6 +211,27 @@ TEST(ClipCull, OnlyTheRaysTheBoxesNeedAreTracedAndOnlyAsFarAsThem) {
 namespace horizon::clipmap {
 namespace {
 
+TEST(ClipCull, ThePlansAnglesAreAtan2sWithinTheirStatedError) {
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), decade(-3.0, 5.0);
+  double worst = 0.0;
+  auto check = [&](double y, double x) {
+    double e = std::fabs(detail::angle_of(y, x) - std::atan2(y, x));
+    if (e > std::numbers::pi) e = std::fabs(e - 2 * std::numbers::pi);  // ±π for y = -0
+    worst = std::max(worst, e);
+  };
+  for (int i = 0; i < 200000; ++i)
+    check(unit(rng) * std::pow(10.0, decade(rng)), unit(rng) * std::pow(10.0, decade(rng)));
+  for (int i = 0; i <= 20000; ++i) {  // both sides of each reduction's seam, on every octant
+    const double t = i / 20000.0;
+    for (const auto& [y, x] : {std::pair{t, 1.0}, {1.0, t}, {t, -1.0}, {-t, -1.0}, {-1.0, t}, {-t, 1.0}}) check(y, x);
+  }
+  for (const auto& [y, x] : {std::pair{0.0, 1.0}, {0.0, -1.0}, {1.0, 0.0}, {-1.0, 0.0}, {1e-300, 1.0}, {1.0, 1.0}})
+    check(y, x);
+  EXPECT_LE(worst, detail::kAngleError);
+  EXPECT_GT(worst, 0.0) << "a series, not atan2 itself";
+}
+
 TEST(ClipCull, ThePlanFindsADistancesRingAsABinarySearchWould) {
   ClipWorld world;
   ClipmapShape shape = small_shape();

@@ -16,6 +16,30 @@ constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 using BoxSpan = ClipCullScratch::BoxSpan;
 
+}  // namespace
+
+double angle_of(double y, double x) {
+  const double ax = std::fabs(x), ay = std::fabs(y);
+  const bool steep = ay > ax;
+  const double num = steep ? ax : ay, den = steep ? ay : ax;
+  double t = den > 0.0 ? num / den : 0.0, base = 0.0;  // t in [0, 1]
+  // atan t = π/6 + atan((√3 t - 1) / (t + √3)), which lies in [-tan π/12, tan π/12]
+  // for t in [tan π/12, 1]: there the series to t^13 is within 2e-10 of atan.
+  constexpr double kTanPi12 = 0.2679491924311227, kSqrt3 = 1.7320508075688772;
+  if (t > kTanPi12) {
+    t = (t * kSqrt3 - 1.0) / (t + kSqrt3);
+    base = std::numbers::pi / 6;
+  }
+  const double t2 = t * t;
+  double a = base + t * (1.0 + t2 * (-1.0 / 3 + t2 * (1.0 / 5 + t2 * (-1.0 / 7 + t2 * (1.0 / 9 + t2 * (-1.0 / 11 +
+                                                                                                   t2 / 13))))));
+  if (steep) a = std::numbers::pi / 2 - a;
+  if (x < 0.0) a = std::numbers::pi - a;
+  return y < 0.0 ? -a : a;
+}
+
+namespace {
+
 BoxSpan span_of(const visibility::BoxFootprint& box, const ClipEye& eye, const Geometry& g, ClipMode mode) {
   BoxSpan s;
   const double c0 = box.cells.col0, c1 = box.cells.col1 - 1, r0 = box.cells.row0, r1 = box.cells.row1 - 1;
@@ -44,11 +68,24 @@ BoxSpan span_of(const visibility::BoxFootprint& box, const ClipEye& eye, const G
   } else {
     ax = x0, ay = y0, bx = x1, by = y1;
   }
-  const double ta = std::atan2(ay, ax);
-  double span = std::atan2(by, bx) - ta;
-  if (span > std::numbers::pi) span -= kTwoPi;
-  if (span < -std::numbers::pi) span += kTwoPi;
-  const double lo = span < 0.0 ? ta + span : ta, hi = span < 0.0 ? ta : ta + span;
+  // The silhouette's angles by angle_of, unless an angle lies so near a
+  // ray (or the span so near π) that its error could move a column: then
+  // by std::atan2, so the columns are always those of the exact angles.
+  auto bounds = [&](double ta, double tb, double& lo, double& hi) {
+    double span = tb - ta;
+    if (span > std::numbers::pi) span -= kTwoPi;
+    if (span < -std::numbers::pi) span += kTwoPi;
+    lo = span < 0.0 ? ta + span : ta;
+    hi = span < 0.0 ? ta : ta + span;
+    return std::fabs(std::fabs(span) - std::numbers::pi) > 4 * kAngleError;
+  };
+  auto clear_of_rays = [&](double t) {
+    const double q = t / g.dtheta;
+    return std::fabs(q - std::nearbyint(q)) * g.dtheta > 4 * kAngleError;
+  };
+  double lo, hi;
+  if (!bounds(angle_of(ay, ax), angle_of(by, bx), lo, hi) || !clear_of_rays(lo) || !clear_of_rays(hi))
+    bounds(std::atan2(ay, ax), std::atan2(by, bx), lo, hi);
   s.a0 = static_cast<long>(std::floor(lo / g.dtheta));
   s.a1 = mode == ClipMode::kFast ? static_cast<long>(std::ceil(hi / g.dtheta))
                                  : static_cast<long>(std::floor(hi / g.dtheta));

@@ -36,6 +36,13 @@ struct Geometry {
 
 Geometry geometry_of(double cell, int rays, const ClipmapShape& shape);
 
+// std::atan2(y, x) to within kAngleError radians (range reduction and a
+// series, several times cheaper), for the plan's box columns: 10 000
+// boxes a pose, two corners each; where the error could change a column
+// the plan asks std::atan2 itself. atan2(±0, x < 0) is +π here.
+double angle_of(double y, double x);
+constexpr double kAngleError = 1e-9;
+
 // One ring, shared by every ray: its edges and middle, the level it reads
 // and the blend towards the next, the curvature drop at its middle and far
 // edge.
