@@ -101,6 +101,43 @@ TEST(Cull, ComputesOnlyTheWindowTheBoxesNeed) {
   EXPECT_EQ(result->stats.dem_cells, 40000u);
 }
 
+// The daemon's workers keep their OHF raster between calls (ResultStorage);
+// a run cancelled after taking it must leave it fit for the next run. It
+// once kept the shape of the cells it had handed on, and the next call with
+// the same window wrote its NaNs through a null pointer (found by flooding
+// horizond with cancelled 100 000-box calls).
+TEST(Cull, ACancelledRunLeavesItsStorageFitForTheNext) {
+  const terrain::Dem dem = horizon::testing::make_random_terrain(120, 90, 11, 300.0);
+  const auto eye = eye_at(dem, 60, 45, 5.0);
+  ViewshedOptions options;
+  terrain::Grid<float> kept_ohf, kept_terrain;
+  const ResultStorage storage{&kept_ohf, &kept_terrain};
+  auto first = compute_viewshed(dem, eye, options, nullptr, nullptr, nullptr, storage);
+  ASSERT_TRUE(first.ok()) << first.error().message;
+  kept_ohf = std::move(first->ohf);  // handed back, as run_cull does
+  EXPECT_EQ(first->ohf.width(), 0);  // a grid moved from is 0 x 0
+  EXPECT_EQ(first->ohf.height(), 0);
+  EXPECT_TRUE(first->ohf.empty());
+
+  CancelToken token;
+  token.cancel();
+  RunControl control;
+  control.cancel = &token;
+  auto cancelled = compute_viewshed(dem, eye, options, &control, nullptr, nullptr, storage);
+  ASSERT_FALSE(cancelled.ok());
+  EXPECT_EQ(cancelled.error().code, ErrorCode::kCancelled);
+  EXPECT_EQ(kept_ohf.size(), static_cast<std::size_t>(kept_ohf.width()) * static_cast<std::size_t>(kept_ohf.height()));
+
+  auto again = compute_viewshed(dem, eye, options, nullptr, nullptr, nullptr, storage);
+  auto fresh = compute_viewshed(dem, eye, options);
+  ASSERT_TRUE(again.ok() && fresh.ok());
+  ASSERT_EQ(again->ohf.size(), fresh->ohf.size());
+  for (std::size_t i = 0; i < fresh->ohf.size(); ++i) {
+    const float a = again->ohf.values()[i], b = fresh->ohf.values()[i];
+    ASSERT_TRUE(a == b || (std::isnan(a) && std::isnan(b))) << i;
+  }
+}
+
 TEST(Cull, EqualsBruteForceOverTheWholeDemOhf) {
   const terrain::Dem dem = horizon::testing::make_random_terrain(120, 90, 11, 300.0);
   const auto& t = dem.georef.transform;

@@ -11,6 +11,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "horizon/common/large_allocator.hpp"
@@ -54,6 +55,26 @@ class Grid {
   Grid(int width, int height, Uninitialized)
       : width_(width), height_(height), cells_(static_cast<std::size_t>(width) * static_cast<std::size_t>(height)) {
     assert(width >= 0 && height >= 0);
+  }
+
+  // A grid moved from is empty, 0 x 0 (a buffer handed on must not keep the
+  // shape of cells it no longer has: reset_output and reshape trust it).
+  Grid(const Grid&) = default;
+  Grid& operator=(const Grid&) = default;
+  Grid(Grid&& other) noexcept
+      : width_(std::exchange(other.width_, 0)),
+        height_(std::exchange(other.height_, 0)),
+        cells_(std::move(other.cells_)) {
+    other.cells_.clear();
+  }
+  Grid& operator=(Grid&& other) noexcept {
+    if (this != &other) {
+      width_ = std::exchange(other.width_, 0);
+      height_ = std::exchange(other.height_, 0);
+      cells_ = std::move(other.cells_);
+      other.cells_.clear();
+    }
+    return *this;
   }
 
   // Makes this a width x height grid, keeping its storage when it is large
