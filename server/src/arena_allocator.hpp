@@ -5,10 +5,21 @@
 // are bumps in a few blocks, freed at once when gRPC releases the call.
 #pragma once
 
+#include <cstdint>
+
 #include <google/protobuf/arena.h>
+#include <google/protobuf/message.h>
 #include <grpcpp/support/message_allocator.h>
 
 namespace horizon::server {
+
+// The bytes a received message holds: its arena's blocks when it lives on
+// one (the request, and its response as far as it is filled), else its own
+// heap footprint.
+inline std::uint64_t held_bytes(const google::protobuf::Message& message) {
+  if (google::protobuf::Arena* arena = message.GetArena()) return arena->SpaceAllocated();
+  return message.SpaceUsedLong();
+}
 
 template <class Request, class Response>
 class ArenaAllocator final : public grpc::MessageAllocator<Request, Response> {
@@ -25,7 +36,16 @@ class ArenaAllocator final : public grpc::MessageAllocator<Request, Response> {
     void Release() override { delete this; }
 
    private:
-    google::protobuf::Arena arena_;
+    // Blocks grow from 4 KiB (a small call stays small) to 1 MiB, so a large
+    // call's blocks are mapped pages that go back to the system when it ends
+    // (allocator.hpp) rather than heap that stays fragmented.
+    static google::protobuf::ArenaOptions options() {
+      google::protobuf::ArenaOptions o;
+      o.start_block_size = 4 << 10;
+      o.max_block_size = 1 << 20;
+      return o;
+    }
+    google::protobuf::Arena arena_{options()};
   };
 };
 

@@ -25,11 +25,11 @@ CallScope::CallScope(ServerEnv& env, grpc::CallbackServerContext* context, std::
 
 CallScope::~CallScope() {
   if (!finished_) finish(grpc::Status(grpc::StatusCode::INTERNAL, "call ended without a status"));
-  env_.live_calls.fetch_sub(1);
+  if (env_.live_calls.fetch_sub(1) == 1 && env_.trimmer) env_.trimmer->idle();
 }
 
-std::optional<grpc::Status> CallScope::admit() {
-  auto refused = admission();
+std::optional<grpc::Status> CallScope::admit(std::uint64_t message_bytes) {
+  auto refused = admission(message_bytes);
   if (refused) ticket_.take();  // never queued: a cancel has nothing to drop
   return refused;
 }
@@ -40,7 +40,7 @@ std::optional<grpc::Status> CallScope::cancel() {
   return status_of(make_error(ErrorCode::kCancelled, "cancelled before it started"));
 }
 
-std::optional<grpc::Status> CallScope::admission() {
+std::optional<grpc::Status> CallScope::admission(std::uint64_t message_bytes) {
   if (!env_.datasets.loaded())
     return grpc::Status(grpc::StatusCode::UNAVAILABLE, "horizond is loading its datasets; retry shortly");
   // With TLS, a call that arrived on the plaintext health port is refused:
@@ -72,6 +72,16 @@ std::optional<grpc::Status> CallScope::admission() {
                                          " requests in flight (limits.max_pending = " +
                                          std::to_string(env_.config.limits.max_pending) + "); retry later",
                                      "limits.max_pending"));
+  // What has arrived is already in memory; a call that cannot also hold its
+  // answer is refused now rather than queued, and frees its request at once.
+  if (message_bytes > 0 && !env_.memory.try_reserve(message_bytes, messages_))
+    return to_grpc_status(make_error(
+        ErrorCode::kResourceExhausted,
+        "this request's messages need about " + std::to_string((message_bytes + (1 << 20) - 1) >> 20) +
+            " MiB while it waits and runs, more than memory_budget_mb leaves free now (" +
+            std::to_string(env_.memory.reserved() >> 20) + " MiB held); retry later or split the request",
+        "memory_budget_mb"));
+  if (message_bytes > 0) env_.metrics.set_memory_reserved(env_.memory.reserved());
   datasets_ = env_.datasets.snapshot();
   return std::nullopt;
 }

@@ -3,7 +3,8 @@
 // Every handler owns a CallScope. It admits the call (UNAUTHENTICATED
 // without an accepted bearer token when auth_tokens_file is set, UNAVAILABLE
 // while the datasets load or the daemon drains, DEADLINE_EXCEEDED when the
-// deadline has already gone, RESOURCE_EXHAUSTED past limits.max_pending), looks the
+// deadline has already gone, RESOURCE_EXHAUSTED past limits.max_pending or
+// when its messages do not fit in the memory budget), looks the
 // dataset up (NOT_FOUND), gives the engine a RunControl (the call's cancel
 // token, set by the reactor's OnCancel, and its deadline: the client's, or
 // the configured default), reserves working memory, and on finish() writes
@@ -64,8 +65,11 @@ class CallScope {
   CallScope(const CallScope&) = delete;
   CallScope& operator=(const CallScope&) = delete;
 
-  // Ok, or the status to finish with at once.
-  std::optional<grpc::Status> admit();
+  // Ok, or the status to finish with at once. `message_bytes`: what the
+  // call's messages hold while it waits and runs (the request as received,
+  // the answer it will build), reserved here, before the call queues, and
+  // held until it ends.
+  std::optional<grpc::Status> admit(std::uint64_t message_bytes = 0);
   // The call's place in the worker queue, for the task that runs it
   // (worker_pool.hpp): the task runs the call only if ticket().take().
   QueueTicket ticket() const { return ticket_; }
@@ -93,7 +97,7 @@ class CallScope {
   void finish(const grpc::Status& status);
 
  private:
-  std::optional<grpc::Status> admission();
+  std::optional<grpc::Status> admission(std::uint64_t message_bytes);
 
   ServerEnv& env_;
   grpc::CallbackServerContext* context_;
@@ -101,7 +105,8 @@ class CallScope {
   CancelToken token_;
   RunControl control_;
   RequestRecord record_;
-  Reservation memory_;
+  Reservation messages_;  // admit()'s
+  Reservation memory_;    // reserve()'s
   QueueTicket ticket_;
   bool admitted_ = false;
   bool finished_ = false;

@@ -45,9 +45,9 @@ grpc::Status run_cull_boxes(CallScope& scope, const v1::CullBoxesRequest& reques
                    "boxes: the farthest box needs a window of " + std::to_string(cells) +
                        " cells, more than limits.max_cells = " + std::to_string(env.config.limits.max_cells),
                    "boxes"));
-  if (auto s = scope.reserve(plan->cost.bytes + static_cast<std::uint64_t>(n) * MemoryBudget::kMessageBytesPerBox,
-                             planned_work("this culling request", plan->cost, plan->viewshed.radial.ray_spacing));
-      !s.ok())
+  // The messages were reserved at admission (VisibilityService::CullBoxes).
+  const std::string what = planned_work("this culling request", plan->cost, plan->viewshed.radial.ray_spacing);
+  if (auto s = scope.reserve(plan->cost.bytes, what); !s.ok())
     return scope.status_of(s.error());
 
   // The daemon's GPU contexts are lent to the OHF (backend auto: a hardware GPU for large windows).

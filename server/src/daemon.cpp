@@ -90,7 +90,9 @@ struct Daemon::Impl {
         sessions(env),
         dataset_service(env),
         visibility_service(env),
-        session_service(env, sessions) {}
+        session_service(env, sessions) {
+    env.trimmer = &trimmer;
+  }
 
   void set_serving(bool serving) {
     if (!server) return;
@@ -108,6 +110,7 @@ struct Daemon::Impl {
   Config config;
   MemoryBudget memory;
   Metrics metrics;
+  HeapTrimmer trimmer;        // outlives every call (env.trimmer)
   Reservation cache_memory;   // the block cache's whole budget, held for the daemon's life
   terrain::BlockCache cache;  // outlives the datasets whose blocks it holds
   DatasetRegistry datasets;

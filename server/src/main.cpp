@@ -13,6 +13,7 @@
 #include <string>
 #include <string_view>
 
+#include "allocator.hpp"
 #include "config.hpp"
 #include "daemon.hpp"
 #include "datasets.hpp"
@@ -78,6 +79,7 @@ int check_config(const Options& o) {
 }
 
 int serve(const Options& o) {
+  tune_allocator();  // before any thread: gRPC's and the workers' arenas start with it
   auto config = load_config(o.config, o.overrides);
   if (!config.ok()) {
     log_event("error", "config_rejected", {{"message", config.error().message}, {"key", config.error().field}});

@@ -1,8 +1,11 @@
 // memory_budget.hpp — the daemon's resident-memory budget, enforced.
 //
 // Everything large the daemon holds is reserved here first: the shared block
-// cache (its whole budget, at start) and each request's working set before
-// any work: the engine's part from the request's plan (visibility/plan.hpp:
+// cache (its whole budget, at start); each request's messages when it is
+// admitted, before it queues for a worker (the request as gRPC handed it
+// over, arena_allocator.hpp's held_bytes, and for CullBoxes its answer,
+// kResponseBytesPerBox a box); and each request's working set before any
+// work: the engine's part from the request's plan (visibility/plan.hpp:
 // the cells read, the OHF, the algorithm's tables, per box and per profile
 // sample), the server's own part from what it will send
 // (kEncodingBytesPerCell for a raster's encodings, kMessageBytesPerBox and
@@ -46,8 +49,10 @@ class MemoryBudget {
   // A viewshed's encodings per output cell: the derived raster (4), the mask
   // (1), the streamed copy (4), GeoTIFF/PNG bytes (<= 7).
   static constexpr std::uint64_t kEncodingBytesPerCell = 16;
-  // Culling per box: the request and response messages.
+  // A session's box per pose: the request and response messages.
   static constexpr std::uint64_t kMessageBytesPerBox = 160;
+  // A CullBoxes answer per box, on the call's arena (tested against the real message).
+  static constexpr std::uint64_t kResponseBytesPerBox = 64;
   // A sight line's result message, and one profile sample's.
   static constexpr std::uint64_t kMessageBytesPerLine = 512;
   static constexpr std::uint64_t kMessageBytesPerSample = 96;

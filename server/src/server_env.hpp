@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <filesystem>
 
+#include "allocator.hpp"
 #include "config.hpp"
 #include "datasets.hpp"
 #include "horizon/gpu/context_pool.hpp"
@@ -40,6 +41,8 @@ struct ServerEnv {
   // Our calls whose reactors gRPC still holds (CallScope's lifetime, which
   // ends after gRPC's OnDone: the answer is sent), admitted or not.
   std::atomic<std::uint32_t> live_calls{0};
+  // Told when live_calls falls to 0 (allocator.hpp); null in tests without one.
+  HeapTrimmer* trimmer = nullptr;
 };
 
 // The calling worker thread's engine workspace (visibility/plan.hpp): each

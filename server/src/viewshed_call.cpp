@@ -7,6 +7,7 @@
 #include <mutex>
 #include <string>
 
+#include "arena_allocator.hpp"
 #include "call_scope.hpp"
 #include "horizon/geodesy/observer.hpp"
 #include "horizon/visibility/plan.hpp"
@@ -30,7 +31,7 @@ class ViewshedCall final : public grpc::ServerWriteReactor<v1::ViewshedResponse>
       : scope_(env, context, "ComputeViewshed"), request_(request) {}
 
   void start() {
-    if (auto refused = scope_.admit()) return finish(*refused);
+    if (auto refused = scope_.admit(held_bytes(request_))) return finish(*refused);
     scope_.env().pool.post([this, ticket = scope_.ticket()]() mutable {
       if (!ticket.take()) return;  // cancelled in the queue: finished, perhaps deleted
       const grpc::Status status = compute();

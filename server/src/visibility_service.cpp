@@ -1,5 +1,6 @@
 #include "visibility_service.hpp"
 
+#include "memory_budget.hpp"
 #include "unary_call.hpp"
 #include "viewshed_call.hpp"
 
@@ -14,14 +15,17 @@ grpc::ServerUnaryReactor* VisibilityService::LineOfSight(grpc::CallbackServerCon
                                                          const v1::LineOfSightRequest* request,
                                                          v1::LineOfSightResponse* response) {
   // request and response stay valid until the call finishes.
-  return UnaryCall::start(env_, context, "LineOfSight",
+  return UnaryCall::start(env_, context, "LineOfSight", held_bytes(*request),
                           [request, response](CallScope& scope) { return run_line_of_sight(scope, *request, *response); });
 }
 
 grpc::ServerUnaryReactor* VisibilityService::CullBoxes(grpc::CallbackServerContext* context,
                                                        const v1::CullBoxesRequest* request,
                                                        v1::CullBoxesResponse* response) {
-  return UnaryCall::start(env_, context, "CullBoxes",
+  // The boxes as received, and the answer's, one per box.
+  const std::uint64_t messages =
+      held_bytes(*request) + static_cast<std::uint64_t>(request->boxes_size()) * MemoryBudget::kResponseBytesPerBox;
+  return UnaryCall::start(env_, context, "CullBoxes", messages,
                           [request, response](CallScope& scope) { return run_cull_boxes(scope, *request, *response); });
 }
 

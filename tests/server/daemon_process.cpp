@@ -164,11 +164,24 @@ bool DaemonProcess::wait_for_log(const std::string& text, std::chrono::milliseco
   return false;
 }
 
-std::uint64_t DaemonProcess::peak_rss_bytes() const {
-  std::ifstream in("/proc/" + std::to_string(pid_) + "/status");
+namespace {
+
+// A "Vm...:" line of /proc/PID/status, in bytes (0 when absent).
+std::uint64_t status_bytes(pid_t pid, const std::string& key) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
   for (std::string line; std::getline(in, line);)
-    if (line.rfind("VmHWM:", 0) == 0) return std::stoull(line.substr(6)) * 1024;  // kB
+    if (line.rfind(key, 0) == 0) return std::stoull(line.substr(key.size())) * 1024;  // kB
   return 0;
+}
+
+}  // namespace
+
+std::uint64_t DaemonProcess::peak_rss_bytes() const {
+  return status_bytes(pid_, "VmHWM:");
+}
+
+std::uint64_t DaemonProcess::rss_bytes() const {
+  return status_bytes(pid_, "VmRSS:");
 }
 
 }  // namespace horizon::testing

@@ -61,6 +61,8 @@ class DaemonProcess {
   bool wait_for_in_flight(int calls, std::chrono::milliseconds timeout = std::chrono::seconds(10)) const;
   // Peak resident set size (VmHWM) in bytes, while running.
   std::uint64_t peak_rss_bytes() const;
+  // Resident set size now (VmRSS) in bytes, while running.
+  std::uint64_t rss_bytes() const;
 
  private:
   TempDir dir_;

@@ -1,22 +1,31 @@
 // What an attacker or a careless operator can do to horizond from outside
 // the API: start a second daemon on its port, plant files where it writes
-// scratch, hand it a corrupt DEM. Each case must fail loudly and harm nothing.
+// scratch, hand it a corrupt DEM, flood it with the largest calls it takes.
+// Each case must fail loudly and harm nothing.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
+#include <atomic>
 #include <chrono>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
+#include <mutex>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
+#include <grpcpp/create_channel.h>
 #include <grpcpp/generic/generic_stub.h>
+#include <grpcpp/security/credentials.h>
 #include <grpcpp/support/byte_buffer.h>
 
 #include "daemon_process.hpp"
+#include "horizon/terrain/dem_reader.hpp"
 #include "horizon/terrain/geotiff_writer.hpp"
+#include "rpc_helpers.hpp"
 
 namespace horizon::testing {
 namespace {
@@ -142,6 +151,111 @@ TEST(ServerHostile, AnIdleHealthWatchDoesNotHoldShutdownForTheGrace) {
   bool ok = false;
   while (cq.Next(&tag, &ok)) {
   }
+}
+
+}  // namespace
+}  // namespace horizon::testing
+
+namespace horizon::testing {
+namespace {
+
+// Clients on connections of their own, each sending the largest CullBoxes
+// call the defaults take (100 000 boxes, ~5 MB on the wire, ~15 MB held
+// once received and answered) at once, against a small budget. Calls are
+// admitted while their messages fit and refused RESOURCE_EXHAUSTED, before
+// they queue, when not. The daemon's resident memory stays within the budget
+// plus what is on the wire into calls not yet admitted (gRPC receives a whole
+// request before the daemon sees it: at most every client's request at once),
+// it gives the flood's memory back once idle, and it keeps answering.
+TEST(ServerHostile, AFloodOfTheLargestCallsStaysWithinTheBudget) {
+  constexpr int kBudgetMb = 128, kClients = 24, kCallsEach = 3, kBoxes = 100'000;
+  DaemonOptions options;
+  options.datasets = {{"ecuador", "ecuador_andes_utm17s_10m_383x415.tif"}};
+  options.memory_budget_mb = kBudgetMb;
+  options.extra_json = R"("block_cache_mb": 16, "engine_threads": 1, "gpu": {"contexts": 0},
+                           "limits": {"max_pending": 64},)";
+  DaemonProcess daemon(options);
+  ASSERT_TRUE(daemon.ready()) << daemon.error();
+  const std::uint64_t start = daemon.rss_bytes();
+  auto dem = terrain::read_dem(bundled_dem("ecuador_andes_utm17s_10m_383x415.tif"));
+  ASSERT_TRUE(dem.ok());
+  const auto& t = dem->georef.transform;
+
+  v1::CullBoxesRequest request;
+  request.set_dataset("ecuador");
+  *request.mutable_observer() = point(t.x_at(191), t.y_at(207), 10.0);
+  for (int i = 0; i < kBoxes; ++i) {  // a 300 x 300-cell scene around the observer, boxes 1-4 cells wide
+    const std::uint64_t k = static_cast<std::uint64_t>(i);
+    const double c = 41.0 + static_cast<double>(k * 7919 % 300), r = 57.0 + static_cast<double>(k * 104729 % 300);
+    const double w = 1 + i % 4;
+    v1::Box* b = request.add_boxes();
+    b->set_x_min(t.x_at(c));
+    b->set_x_max(t.x_at(c + w));
+    b->set_y_max(t.y_at(r));
+    b->set_y_min(t.y_at(r + w));
+    b->set_z_min(2000);
+    b->set_z_max(2000 + 10 * (i % 200));
+  }
+
+  const std::uint64_t on_the_wire = kClients * request.ByteSizeLong();
+  std::atomic<int> answered{0}, refused{0}, other{0};
+  std::string first_other;
+  std::mutex note_mutex;
+  std::vector<std::thread> clients;
+  for (int c = 0; c < kClients; ++c) {
+    clients.emplace_back([&, c] {
+      grpc::ChannelArguments args;
+      args.SetInt("horizon.test.client", c);  // a distinct channel: a connection of its own
+      args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
+      auto stub = v1::VisibilityService::NewStub(
+          grpc::CreateCustomChannel(daemon.address(), grpc::InsecureChannelCredentials(), args));
+      for (int k = 0; k < kCallsEach; ++k) {
+        v1::CullBoxesResponse response;
+        const grpc::Status s = stub->CullBoxes(context_with_deadline(std::chrono::seconds(120)).get(), request, &response);
+        if (s.ok() && response.boxes_size() == kBoxes) {
+          ++answered;
+        } else if (s.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED) {
+          ++refused;
+        } else {
+          ++other;
+          std::lock_guard lock(note_mutex);
+          if (first_other.empty()) first_other = std::to_string(s.error_code()) + ": " + s.error_message();
+        }
+      }
+    });
+  }
+  for (auto& client : clients) client.join();
+  EXPECT_EQ(other.load(), 0) << first_other;
+  EXPECT_GT(answered.load(), 0);
+  EXPECT_GT(refused.load(), 0) << "the flood never met the budget: it tests nothing";
+  EXPECT_EQ(answered + refused + other, kClients * kCallsEach);
+  // A refusal names the budget and what the call needed.
+  const std::string log = daemon.log();
+  EXPECT_NE(log.find("this request's messages need about"), std::string::npos);
+  EXPECT_NE(log.find("memory_budget_mb"), std::string::npos);
+
+  // Still serving, and the flood's memory given back.
+  v1::CullBoxesRequest small = request;
+  small.mutable_boxes()->DeleteSubrange(10, kBoxes - 10);
+  v1::CullBoxesResponse response;
+  ASSERT_TRUE(v1::VisibilityService::NewStub(daemon.channel())
+                  ->CullBoxes(context_with_deadline().get(), small, &response)
+                  .ok());
+  EXPECT_EQ(response.boxes_size(), 10);
+  // Idle now: the heap is trimmed HeapTrimmer::kDelay (100 ms) after the last call.
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  const std::uint64_t peak = daemon.peak_rss_bytes(), idle = daemon.rss_bytes();
+  std::cout << "flood: " << answered << " answered, " << refused << " refused; peak RSS " << (peak >> 20)
+            << " MiB, idle " << (idle >> 20) << " MiB (at start " << (start >> 20) << "), budget " << kBudgetMb
+            << " MiB, requests on the wire " << (on_the_wire >> 20) << " MiB\n";
+#if defined(__SANITIZE_ADDRESS__)
+  std::cout << "RSS under AddressSanitizer is not compared with the budget\n";
+#else
+  EXPECT_LE(peak, (std::uint64_t{kBudgetMb} << 20) + on_the_wire) << "peak RSS " << (peak >> 20) << " MiB";
+  // Back to where it started, but for the block cache (16 MiB) it may have filled.
+  EXPECT_LE(idle, start + (24ull << 20)) << "idle RSS " << (idle >> 20) << " MiB";
+  EXPECT_LE(idle, std::uint64_t{kBudgetMb} << 20) << "idle RSS " << (idle >> 20) << " MiB";
+#endif
 }
 
 }  // namespace

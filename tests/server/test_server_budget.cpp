@@ -1,0 +1,65 @@
+// The budget's per-message figures (memory_budget.hpp) against the messages
+// themselves: a call reserves what its messages will really hold.
+#include <gtest/gtest.h>
+
+#include <cstdint>
+
+#include <google/protobuf/arena.h>
+
+#include "arena_allocator.hpp"
+#include "horizon/v1/visibility.pb.h"
+#include "memory_budget.hpp"
+
+namespace horizon::server {
+namespace {
+
+// A CullBoxes answer of n boxes on the call's arena, every field set.
+std::uint64_t answer_bytes(int n) {
+  ArenaAllocator<v1::CullBoxesRequest, v1::CullBoxesResponse> allocator;
+  auto* holder = allocator.AllocateMessages();
+  const std::uint64_t before = held_bytes(*holder->response());
+  v1::CullBoxesResponse& response = *holder->response();
+  response.mutable_boxes()->Reserve(n);  // as cull_call does
+  for (int i = 0; i < n; ++i) {
+    v1::BoxVisibility* b = response.add_boxes();
+    b->set_visible(i % 2 == 0);
+    b->set_ohf_min(1234.5 + i);
+    b->set_state(v1::BOX_STATE_UNDETERMINED);
+  }
+  const std::uint64_t after = held_bytes(response);
+  holder->Release();
+  return after - before;
+}
+
+TEST(ServerBudget, ACullAnswerHoldsNoMoreThanItsReservation) {
+  for (int n : {1'000, 10'000, 100'000}) {
+    const std::uint64_t bytes = answer_bytes(n);
+    EXPECT_LE(bytes, static_cast<std::uint64_t>(n) * MemoryBudget::kResponseBytesPerBox) << n << " boxes";
+    // And the figure is not wildly above it: the reservation refuses calls it need not.
+    EXPECT_GE(bytes * 2, static_cast<std::uint64_t>(n) * MemoryBudget::kResponseBytesPerBox) << n << " boxes";
+  }
+}
+
+TEST(ServerBudget, AReceivedRequestIsCountedAtLeastAsItsWireSize) {
+  ArenaAllocator<v1::CullBoxesRequest, v1::CullBoxesResponse> allocator;
+  auto* holder = allocator.AllocateMessages();
+  v1::CullBoxesRequest& request = *holder->request();
+  request.set_dataset("ecuador");
+  for (int i = 0; i < 50'000; ++i) {
+    v1::Box* b = request.add_boxes();
+    b->set_x_min(700000.0 + i);
+    b->set_x_max(700010.0 + i);
+    b->set_y_min(9500000.0 + i);
+    b->set_y_max(9500010.0 + i);
+    b->set_z_min(2000);
+    b->set_z_max(2100);
+  }
+  EXPECT_GE(held_bytes(request), request.ByteSizeLong());
+  // A message off any arena is counted by its own footprint.
+  v1::CullBoxesRequest copy = request;
+  EXPECT_GE(held_bytes(copy), copy.ByteSizeLong());
+  holder->Release();
+}
+
+}  // namespace
+}  // namespace horizon::server
