@@ -19,12 +19,20 @@ CallScope::CallScope(ServerEnv& env, grpc::CallbackServerContext* context, std::
   if (deadline < system_now + std::chrono::hours(24 * 365))
     control_.deadline =
         started_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(deadline - system_now);
-  else if (default_deadline == DefaultDeadline::kApply)
+  else if (default_deadline == DefaultDeadline::kApply) {
     control_.deadline = started_ + env.config.default_deadline;
+    // Past it, the call ends even where the engine no longer polls (a stream its client does not drain).
+    if (env.deadlines) watched_ = env.deadlines->watch(context, *control_.deadline);
+  }
 }
 
 CallScope::~CallScope() {
+  if (watched_) watched_->release();  // gRPC is done with the call: its context goes next
   if (!finished_) finish(grpc::Status(grpc::StatusCode::INTERNAL, "call ended without a status"));
+  if (messages_.bytes() > 0) {
+    messages_.release();
+    env_.metrics.set_memory_reserved(env_.memory.reserved());
+  }
   if (env_.live_calls.fetch_sub(1) == 1 && env_.trimmer) env_.trimmer->idle();
 }
 

@@ -26,6 +26,7 @@
 #include "horizon/common/error.hpp"
 #include "horizon/visibility/plan.hpp"
 #include "horizon/visibility/work_stats.hpp"
+#include "deadline_watch.hpp"
 #include "request_log.hpp"
 #include "server_env.hpp"
 
@@ -105,6 +106,7 @@ class CallScope {
   CancelToken token_;
   RunControl control_;
   RequestRecord record_;
+  std::shared_ptr<WatchedCall> watched_;  // under env.deadlines when the default deadline applies
   Reservation messages_;  // admit()'s
   Reservation memory_;    // reserve()'s
   QueueTicket ticket_;

@@ -92,6 +92,7 @@ struct Daemon::Impl {
         visibility_service(env),
         session_service(env, sessions) {
     env.trimmer = &trimmer;
+    env.deadlines = &deadlines;
   }
 
   void set_serving(bool serving) {
@@ -111,6 +112,7 @@ struct Daemon::Impl {
   MemoryBudget memory;
   Metrics metrics;
   HeapTrimmer trimmer;        // outlives every call (env.trimmer)
+  DeadlineWatch deadlines;    // likewise (env.deadlines)
   Reservation cache_memory;   // the block cache's whole budget, held for the daemon's life
   terrain::BlockCache cache;  // outlives the datasets whose blocks it holds
   DatasetRegistry datasets;

@@ -10,6 +10,7 @@
 #include "allocator.hpp"
 #include "config.hpp"
 #include "datasets.hpp"
+#include "deadline_watch.hpp"
 #include "horizon/gpu/context_pool.hpp"
 #include "horizon/terrain/block_cache.hpp"
 #include "horizon/visibility/plan.hpp"
@@ -43,6 +44,8 @@ struct ServerEnv {
   std::atomic<std::uint32_t> live_calls{0};
   // Told when live_calls falls to 0 (allocator.hpp); null in tests without one.
   HeapTrimmer* trimmer = nullptr;
+  // Ends calls whose default deadline passes (deadline_watch.hpp); null in tests without one.
+  DeadlineWatch* deadlines = nullptr;
 };
 
 // The calling worker thread's engine workspace (visibility/plan.hpp): each

@@ -41,7 +41,8 @@ class ViewshedCall final : public grpc::ServerWriteReactor<v1::ViewshedResponse>
   }
 
   void OnWriteDone(bool ok) override {
-    if (!ok) return finish(grpc::Status(grpc::StatusCode::CANCELLED, "the client went away mid-stream"));
+    // The client went away, or DeadlineWatch ended a stream it did not read by the deadline.
+    if (!ok) return finish(scope_.status_of(make_error(ErrorCode::kCancelled, "the client went away mid-stream")));
     write_next();
   }
   void OnCancel() override {

@@ -7,6 +7,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
@@ -256,6 +257,95 @@ TEST(ServerHostile, AFloodOfTheLargestCallsStaysWithinTheBudget) {
   EXPECT_LE(idle, start + (24ull << 20)) << "idle RSS " << (idle >> 20) << " MiB";
   EXPECT_LE(idle, std::uint64_t{kBudgetMb} << 20) << "idle RSS " << (idle >> 20) << " MiB";
 #endif
+}
+
+}  // namespace
+}  // namespace horizon::testing
+
+namespace horizon::testing {
+namespace {
+
+// Clients that start a large viewshed stream, read its first message and
+// then never read again: the daemon's writes wait on the stream's flow
+// control, not on a worker, so the other clients are served meanwhile; the
+// configured default deadline then ends each stuck call, and its slot and
+// memory come back.
+TEST(ServerHostile, ReadersThatNeverDrainAStreamHoldNothingPastTheDeadline) {
+  TempDir data;
+  const terrain::Dem big = make_dem(2000, 2000, [](int c, int r) {
+    return 500.0 + 200.0 * std::sin(c * 0.013) * std::cos(r * 0.017) + 30.0 * std::sin(c * 0.21 + r * 0.17);
+  });
+  ASSERT_TRUE(terrain::write_geotiff(data.file("big.tif"), big.elevation, big.georef, std::nullopt).ok());
+  DaemonOptions options;
+  options.data_root = data.path().string();
+  options.datasets = {{"big", "big.tif"}};
+  options.memory_budget_mb = 512;
+  options.extra_json = R"("default_deadline_ms": 5000, "block_cache_mb": 32, "engine_threads": 1, "gpu": {"contexts": 0},)";
+  DaemonProcess daemon(options);
+  ASSERT_TRUE(daemon.ready()) << daemon.error();
+  auto stub = v1::VisibilityService::NewStub(daemon.channel());
+  const double reserved_idle = metric(daemon.metrics(), "horizon_memory_reserved_bytes");
+
+  // A 7 km viewshed's OHF as float32, 1400 x 1400 cells (7.8 MB) in 4 KiB chunks.
+  v1::ViewshedRequest request;
+  request.set_dataset("big");
+  *request.mutable_observer() = point(500000 + 10000.5, 5000000 - 10000.5);
+  request.mutable_options()->set_max_distance(7000);
+  request.set_raster(v1::RASTER_KIND_OHF);
+  request.set_include_raster(true);
+  request.set_max_chunk_bytes(4096);
+  constexpr int kSlow = 3;
+  std::vector<std::unique_ptr<grpc::ClientContext>> contexts;
+  std::vector<std::unique_ptr<grpc::ClientReader<v1::ViewshedResponse>>> readers;
+  // The readers' channel takes no more than 64 KiB ahead of what is read
+  // (no window growth), as a reader on a slow link would.
+  grpc::ChannelArguments args;
+  args.SetInt(GRPC_ARG_HTTP2_BDP_PROBE, 0);
+  args.SetInt(GRPC_ARG_HTTP2_STREAM_LOOKAHEAD_BYTES, 64 << 10);
+  auto slow = v1::VisibilityService::NewStub(
+      grpc::CreateCustomChannel(daemon.address(), grpc::InsecureChannelCredentials(), args));
+  for (int i = 0; i < kSlow; ++i) {
+    contexts.push_back(std::make_unique<grpc::ClientContext>());  // no deadline of its own
+    readers.push_back(slow->ComputeViewshed(contexts.back().get(), request));
+  }
+  ASSERT_TRUE(daemon.wait_for_in_flight(kSlow)) << daemon.metrics();
+  for (auto& reader : readers) {
+    v1::ViewshedResponse first;
+    ASSERT_TRUE(reader->Read(&first)) << reader->Finish().error_message();
+    EXPECT_TRUE(first.has_header());
+  }
+  const auto stuck_at = std::chrono::steady_clock::now();
+
+  // Served meanwhile.
+  for (int i = 0; i < 4; ++i) {
+    v1::LineOfSightRequest los;
+    los.set_dataset("big");
+    auto* line = los.add_lines();
+    *line->mutable_from() = point(500000 + 5000.5, 5000000 - 5000.5);
+    *line->mutable_to() = point(500000 + 6000.5 + 100 * i, 5000000 - 7000.5);
+    v1::LineOfSightResponse response;
+    const grpc::Status s = stub->LineOfSight(context_with_deadline(std::chrono::seconds(5)).get(), los, &response);
+    EXPECT_TRUE(s.ok()) << s.error_message();
+  }
+  EXPECT_EQ(metric(daemon.metrics(), "horizon_requests_in_flight"), kSlow) << "the slow readers' calls ended early";
+
+  // The default deadline ends the stuck calls: no slot and no memory held.
+  double in_flight = -1;
+  while (std::chrono::steady_clock::now() < stuck_at + std::chrono::seconds(10)) {
+    in_flight = metric(daemon.metrics(), "horizon_requests_in_flight");
+    if (in_flight == 0) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  EXPECT_EQ(in_flight, 0);
+  EXPECT_EQ(metric(daemon.metrics(), "horizon_memory_reserved_bytes"), reserved_idle);
+  int ended = 0;
+  for (const std::string& line : daemon.request_lines())
+    if (line.find("ComputeViewshed") != std::string::npos &&
+        line.find("\"status\":\"DEADLINE_EXCEEDED\"") != std::string::npos)
+      ++ended;
+  EXPECT_EQ(ended, kSlow) << daemon.log();
+  for (auto& c : contexts) c->TryCancel();
+  for (auto& r : readers) EXPECT_FALSE(r->Finish().ok());
 }
 
 }  // namespace
