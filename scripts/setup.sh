@@ -19,6 +19,7 @@ packages=(
   # daemon
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
   prometheus-cpp-dev  # horizond's /metrics (core + pull)
+  libssl-dev  # datasets.NAME.sha256: the DEM checked against its digest on load (OpenSSL EVP)
   # the daemon's integration tests: an independent Python client, and the deploy YAML check
   python3-grpcio python3-protobuf python3-yaml
   # fuzzing (scripts/fuzz.sh): clang and its libFuzzer runtime

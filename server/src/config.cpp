@@ -3,6 +3,7 @@
 
 #include <unistd.h>
 
+#include <cctype>
 #include <cstdlib>
 #include <fstream>
 #include <set>
@@ -11,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "auth.hpp"
+#include "file_digest.hpp"
 #include "memory_budget.hpp"
 
 namespace horizon::server {
@@ -81,7 +83,7 @@ Status parse_datasets(const Json& j, const std::string& source, Config& config) 
     if (value.is_string()) {
       d.file = value.get<std::string>();
     } else if (value.is_object()) {
-      HORIZON_RETURN_IF_ERROR(check_keys(value, source, key + ".", {"file", "band", "missing_tiles", "valid_range"}));
+      HORIZON_RETURN_IF_ERROR(check_keys(value, source, key + ".", {"file", "band", "missing_tiles", "valid_range", "sha256"}));
       if (!value.contains("file")) return config_error(source, key + ".file", "missing");
       auto file = get_string(value, source, "file", key + ".file", false);
       if (!file.ok()) return file.error();
@@ -107,6 +109,16 @@ Status parse_datasets(const Json& j, const std::string& source, Config& config) 
                               "expected [min, max] elevations with min < max, got " + range.dump());
         d.valid_min = range[0].get<double>();
         d.valid_max = range[1].get<double>();
+      }
+      if (value.contains("sha256")) {
+        auto digest = get_string(value, source, "sha256", key + ".sha256", false);
+        if (!digest.ok()) return digest.error();
+        if (!is_sha256_hex(*digest))
+          return config_error(source, key + ".sha256",
+                              "expected the file's SHA-256 as 64 hex digits (sha256sum's), got '" +
+                                  digest->substr(0, 80) + "'");
+        d.sha256 = *digest;
+        for (char& c : d.sha256) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
       }
     } else {
       return config_error(source, key,

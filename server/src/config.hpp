@@ -12,7 +12,9 @@
 //     },                                    "missing_tiles": "error" (default: a request needing a
 //                                           tile no file covers fails) or "nodata" (read as voids);
 //                                           "valid_range": [-12000, 9000] (the default, metres): a
-//                                           cell outside it is a corrupt block, refused at load
+//                                           cell outside it is a corrupt block, refused at load;
+//                                           "sha256": "<64 hex digits>" (a single file): its bytes
+//                                           checked against sha256sum's digest at every load
 //     "memory_budget_mb": 2048,             the block cache + the working memory of requests in flight
 //     "block_cache_mb": 256,                decoded elevation blocks shared by every request (LRU),
 //                                           reserved in memory_budget_mb at start; [1, 1048576]
@@ -89,6 +91,9 @@ struct DatasetConfig {
   // "valid_range": [min, max], plausible elevations (terrain::SourceOptions).
   double valid_min = terrain::SourceOptions{}.valid_min;
   double valid_max = terrain::SourceOptions{}.valid_max;
+  // "sha256": the file's SHA-256 (64 hex digits, kept lowercase), checked on
+  // every load; empty: not checked. A single file only, not a folder of tiles.
+  std::string sha256;
 };
 
 struct Limits {

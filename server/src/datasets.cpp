@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "horizon/geodesy/crs.hpp"
+#include "file_digest.hpp"
 #include "horizon/terrain/dem_reader.hpp"
 
 namespace horizon::server {
@@ -54,6 +55,21 @@ Result<std::shared_ptr<const Dataset>> load_dataset(const Config& config, const 
   d->valid_min = entry.valid_min;
   d->valid_max = entry.valid_max;
   d->signature = signature_of(*path);
+  d->sha256 = entry.sha256;
+  if (!entry.sha256.empty()) {
+    std::error_code ec;
+    if (std::filesystem::is_directory(*path, ec))
+      return in_config(make_error(ErrorCode::kInvalidArgument,
+                                  "sha256: names one file's digest, and '" + entry.file + "' is a folder of tiles",
+                                  key));
+    auto digest = sha256_of_file(*path);
+    if (!digest.ok()) return in_config(digest.error());
+    if (*digest != entry.sha256)
+      return in_config(make_error(ErrorCode::kDataError,
+                                  "sha256: '" + entry.file + "' has SHA-256 " + *digest + ", not the configured " +
+                                      entry.sha256 + ": the file is corrupt, or not the one configured",
+                                  key));
+  }
 
   terrain::SourceOptions options;
   options.band = entry.band;
@@ -95,7 +111,7 @@ Status DatasetRegistry::load(const Config& config) {
       auto path = resolve_dataset_file(config, entry);
       if (path.ok() && *path == have.path && entry.band == have.band &&
           entry.missing_as_nodata == have.missing_as_nodata && entry.valid_min == have.valid_min &&
-          entry.valid_max == have.valid_max && signature_of(*path) == have.signature) {
+          entry.valid_max == have.valid_max && entry.sha256 == have.sha256 && signature_of(*path) == have.signature) {
         (*next)[entry.name] = it->second;
         continue;
       }

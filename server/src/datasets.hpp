@@ -37,6 +37,7 @@ struct Dataset {
   int band = 0;
   bool missing_as_nodata = false;
   double valid_min = 0.0, valid_max = 0.0;  // as configured
+  std::string sha256;                        // as configured ("" = not checked)
   std::string signature;  // the files' names, sizes and modification times
   std::shared_ptr<const terrain::ElevationSource> source;
   terrain::ElevationStats stats;

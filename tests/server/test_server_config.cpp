@@ -101,7 +101,8 @@ TEST(ServerConfig, TiledDatasetsAndTheBlockCache) {
   auto c = parse_config(document(R"("block_cache_mb": 64, "io_threads": 3,
                                     "datasets": {"t": {"file": ".", "missing_tiles": "nodata"},
                                                  "f": {"file": "zion_canyon_srtm3_465x457.tif", "missing_tiles": "error",
-                                                       "valid_range": [-100, 30000]}})"),
+                                                       "valid_range": [-100, 30000],
+                                                       "sha256": ")" + std::string(32, 'A') + std::string(32, '0') + R"("}})"),
                         "test.json", "/");
   ASSERT_TRUE(c.ok()) << c.error().message;
   EXPECT_EQ(c->block_cache_bytes, 64ull << 20);
@@ -111,6 +112,8 @@ TEST(ServerConfig, TiledDatasetsAndTheBlockCache) {
   EXPECT_TRUE(c->datasets[1].missing_as_nodata);   // "t"
   EXPECT_EQ(c->datasets[0].valid_min, -100.0);
   EXPECT_EQ(c->datasets[0].valid_max, 30000.0);
+  EXPECT_EQ(c->datasets[0].sha256, std::string(32, 'a') + std::string(32, '0'));  // kept lowercase
+  EXPECT_EQ(c->datasets[1].sha256, "");
   EXPECT_EQ(c->datasets[1].valid_min, -12000.0);  // the default
   EXPECT_EQ(c->datasets[1].valid_max, 9000.0);
   auto folder = resolve_dataset_file(*c, c->datasets[1]);
@@ -199,6 +202,11 @@ INSTANTIATE_TEST_SUITE_P(
                 "datasets.a.missing_tiles"},
         BadCase{"valid_range not a pair", document(R"("datasets": {"a": {"file": "x", "valid_range": [1]}})"),
                 "datasets.a.valid_range"},
+        BadCase{"sha256 too short", document(R"("datasets": {"a": {"file": "x", "sha256": "abc123"}})"),
+                "datasets.a.sha256"},
+        BadCase{"sha256 not hex",
+                document(R"("datasets": {"a": {"file": "x", "sha256": ")" + std::string(63, '0') + R"(g"}})"),
+                "datasets.a.sha256"},
         BadCase{"valid_range reversed",
                 document(R"("datasets": {"a": {"file": "x", "valid_range": [100, -100]}})"),
                 "datasets.a.valid_range"},

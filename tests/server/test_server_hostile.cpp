@@ -118,6 +118,49 @@ TEST(ServerHostile, CheckConfigRefusesACorruptDemNamingTheFileAndCell) {
   EXPECT_EQ(widened.exit_code, 0) << widened.output;
 }
 
+// A byte flipped inside a DEM's elevations still decodes to a plausible
+// raster: only the configured digest catches it. The digest sha256sum gives
+// is accepted; a changed file, and a digest on a folder, are refused naming
+// the dataset and the key.
+TEST(ServerHostile, CheckConfigRefusesADemWhoseDigestDiffers) {
+  TempDir dir;
+  terrain::Grid<float> cells(64, 48, 500.0f);
+  terrain::Georeference georef;
+  georef.epsg = 32633;
+  georef.transform = {500000.0, 30.0, 5000000.0, -30.0};
+  ASSERT_TRUE(terrain::write_geotiff(dir.file("dem.tif"), cells, georef, std::nullopt).ok());
+  const CommandResult sum = run_command("sha256sum " + dir.file("dem.tif"));
+  ASSERT_EQ(sum.exit_code, 0) << sum.output;
+  const std::string digest = sum.output.substr(0, 64);
+  const auto check = [&](const std::string& entry) {
+    write_file(dir.file("c.json"),
+               "{\"listen\": \"127.0.0.1:0\", \"plaintext\": true, \"memory_budget_mb\": 256, \"data_root\": \"" +
+                   dir.path().string() + "\", \"datasets\": {\"dem\": " + entry + "}}");
+    return run_command(std::string(HORIZOND_PATH) + " --check-config " + dir.file("c.json"));
+  };
+  const CommandResult accepted = check("{\"file\": \"dem.tif\", \"sha256\": \"" + digest + "\"}");
+  EXPECT_EQ(accepted.exit_code, 0) << accepted.output;
+
+  // The last byte of the file (an elevation, or its tail) changed; the raster still loads without a digest.
+  {
+    std::fstream f(dir.file("dem.tif"), std::ios::in | std::ios::out | std::ios::binary);
+    f.seekg(-1, std::ios::end);
+    const char last = static_cast<char>(f.get());
+    f.seekp(-1, std::ios::end);
+    f.put(static_cast<char>(last ^ 0x01));
+  }
+  const CommandResult unchecked = check("\"dem.tif\"");
+  EXPECT_EQ(unchecked.exit_code, 0) << unchecked.output;
+  const CommandResult refused = check("{\"file\": \"dem.tif\", \"sha256\": \"" + digest + "\"}");
+  EXPECT_EQ(refused.exit_code, 1) << refused.output;
+  EXPECT_NE(refused.output.find("datasets.dem"), std::string::npos) << refused.output;
+  EXPECT_NE(refused.output.find("not the configured " + digest), std::string::npos) << refused.output;
+
+  const CommandResult folder = check("{\"file\": \".\", \"sha256\": \"" + digest + "\"}");
+  EXPECT_EQ(folder.exit_code, 1) << folder.output;
+  EXPECT_NE(folder.output.find("is a folder of tiles"), std::string::npos) << folder.output;
+}
+
 // A client watching the health service (as a load balancer does) keeps a
 // stream open for ever; SIGTERM must not wait the whole shutdown grace for it.
 TEST(ServerHostile, AnIdleHealthWatchDoesNotHoldShutdownForTheGrace) {
