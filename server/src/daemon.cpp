@@ -96,6 +96,7 @@ struct Daemon::Impl {
   }
 
   void set_serving(bool serving) {
+    metrics.set_serving(serving && server);
     if (!server) return;
     auto* health = server->GetHealthCheckService();
     for (const char* name : kServices) health->SetServingStatus(name, serving);

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cstdio>
 #include <mutex>
 
@@ -43,11 +44,28 @@ class ProcessCollector : public prometheus::Collectable {
   }
 };
 
+// 1 while the daemon serves (its health service says SERVING), else 0.
+class ServingCollector : public prometheus::Collectable {
+ public:
+  std::vector<prometheus::MetricFamily> Collect() const override {
+    prometheus::MetricFamily family;
+    family.name = "horizon_serving";
+    family.help = "1 while horizond serves requests; 0 while it loads its datasets or drains";
+    family.type = prometheus::MetricType::Gauge;
+    prometheus::ClientMetric metric;
+    metric.gauge.value = serving.load() ? 1.0 : 0.0;
+    family.metric.push_back(metric);
+    return {family};
+  }
+  std::atomic<bool> serving{false};
+};
+
 }  // namespace
 
 struct Metrics::Impl {
   std::shared_ptr<prometheus::Registry> registry = std::make_shared<prometheus::Registry>();
   std::shared_ptr<ProcessCollector> process = std::make_shared<ProcessCollector>();
+  std::shared_ptr<ServingCollector> serving = std::make_shared<ServingCollector>();
   std::unique_ptr<prometheus::Exposer> exposer;
 
   prometheus::Family<prometheus::Counter>& requests = prometheus::BuildCounter()
@@ -138,6 +156,8 @@ int Metrics::serve(const std::string& address) {
   impl_->exposer = std::make_unique<prometheus::Exposer>(address);
   impl_->exposer->RegisterCollectable(impl_->registry);
   impl_->exposer->RegisterCollectable(impl_->process);
+  impl_->exposer->RegisterCollectable(impl_->serving);
+  impl_->exposer->RegisterCollectable(impl_->serving, "/healthz");
   const auto ports = impl_->exposer->GetListeningPorts();
   return ports.empty() ? 0 : ports.front();
 }
@@ -185,6 +205,10 @@ void Metrics::set_block_cache(const terrain::BlockCacheStats& s) {
   advance(m.cache_evictions, s.evictions, m.cache_seen.evictions);
   advance(m.cache_decoded, s.bytes_decoded, m.cache_seen.bytes_decoded);
   advance(m.cache_failures, s.failures, m.cache_seen.failures);
+}
+
+void Metrics::set_serving(bool serving) {
+  impl_->serving->serving.store(serving);
 }
 
 void Metrics::set_memory_reserved(std::uint64_t bytes) {

@@ -1,5 +1,8 @@
 // metrics.hpp — Prometheus metrics (prometheus-cpp), served on
-// metrics_listen at /metrics:
+// metrics_listen at /metrics, and horizon_serving alone at /healthz (for a
+// load balancer's HTTP check: HAProxy's `http-check expect string
+// "horizon_serving 1"`):
+//   horizon_serving                                 gauge (1 serving; 0 loading or draining)
 //   horizon_requests_total{method, code}            counter
 //   horizon_request_duration_seconds{method}        histogram (1 ms .. 60 s)
 //   horizon_requests_in_flight                      gauge
@@ -52,6 +55,8 @@ class Metrics {
   // The cache's figures now (counters advance by what changed since the last call).
   void set_block_cache(const terrain::BlockCacheStats& stats);
   void set_memory_reserved(std::uint64_t bytes);
+  // What the health service says (Daemon: SERVING once loaded, NOT_SERVING when draining).
+  void set_serving(bool serving);
 
  private:
   struct Impl;

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Scale-out on real infrastructure, loopback only: horizond replicas behind
 # HAProxy (Debian's haproxy, HTTP/2 to the clients and to each replica,
-# round robin per call, TCP health checks every 300 ms). Three phases, each
+# round robin per call, HTTP health checks of each replica's /healthz on its
+# metrics port every 300 ms: out of rotation while it loads or drains, or
+# when it is gone). Three phases, each
 # SECONDS long with CLIENTS clients of load_horizond --retry 1 (the channel
 # retries UNAVAILABLE, as a client of replicas should):
 #   1. one replica behind the balancer: the baseline throughput;
@@ -76,7 +78,12 @@ balance() {  # the replicas given, behind one frontend
     echo "  default_backend horizond"
     echo "backend horizond"
     echo "  balance roundrobin"
-    for i in "$@"; do echo "  server r$i 127.0.0.1:${ports[$i]} proto h2 check inter 300ms fall 1 rise 2"; done
+    echo "  option httpchk"
+    echo "  http-check send meth GET uri /healthz"
+    echo "  http-check expect string \"horizon_serving 1\""
+    for i in "$@"; do
+      echo "  server r$i 127.0.0.1:${ports[$i]} proto h2 check port ${metrics[$i]} check-proto h1 inter 300ms fall 1 rise 2"
+    done
   } >"$work/haproxy.cfg"
   [[ -n "$haproxy_pid" ]] && { kill "$haproxy_pid"; wait "$haproxy_pid" 2>/dev/null || true; }
   haproxy -q -f "$work/haproxy.cfg" &

@@ -56,6 +56,8 @@ class DaemonProcess {
   bool wait_for_log(const std::string& text, std::chrono::milliseconds timeout = std::chrono::seconds(10)) const;
   // The Prometheus text it serves on 127.0.0.1:metrics_port/metrics ("" when it cannot be had).
   std::string metrics() const;
+  // Any page of that listener (e.g. "/healthz"), the HTTP response whole.
+  std::string metrics_page(const std::string& path) const;
   // Waits until at least `calls` requests are in flight (horizon_requests_in_flight): the
   // moment to cancel, reload or stop under a call, on a machine of any speed.
   bool wait_for_in_flight(int calls, std::chrono::milliseconds timeout = std::chrono::seconds(10)) const;

@@ -499,6 +499,33 @@ TEST_F(ServerRpc, SighupReloadsDatasetsWithoutDroppingACall) {
   EXPECT_EQ(slow.get(), grpc::StatusCode::OK);
 }
 
+// /healthz on the metrics listener says horizon_serving 1 while the daemon
+// serves and 0 from the moment it drains, while its last calls finish: what
+// a load balancer's HTTP check (HAProxy's) takes it out of rotation on.
+TEST_F(ServerRpc, HealthzSaysServingUntilTheDaemonDrains) {
+  const std::string serving = daemon_->metrics_page("/healthz");
+  EXPECT_NE(serving.find("200 OK"), std::string::npos) << serving;
+  EXPECT_NE(serving.find("\nhorizon_serving 1"), std::string::npos) << serving;
+  EXPECT_EQ(serving.find("horizon_requests_total"), std::string::npos) << "/healthz is the serving gauge alone";
+  EXPECT_EQ(metric(daemon_->metrics(), "horizon_serving"), 1);
+
+  auto slow = std::async(std::launch::async, [&] {
+    return run_viewshed(slow_viewshed(3500)).error_code();  // about a second
+  });
+  ASSERT_TRUE(daemon_->wait_for_in_flight(1)) << daemon_->metrics();
+  ASSERT_EQ(::kill(daemon_->pid(), SIGTERM), 0);
+  std::string draining;
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (std::chrono::steady_clock::now() < until) {
+    draining = daemon_->metrics_page("/healthz");
+    if (draining.find("\nhorizon_serving 0") != std::string::npos) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_NE(draining.find("\nhorizon_serving 0"), std::string::npos) << draining;
+  EXPECT_EQ(slow.get(), grpc::StatusCode::OK);  // the call in flight still finished
+  EXPECT_EQ(daemon_->signal(SIGTERM), 0);
+}
+
 TEST_F(ServerRpc, SigtermDrainsCallsInFlightThenExitsZero) {
   auto slow = std::async(std::launch::async, [&] {
     return run_viewshed(slow_viewshed(3500)).error_code();  // about a second
