@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Installs what is needed, builds with warnings as errors, runs the whole
 # test suite, then the engine's concurrency tests under ThreadSanitizer
-# (scripts/tsan.sh; HORIZON_TSAN=0 skips it), then fuzzes every target for
+# (scripts/tsan.sh; HORIZON_TSAN=0 skips it), then the engine's and the
+# daemon's unit tests under AddressSanitizer and UBSan (scripts/asan.sh;
+# HORIZON_ASAN=0 skips it), then fuzzes every target for
 # HORIZON_FUZZ_SECONDS (default 30; 0 skips it) in a clang/libFuzzer/ASan/UBSan
 # build (scripts/fuzz.sh). Extra
 # arguments go to ctest (e.g. -R Cli, -j 2); HORIZON_BUILD_DIR picks the
@@ -14,6 +16,9 @@ HORIZON_WERROR=ON scripts/build.sh
 ctest --test-dir "${HORIZON_BUILD_DIR:-build}" --output-on-failure "$@"
 if [[ "${HORIZON_TSAN:-1}" != 0 ]]; then
   scripts/tsan.sh
+fi
+if [[ "${HORIZON_ASAN:-1}" != 0 ]]; then
+  scripts/asan.sh
 fi
 fuzz_seconds="${HORIZON_FUZZ_SECONDS:-30}"
 if ((fuzz_seconds > 0)); then

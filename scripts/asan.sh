@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# Builds the engine's and the daemon's in-process unit tests with
+# AddressSanitizer and UndefinedBehaviorSanitizer into build-asan/ and runs
+# them: test_common, test_terrain, test_visibility, test_clipmap (the
+# engine) and test_server_units (config, budget figures, health, deadlines,
+# paths). Any report fails the run (UBSan does not recover). The daemon's
+# process-level tests (test_server: a real horizond per test) are left to
+# the ordinary build: under ASan their RSS checks mean nothing and their
+# timing-bound cases would need looser bounds. Extra arguments go to every
+# test binary (e.g. --gtest_filter=Grid*).
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+
+build_dir="${HORIZON_ASAN_BUILD_DIR:-build-asan}"
+binaries=(test_common test_terrain test_visibility test_clipmap test_server_units)
+cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHORIZON_SANITIZE=ON \
+  -DHORIZON_BUILD_BENCH=OFF >/dev/null
+cmake --build "$build_dir" -j "$(nproc)" --target "${binaries[@]}"
+# Leak checks on, with no suppression: nothing these tests load (Mesa's
+# llvmpipe for the EGL tests included) leaks by LeakSanitizer's count.
+export ASAN_OPTIONS="detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=1"
+export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
+for binary in "${binaries[@]}"; do
+  echo "asan: $binary"
+  "$build_dir/tests/$binary" --gtest_brief=1 "$@"
+done
+echo "asan: ${#binaries[@]} test binaries, no report"
