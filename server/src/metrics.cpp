@@ -6,7 +6,11 @@
 #include <algorithm>
 #include <atomic>
 #include <cstdio>
+#include <functional>
 #include <mutex>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <prometheus/collectable.h>
 #include <prometheus/counter.h>
@@ -29,43 +33,38 @@ std::uint64_t process_resident_bytes() {
 
 namespace {
 
-// Reads the RSS when scraped, so the figure is current.
-class ProcessCollector : public prometheus::Collectable {
+// One gauge read when scraped, so the figure is current.
+class GaugeAtScrape : public prometheus::Collectable {
  public:
+  GaugeAtScrape(std::string name, std::string help, std::function<double()> read)
+      : name_(std::move(name)), help_(std::move(help)), read_(std::move(read)) {}
   std::vector<prometheus::MetricFamily> Collect() const override {
     prometheus::MetricFamily family;
-    family.name = "horizon_process_resident_bytes";
-    family.help = "Resident set size of the daemon, bytes";
+    family.name = name_;
+    family.help = help_;
     family.type = prometheus::MetricType::Gauge;
     prometheus::ClientMetric metric;
-    metric.gauge.value = static_cast<double>(process_resident_bytes());
+    metric.gauge.value = read_();
     family.metric.push_back(metric);
     return {family};
   }
-};
 
-// 1 while the daemon serves (its health service says SERVING), else 0.
-class ServingCollector : public prometheus::Collectable {
- public:
-  std::vector<prometheus::MetricFamily> Collect() const override {
-    prometheus::MetricFamily family;
-    family.name = "horizon_serving";
-    family.help = "1 while horizond serves requests; 0 while it loads its datasets or drains";
-    family.type = prometheus::MetricType::Gauge;
-    prometheus::ClientMetric metric;
-    metric.gauge.value = serving.load() ? 1.0 : 0.0;
-    family.metric.push_back(metric);
-    return {family};
-  }
-  std::atomic<bool> serving{false};
+ private:
+  std::string name_, help_;
+  std::function<double()> read_;
 };
 
 }  // namespace
 
 struct Metrics::Impl {
   std::shared_ptr<prometheus::Registry> registry = std::make_shared<prometheus::Registry>();
-  std::shared_ptr<ProcessCollector> process = std::make_shared<ProcessCollector>();
-  std::shared_ptr<ServingCollector> serving = std::make_shared<ServingCollector>();
+  std::shared_ptr<GaugeAtScrape> process = std::make_shared<GaugeAtScrape>(
+      "horizon_process_resident_bytes", "Resident set size of the daemon, bytes",
+      [] { return static_cast<double>(process_resident_bytes()); });
+  std::atomic<bool> serving_now{false};
+  std::shared_ptr<GaugeAtScrape> serving = std::make_shared<GaugeAtScrape>(
+      "horizon_serving", "1 while horizond serves requests; 0 while it loads its datasets or drains",
+      [this] { return serving_now.load() ? 1.0 : 0.0; });
   std::unique_ptr<prometheus::Exposer> exposer;
 
   prometheus::Family<prometheus::Counter>& requests = prometheus::BuildCounter()
@@ -208,7 +207,7 @@ void Metrics::set_block_cache(const terrain::BlockCacheStats& s) {
 }
 
 void Metrics::set_serving(bool serving) {
-  impl_->serving->serving.store(serving);
+  impl_->serving_now.store(serving);
 }
 
 void Metrics::set_memory_reserved(std::uint64_t bytes) {
