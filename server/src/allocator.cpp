@@ -13,7 +13,8 @@ void tune_allocator() {
 #endif
 }
 
-HeapTrimmer::HeapTrimmer() : thread_([this] { run(); }) {}
+HeapTrimmer::HeapTrimmer(const std::atomic<std::uint32_t>& live_calls)
+    : live_calls_(live_calls), thread_([this] { run(); }) {}
 
 HeapTrimmer::~HeapTrimmer() {
   {
@@ -45,12 +46,14 @@ void HeapTrimmer::run() {
     // Let the burst end; an idle() meanwhile is served by this same trim.
     if (wake_.wait_for(lock, kDelay, [this] { return stopping_; })) return;
     wanted_ = false;
+    if (live_calls_.load() != 0) continue;  // busy again: the next idle() asks again
     lock.unlock();
 #if defined(__GLIBC__)
     malloc_trim(0);
 #endif
     lock.lock();
     ++trims_;
+    if (wake_.wait_for(lock, kInterval - kDelay, [this] { return stopping_; })) return;
   }
 }
 

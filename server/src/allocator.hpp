@@ -8,10 +8,14 @@
 //   blocks, raster buffers, gRPC's large slices): freeing it unmaps it. The
 //   thresholds are fixed, which also stops glibc raising the mapping
 //   threshold after each large free;
-// - when the daemon falls idle (its last call gone), HeapTrimmer hands the
-//   free pages inside every arena back to the system (malloc_trim).
+// - when the daemon falls idle (its last call gone) and is still idle a
+//   moment later, HeapTrimmer hands the free pages inside every arena back to
+//   the system (malloc_trim), at most once a second: a client calling 60
+//   times a second idles the daemon between calls, and must not pay a trim
+//   each time.
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstddef>
@@ -35,8 +39,12 @@ class HeapTrimmer {
   // How long after idle() the heap is trimmed: time for gRPC to free the last
   // call's messages, and for a burst of calls to end together.
   static constexpr std::chrono::milliseconds kDelay{100};
+  // The least time between two trims.
+  static constexpr std::chrono::milliseconds kInterval{1000};
 
-  HeapTrimmer();
+  // `live_calls`: the daemon's count of calls (ServerEnv::live_calls); a trim
+  // is skipped when it is not 0 by the end of kDelay. Must outlive the trimmer.
+  explicit HeapTrimmer(const std::atomic<std::uint32_t>& live_calls);
   ~HeapTrimmer();  // stops the thread
   HeapTrimmer(const HeapTrimmer&) = delete;
   HeapTrimmer& operator=(const HeapTrimmer&) = delete;
@@ -53,6 +61,7 @@ class HeapTrimmer {
   std::condition_variable wake_;
   bool wanted_ = false, stopping_ = false;
   std::uint64_t trims_ = 0;
+  const std::atomic<std::uint32_t>& live_calls_;
   std::thread thread_;
 };
 

@@ -112,8 +112,7 @@ struct Daemon::Impl {
   Config config;
   MemoryBudget memory;
   Metrics metrics;
-  HeapTrimmer trimmer;        // outlives every call (env.trimmer)
-  DeadlineWatch deadlines;    // likewise (env.deadlines)
+  DeadlineWatch deadlines;    // outlives every call (env.deadlines)
   Reservation cache_memory;   // the block cache's whole budget, held for the daemon's life
   terrain::BlockCache cache;  // outlives the datasets whose blocks it holds
   DatasetRegistry datasets;
@@ -121,6 +120,7 @@ struct Daemon::Impl {
   visibility::BackendPolicy backend;      // when requests use `gpu`; likewise
   WorkerPool pool;
   ServerEnv env;
+  HeapTrimmer trimmer{env.live_calls};  // outlives every call (env.trimmer); reads env's count
   SessionRegistry sessions;  // outlives every session call
   DatasetService dataset_service;
   VisibilityService visibility_service;

@@ -1,11 +1,16 @@
 // The budget's per-message figures (memory_budget.hpp) against the messages
-// themselves: a call reserves what its messages will really hold.
+// themselves: a call reserves what its messages will really hold. And when
+// the heap trimmer (allocator.hpp) gives freed memory back.
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <chrono>
 #include <cstdint>
+#include <thread>
 
 #include <google/protobuf/arena.h>
 
+#include "allocator.hpp"
 #include "arena_allocator.hpp"
 #include "horizon/v1/visibility.pb.h"
 #include "memory_budget.hpp"
@@ -59,6 +64,30 @@ TEST(ServerBudget, AReceivedRequestIsCountedAtLeastAsItsWireSize) {
   v1::CullBoxesRequest copy = request;
   EXPECT_GE(held_bytes(copy), copy.ByteSizeLong());
   holder->Release();
+}
+
+// Trims wait for the daemon to be idle at the end of the delay, and come at
+// most once an interval however often it falls idle. (Bounds are generous:
+// each waits several times the delay the trimmer is given.)
+TEST(HeapTrimmer, TrimsOnlyWhenStillIdleAndAtMostOnceAnInterval) {
+  using namespace std::chrono_literals;
+  std::atomic<std::uint32_t> live{1};
+  HeapTrimmer trimmer(live);
+  trimmer.idle();  // told idle, but a call is live again
+  std::this_thread::sleep_for(HeapTrimmer::kDelay * 4);
+  EXPECT_EQ(trimmer.trims(), 0u);
+
+  live = 0;
+  trimmer.idle();
+  const auto until = std::chrono::steady_clock::now() + 5s;
+  while (trimmer.trims() == 0 && std::chrono::steady_clock::now() < until) std::this_thread::sleep_for(10ms);
+  EXPECT_EQ(trimmer.trims(), 1u);
+  // A client falling idle between calls 60 times a second: no second trim within the interval.
+  for (int i = 0; i < 30; ++i) {
+    trimmer.idle();
+    std::this_thread::sleep_for(16ms);
+  }
+  EXPECT_LE(trimmer.trims(), 2u);  // 480 ms of idles: the first trim's interval covers them, at most one more
 }
 
 }  // namespace
