@@ -83,7 +83,8 @@ Status parse_datasets(const Json& j, const std::string& source, Config& config) 
     if (value.is_string()) {
       d.file = value.get<std::string>();
     } else if (value.is_object()) {
-      HORIZON_RETURN_IF_ERROR(check_keys(value, source, key + ".", {"file", "band", "missing_tiles", "valid_range", "sha256"}));
+      HORIZON_RETURN_IF_ERROR(
+          check_keys(value, source, key + ".", {"file", "band", "missing_tiles", "valid_range", "sha256"}));
       if (!value.contains("file")) return config_error(source, key + ".file", "missing");
       auto file = get_string(value, source, "file", key + ".file", false);
       if (!file.ok()) return file.error();

@@ -7,12 +7,11 @@ void WatchedCall::release() {
   context_ = nullptr;
 }
 
-bool WatchedCall::cancel() {
+void WatchedCall::cancel() {
   std::lock_guard lock(mutex_);
-  if (!context_) return false;
+  if (!context_) return;
   context_->TryCancel();
   context_ = nullptr;
-  return true;
 }
 
 DeadlineWatch::DeadlineWatch() : thread_([this] { run(); }) {}
@@ -39,11 +38,6 @@ std::shared_ptr<WatchedCall> DeadlineWatch::watch(grpc::CallbackServerContext* c
   return call;
 }
 
-std::uint64_t DeadlineWatch::cancelled() const {
-  std::lock_guard lock(mutex_);
-  return cancelled_;
-}
-
 void DeadlineWatch::run() {
   std::unique_lock lock(mutex_);
   while (!stopping_) {
@@ -60,9 +54,8 @@ void DeadlineWatch::run() {
     // A call that ended has let its handle go: nothing to do.
     if (auto call = next.call.lock()) {
       lock.unlock();
-      const bool cancelled = call->cancel();
+      call->cancel();
       lock.lock();
-      if (cancelled) ++cancelled_;
     }
   }
 }

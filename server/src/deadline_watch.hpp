@@ -29,8 +29,8 @@ class WatchedCall {
  public:
   explicit WatchedCall(grpc::CallbackServerContext* context) : context_(context) {}
   void release();
-  // Cancels the call unless released; true when it did.
-  bool cancel();
+  // Cancels the call unless released.
+  void cancel();
 
  private:
   std::mutex mutex_;
@@ -47,8 +47,6 @@ class DeadlineWatch {
   // Cancels `context`'s call at `deadline` unless the returned handle is released first.
   std::shared_ptr<WatchedCall> watch(grpc::CallbackServerContext* context,
                                      std::chrono::steady_clock::time_point deadline);
-  // Calls cancelled so far.
-  std::uint64_t cancelled() const;
 
  private:
   struct Entry {
@@ -58,11 +56,10 @@ class DeadlineWatch {
   };
   void run();
 
-  mutable std::mutex mutex_;
+  std::mutex mutex_;
   std::condition_variable wake_;
   std::priority_queue<Entry, std::vector<Entry>, std::greater<>> entries_;
   bool stopping_ = false;
-  std::uint64_t cancelled_ = 0;
   std::thread thread_;
 };
 

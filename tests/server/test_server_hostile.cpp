@@ -197,11 +197,6 @@ TEST(ServerHostile, AnIdleHealthWatchDoesNotHoldShutdownForTheGrace) {
   }
 }
 
-}  // namespace
-}  // namespace horizon::testing
-
-namespace horizon::testing {
-namespace {
 
 // Clients on connections of their own, each sending the largest CullBoxes
 // call the defaults take (100 000 boxes, ~5 MB on the wire, ~15 MB held
@@ -302,11 +297,6 @@ TEST(ServerHostile, AFloodOfTheLargestCallsStaysWithinTheBudget) {
 #endif
 }
 
-}  // namespace
-}  // namespace horizon::testing
-
-namespace horizon::testing {
-namespace {
 
 // Clients that start a large viewshed stream, read its first message and
 // then never read again: the daemon's writes wait on the stream's flow

@@ -30,7 +30,7 @@ bool ViewFrame::in_range(int col, int row) const {
 }
 
 void reset_output(terrain::Grid<float>& ohf, const terrain::Window& window, unsigned threads) {
-  if (ohf.width() != window.width() || ohf.height() != window.height() || ohf.size() != window.cell_count()) {
+  if (ohf.width() != window.width() || ohf.height() != window.height()) {
     if (ohf.capacity() >= window.cell_count())
       ohf.reshape(window.width(), window.height());  // the storage kept: no new pages
     else
