@@ -129,6 +129,10 @@ Result<std::vector<BoxFootprint>> resolve_boxes(const terrain::Georeference& geo
     f.cells.row1 = std::min(height, static_cast<int>(std::ceil(r1)) + 1);
     f.z_min = b.z_min;
     f.z_max = b.z_max;
+    f.col_min = c0;
+    f.col_max = c1;
+    f.row_min = r0;
+    f.row_max = r1;
     out.push_back(f);
   }
   return out;

@@ -64,6 +64,8 @@ struct BoxSpec {
 struct BoxFootprint {
   terrain::Window cells;
   double z_min = 0.0, z_max = 0.0;
+  // The footprint itself, in continuous grid coordinates (inside the outer extent).
+  double col_min = 0.0, col_max = 0.0, row_min = 0.0, row_max = 0.0;
 };
 
 // What is known of a box from the viewpoint(s) asked about. The API words are
