@@ -19,7 +19,7 @@ namespace horizon::cli {
 namespace {
 
 const Command* const kCommands[] = {&info_command(), &viewshed_command(), &los_command(), &bench_command(),
-                                     &stress_command(), &cull_command(), &session_command(),
+                                     &stress_command(), &cull_command(), &region_command(), &session_command(),
                                      &datasets_command()};
 
 const Command* find_command(std::string_view name) {

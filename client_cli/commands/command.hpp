@@ -41,6 +41,7 @@ const Command& los_command();
 const Command& bench_command();   // horizon_evaluation
 const Command& stress_command();  // horizon_evaluation
 const Command& cull_command();
+const Command& region_command();
 const Command& datasets_command();  // --server only
 const Command& session_command();
 

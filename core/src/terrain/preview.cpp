@@ -77,6 +77,7 @@ Rgb cell_colour(const Grid<float>& z, const Grid<std::uint8_t>& vis, int c, int 
     const std::uint8_t v = vis.at(c, r);
     if (v == 1) return {0.55 * g, 0.55 * g + 0.45 * 235.0, 0.55 * g + 0.45 * 60.0};
     if (v == 0) return {0.45 * g + 0.25 * 200.0, 0.30 * g, 0.30 * g};
+    if (v == 2) return {0.55 * g + 0.45 * 240.0, 0.55 * g + 0.45 * 170.0, 0.55 * g};
   }
   return {g, g, g};
 }

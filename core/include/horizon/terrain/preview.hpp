@@ -2,7 +2,8 @@
 //
 // A grey hillshade of the DEM (sun from the north-west, 45 degrees up, slopes
 // from true metric cell sizes) with the viewshed tinted over it: visible cells
-// green, hidden cells darkened red, no-data/out-of-range cells left grey, and
+// green, hidden cells darkened red, undetermined cells (code 2, from-region
+// answers) amber, no-data/out-of-range cells left grey, and
 // the observer marked with a yellow ring and dot. Written through OpenImageIO,
 // atomically (temporary name + rename). Previews larger than `max_size` pixels
 // on their longer side are box-downsampled.
@@ -26,7 +27,7 @@ struct PreviewOptions {
 };
 
 // elevation and visibility must have the same size. visibility: 1 visible,
-// 0 hidden, anything else = not computed. Pass an empty visibility grid for a
+// 0 hidden, 2 undetermined, anything else = not computed. Pass an empty visibility grid for a
 // plain hillshade.
 Status write_viewshed_preview(const std::string& path, const Grid<float>& elevation,
                               const Grid<std::uint8_t>& visibility, const PreviewOptions& options);

@@ -1,0 +1,209 @@
+// `horizon region DEM --from-box ...`: what is always visible, always hidden
+// or undetermined from anywhere in a box of viewpoints.
+#include <chrono>
+#include <iostream>
+
+#include "commands/command.hpp"
+#include "horizon/region/region.hpp"
+#include "horizon/terrain/geotiff_writer.hpp"
+#include "horizon/terrain/preview.hpp"
+#include "horizon/imageio/imageio.hpp"
+#include "inputs.hpp"
+#include "interrupt.hpp"
+#include "output.hpp"
+
+namespace horizon::cli {
+namespace {
+
+constexpr FlagSpec kFlags[] = {
+    {"--from-box", "", "XMIN,YMIN,XMAX,YMAX", "The region of viewpoints: a rectangle in the DEM's CRS"},
+    {"--from-path", "", "X0,Y0,X1,Y1", "Or the rectangle a box sweeps moving from (X0,Y0) to (X1,Y1) (with --half-size)"},
+    {"--half-size", "", "M", "Half the side of the box swept along --from-path, CRS units (default 0)"},
+    {"--lonlat", "", "", "The region's (and the boxes') x/y are WGS84 longitude/latitude"},
+    {"--heights", "", "ZMIN,ZMAX", "Viewpoint heights above the ground, metres (default 2,2)"},
+    {"--altitudes", "", "ZMIN,ZMAX", "Viewpoint altitudes, absolute metres (instead of --heights)"},
+    {"--out", "-o", "OUT.tif", "Write the three-valued raster: 0 always hidden, 1 always visible, 2 undetermined, 255 none"},
+    {"--png", "", "PREVIEW.png", "Also write a hillshade preview (green visible, red hidden, amber undetermined)"},
+    {"--boxes", "", "FILE.csv",
+     "Classify object boxes instead: x_min,y_min,x_max,y_max,z_min,z_max a line (absolute metres)"},
+    {"--max-distance", "", "M", "Answer only cells within M ground metres of the region (default: the whole DEM)"},
+    {"--target-height", "", "M", "Target height above each cell, metres (default 0)"},
+    {"--curvature", "", "C", "Curvature/refraction coefficient as GDAL's (default 0.85714; 0 disables)"},
+    {"--face-resolution", "", "N", "Fuzzy-array columns per cube face (default 1024)"},
+    {"--visible-budget", "", "N", "Pyramid cells one always-visible test may read (default 4096)"},
+    {"--threads", "", "N", "Worker threads (default 0 = all cores)"},
+    {"--band", "", "N", "DEM band to read, 1-based (required when the file has several)"},
+    {"--json", "", "", "Print a JSON document"},
+};
+
+std::vector<double> numbers(const Args& args, std::string_view flag, std::size_t count) {
+  const auto text = args.text(flag);
+  if (!text) return {};
+  const CsvNumbers n = parse_csv_numbers(*text);
+  if (n.blank || !n.numeric || n.values.size() != count)
+    throw UsageError(std::string(flag) + ": expected " + std::to_string(count) + " comma-separated numbers, got '" +
+                     *text + "'");
+  return n.values;
+}
+
+region::RegionSpec region_from_flags(const Args& args) {
+  if (args.has("--from-box") == args.has("--from-path"))
+    throw UsageError("give the region as one of --from-box XMIN,YMIN,XMAX,YMAX or --from-path X0,Y0,X1,Y1");
+  if (args.has("--heights") && args.has("--altitudes"))
+    throw UsageError("--heights and --altitudes both set the viewpoints' heights; give one of them");
+  std::vector<double> z = numbers(args, args.has("--altitudes") ? "--altitudes" : "--heights", 2);
+  if (z.empty()) z = {2.0, 2.0};
+  if (z[1] < z[0]) throw UsageError("--heights/--altitudes: ZMAX is below ZMIN");
+  const auto mode = args.has("--altitudes") ? geodesy::HeightMode::kAbsolute : geodesy::HeightMode::kAboveGround;
+  region::RegionSpec s;
+  if (args.has("--from-box")) {
+    const std::vector<double> b = numbers(args, "--from-box", 4);
+    if (b[2] < b[0] || b[3] < b[1]) throw UsageError("--from-box: XMAX or YMAX is below XMIN or YMIN");
+    s = {.x_min = b[0], .y_min = b[1], .x_max = b[2], .y_max = b[3], .z_min = z[0], .z_max = z[1], .height_mode = mode};
+  } else {
+    const std::vector<double> p = numbers(args, "--from-path", 4);
+    const double half = args.non_negative("--half-size").value_or(0.0);
+    s = region::swept_region(p[0], p[1], p[2], p[3], half, half, z[0], z[1], mode);
+  }
+  if (args.has("--half-size") && !args.has("--from-path")) throw UsageError("--half-size goes with --from-path");
+  s.frame = args.has("--lonlat") ? geodesy::PointFrame::kWgs84 : geodesy::PointFrame::kDatasetCrs;
+  return s;
+}
+
+Json stats_json(const region::RegionStats& s) {
+  return {{"items", s.items},
+          {"always_hidden", s.always_hidden},
+          {"always_visible", s.always_visible},
+          {"undetermined", s.undetermined},
+          {"walls_swept", s.walls_swept},
+          {"wall_nodes_read", s.wall_nodes_read},
+          {"pyramid_cells_read", s.pyramid_cells_read},
+          {"seconds", s.seconds}};
+}
+
+std::string share(std::uint64_t n, std::uint64_t of) {
+  return with_separators(n) + " (" + fixed(of ? 100.0 * n / of : 0.0, 1) + " %)";
+}
+
+void print_summary(const std::string& dem, const region::RegionFrame& f, const region::RegionStats& s,
+                   const std::string& what) {
+  std::cout << "From-region visibility over " << dem << '\n'
+            << "  region:         grid columns " << fixed(f.col_min, 1) << ".." << fixed(f.col_max, 1) << ", rows "
+            << fixed(f.row_min, 1) << ".." << fixed(f.row_max, 1) << ", " << fixed(f.z_min, 1) << ".."
+            << fixed(f.z_max, 1) << " m\n"
+            << "  " << what << with_separators(s.items) << '\n'
+            << "  always visible: " << share(s.always_visible, s.items) << '\n'
+            << "  always hidden:  " << share(s.always_hidden, s.items) << '\n'
+            << "  undetermined:   " << share(s.undetermined, s.items) << '\n'
+            << "  work:           " << with_separators(s.walls_swept) << " walls swept ("
+            << with_separators(s.wall_nodes_read) << " nodes), " << with_separators(s.pyramid_cells_read)
+            << " pyramid cells read\n"
+            << "  compute:        " << fixed(s.seconds, 3) << " s\n";
+}
+
+int run_region(const Args& args) {
+  const std::string& path = single_operand(args, "DEM");
+  const bool json = args.has("--json");
+  const region::RegionSpec spec = region_from_flags(args);
+  region::RegionOptions o;
+  if (auto m = args.number("--max-distance")) o.max_distance = *m;
+  o.target_height = args.non_negative("--target-height").value_or(0.0);
+  o.curvature_coefficient = args.non_negative("--curvature").value_or(0.85714);
+  if (auto n = args.positive_integer("--face-resolution")) o.face_resolution = *n;
+  if (auto n = args.positive_integer("--visible-budget")) o.visible_test_budget = *n;
+  o.threads = args.non_negative_integer("--threads").value_or(0);
+  (void)args.positive_integer("--band");
+  if (auto s = region::validate_region_options(o); !s.ok()) {
+    const std::string field = s.error().field;
+    throw UsageError(flag_for_field(field == "visible_test_budget" ? "visible_budget" : field) + ": " +
+                     s.error().message.substr(s.error().message.find(':') + 2));
+  }
+  const auto boxes_path = args.text("--boxes");
+  const auto out = args.text("--out");
+  const auto png = args.text("--png");
+  if (boxes_path && (out || png)) throw UsageError("--boxes classifies boxes; -o and --png are for the raster answer");
+  if (!boxes_path && !out) throw UsageError("missing -o OUT.tif (or --boxes FILE.csv)");
+  if (out) {
+    if (auto s = check_output_path(*out, "-o", path, {".tif", ".tiff"}); !s.ok()) return report_error(s.error());
+  }
+  if (png) {
+    if (out && same_file(*png, *out)) throw UsageError("--png: '" + *png + "' is also the -o output");
+    if (auto s = check_output_path(*png, "--png", path, {".png"}); !s.ok()) return report_error(s.error());
+    if (auto plugin = imageio::plugin_path(); !plugin.ok()) return report_error(plugin.error());
+  }
+  std::vector<visibility::BoxSpec> boxes;
+  if (boxes_path) boxes = read_boxes_file(*boxes_path, args.has("--lonlat"));
+
+  auto dem = load_dem(path, args);
+  if (!dem.ok()) return report_error(dem.error());
+  InterruptScope interrupt;
+  RunControl control;
+  control.cancel = &interrupt.token();
+
+  if (boxes_path) {
+    auto res = region::classify_boxes(*dem, spec, boxes, o, &control);
+    if (!res.ok()) return report_error(res.error());
+    if (json) {
+      Json list = Json::array();
+      for (region::Verdict v : res->verdicts) list.push_back(std::string(region::verdict_name(v)));
+      print_json({{"dem", path}, {"boxes_file", *boxes_path}, {"stats", stats_json(res->stats)}, {"boxes", list}});
+      return kExitOk;
+    }
+    print_summary(path, res->frame, res->stats, "boxes:          ");
+    for (std::size_t i = 0; i < res->verdicts.size(); ++i)
+      std::cout << "  " << i << "  " << region::verdict_name(res->verdicts[i]) << '\n';
+    return kExitOk;
+  }
+
+  auto res = region::classify_cells(*dem, spec, o, &control);
+  if (!res.ok()) return report_error(res.error());
+  const terrain::Window& w = res->window;
+  terrain::Georeference georef = dem->georef;
+  georef.transform = georef.transform.shifted(w.col0, w.row0);
+  if (auto s = terrain::write_geotiff(*out, res->codes, georef, double{region::kNoAnswer}); !s.ok())
+    return report_error(s.error());
+  if (png) {
+    terrain::Grid<float> elevation(w.width(), w.height());
+    for (int r = 0; r < w.height(); ++r)
+      for (int c = 0; c < w.width(); ++c) elevation.at(c, r) = dem->elevation.at(w.col0 + c, w.row0 + r);
+    terrain::PreviewOptions p;
+    p.metres_per_col = res->frame.metres_per_col;
+    p.metres_per_row = res->frame.metres_per_row;
+    p.observer_col = 0.5 * (res->frame.col_min + res->frame.col_max) - w.col0;
+    p.observer_row = 0.5 * (res->frame.row_min + res->frame.row_max) - w.row0;
+    if (auto s = terrain::write_viewshed_preview(*png, elevation, res->codes, p); !s.ok())
+      return report_error(s.error());
+  }
+  if (json) {
+    print_json({{"dem", path}, {"output", *out}, {"window", to_json(w)}, {"stats", stats_json(res->stats)}});
+    return kExitOk;
+  }
+  print_summary(path, res->frame, res->stats, "cells answered: ");
+  std::cout << "  wrote:          " << *out << (png ? " and " + *png : std::string()) << '\n';
+  return kExitOk;
+}
+
+}  // namespace
+
+const Command& region_command() {
+  static const Command command{
+      "region",
+      "From-region visibility: what is always visible, always hidden or undetermined from a box of viewpoints",
+      "horizon region DEM (--from-box XMIN,YMIN,XMAX,YMAX | --from-path X0,Y0,X1,Y1 --half-size M) "
+      "(-o OUT.tif | --boxes FILE.csv) [options]",
+      "Classifies every DEM cell's target (or each object box) against every viewpoint\n"
+      "of the region at once: always visible (seen from all of it), always hidden (from\n"
+      "none of it), or undetermined. Both verdicts are sound against the exact R3 line\n"
+      "of sight: a viewpoint anywhere in the region never contradicts them. Only the\n"
+      "undetermined items need per-viewpoint work. --from-path takes the box a moving\n"
+      "viewer of half-size M sweeps (its bounding rectangle).",
+      kFlags,
+      "  horizon region data/dem/ecuador_andes_utm17s_10m_383x415.tif \\\n"
+      "      --from-box 713800,9558900,713950,9559000 --heights 2,30 -o region.tif --png region.png\n"
+      "  horizon region dem.tif --from-path 713700,9558800,714100,9559100 --half-size 20 --boxes boxes.csv --json\n",
+      run_region,
+  };
+  return command;
+}
+
+}  // namespace horizon::cli
