@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include "commands/command.hpp"
+#include "horizon/evaluation/region_check.hpp"
 #include "horizon/region/region.hpp"
 #include "horizon/terrain/geotiff_writer.hpp"
 #include "horizon/terrain/preview.hpp"
@@ -31,6 +32,10 @@ constexpr FlagSpec kFlags[] = {
     {"--curvature", "", "C", "Curvature/refraction coefficient as GDAL's (default 0.85714; 0 disables)"},
     {"--face-resolution", "", "N", "Fuzzy-array columns per cube face (default 1024)"},
     {"--visible-budget", "", "N", "Pyramid cells one always-visible test may read (default 4096)"},
+    {"--splits", "", "N", "Answer the footprint as N x N pieces and intersect their verdicts (default 2)"},
+    {"--check", "", "N",
+     "Also check the verdicts with exact R3 from the corners, edge midpoints, 8 points a face and N interior "
+     "points of the region (up to 4000 cells)"},
     {"--threads", "", "N", "Worker threads (default 0 = all cores)"},
     {"--band", "", "N", "DEM band to read, 1-based (required when the file has several)"},
     {"--json", "", "", "Print a JSON document"},
@@ -81,6 +86,27 @@ Json stats_json(const region::RegionStats& s) {
           {"seconds", s.seconds}};
 }
 
+Json check_json(const evaluation::RegionCheck& c) {
+  return {{"viewpoints", c.viewpoints},
+          {"items_checked", c.items_checked},
+          {"hidden_checked", c.hidden_checked},
+          {"visible_checked", c.visible_checked},
+          {"wrong_hidden", c.wrong_hidden},
+          {"wrong_visible", c.wrong_visible},
+          {"sampled_hidden", c.sampled_hidden},
+          {"sampled_visible", c.sampled_visible},
+          {"seconds", c.seconds}};
+}
+
+void print_check(const Json& c) {
+  std::cout << "  R3 check:       " << c["items_checked"].get<std::uint64_t>() << " items x "
+            << c["viewpoints"].get<std::uint64_t>() << " viewpoints: " << c["wrong_hidden"].get<std::uint64_t>()
+            << " wrong hidden, " << c["wrong_visible"].get<std::uint64_t>() << " wrong visible; decided "
+            << c["hidden_checked"].get<std::uint64_t>() << " of " << c["sampled_hidden"].get<std::uint64_t>()
+            << " hidden from every sample, " << c["visible_checked"].get<std::uint64_t>() << " of "
+            << c["sampled_visible"].get<std::uint64_t>() << " visible from every sample\n";
+}
+
 std::string share(std::uint64_t n, std::uint64_t of) {
   return with_separators(n) + " (" + fixed(of ? 100.0 * n / of : 0.0, 1) + " %)";
 }
@@ -111,11 +137,16 @@ int run_region(const Args& args) {
   o.curvature_coefficient = args.non_negative("--curvature").value_or(0.85714);
   if (auto n = args.positive_integer("--face-resolution")) o.face_resolution = *n;
   if (auto n = args.positive_integer("--visible-budget")) o.visible_test_budget = *n;
+  if (auto n = args.positive_integer("--splits")) o.footprint_splits = *n;
+  const auto check_points = args.non_negative_integer("--check");
   o.threads = args.non_negative_integer("--threads").value_or(0);
   (void)args.positive_integer("--band");
   if (auto s = region::validate_region_options(o); !s.ok()) {
     const std::string field = s.error().field;
-    throw UsageError(flag_for_field(field == "visible_test_budget" ? "visible_budget" : field) + ": " +
+    const std::string flag = field == "visible_test_budget" ? "visible_budget"
+                             : field == "footprint_splits"  ? "splits"
+                                                            : field;
+    throw UsageError(flag_for_field(flag) + ": " +
                      s.error().message.substr(s.error().message.find(':') + 2));
   }
   const auto boxes_path = args.text("--boxes");
@@ -143,13 +174,21 @@ int run_region(const Args& args) {
   if (boxes_path) {
     auto res = region::classify_boxes(*dem, spec, boxes, o, &control);
     if (!res.ok()) return report_error(res.error());
+    Json checked;
+    if (check_points) {
+      const auto viewpoints = evaluation::sample_region(*dem, spec, res->frame, {8, static_cast<int>(*check_points), 1});
+      checked = check_json(evaluation::check_boxes(*dem, *res, boxes, o, viewpoints, o.threads));
+    }
     if (json) {
       Json list = Json::array();
       for (region::Verdict v : res->verdicts) list.push_back(std::string(region::verdict_name(v)));
-      print_json({{"dem", path}, {"boxes_file", *boxes_path}, {"stats", stats_json(res->stats)}, {"boxes", list}});
+      Json j{{"dem", path}, {"boxes_file", *boxes_path}, {"stats", stats_json(res->stats)}, {"boxes", list}};
+      if (check_points) j["check"] = checked;
+      print_json(j);
       return kExitOk;
     }
     print_summary(path, res->frame, res->stats, "boxes:          ");
+    if (check_points) print_check(checked);
     for (std::size_t i = 0; i < res->verdicts.size(); ++i)
       std::cout << "  " << i << "  " << region::verdict_name(res->verdicts[i]) << '\n';
     return kExitOk;
@@ -174,11 +213,19 @@ int run_region(const Args& args) {
     if (auto s = terrain::write_viewshed_preview(*png, elevation, res->codes, p); !s.ok())
       return report_error(s.error());
   }
+  Json checked;
+  if (check_points) {
+    const auto viewpoints = evaluation::sample_region(*dem, spec, res->frame, {8, static_cast<int>(*check_points), 1});
+    checked = check_json(evaluation::check_cells(*dem, *res, o, viewpoints, 4000, o.threads));
+  }
   if (json) {
-    print_json({{"dem", path}, {"output", *out}, {"window", to_json(w)}, {"stats", stats_json(res->stats)}});
+    Json j{{"dem", path}, {"output", *out}, {"window", to_json(w)}, {"stats", stats_json(res->stats)}};
+    if (check_points) j["check"] = checked;
+    print_json(j);
     return kExitOk;
   }
   print_summary(path, res->frame, res->stats, "cells answered: ");
+  if (check_points) print_check(checked);
   std::cout << "  wrote:          " << *out << (png ? " and " + *png : std::string()) << '\n';
   return kExitOk;
 }
