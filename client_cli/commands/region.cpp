@@ -5,10 +5,10 @@
 
 #include "commands/command.hpp"
 #include "horizon/evaluation/region_check.hpp"
+#include "horizon/imageio/imageio.hpp"
 #include "horizon/region/region.hpp"
 #include "horizon/terrain/geotiff_writer.hpp"
 #include "horizon/terrain/preview.hpp"
-#include "horizon/imageio/imageio.hpp"
 #include "inputs.hpp"
 #include "interrupt.hpp"
 #include "output.hpp"
@@ -18,12 +18,14 @@ namespace {
 
 constexpr FlagSpec kFlags[] = {
     {"--from-box", "", "XMIN,YMIN,XMAX,YMAX", "The region of viewpoints: a rectangle in the DEM's CRS"},
-    {"--from-path", "", "X0,Y0,X1,Y1", "Or the rectangle a box sweeps moving from (X0,Y0) to (X1,Y1) (with --half-size)"},
+    {"--from-path", "", "X0,Y0,X1,Y1",
+     "Or the rectangle a box sweeps moving from (X0,Y0) to (X1,Y1) (with --half-size)"},
     {"--half-size", "", "M", "Half the side of the box swept along --from-path, CRS units (default 0)"},
     {"--lonlat", "", "", "The region's (and the boxes') x/y are WGS84 longitude/latitude"},
     {"--heights", "", "ZMIN,ZMAX", "Viewpoint heights above the ground, metres (default 2,2)"},
     {"--altitudes", "", "ZMIN,ZMAX", "Viewpoint altitudes, absolute metres (instead of --heights)"},
-    {"--out", "-o", "OUT.tif", "Write the three-valued raster: 0 always hidden, 1 always visible, 2 undetermined, 255 none"},
+    {"--out", "-o", "OUT.tif",
+     "Write the three-valued raster: 0 always hidden, 1 always visible, 2 undetermined, 255 none"},
     {"--png", "", "PREVIEW.png", "Also write a hillshade preview (green visible, red hidden, amber undetermined)"},
     {"--boxes", "", "FILE.csv",
      "Classify object boxes instead: x_min,y_min,x_max,y_max,z_min,z_max a line (absolute metres)"},
@@ -146,8 +148,7 @@ int run_region(const Args& args) {
     const std::string flag = field == "visible_test_budget" ? "visible_budget"
                              : field == "footprint_splits"  ? "splits"
                                                             : field;
-    throw UsageError(flag_for_field(flag) + ": " +
-                     s.error().message.substr(s.error().message.find(':') + 2));
+    throw UsageError(flag_for_field(flag) + ": " + s.error().message.substr(s.error().message.find(':') + 2));
   }
   const auto boxes_path = args.text("--boxes");
   const auto out = args.text("--out");
@@ -176,7 +177,8 @@ int run_region(const Args& args) {
     if (!res.ok()) return report_error(res.error());
     Json checked;
     if (check_points) {
-      const auto viewpoints = evaluation::sample_region(*dem, spec, res->frame, {8, static_cast<int>(*check_points), 1});
+      const auto viewpoints =
+          evaluation::sample_region(*dem, spec, res->frame, {8, static_cast<int>(*check_points), 1});
       checked = check_json(evaluation::check_boxes(*dem, *res, boxes, o, viewpoints, o.threads));
     }
     if (json) {

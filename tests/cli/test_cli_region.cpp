@@ -34,16 +34,17 @@ std::vector<std::string> with(std::vector<std::string> a, const std::vector<std:
 TEST(CliRegion, WritesAThreeValuedGeoTiffThatR3Confirms) {
   TempDir dir;
   const std::string out = dir.file("region.tif"), png = dir.file("region.png");
-  const auto r = horizon(with({bundled_dem(kAndes)}, with(kBox, {"--heights", "2,20", "--max-distance", "1500",
-                                                                   "--target-height", "1.5", "-o", out, "--png", png,
-                                                                   "--check", "40", "--json"})));
+  const auto r =
+      horizon(with({bundled_dem(kAndes)}, with(kBox, {"--heights", "2,20", "--max-distance", "1500", "--target-height",
+                                                      "1.5", "-o", out, "--png", png, "--check", "40", "--json"})));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const Json j = Json::parse(r.output);
   EXPECT_EQ(j["check"]["wrong_hidden"], 0);
   EXPECT_EQ(j["check"]["wrong_visible"], 0);
   EXPECT_GT(j["stats"]["always_hidden"].get<std::uint64_t>(), 1000u);
   const std::uint64_t items = j["stats"]["items"];
-  EXPECT_EQ(items, j["stats"]["always_hidden"].get<std::uint64_t>() + j["stats"]["always_visible"].get<std::uint64_t>() +
+  EXPECT_EQ(items, j["stats"]["always_hidden"].get<std::uint64_t>() +
+                       j["stats"]["always_visible"].get<std::uint64_t>() +
                        j["stats"]["undetermined"].get<std::uint64_t>());
   // The raster holds only the four codes, with 255 as its nodata.
   auto grid = terrain::read_dem(out);

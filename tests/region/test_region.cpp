@@ -46,7 +46,8 @@ region::RegionOptions flat(int resolution = 256) {
 // 60 x 60 grid of 10 m cells; the region sits west of it, rows 25..35,
 // columns 5..8, 2..10 m up.
 terrain::Dem walled() {
-  return testing::make_dem(60, 60, [](int c, int r) { return (c == 20 && r >= 5 && r < 55) ? 100.0 : 0.0; }, 10.0, 0);
+  return testing::make_dem(
+      60, 60, [](int c, int r) { return (c == 20 && r >= 5 && r < 55) ? 100.0 : 0.0; }, 10.0, 0);
 }
 
 TEST(Region, AWallHidesWhatLiesBehindItFromTheWholeRegion) {
@@ -135,16 +136,18 @@ TEST_P(RegionSound, NoSampledViewpointContradictsAVerdict) {
   EXPECT_LE(check.visible_checked, check.sampled_visible);
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Dems, RegionSound,
-    ::testing::Values(Case{"ecuador_andes_utm17s_10m_383x415.tif", 4, 2, 10}, Case{"ecuador_andes_utm17s_10m_383x415.tif", 40, 5, 60},
-                      Case{"rainier_summit_srtm3_400x400.tif", 10, 2, 30}, Case{"zion_canyon_srtm3_465x457.tif", 6, 300, 400},
-                      Case{"everest_summit_voids_srtm3_300x300.tif", 8, 2, 20}, Case{"olinda_coast_utm25s_111x111.tif", 12, 2, 50},
-                      Case{"", 3, 1, 5}, Case{"", 30, 50, 500}),
-    [](const ::testing::TestParamInfo<Case>& p) {
-      return std::string(*p.param.dem ? testing::dem_name(p.param.dem) : "synthetic") + "_" +
-             std::to_string(p.index);
-    });
+INSTANTIATE_TEST_SUITE_P(Dems, RegionSound,
+                         ::testing::Values(Case{"ecuador_andes_utm17s_10m_383x415.tif", 4, 2, 10},
+                                           Case{"ecuador_andes_utm17s_10m_383x415.tif", 40, 5, 60},
+                                           Case{"rainier_summit_srtm3_400x400.tif", 10, 2, 30},
+                                           Case{"zion_canyon_srtm3_465x457.tif", 6, 300, 400},
+                                           Case{"everest_summit_voids_srtm3_300x300.tif", 8, 2, 20},
+                                           Case{"olinda_coast_utm25s_111x111.tif", 12, 2, 50}, Case{"", 3, 1, 5},
+                                           Case{"", 30, 50, 500}),
+                         [](const ::testing::TestParamInfo<Case>& p) {
+                           return std::string(*p.param.dem ? testing::dem_name(p.param.dem) : "synthetic") + "_" +
+                                  std::to_string(p.index);
+                         });
 
 TEST(Region, APointRegionAgreesWithR3WhereverItDecides) {
   const terrain::Dem dem = testing::make_random_terrain(120, 120, 11, 250.0, 30.0);
@@ -179,7 +182,8 @@ TEST(Region, BoxesGetVerdictsThatNoSampledViewpointContradicts) {
   std::vector<visibility::BoxSpec> boxes;
   const auto& t = dem.georef.transform;
   for (int i = 0; i < 400; ++i) {
-    const double c0 = pos(rng), r0 = pos(rng), c1 = std::min(158.0, c0 + size(rng)), r1 = std::min(158.0, r0 + size(rng));
+    const double c0 = pos(rng), r0 = pos(rng), c1 = std::min(158.0, c0 + size(rng)),
+                 r1 = std::min(158.0, r0 + size(rng));
     const double g = terrain::sample_bilinear(dem.elevation, c0, r0);
     visibility::BoxSpec b;
     b.x_min = t.x_at(c0);
@@ -222,7 +226,8 @@ TEST(Region, CurvatureOnlyEverHidesMore) {
   evaluation::RegionSampling sampling;
   sampling.face_points = 2;
   sampling.interior_points = 8;
-  const auto check = evaluation::check_cells(dem, *b, yes, evaluation::sample_region(dem, spec, b->frame, sampling), 3000, 0);
+  const auto check =
+      evaluation::check_cells(dem, *b, yes, evaluation::sample_region(dem, spec, b->frame, sampling), 3000, 0);
   EXPECT_EQ(check.wrong_hidden, 0u);
   EXPECT_EQ(check.wrong_visible, 0u);
 }

@@ -109,7 +109,8 @@ RegionCheck check_cells(const terrain::Dem& dem, const region::RegionCellsResult
   for (int r = w.row0; r < w.row1; ++r)
     for (int c = w.col0; c < w.col1; ++c)
       if (result.codes.at(c - w.col0, r - w.row0) != region::kNoAnswer) cells.emplace_back(c, r);
-  const std::size_t stride = std::max<std::size_t>(1, (cells.size() + max_cells - 1) / std::max<std::size_t>(1, max_cells));
+  const std::size_t stride =
+      std::max<std::size_t>(1, (cells.size() + max_cells - 1) / std::max<std::size_t>(1, max_cells));
   std::vector<std::pair<int, int>> picked;
   for (std::size_t i = 0; i < cells.size(); i += stride) picked.push_back(cells[i]);
 

@@ -17,7 +17,9 @@ constexpr double kGridSlack = 1e-7;
 // must hold for the stored answer too.
 constexpr double kHeightSlack = 5e-4;
 
-bool along_columns(Face f) { return f == Face::kEast || f == Face::kWest; }
+bool along_columns(Face f) {
+  return f == Face::kEast || f == Face::kWest;
+}
 
 }  // namespace
 
@@ -53,7 +55,9 @@ double FaceGeometry::u_of(double col, double row) const {
   return col;
 }
 
-double FaceGeometry::v_of(double col, double row) const { return along_columns(face_) ? row : col; }
+double FaceGeometry::v_of(double col, double row) const {
+  return along_columns(face_) ? row : col;
+}
 
 int FaceGeometry::node_col(int w, int v) const {
   switch (face_) {
@@ -77,7 +81,9 @@ int FaceGeometry::node_row(int w, int v) const {
   }
 }
 
-int FaceGeometry::wall_of(int col, int row) const { return static_cast<int>(u_of(col, row)); }
+int FaceGeometry::wall_of(int col, int row) const {
+  return static_cast<int>(u_of(col, row));
+}
 
 bool FaceGeometry::fit(const FaceItem& item, FaceFit& out) const {
   const double ua = u_of(item.col_min, item.row_min), ub = u_of(item.col_max, item.row_max);
@@ -121,8 +127,8 @@ std::uint64_t FaceGeometry::add_wall(int w, const std::vector<float>& nodes, std
     const double lo = v0_ + std::min(a0 * dp_min, a0 * dp_max) / lateral_m_;
     const double hi = v1_ + std::max(a1 * dp_min, a1 * dp_max) / lateral_m_;
     const double jlo_d = std::floor(lo - kGridSlack), jhi_d = std::ceil(hi + kGridSlack);
-    if (jlo_d < 0.0) continue;           // some rays pass west/north of the DEM here
-    if (jhi_d > lateral_ - 1.0) break;   // and from here on, east/south of it
+    if (jlo_d < 0.0) continue;          // some rays pass west/north of the DEM here
+    if (jhi_d > lateral_ - 1.0) break;  // and from here on, east/south of it
     const int jlo = static_cast<int>(jlo_d), jhi = static_cast<int>(jhi_d);
     for (; pushed <= jhi; ++pushed) {
       const float z = nodes[static_cast<std::size_t>(pushed)];
@@ -149,8 +155,8 @@ bool covered(const FaceFit& fit, const std::vector<double>& cover) {
 }
 
 Status sweep_face(const FaceGeometry& geometry, const terrain::HeightView& terrain, int wall_end,
-                  const RunControl* control,
-                  const std::function<void(int, const std::vector<double>&)>& test, RegionStats& stats) {
+                  const RunControl* control, const std::function<void(int, const std::vector<double>&)>& test,
+                  RegionStats& stats) {
   std::vector<double> cover(static_cast<std::size_t>(geometry.resolution()), -kInf);
   std::vector<float> nodes(static_cast<std::size_t>(geometry.lateral_count()));
   const int end = std::min(wall_end, geometry.wall_count());

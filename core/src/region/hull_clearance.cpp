@@ -23,7 +23,9 @@ struct Vec {
   double x, y;
 };
 
-double cross(Vec o, Vec a, Vec b) { return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x); }
+double cross(Vec o, Vec a, Vec b) {
+  return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
+}
 
 // Convex hull (counter-clockwise, no repeated point) of up to 5 points.
 int convex_hull(std::array<Vec, 5> pts, std::array<Vec, 10>& hull) {
@@ -49,8 +51,7 @@ double farthest_in_rect(Vec p, double x0, double x1, double y0, double y1) {
   return std::hypot(std::max(p.x - x0, x1 - p.x), std::max(p.y - y0, y1 - p.y));
 }
 
-terrain::Grid<float> square_maxima(const terrain::HeightView& terrain, const terrain::Window& nodes,
-                                   unsigned threads) {
+terrain::Grid<float> square_maxima(const terrain::HeightView& terrain, const terrain::Window& nodes, unsigned threads) {
   const int w = std::max(0, nodes.width() - 1), h = std::max(0, nodes.height() - 1);
   terrain::Grid<float> squares(w, h);
   parallel_for(static_cast<std::size_t>(h), threads, [&](std::size_t jj) {
@@ -71,8 +72,8 @@ terrain::Grid<float> square_maxima(const terrain::HeightView& terrain, const ter
 
 }  // namespace
 
-HullClearance::HullClearance(const terrain::HeightView& terrain, const terrain::Window& nodes,
-                             const RegionFrame& frame, unsigned threads)
+HullClearance::HullClearance(const terrain::HeightView& terrain, const terrain::Window& nodes, const RegionFrame& frame,
+                             unsigned threads)
     : nodes_(nodes),
       frame_(frame),
       squares_(square_maxima(terrain, nodes, threads)),

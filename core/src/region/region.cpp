@@ -147,8 +147,8 @@ Status validate_region_options(const RegionOptions& o) {
   if (!std::isfinite(o.target_height) || o.target_height < 0)
     return bad_option("target_height", "must be a finite number >= 0 metres, got " + number_text(o.target_height));
   if (!(o.max_distance > 0))
-    return bad_option("max_distance", "must be > 0 metres (or infinite for no limit), got " +
-                                          number_text(o.max_distance));
+    return bad_option("max_distance",
+                      "must be > 0 metres (or infinite for no limit), got " + number_text(o.max_distance));
   if (o.footprint_splits < 1 || o.footprint_splits > 16)
     return bad_option("footprint_splits", "must be an integer in [1, 16], got " + std::to_string(o.footprint_splits));
   if (o.visible_test_budget < 16 || o.visible_test_budget > (1 << 24))
@@ -160,8 +160,8 @@ Status validate_region_options(const RegionOptions& o) {
 Result<RegionFrame> resolve_region(const terrain::Dem& dem, const RegionSpec& region, const RegionOptions& options) {
   HORIZON_RETURN_IF_ERROR(validate_region_options(options));
   if (dem.width() < 2 || dem.height() < 2)
-    return make_error(ErrorCode::kUnsupported, "region visibility needs a DEM of at least 2 x 2 cells; '" +
-                                                   dem.source + "' has " + std::to_string(dem.width()) + " x " +
+    return make_error(ErrorCode::kUnsupported, "region visibility needs a DEM of at least 2 x 2 cells; '" + dem.source +
+                                                   "' has " + std::to_string(dem.width()) + " x " +
                                                    std::to_string(dem.height()));
   visibility::BoxSpec box;
   box.frame = region.frame;
@@ -212,8 +212,7 @@ Result<RegionFrame> resolve_region(const terrain::Dem& dem, const RegionSpec& re
   return f;
 }
 
-Result<RegionPlan> plan_region_cells(const terrain::Dem& dem, const RegionSpec& region,
-                                     const RegionOptions& options) {
+Result<RegionPlan> plan_region_cells(const terrain::Dem& dem, const RegionSpec& region, const RegionOptions& options) {
   auto frame = resolve_region(dem, region, options);
   if (!frame.ok()) return frame.error();
   RegionPlan plan;
@@ -231,7 +230,8 @@ Result<RegionPlan> plan_region_cells(const terrain::Dem& dem, const RegionSpec& 
   plan.window = w;
   const std::uint64_t n = pieces_of(options);
   plan.sweep_work = n * sweep_bound(dem, options.face_resolution);
-  plan.test_work = n * static_cast<std::uint64_t>(w.cell_count()) * static_cast<std::uint64_t>(options.visible_test_budget);
+  plan.test_work =
+      n * static_cast<std::uint64_t>(w.cell_count()) * static_cast<std::uint64_t>(options.visible_test_budget);
   return plan;
 }
 
@@ -276,30 +276,34 @@ Result<RegionCellsResult> classify_cells_from(const terrain::Dem& dem, const Reg
   };
 
   // Which cells are answered, and on which face each is tested for "hidden".
-  HORIZON_RETURN_IF_ERROR(parallel_for(static_cast<std::size_t>(win.height()), threads, control, [&](std::size_t jj) {
-    const int r = win.row0 + static_cast<int>(jj);
-    std::uint8_t* code = out.codes.row(static_cast<int>(jj));
-    std::uint8_t* face = face_of.row(static_cast<int>(jj));
-    for (int c = win.col0; c < win.col1; ++c) {
-      const int i = c - win.col0;
-      const double dx = std::max({whole.col_min - c, 0.0, c - whole.col_max}) * mx;
-      const double dy = std::max({whole.row_min - r, 0.0, r - whole.row_max}) * my;
-      const FaceItem item = target(c, r);
-      if (!(item.z == item.z) || std::hypot(dx, dy) > options.max_distance) {
-        code[i] = kNoAnswer;
-        continue;
-      }
-      if (open && open->row(static_cast<int>(jj))[i] == static_cast<std::uint8_t>(Verdict::kUndetermined)) continue;
-      face[i] = best_face(faces, item);
-    }
-  }, 0.0, 0.05));
+  HORIZON_RETURN_IF_ERROR(parallel_for(
+      static_cast<std::size_t>(win.height()), threads, control,
+      [&](std::size_t jj) {
+        const int r = win.row0 + static_cast<int>(jj);
+        std::uint8_t* code = out.codes.row(static_cast<int>(jj));
+        std::uint8_t* face = face_of.row(static_cast<int>(jj));
+        for (int c = win.col0; c < win.col1; ++c) {
+          const int i = c - win.col0;
+          const double dx = std::max({whole.col_min - c, 0.0, c - whole.col_max}) * mx;
+          const double dy = std::max({whole.row_min - r, 0.0, r - whole.row_max}) * my;
+          const FaceItem item = target(c, r);
+          if (!(item.z == item.z) || std::hypot(dx, dy) > options.max_distance) {
+            code[i] = kNoAnswer;
+            continue;
+          }
+          if (open && open->row(static_cast<int>(jj))[i] == static_cast<std::uint8_t>(Verdict::kUndetermined)) continue;
+          face[i] = best_face(faces, item);
+        }
+      },
+      0.0, 0.05));
 
   std::array<int, kFaceCount> wall_end{};
   for (std::size_t k = 0; k < kFaceCount; ++k) {
     const FaceGeometry& g = faces[k];
     wall_end[k] = std::max(g.wall_of(win.col0, win.row0), g.wall_of(win.col1 - 1, win.row1 - 1)) + 1;
   }
-  HORIZON_RETURN_IF_ERROR(sweep_faces(faces, terrain, wall_end, threads, control,
+  HORIZON_RETURN_IF_ERROR(sweep_faces(
+      faces, terrain, wall_end, threads, control,
       [&](int k, int w, const std::vector<double>& cover) {
         const FaceGeometry& g = faces[static_cast<std::size_t>(k)];
         if (w >= g.wall_count()) return;
@@ -322,21 +326,25 @@ Result<RegionCellsResult> classify_cells_from(const terrain::Dem& dem, const Reg
 
   const HullClearance hull(terrain, node_window(f, win, dem.width(), dem.height()), f, threads);
   std::atomic<std::uint64_t> reads{0};
-  HORIZON_RETURN_IF_ERROR(parallel_for(static_cast<std::size_t>(win.height()), threads, control, [&](std::size_t jj) {
-    const int r = win.row0 + static_cast<int>(jj);
-    std::uint8_t* code = out.codes.row(static_cast<int>(jj));
-    std::uint64_t n = 0;
-    for (int c = win.col0; c < win.col1; ++c) {
-      std::uint8_t& v = code[c - win.col0];
-      if (v != static_cast<std::uint8_t>(Verdict::kUndetermined)) continue;
-      // Only a cell every sub-box so far sees can still be always visible.
-      if (open && open->row(static_cast<int>(jj))[c - win.col0] != static_cast<std::uint8_t>(Verdict::kAlwaysVisible))
-        continue;
-      if (hull.clear(c, r, terrain.at(c, r) + th, options.visible_test_budget, &n))
-        v = static_cast<std::uint8_t>(Verdict::kAlwaysVisible);
-    }
-    reads.fetch_add(n, std::memory_order_relaxed);
-  }, 0.3, 1.0));
+  HORIZON_RETURN_IF_ERROR(parallel_for(
+      static_cast<std::size_t>(win.height()), threads, control,
+      [&](std::size_t jj) {
+        const int r = win.row0 + static_cast<int>(jj);
+        std::uint8_t* code = out.codes.row(static_cast<int>(jj));
+        std::uint64_t n = 0;
+        for (int c = win.col0; c < win.col1; ++c) {
+          std::uint8_t& v = code[c - win.col0];
+          if (v != static_cast<std::uint8_t>(Verdict::kUndetermined)) continue;
+          // Only a cell every sub-box so far sees can still be always visible.
+          if (open &&
+              open->row(static_cast<int>(jj))[c - win.col0] != static_cast<std::uint8_t>(Verdict::kAlwaysVisible))
+            continue;
+          if (hull.clear(c, r, terrain.at(c, r) + th, options.visible_test_budget, &n))
+            v = static_cast<std::uint8_t>(Verdict::kAlwaysVisible);
+        }
+        reads.fetch_add(n, std::memory_order_relaxed);
+      },
+      0.3, 1.0));
   out.stats.pyramid_cells_read = reads.load();
   return out;
 }
@@ -351,15 +359,14 @@ std::vector<RegionSpec> pieces(const RegionSpec& r, const RegionOptions& o) {
   const int n = o.footprint_splits;
   const auto cut = [](double lo, double hi, int k, int i) { return lo + (hi - lo) * i / k; };
   for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i)
-      {
-        RegionSpec p = r;
-        p.x_min = cut(r.x_min, r.x_max, n, i);
-        p.x_max = i + 1 == n ? r.x_max : cut(r.x_min, r.x_max, n, i + 1);
-        p.y_min = cut(r.y_min, r.y_max, n, j);
-        p.y_max = j + 1 == n ? r.y_max : cut(r.y_min, r.y_max, n, j + 1);
-        out.push_back(p);
-      }
+    for (int i = 0; i < n; ++i) {
+      RegionSpec p = r;
+      p.x_min = cut(r.x_min, r.x_max, n, i);
+      p.x_max = i + 1 == n ? r.x_max : cut(r.x_min, r.x_max, n, i + 1);
+      p.y_min = cut(r.y_min, r.y_max, n, j);
+      p.y_max = j + 1 == n ? r.y_max : cut(r.y_min, r.y_max, n, j + 1);
+      out.push_back(p);
+    }
   return out;
 }
 
@@ -460,7 +467,8 @@ Result<RegionBoxesResult> classify_boxes_from(const terrain::Dem& dem, const Reg
     bucket[static_cast<std::size_t>(fit.wall_limit)].push_back(b);
     wall_end[k] = std::max(wall_end[k], fit.wall_limit);
   }
-  HORIZON_RETURN_IF_ERROR(sweep_faces(faces, terrain, wall_end, threads, control,
+  HORIZON_RETURN_IF_ERROR(sweep_faces(
+      faces, terrain, wall_end, threads, control,
       [&](int k, int w, const std::vector<double>& cover) {
         const auto& bucket = buckets[static_cast<std::size_t>(k)];
         if (static_cast<std::size_t>(w) >= bucket.size()) return;

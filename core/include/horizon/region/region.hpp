@@ -12,7 +12,9 @@
 //   kAlwaysVisible  R3 says it is visible from V;
 //   kUndetermined   neither could be shown (it may still hold).
 // A box is visible from V as culling defines it (visibility/cull.hpp): some
-// DEM cell centre its footprint covers is seen at z_max. Both verdicts are
+// DEM cell centre its footprint covers is seen at z_max (centres on voids
+// are left out: they have no target; a box over voids alone stays
+// undetermined). Both verdicts are
 // sound by construction (below), never estimates: a test samples the region
 // densely with exact R3 and finds no verdict wrong.
 //
@@ -77,14 +79,16 @@
 //
 // Cost. classify_cells: four wall sweeps, each O(walls * (lateral nodes +
 // face_resolution)), then one bounded descent per cell not yet hidden, per
-// piece; classify_boxes the same with boxes for cells. plan_region() states both
-// before any work. Cancel and deadline are polled between walls and between
+// piece; classify_boxes the same with boxes for cells. plan_region_cells()
+// and plan_region_boxes() state both bounds before any work. Cancel and deadline are polled between walls and between
 // rows of cells.
 //
-// Limits: the region must lie inside the DEM's outer extent; heights above
-// ground become absolute bounds over the footprint (lowest ground + z_min,
-// highest + z_max), a box that holds every such viewpoint, so verdicts for it
-// hold for them.
+// Limits: the region must lie inside the DEM's outer extent. With heights
+// above ground the viewpoints are those z_min..z_max above the ground at
+// their own position; each piece becomes the absolute box from its lowest
+// ground + z_min to its highest + z_max, which holds every such viewpoint
+// over it, so its verdicts hold for them (a piece over voids alone takes the
+// whole region's bounds). The daemon has no region call yet.
 #pragma once
 
 #include <cstdint>
