@@ -87,6 +87,8 @@ Status check_output_path(const std::string& path, std::string_view flag, const s
 std::string flag_for_field(std::string_view field) {
   if (field == "curvature_coefficient") return "--curvature";
   if (field == "nodata_fill_height") return "--nodata";
+  if (field == "visible_test_budget") return "--visible-budget";  // horizon region
+  if (field == "footprint_splits") return "--splits";
   std::string flag = "--" + std::string(field);
   std::replace(flag.begin(), flag.end(), '_', '-');
   return flag;

@@ -8,6 +8,7 @@
 #include "horizon/imageio/imageio.hpp"
 #include "horizon/region/region.hpp"
 #include "horizon/terrain/geotiff_writer.hpp"
+#include "horizon/terrain/height_view.hpp"
 #include "horizon/terrain/preview.hpp"
 #include "inputs.hpp"
 #include "interrupt.hpp"
@@ -143,13 +144,7 @@ int run_region(const Args& args) {
   const auto check_points = args.non_negative_integer("--check");
   o.threads = args.non_negative_integer("--threads").value_or(0);
   (void)args.positive_integer("--band");
-  if (auto s = region::validate_region_options(o); !s.ok()) {
-    const std::string field = s.error().field;
-    const std::string flag = field == "visible_test_budget" ? "visible_budget"
-                             : field == "footprint_splits"  ? "splits"
-                                                            : field;
-    throw UsageError(flag_for_field(flag) + ": " + s.error().message.substr(s.error().message.find(':') + 2));
-  }
+  throw_if_invalid_option(region::validate_region_options(o));
   const auto boxes_path = args.text("--boxes");
   const auto out = args.text("--out");
   const auto png = args.text("--png");
@@ -204,9 +199,7 @@ int run_region(const Args& args) {
   if (auto s = terrain::write_geotiff(*out, res->codes, georef, double{region::kNoAnswer}); !s.ok())
     return report_error(s.error());
   if (png) {
-    terrain::Grid<float> elevation(w.width(), w.height());
-    for (int r = 0; r < w.height(); ++r)
-      for (int c = 0; c < w.width(); ++c) elevation.at(c, r) = dem->elevation.at(w.col0 + c, w.row0 + r);
+    const terrain::Grid<float> elevation = terrain::copy_cells(terrain::HeightView(dem->elevation).sub(w));
     terrain::PreviewOptions p;
     p.metres_per_col = res->frame.metres_per_col;
     p.metres_per_row = res->frame.metres_per_row;

@@ -114,12 +114,12 @@ bool FaceGeometry::fit(const FaceItem& item, FaceFit& out) const {
   return true;
 }
 
-std::uint64_t FaceGeometry::add_wall(int w, const std::vector<float>& nodes, std::vector<double>& cover) const {
+std::uint64_t FaceGeometry::add_wall(int w, const std::vector<float>& nodes, std::vector<int>& deque,
+                                     std::vector<double>& cover) const {
   const double dp_min = (w - u1_) * axial_m_, dp_max = (w - u0_) * axial_m_;
   // Sliding minimum over the wall's nodes: both ends of the lateral interval
   // grow with the column (floating-point +, *, / and floor are monotone), so
   // a deque of candidate indices gives each column's minimum in O(1) amortised.
-  std::vector<int> deque(static_cast<std::size_t>(lateral_));
   int head = 0, tail = 0;  // deque[head, tail)
   int pushed = 0;          // nodes 0 .. pushed - 1 have entered
   for (int c = 0; c < resolution_; ++c) {
@@ -159,6 +159,7 @@ Status sweep_face(const FaceGeometry& geometry, const terrain::HeightView& terra
                   RegionStats& stats) {
   std::vector<double> cover(static_cast<std::size_t>(geometry.resolution()), -kInf);
   std::vector<float> nodes(static_cast<std::size_t>(geometry.lateral_count()));
+  std::vector<int> deque(nodes.size());
   const int end = std::min(wall_end, geometry.wall_count());
   for (int w = std::max(0, geometry.first_wall()); w < end; ++w) {
     if ((w & 63) == 0) HORIZON_RETURN_IF_ERROR(check_control(control));
@@ -167,7 +168,7 @@ Status sweep_face(const FaceGeometry& geometry, const terrain::HeightView& terra
       const float z = terrain.at(geometry.node_col(w, v), geometry.node_row(w, v));
       nodes[static_cast<std::size_t>(v)] = z == z ? z : -std::numeric_limits<float>::infinity();
     }
-    geometry.add_wall(w, nodes, cover);
+    geometry.add_wall(w, nodes, deque, cover);
     stats.wall_nodes_read += nodes.size();
     ++stats.walls_swept;
   }

@@ -60,8 +60,10 @@ class FaceGeometry {
 
   // cover(c, w) for every column c of wall w, max-ed into `cover`
   // (resolution values); `nodes` holds the wall's lateral_count() heights
-  // (-inf: covers nothing). Returns the nodes the sliding minimum took in.
-  std::uint64_t add_wall(int w, const std::vector<float>& nodes, std::vector<double>& cover) const;
+  // (-inf: covers nothing); `deque` is scratch of lateral_count() entries.
+  // Returns the nodes the sliding minimum took in.
+  std::uint64_t add_wall(int w, const std::vector<float>& nodes, std::vector<int>& deque,
+                         std::vector<double>& cover) const;
 
  private:
   double u_of(double col, double row) const;
@@ -88,7 +90,7 @@ bool covered(const FaceFit& fit, const std::vector<double>& cover);
 // wall_limit == w may use. `terrain` is the DEM under the request's void
 // policy. Polls `control` every 64 walls; returns its error.
 Status sweep_face(const FaceGeometry& geometry, const terrain::HeightView& terrain, int wall_end,
-                  const RunControl* control,
-                  const std::function<void(int, const std::vector<double>&)>& test, RegionStats& stats);
+                  const RunControl* control, const std::function<void(int, const std::vector<double>&)>& test,
+                  RegionStats& stats);
 
 }  // namespace horizon::region

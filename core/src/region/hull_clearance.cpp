@@ -72,15 +72,11 @@ terrain::Grid<float> square_maxima(const terrain::HeightView& terrain, const ter
 
 }  // namespace
 
-HullClearance::HullClearance(const terrain::HeightView& terrain, const terrain::Window& nodes, const RegionFrame& frame,
-                             unsigned threads)
-    : nodes_(nodes),
-      frame_(frame),
-      squares_(square_maxima(terrain, nodes, threads)),
-      pyramid_(squares_, terrain::Reduction::kMax) {}
+HullClearance::HullClearance(const terrain::HeightView& terrain, const terrain::Window& nodes, unsigned threads)
+    : nodes_(nodes), squares_(square_maxima(terrain, nodes, threads)), pyramid_(squares_, terrain::Reduction::kMax) {}
 
-bool HullClearance::clear(double col, double row, double z, int budget, std::uint64_t* reads) const {
-  const RegionFrame& f = frame_;
+bool HullClearance::clear(const RegionFrame& f, double col, double row, double z, int budget,
+                          std::uint64_t* reads) const {
   const double mx = f.metres_per_col, my = f.metres_per_row;
   const Vec q{col * mx, row * my};
   const double bx0 = f.col_min * mx, bx1 = f.col_max * mx, by0 = f.row_min * my, by1 = f.row_max * my;
@@ -98,7 +94,8 @@ bool HullClearance::clear(double col, double row, double z, int budget, std::uin
   struct Tile {
     int level, i, j;
   };
-  std::vector<Tile> stack;
+  thread_local std::vector<Tile> stack;  // kept between calls: one test per cell is the hot path
+  stack.clear();
   stack.push_back({pyramid_.level_count() - 1, 0, 0});
   std::uint64_t visits = 0;
   bool ok = true;

@@ -17,7 +17,6 @@
 namespace horizon::region {
 namespace {
 
-constexpr std::array<Face, kFaceCount> kFaces{Face::kEast, Face::kWest, Face::kSouth, Face::kNorth};
 constexpr std::uint8_t kNoFace = 255;
 
 Error bad_option(const char* field, const std::string& what) {
@@ -57,8 +56,10 @@ std::array<FaceGeometry, kFaceCount> face_geometries(const RegionFrame& f, const
           FaceGeometry(Face::kNorth, f, dem.width(), dem.height(), resolution)};
 }
 
-// The face on which the item's directions from the region sit most squarely.
-std::uint8_t best_face(const std::array<FaceGeometry, kFaceCount>& faces, const FaceItem& item) {
+// The face on which the item's directions from the region sit most
+// squarely, and its fit there (`*best_fit`, when given).
+std::uint8_t best_face(const std::array<FaceGeometry, kFaceCount>& faces, const FaceItem& item,
+                       FaceFit* best_fit = nullptr) {
   std::uint8_t best = kNoFace;
   double spread = std::numeric_limits<double>::infinity();
   for (std::uint8_t k = 0; k < kFaceCount; ++k) {
@@ -66,6 +67,7 @@ std::uint8_t best_face(const std::array<FaceGeometry, kFaceCount>& faces, const 
     if (faces[k].fit(item, fit) && fit.spread < spread) {
       spread = fit.spread;
       best = k;
+      if (best_fit) *best_fit = fit;
     }
   }
   return best;
@@ -140,15 +142,14 @@ std::string_view verdict_name(Verdict v) {
 Status validate_region_options(const RegionOptions& o) {
   if (o.face_resolution < 8 || o.face_resolution > 65536)
     return bad_option("face_resolution", "must be an integer in [8, 65536], got " + std::to_string(o.face_resolution));
-  if (!std::isfinite(o.curvature_coefficient) || o.curvature_coefficient < 0 || o.curvature_coefficient > 2)
-    return bad_option("curvature_coefficient", "must be in [0, 2], got " + number_text(o.curvature_coefficient));
-  if (!std::isfinite(o.nodata_fill_height))
-    return bad_option("nodata_fill_height", "must be a finite number of metres");
-  if (!std::isfinite(o.target_height) || o.target_height < 0)
-    return bad_option("target_height", "must be a finite number >= 0 metres, got " + number_text(o.target_height));
-  if (!(o.max_distance > 0))
-    return bad_option("max_distance",
-                      "must be > 0 metres (or infinite for no limit), got " + number_text(o.max_distance));
+  // The fields a viewshed has too, under the viewshed's own rules and words.
+  visibility::ViewshedOptions shared;
+  shared.curvature_coefficient = o.curvature_coefficient;
+  shared.nodata = o.nodata;
+  shared.nodata_fill_height = o.nodata_fill_height;
+  shared.target_height = o.target_height;
+  shared.max_distance = o.max_distance;
+  HORIZON_RETURN_IF_ERROR(visibility::validate_options(shared));
   if (o.footprint_splits < 1 || o.footprint_splits > 16)
     return bad_option("footprint_splits", "must be an integer in [1, 16], got " + std::to_string(o.footprint_splits));
   if (o.visible_test_budget < 16 || o.visible_test_budget > (1 << 24))
@@ -257,8 +258,9 @@ namespace {
 // null): the verdicts of the sub-boxes done so far; a cell already
 // undetermined is not worked on again.
 Result<RegionCellsResult> classify_cells_from(const terrain::Dem& dem, const RegionFrame& f, const terrain::Window& win,
-                                              const RegionFrame& whole, const RegionOptions& options,
-                                              const terrain::Grid<std::uint8_t>* open, const RunControl* control) {
+                                              const RegionFrame& whole, const HullClearance& hull,
+                                              const RegionOptions& options, const terrain::Grid<std::uint8_t>* open,
+                                              const RunControl* control) {
   const terrain::HeightView terrain = terrain_view(dem, options);
   const unsigned threads = resolve_thread_count(options.threads);
   const double th = options.target_height;
@@ -324,7 +326,6 @@ Result<RegionCellsResult> classify_cells_from(const terrain::Dem& dem, const Reg
       out.stats));
   report_progress(control, 0.3);
 
-  const HullClearance hull(terrain, node_window(f, win, dem.width(), dem.height()), f, threads);
   std::atomic<std::uint64_t> reads{0};
   HORIZON_RETURN_IF_ERROR(parallel_for(
       static_cast<std::size_t>(win.height()), threads, control,
@@ -339,7 +340,7 @@ Result<RegionCellsResult> classify_cells_from(const terrain::Dem& dem, const Reg
           if (open &&
               open->row(static_cast<int>(jj))[c - win.col0] != static_cast<std::uint8_t>(Verdict::kAlwaysVisible))
             continue;
-          if (hull.clear(c, r, terrain.at(c, r) + th, options.visible_test_budget, &n))
+          if (hull.clear(f, c, r, terrain.at(c, r) + th, options.visible_test_budget, &n))
             v = static_cast<std::uint8_t>(Verdict::kAlwaysVisible);
         }
         reads.fetch_add(n, std::memory_order_relaxed);
@@ -405,11 +406,15 @@ Result<RegionCellsResult> classify_cells(const terrain::Dem& dem, const RegionSp
   RegionCellsResult out;
   out.frame = plan->frame;
   out.window = plan->window;
+  const HullClearance hull(terrain_view(dem, options),
+                           node_window(plan->frame, plan->window, dem.width(), dem.height()),
+                           resolve_thread_count(options.threads));
   bool first = true;
   for (const RegionSpec& piece : pieces(region, options)) {
     auto f = resolve_piece(dem, piece, options, plan->frame);
     if (!f.ok()) return f.error();
-    auto part = classify_cells_from(dem, *f, plan->window, plan->frame, options, first ? nullptr : &out.codes, control);
+    auto part =
+        classify_cells_from(dem, *f, plan->window, plan->frame, hull, options, first ? nullptr : &out.codes, control);
     if (!part.ok()) return part.error();
     add_work(part->stats, out.stats);
     if (first) {
@@ -436,8 +441,8 @@ namespace {
 // classify_cells_from takes it.
 Result<RegionBoxesResult> classify_boxes_from(const terrain::Dem& dem, const RegionFrame& f,
                                               const std::vector<visibility::BoxFootprint>* footprints,
-                                              const RegionOptions& options, const std::vector<Verdict>* open,
-                                              const RunControl* control) {
+                                              const HullClearance& hull, const RegionOptions& options,
+                                              const std::vector<Verdict>* open, const RunControl* control) {
   const std::size_t box_count = footprints->size();
   const terrain::HeightView terrain = terrain_view(dem, options);
   const unsigned threads = resolve_thread_count(options.threads);
@@ -450,18 +455,14 @@ Result<RegionBoxesResult> classify_boxes_from(const terrain::Dem& dem, const Reg
   std::vector<FaceItem> items(box_count);
   std::array<std::vector<std::vector<std::size_t>>, kFaceCount> buckets;
   std::array<int, kFaceCount> wall_end{};
-  terrain::Window all = (*footprints)[0].cells;
   for (std::size_t b = 0; b < box_count; ++b) {
     const terrain::Window& cells = (*footprints)[b].cells;
-    all = {std::min(all.col0, cells.col0), std::min(all.row0, cells.row0), std::max(all.col1, cells.col1),
-           std::max(all.row1, cells.row1)};
     items[b] = {double(cells.col0), double(cells.col1 - 1), double(cells.row0), double(cells.row1 - 1),
                 (*footprints)[b].z_max};
     if (open && (*open)[b] == Verdict::kUndetermined) continue;
-    const std::uint8_t k = best_face(faces, items[b]);
-    if (k == kNoFace) continue;
     FaceFit fit;
-    faces[k].fit(items[b], fit);
+    const std::uint8_t k = best_face(faces, items[b], &fit);
+    if (k == kNoFace) continue;
     auto& bucket = buckets[k];
     if (bucket.size() <= static_cast<std::size_t>(fit.wall_limit)) bucket.resize(fit.wall_limit + 1);
     bucket[static_cast<std::size_t>(fit.wall_limit)].push_back(b);
@@ -481,7 +482,6 @@ Result<RegionBoxesResult> classify_boxes_from(const terrain::Dem& dem, const Reg
       out.stats));
 
   // Always visible: one covered centre (not a void) seen from all of the region.
-  const HullClearance hull(terrain, node_window(f, all, dem.width(), dem.height()), f, threads);
   std::atomic<std::uint64_t> reads{0};
   HORIZON_RETURN_IF_ERROR(parallel_for(box_count, threads, control, [&](std::size_t b) {
     if (out.verdicts[b] != Verdict::kUndetermined) return;
@@ -504,7 +504,7 @@ Result<RegionBoxesResult> classify_boxes_from(const terrain::Dem& dem, const Reg
       if (k > 0 && candidates[k] == candidates[0]) continue;
       const float ground = terrain.at(c, r);
       if (!(ground == ground)) continue;  // no target on a void
-      if (hull.clear(c, r, z, options.visible_test_budget, &n)) {
+      if (hull.clear(f, c, r, z, options.visible_test_budget, &n)) {
         out.verdicts[b] = Verdict::kAlwaysVisible;
         break;
       }
@@ -527,11 +527,18 @@ Result<RegionBoxesResult> classify_boxes(const terrain::Dem& dem, const RegionSp
   if (!footprints.ok()) return footprints.error();
   RegionBoxesResult out;
   out.frame = plan->frame;
+  // One clearance over the nodes every box and the region stand on.
+  terrain::Window all = (*footprints)[0].cells;
+  for (const visibility::BoxFootprint& fp : *footprints)
+    all = {std::min(all.col0, fp.cells.col0), std::min(all.row0, fp.cells.row0), std::max(all.col1, fp.cells.col1),
+           std::max(all.row1, fp.cells.row1)};
+  const HullClearance hull(terrain_view(dem, options), node_window(plan->frame, all, dem.width(), dem.height()),
+                           resolve_thread_count(options.threads));
   bool first = true;
   for (const RegionSpec& piece : pieces(region, options)) {
     auto f = resolve_piece(dem, piece, options, plan->frame);
     if (!f.ok()) return f.error();
-    auto part = classify_boxes_from(dem, *f, &*footprints, options, first ? nullptr : &out.verdicts, control);
+    auto part = classify_boxes_from(dem, *f, &*footprints, hull, options, first ? nullptr : &out.verdicts, control);
     if (!part.ok()) return part.error();
     add_work(part->stats, out.stats);
     if (first) {
