@@ -163,7 +163,9 @@ std::size_t cull_footprints(const ViewshedResult& result, const terrain::Pyramid
     if (local.col0 >= 0 && local.row0 >= 0 && local.col1 <= pyramid.width() && local.row1 <= pyramid.height() &&
         !local.empty())
       ohf_min = pyramid.min_in(local, &reads);
-    const bool is_visible = f.z_max >= static_cast<double>(ohf_min) - kTieTolerance;
+    // In this form (not z_max >= ohf_min - tol) so that cull_batch's float
+    // threshold gives the same answer bit for bit (cull_index.hpp).
+    const bool is_visible = static_cast<double>(ohf_min) <= f.z_max + kTieTolerance;
     out[i] = {is_visible ? Visibility::kSeen : Visibility::kOccluded, ohf_min};
     visible += is_visible;
   }

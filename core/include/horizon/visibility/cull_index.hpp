@@ -1,0 +1,132 @@
+// horizon/visibility/cull_index.hpp — box culling at simulator scale: many
+// boxes, exactly, against one OHF that stays warm between calls.
+//
+//   auto ohf = visibility::compute_viewshed(dem, eye, options);       // once per viewpoint
+//   visibility::CullIndex index(ohf->ohf, ohf->frame.window, visibility::CullIndex::levels_for(footprints));
+//   visibility::BoxBatch batch(footprints);                           // once per box set
+//   std::vector<visibility::BoxVisibility> out(batch.size());
+//   std::size_t seen = visibility::cull_batch(index, batch, out);     // every frame
+//
+// Same rule, same answers. A box is visible when z_max + kTieTolerance
+// reaches the least OHF over the cell centres its footprint covers
+// (cull.hpp). cull_batch gives, box for box, the state and the ohf_min bits
+// that cull_footprints gives with the min-pyramid: both are exact minima of
+// the same cells, voids read as -inf (visible).
+//
+// The index. Level k (0 <= k <= levels - 1) holds, for every OHF cell, the
+// least OHF over the 2^k x 2^k square of cells whose north-west corner it is
+// (clipped at the raster's east and south edges): a min-pyramid kept at full
+// resolution rather than decimated, so that squares may start anywhere.
+// A footprint of w x h cells, with s = 2^k the largest power of two not
+// above min(w, h) (and k below `levels`), is the union of
+// ceil(w / s) x ceil(h / s) such squares, the last of each row and column
+// pulled back inside it: its minimum is the least of those reads, exact,
+// since the squares may overlap but never leave it. A box whose longer side
+// is at most 2s (every square box, and any whose two sides fall in one
+// octave [2^k, 2^(k+1)]) takes four reads, the vector kernel's case; the
+// others take more and are tested by the scalar loop after the vector pass.
+//
+// The batch. The boxes in structure-of-arrays form (cells and thresholds as
+// 32-bit lanes), sorted along a Z-order (Morton) curve of their footprints'
+// corners, so that boxes near one another on the ground are tested one after
+// the other and their reads share cache lines; `order` maps the sorted
+// position back to the caller's index, and answers come back in the
+// caller's order. A batch holds DEM cells, not index cells: one batch serves
+// every OHF computed for those boxes, whatever its window.
+//
+// Kernels. cull_batch tests eight boxes at a time with AVX2 gathers, or
+// sixteen with AVX-512, when the CPU has them (sweep::simd::kernel_isa, the
+// cap the tests and benchmarks set), and box by box otherwise; each form
+// gives the scalar loop's bits (tests/visibility/test_cull_index.cpp checks
+// all three against cull_footprints and brute force).
+//
+// Cost: the index stores levels x the OHF's cells, 4 bytes each, built in
+// O(levels x cells); a test reads 4 index cells for a box of aspect up to 2
+// and ceil(w / s) x ceil(h / s) for others. levels_for() picks the fewest
+// levels that give every box of the set the largest square fitting it, at
+// most kMaxLevels (16 x 16 cells); index_bytes() says what that will take
+// before it is built.
+//
+// Thread safety: an index and a batch are immutable once built; any number
+// of cull_batch calls may read them at once.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "horizon/common/large_allocator.hpp"
+#include "horizon/terrain/grid.hpp"
+#include "horizon/visibility/cull.hpp"
+
+namespace horizon::visibility {
+
+class CullIndex {
+ public:
+  static constexpr int kMaxLevels = 5;  // squares of 1, 2, 4, 8 and 16 cells
+
+  // Over `ohf`, whose cell (0, 0) is DEM cell (window.col0, window.row0)
+  // (a ViewshedResult's ohf and frame.window). `levels` is clamped to
+  // [1, kMaxLevels]. NaN cells (no answer) read as -inf. Builds every level
+  // on up to `threads` threads (0: all cores).
+  CullIndex(const terrain::Grid<float>& ohf, const terrain::Window& window, int levels = kMaxLevels,
+            unsigned threads = 1);
+
+  // The fewest levels giving every footprint the largest square that fits
+  // it (side 2^floor(log2 min(w, h))), capped at kMaxLevels; 1 for none.
+  static int levels_for(std::span<const BoxFootprint> footprints);
+  // Bytes an index of `levels` levels over `cells` OHF cells stores.
+  static std::uint64_t index_bytes(std::uint64_t cells, int levels);
+
+  int levels() const { return levels_; }
+  int width() const { return width_; }
+  int height() const { return height_; }
+  const terrain::Window& window() const { return window_; }
+  std::uint64_t bytes() const { return static_cast<std::uint64_t>(values_.size()) * sizeof(float); }
+
+  // Least OHF over the local cells [col0, col1) x [row0, row1): non-empty
+  // and inside the raster (asserted). Adds the index cells read to *reads.
+  float min_in(int col0, int row0, int col1, int row1, std::uint64_t* reads = nullptr) const;
+
+  // Level k's cells, row-major, width() per row; level k + 1 follows level
+  // k, plane() cells on.
+  const float* level(int k) const { return values_.data() + static_cast<std::size_t>(k) * plane_; }
+  std::size_t plane() const { return plane_; }
+
+ private:
+  terrain::Window window_;
+  int width_ = 0, height_ = 0, levels_ = 1;
+  std::size_t plane_ = 0;                             // cells per level
+  std::vector<float, LargeAllocator<float>> values_;  // mapped and populated up front, not zeroed
+};
+
+// Boxes as the kernels read them (see the header comment).
+struct BoxBatch {
+  BoxBatch() = default;
+  explicit BoxBatch(std::span<const BoxFootprint> footprints);
+
+  std::size_t size() const { return order.size(); }
+
+  // DEM cells covered, half-open, in sorted order.
+  std::vector<std::int32_t> col0, row0, col1, row1;
+  // The largest float t with t <= z_max + kTieTolerance (in double): a box
+  // is visible iff ohf_min <= threshold, the rule of cull.hpp in float.
+  std::vector<float> threshold;
+  std::vector<std::uint32_t> order;  // sorted position -> caller's index
+};
+
+struct BatchStats {
+  std::uint64_t reads = 0;         // index cells read
+  std::uint64_t vector_boxes = 0;  // boxes answered by the vector kernel (four reads each)
+  std::uint64_t outside = 0;       // boxes (partly) outside the index's window: -inf, visible
+};
+
+// Tests every box of `batch` against `index`; out[i] answers the caller's
+// box i (out.size() == batch.size(), asserted). A footprint not wholly
+// inside the index's window has no answer for part of it: -inf, visible,
+// as in cull_footprints. Returns the number visible.
+std::size_t cull_batch(const CullIndex& index, const BoxBatch& batch, std::span<BoxVisibility> out,
+                       BatchStats* stats = nullptr);
+
+}  // namespace horizon::visibility

@@ -1,0 +1,337 @@
+// Box culling against a full-resolution min-pyramid (cull_index.hpp): the
+// index's levels, the batch's Z-order, and the box test in three forms
+// (scalar, AVX2, AVX-512) that give the same bits.
+#include "horizon/visibility/cull_index.hpp"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <numeric>
+#include <utility>
+
+#include "horizon/common/parallel.hpp"
+#include "simd.hpp"
+
+namespace horizon::visibility {
+namespace {
+
+namespace simd = sweep::simd;
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+// floor(log2 m) for m >= 1.
+int floor_log2(std::uint32_t m) {
+  return 31 - __builtin_clz(m);
+}
+
+// Rows per parallel item when building a level (coarse work items).
+constexpr int kRowsPerItem = 64;
+
+// Spreads the low 32 bits of v to the even bits of the result.
+std::uint64_t spread_bits(std::uint64_t v) {
+  v &= 0xffffffffull;
+  v = (v | (v << 16)) & 0x0000ffff0000ffffull;
+  v = (v | (v << 8)) & 0x00ff00ff00ff00ffull;
+  v = (v | (v << 4)) & 0x0f0f0f0f0f0f0f0full;
+  v = (v | (v << 2)) & 0x3333333333333333ull;
+  v = (v | (v << 1)) & 0x5555555555555555ull;
+  return v;
+}
+
+// The largest float not above d (d finite).
+float float_at_or_below(double d) {
+  float f = static_cast<float>(d);
+  if (static_cast<double>(f) > d) f = std::nextafter(f, -kInf);
+  return f;
+}
+
+// One box's square: its level and side, and whether four reads cover it.
+struct Square {
+  int k, side;
+  bool four;
+};
+
+Square square_for(int w, int h, int levels) {
+  const int k = std::min(floor_log2(static_cast<std::uint32_t>(std::min(w, h))), levels - 1);
+  const int s = 1 << k;
+  return {k, s, w <= 2 * s && h <= 2 * s};
+}
+
+// The scalar test of one box (sorted position i); the vector kernels'
+// lanes compute exactly this. Returns the least OHF, -inf for a footprint
+// (partly) outside the index.
+float test_box(const CullIndex& index, const BoxBatch& b, std::size_t i, BatchStats& stats) {
+  const terrain::Window& win = index.window();
+  const int c0 = b.col0[i] - win.col0, r0 = b.row0[i] - win.row0;
+  const int c1 = b.col1[i] - win.col0, r1 = b.row1[i] - win.row0;
+  if (c0 < 0 || r0 < 0 || c1 > index.width() || r1 > index.height() || c1 <= c0 || r1 <= r0) {
+    ++stats.outside;
+    return -kInf;
+  }
+  const Square sq = square_for(c1 - c0, r1 - r0, index.levels());
+  if (!sq.four) return index.min_in(c0, r0, c1, r1, &stats.reads);
+  const float* level = index.level(sq.k);
+  const std::size_t w = static_cast<std::size_t>(index.width());
+  const std::size_t ra = static_cast<std::size_t>(r0) * w, rc = static_cast<std::size_t>(r1 - sq.side) * w;
+  const std::size_t ca = static_cast<std::size_t>(c0), cb = static_cast<std::size_t>(c1 - sq.side);
+  float m = kInf;
+  for (const std::size_t k : {ra + ca, ra + cb, rc + ca, rc + cb}) m = std::min(m, level[k]);
+  stats.reads += 4;
+  ++stats.vector_boxes;
+  return m;
+}
+
+void answer(BoxVisibility& out, float ohf_min, float threshold) {
+  out = {ohf_min <= threshold ? Visibility::kSeen : Visibility::kOccluded, ohf_min};
+}
+
+#ifdef HORIZON_SIMD_AVX2
+
+// What a vector kernel leaves for the lanes it could not answer.
+struct LaneMasks {
+  unsigned outside = 0;   // footprint (partly) outside the index: -inf
+  unsigned deferred = 0;  // more than four reads: left to the scalar loop
+};
+
+// v[i .. i + 8) - origin: DEM cells to index cells.
+HORIZON_AVX2 inline __m256i local8(const std::vector<std::int32_t>& v, std::size_t i, int origin) {
+  return _mm256_sub_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(v.data() + i)), simd::i8(origin));
+}
+HORIZON_AVX512 inline __m512i local16(const std::vector<std::int32_t>& v, std::size_t i, int origin) {
+  return _mm512_sub_epi32(_mm512_loadu_si512(v.data() + i), simd::i16(origin));
+}
+
+// Eight boxes from sorted position i: the least OHF of each lane into ohf[].
+HORIZON_AVX2 void test8(const CullIndex& index, const BoxBatch& b, std::size_t i, float* ohf, LaneMasks& lanes) {
+  const terrain::Window& win = index.window();
+  const __m256i c0 = local8(b.col0, i, win.col0), r0 = local8(b.row0, i, win.row0);
+  const __m256i c1 = local8(b.col1, i, win.col0), r1 = local8(b.row1, i, win.row0);
+  const __m256i zero = _mm256_setzero_si256(), one = simd::i8(1);
+  const __m256i w = _mm256_sub_epi32(c1, c0), h = _mm256_sub_epi32(r1, r0);
+  // Outside: c0 < 0, r0 < 0, c1 > width, r1 > height, or empty.
+  __m256i outside = _mm256_or_si256(_mm256_cmpgt_epi32(zero, c0), _mm256_cmpgt_epi32(zero, r0));
+  outside = _mm256_or_si256(outside, _mm256_cmpgt_epi32(c1, simd::i8(index.width())));
+  outside = _mm256_or_si256(outside, _mm256_cmpgt_epi32(r1, simd::i8(index.height())));
+  outside = _mm256_or_si256(outside, _mm256_cmpgt_epi32(one, w));
+  outside = _mm256_or_si256(outside, _mm256_cmpgt_epi32(one, h));
+  // k = min(floor(log2 min(w, h)), levels - 1) from the float's exponent:
+  // exact below 2^24, and above it the conversion's rounding is clamped away
+  // (levels - 1 <= 4). Outside lanes compute nonsense that is never read.
+  const __m256i m = _mm256_max_epi32(simd::mini_of(w, h), one);
+  __m256i k = _mm256_sub_epi32(_mm256_srli_epi32(_mm256_castps_si256(_mm256_cvtepi32_ps(m)), 23), simd::i8(127));
+  k = simd::mini_of(k, simd::i8(index.levels() - 1));
+  const __m256i s = _mm256_sllv_epi32(one, k), s2 = _mm256_add_epi32(s, s);
+  const __m256i many = _mm256_or_si256(_mm256_cmpgt_epi32(w, s2), _mm256_cmpgt_epi32(h, s2));
+  const __m256i four = _mm256_andnot_si256(_mm256_or_si256(outside, many), simd::i8(-1));
+  const __m256i width = simd::i8(index.width());
+  const __m256i base = _mm256_mullo_epi32(k, simd::i8(static_cast<int>(index.plane())));
+  const __m256i ra = _mm256_add_epi32(base, _mm256_mullo_epi32(r0, width));
+  const __m256i rc = _mm256_add_epi32(base, _mm256_mullo_epi32(_mm256_sub_epi32(r1, s), width));
+  const __m256i cb = _mm256_sub_epi32(c1, s);
+  const __m256 mask = _mm256_castsi256_ps(four);
+  const float* values = index.level(0);
+  __m256 least = simd::f8(kInf);
+  least = simd::min_of(least, simd::gather_masked(values, _mm256_add_epi32(ra, c0), mask));
+  least = simd::min_of(least, simd::gather_masked(values, _mm256_add_epi32(ra, cb), mask));
+  least = simd::min_of(least, simd::gather_masked(values, _mm256_add_epi32(rc, c0), mask));
+  least = simd::min_of(least, simd::gather_masked(values, _mm256_add_epi32(rc, cb), mask));
+  least = _mm256_blendv_ps(least, simd::f8(-kInf), _mm256_castsi256_ps(outside));
+  _mm256_storeu_ps(ohf, least);
+  lanes.outside = static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(outside)));
+  lanes.deferred = static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(many))) & ~lanes.outside;
+}
+
+// The same on sixteen boxes.
+HORIZON_AVX512 void test16(const CullIndex& index, const BoxBatch& b, std::size_t i, float* ohf, LaneMasks& lanes) {
+  const terrain::Window& win = index.window();
+  const __m512i c0 = local16(b.col0, i, win.col0), r0 = local16(b.row0, i, win.row0);
+  const __m512i c1 = local16(b.col1, i, win.col0), r1 = local16(b.row1, i, win.row0);
+  const __m512i zero = _mm512_setzero_si512(), one = simd::i16(1);
+  const __m512i w = _mm512_sub_epi32(c1, c0), h = _mm512_sub_epi32(r1, r0);
+  const __mmask16 outside = _mm512_cmplt_epi32_mask(c0, zero) | _mm512_cmplt_epi32_mask(r0, zero) |
+                            _mm512_cmpgt_epi32_mask(c1, simd::i16(index.width())) |
+                            _mm512_cmpgt_epi32_mask(r1, simd::i16(index.height())) | _mm512_cmplt_epi32_mask(w, one) |
+                            _mm512_cmplt_epi32_mask(h, one);
+  const __m512i m = _mm512_max_epi32(simd::mini_of(w, h), one);
+  __m512i k = _mm512_sub_epi32(_mm512_srli_epi32(_mm512_castps_si512(_mm512_cvtepi32_ps(m)), 23), simd::i16(127));
+  k = simd::mini_of(k, simd::i16(index.levels() - 1));
+  const __m512i s = _mm512_sllv_epi32(one, k), s2 = _mm512_add_epi32(s, s);
+  const __mmask16 many = _mm512_cmpgt_epi32_mask(w, s2) | _mm512_cmpgt_epi32_mask(h, s2);
+  const __mmask16 four = static_cast<__mmask16>(~(outside | many));
+  const __m512i width = simd::i16(index.width());
+  const __m512i base = _mm512_mullo_epi32(k, simd::i16(static_cast<int>(index.plane())));
+  const __m512i ra = _mm512_add_epi32(base, _mm512_mullo_epi32(r0, width));
+  const __m512i rc = _mm512_add_epi32(base, _mm512_mullo_epi32(_mm512_sub_epi32(r1, s), width));
+  const __m512i cb = _mm512_sub_epi32(c1, s);
+  const float* values = index.level(0);
+  __m512 least = simd::f16(kInf);
+  least = simd::min_of(least, simd::gather_masked(values, _mm512_add_epi32(ra, c0), four));
+  least = simd::min_of(least, simd::gather_masked(values, _mm512_add_epi32(ra, cb), four));
+  least = simd::min_of(least, simd::gather_masked(values, _mm512_add_epi32(rc, c0), four));
+  least = simd::min_of(least, simd::gather_masked(values, _mm512_add_epi32(rc, cb), four));
+  least = _mm512_mask_blend_ps(outside, least, simd::f16(-kInf));
+  _mm512_storeu_ps(ohf, least);
+  lanes.outside = outside;
+  lanes.deferred = static_cast<unsigned>(many & static_cast<__mmask16>(~outside));
+}
+
+#endif
+
+}  // namespace
+
+CullIndex::CullIndex(const terrain::Grid<float>& ohf, const terrain::Window& window, int levels, unsigned threads)
+    : window_(window),
+      width_(ohf.width()),
+      height_(ohf.height()),
+      levels_(std::clamp(levels, 1, kMaxLevels)),
+      plane_(static_cast<std::size_t>(ohf.width()) * static_cast<std::size_t>(ohf.height())) {
+  values_.resize(plane_ * static_cast<std::size_t>(levels_));
+  if (plane_ == 0) return;
+  const std::size_t w = static_cast<std::size_t>(width_);
+  const std::size_t items = (static_cast<std::size_t>(height_) + kRowsPerItem - 1) / kRowsPerItem;
+  parallel_for(items, threads, [&](std::size_t item) {
+    const int r_end = std::min(height_, static_cast<int>((item + 1) * kRowsPerItem));
+    for (int r = static_cast<int>(item) * kRowsPerItem; r < r_end; ++r) {
+      const float* in = &ohf.at(0, r);
+      float* out = values_.data() + static_cast<std::size_t>(r) * w;
+      for (std::size_t c = 0; c < w; ++c) out[c] = in[c] == in[c] ? in[c] : -kInf;  // NaN: -inf
+    }
+  });
+  for (int k = 1; k < levels_; ++k) {
+    const int half = 1 << (k - 1);
+    const float* prev = level(k - 1);
+    float* cur = values_.data() + static_cast<std::size_t>(k) * plane_;
+    parallel_for(items, threads, [&](std::size_t item) {
+      const int r_end = std::min(height_, static_cast<int>((item + 1) * kRowsPerItem));
+      for (int r = static_cast<int>(item) * kRowsPerItem; r < r_end; ++r) {
+        // Squares hanging over the east or south edge take the last cell
+        // there, which is inside them: still the minimum of their clipped part.
+        const float* a = prev + static_cast<std::size_t>(r) * w;
+        const float* b = prev + static_cast<std::size_t>(std::min(r + half, height_ - 1)) * w;
+        float* out = cur + static_cast<std::size_t>(r) * w;
+        const int split = std::max(0, width_ - half);
+        for (int c = 0; c < split; ++c) out[c] = std::min(std::min(a[c], a[c + half]), std::min(b[c], b[c + half]));
+        for (int c = split; c < width_; ++c)
+          out[c] = std::min(std::min(a[c], a[width_ - 1]), std::min(b[c], b[width_ - 1]));
+      }
+    });
+  }
+}
+
+int CullIndex::levels_for(std::span<const BoxFootprint> footprints) {
+  int k = 0;
+  for (const BoxFootprint& f : footprints) {
+    const int m = std::min(f.cells.col1 - f.cells.col0, f.cells.row1 - f.cells.row0);
+    if (m >= 1) k = std::max(k, floor_log2(static_cast<std::uint32_t>(m)));
+  }
+  return std::min(k + 1, kMaxLevels);
+}
+
+std::uint64_t CullIndex::index_bytes(std::uint64_t cells, int levels) {
+  return cells * static_cast<std::uint64_t>(std::clamp(levels, 1, kMaxLevels)) * sizeof(float);
+}
+
+float CullIndex::min_in(int col0, int row0, int col1, int row1, std::uint64_t* reads) const {
+  assert(col0 >= 0 && row0 >= 0 && col1 <= width_ && row1 <= height_ && col0 < col1 && row0 < row1);
+  const Square sq = square_for(col1 - col0, row1 - row0, levels_);
+  const float* values = level(sq.k);
+  const std::size_t w = static_cast<std::size_t>(width_);
+  float m = kInf;
+  std::uint64_t n = 0;
+  // Squares at s steps, the last of each row and column pulled back to end
+  // at the footprint's edge.
+  for (int r = row0;; r += sq.side) {
+    const int rr = std::min(r, row1 - sq.side);
+    for (int c = col0;; c += sq.side) {
+      const int cc = std::min(c, col1 - sq.side);
+      m = std::min(m, values[static_cast<std::size_t>(rr) * w + static_cast<std::size_t>(cc)]);
+      ++n;
+      if (cc == col1 - sq.side) break;
+    }
+    if (rr == row1 - sq.side) break;
+  }
+  if (reads) *reads += n;
+  return m;
+}
+
+BoxBatch::BoxBatch(std::span<const BoxFootprint> footprints) {
+  const std::size_t n = footprints.size();
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> keys(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const terrain::Window& c = footprints[i].cells;
+    // Z-order of the north-west corner (cells are >= 0 in a DEM's grid).
+    const auto u = static_cast<std::uint32_t>(std::max(0, c.col0));
+    const auto v = static_cast<std::uint32_t>(std::max(0, c.row0));
+    keys[i] = {spread_bits(u) | (spread_bits(v) << 1), static_cast<std::uint32_t>(i)};
+  }
+  std::sort(keys.begin(), keys.end());
+  col0.resize(n);
+  row0.resize(n);
+  col1.resize(n);
+  row1.resize(n);
+  threshold.resize(n);
+  order.resize(n);
+  for (std::size_t j = 0; j < n; ++j) {
+    const BoxFootprint& f = footprints[keys[j].second];
+    order[j] = keys[j].second;
+    col0[j] = f.cells.col0;
+    row0[j] = f.cells.row0;
+    col1[j] = f.cells.col1;
+    row1[j] = f.cells.row1;
+    threshold[j] = float_at_or_below(f.z_max + kTieTolerance);
+  }
+}
+
+std::size_t cull_batch(const CullIndex& index, const BoxBatch& batch, std::span<BoxVisibility> out, BatchStats* stats) {
+  assert(out.size() == batch.size());
+  BatchStats local;
+  std::size_t visible = 0;
+  const std::size_t n = batch.size();
+  const auto finish = [&](std::size_t j, float ohf_min) {
+    BoxVisibility& o = out[batch.order[j]];
+    answer(o, ohf_min, batch.threshold[j]);
+    visible += o.state == Visibility::kSeen;
+  };
+  std::size_t j = 0;
+#ifdef HORIZON_SIMD_AVX2
+  // The gathers index level cells with 32-bit offsets.
+  const bool fits = index.bytes() / sizeof(float) < (std::size_t{1} << 31);
+  if (fits && index.width() > 0) {
+    const auto vector_pass = [&](auto kernel, std::size_t width) {
+      float ohf[16];
+      for (; j + width <= n; j += width) {
+        LaneMasks lanes;
+        kernel(index, batch, j, ohf, lanes);
+        for (std::size_t l = 0; l < width; ++l) {
+          if (lanes.deferred >> l & 1u) {
+            finish(j + l, test_box(index, batch, j + l, local));
+            continue;
+          }
+          if (lanes.outside >> l & 1u) {
+            ++local.outside;
+          } else {
+            local.reads += 4;
+            ++local.vector_boxes;
+          }
+          finish(j + l, ohf[l]);
+        }
+      }
+    };
+    if (simd::has_avx512())
+      vector_pass(test16, 16);
+    else if (simd::has_avx2())
+      vector_pass(test8, 8);
+  }
+#endif
+  for (; j < n; ++j) finish(j, test_box(index, batch, j, local));
+  if (stats) {
+    stats->reads += local.reads;
+    stats->vector_boxes += local.vector_boxes;
+    stats->outside += local.outside;
+  }
+  return visible;
+}
+
+}  // namespace horizon::visibility
