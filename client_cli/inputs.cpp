@@ -147,25 +147,51 @@ CsvNumbers parse_csv_numbers(std::string line) {
   return out;
 }
 
-std::vector<visibility::BoxSpec> read_boxes_file(const std::string& path, bool lonlat) {
+std::vector<visibility::BoxSpec> read_boxes_file(const std::string& path, bool lonlat,
+                                                 std::vector<std::uint64_t>* ids) {
   std::ifstream in(path);
   if (!in) throw UsageError("--boxes: cannot open '" + path + "'");
   std::vector<visibility::BoxSpec> boxes;
   std::string line;
   int number = 0;
+  std::size_t columns = 0;  // 6, or 7 with ids; fixed by the first box
   while (std::getline(in, line)) {
     ++number;
     const CsvNumbers row = parse_csv_numbers(line);
     if (row.blank || (number == 1 && !row.numeric)) continue;  // a blank line, a comment, a header
-    if (row.values.size() != 6)
-      throw UsageError("--boxes: '" + path + "' line " + std::to_string(number) +
-                       ": expected six numbers x_min,y_min,x_max,y_max,z_min,z_max");
-    const std::vector<double>& v = row.values;
+    const std::string where = "--boxes: '" + path + "' line " + std::to_string(number);
+    const std::size_t n = row.values.size();
+    if (n != 6 && !(ids && n == 7))
+      throw UsageError(where +
+                       (ids ? ": expected six numbers x_min,y_min,x_max,y_max,z_min,z_max, or seven with an id first"
+                            : ": expected six numbers x_min,y_min,x_max,y_max,z_min,z_max"));
+    if (columns == 0) columns = n;
+    if (n != columns)
+      throw UsageError(where + ": " + std::to_string(n) + " numbers where the first box had " +
+                       std::to_string(columns) + " (give every box an id, or none)");
+    const double* v = row.values.data();
+    if (n == 7) {
+      if (!(v[0] >= 0 && v[0] <= 9007199254740992.0 && v[0] == std::floor(v[0])))
+        throw UsageError(where + ": the id must be a whole number from 0 to 2^53, got " + std::to_string(v[0]));
+      ids->push_back(static_cast<std::uint64_t>(v[0]));
+      ++v;
+    }
     boxes.push_back(
         {lonlat ? geodesy::PointFrame::kWgs84 : geodesy::PointFrame::kDatasetCrs, v[0], v[1], v[2], v[3], v[4], v[5]});
   }
   if (boxes.empty()) throw UsageError("--boxes: '" + path + "' holds no boxes");
   return boxes;
+}
+
+visibility::NodataPolicy parse_nodata(const std::string& text, double& fill_height) {
+  if (text == "transparent") return visibility::NodataPolicy::kTransparent;
+  if (text.starts_with("fill:")) {
+    if (auto h = parse_finite(std::string_view(text).substr(5))) {
+      fill_height = *h;
+      return visibility::NodataPolicy::kFill;
+    }
+  }
+  throw UsageError("--nodata: expected 'transparent' or 'fill:H' (H a finite number of metres), got '" + text + "'");
 }
 
 }  // namespace horizon::cli

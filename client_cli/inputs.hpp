@@ -3,6 +3,7 @@
 // CRS or as WGS84 --lat/--lon, and output paths checked before any work.
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -67,6 +68,14 @@ CsvNumbers parse_csv_numbers(std::string line);
 // (the DEM's CRS, or WGS84 degrees when `lonlat`; absolute metres). Blank
 // lines, '#' comments and a first line that is not numbers (a header) are
 // skipped. Throws UsageError naming the file and line.
-std::vector<visibility::BoxSpec> read_boxes_file(const std::string& path, bool lonlat);
+// With `ids`, a line may hold seven numbers, an id first (a whole number
+// from 0 to 2^53, the client's name for the box, echoed in answers), and
+// *ids receives them; every box has one, or none does.
+std::vector<visibility::BoxSpec> read_boxes_file(const std::string& path, bool lonlat,
+                                                 std::vector<std::uint64_t>* ids = nullptr);
+
+// --nodata: "transparent" (voids never block) or "fill:H" (terrain at H
+// metres, stored in fill_height). Throws UsageError otherwise.
+visibility::NodataPolicy parse_nodata(const std::string& text, double& fill_height);
 
 }  // namespace horizon::cli

@@ -79,17 +79,6 @@ struct Request {
   bool full_read = false;
 };
 
-visibility::NodataPolicy parse_nodata(const std::string& text, double& fill_height) {
-  if (text == "transparent") return visibility::NodataPolicy::kTransparent;
-  if (text.starts_with("fill:")) {
-    if (auto h = parse_finite(std::string_view(text).substr(5))) {
-      fill_height = *h;
-      return visibility::NodataPolicy::kFill;
-    }
-  }
-  throw UsageError("--nodata: expected 'transparent' or 'fill:H' (H a finite number of metres), got '" + text + "'");
-}
-
 // Every flag is read and checked here, before the DEM is opened.
 Request parse_request(const Args& args) {
   Request r;

@@ -20,6 +20,8 @@ visibility::Visibility box_state(const v1::BoxVisibility& b) {
       return visibility::Visibility::kOccluded;
     case v1::BOX_STATE_UNDETERMINED:
       return visibility::Visibility::kUndetermined;
+    case v1::BOX_STATE_OUT_OF_RANGE:
+      return visibility::Visibility::kOutOfRange;
     default:
       return b.visible() ? visibility::Visibility::kSeen : visibility::Visibility::kOccluded;
   }
@@ -28,7 +30,8 @@ visibility::Visibility box_state(const v1::BoxVisibility& b) {
 }  // namespace
 
 int run_cull(const Args& args, const std::string& dataset, const geodesy::PointSpec& observer,
-             const std::vector<visibility::BoxSpec>& boxes, const visibility::CullOptions& options, bool json) {
+             const std::vector<visibility::BoxSpec>& boxes, const std::vector<std::uint64_t>& ids,
+             const visibility::CullOptions& options, bool json) {
   Client client(args);
   const auto started = std::chrono::steady_clock::now();
   v1::GetDatasetRequest get;
@@ -43,8 +46,15 @@ int run_cull(const Args& args, const std::string& dataset, const geodesy::PointS
   request.set_conservative(options.conservative);
   request.set_algorithm(to_proto_algorithm(options.viewshed.algorithm));
   request.set_curvature(options.viewshed.curvature_coefficient);
+  if (options.viewshed.nodata == visibility::NodataPolicy::kFill) {
+    request.set_nodata(v1::NODATA_POLICY_FILL);
+    request.set_nodata_fill_height(options.viewshed.nodata_fill_height);
+  }
   request.mutable_boxes()->Reserve(static_cast<int>(boxes.size()));
-  for (const visibility::BoxSpec& b : boxes) *request.add_boxes() = to_proto_box(b);
+  for (std::size_t i = 0; i < boxes.size(); ++i) {
+    v1::Box& box = *request.add_boxes() = to_proto_box(boxes[i]);
+    if (!ids.empty()) box.set_id(ids[i]);
+  }
   v1::CullBoxesResponse response;
   if (auto s = client.visibility().CullBoxes(client.context().get(), request, &response); !s.ok())
     return report_status(s, client.address());
@@ -63,9 +73,12 @@ int run_cull(const Args& args, const std::string& dataset, const geodesy::PointS
   r.stats = to_stats(response.stats());
   r.pyramid_cells_read = response.pyramid_cells_read();
   r.visible_count = response.visible_count();
+  r.out_of_range_count = response.out_of_range_count();
   r.boxes.reserve(boxes.size());
-  for (const v1::BoxVisibility& b : response.boxes())
+  for (const v1::BoxVisibility& b : response.boxes()) {
     r.boxes.push_back({box_state(b), static_cast<float>(b.ohf_min())});
+    if (!ids.empty()) report.ids.push_back(b.id());  // the server's echo
+  }
   report.total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   print_cull(report, boxes, json);
   return kExitOk;

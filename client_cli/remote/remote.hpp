@@ -6,6 +6,7 @@
 // gRPC stays inside client_cli/remote/.
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -25,14 +26,14 @@ namespace horizon::cli::remote {
 // The flags every remote-capable command adds to its table.
 inline constexpr FlagSpec kServerFlag{"--server", "", "HOST:PORT",
                                       "Ask the horizond daemon there; the DEM operand is then a dataset name"};
-inline constexpr FlagSpec kDeadlineFlag{"--deadline", "", "S",
-                                        "With --server: seconds the daemon may take (default 60); the call fails after"};
+inline constexpr FlagSpec kDeadlineFlag{
+    "--deadline", "", "S", "With --server: seconds the daemon may take (default 60); the call fails after"};
 inline constexpr FlagSpec kCaFlag{"--ca", "", "CA.pem",
                                   "With --server: speak TLS, trusting the daemon's certificate to this CA"};
 inline constexpr FlagSpec kClientCertFlag{"--client-cert", "", "CERT.pem,KEY.pem",
                                           "With --ca: present this client certificate and key (mutual TLS)"};
-inline constexpr FlagSpec kTokenFileFlag{"--token-file", "", "FILE",
-                                         "With --server: send the bearer token in FILE's first line (or $HORIZON_TOKEN)"};
+inline constexpr FlagSpec kTokenFileFlag{
+    "--token-file", "", "FILE", "With --server: send the bearer token in FILE's first line (or $HORIZON_TOKEN)"};
 
 struct ViewshedInputs {
   std::string dataset;
@@ -49,9 +50,11 @@ int run_info(const Args& args, const std::string& dataset, bool json);
 int run_viewshed(const Args& args, const ViewshedInputs& inputs);
 int run_los(const Args& args, const std::string& dataset, const geodesy::PointSpec& from, const geodesy::PointSpec& to,
             const visibility::LosOptions& options, bool json);
-// The boxes as read by `horizon cull`; prints the same report as embedded mode.
+// The boxes (and their ids, one each or none) as read by `horizon cull`;
+// prints the same report as embedded mode.
 int run_cull(const Args& args, const std::string& dataset, const geodesy::PointSpec& observer,
-             const std::vector<visibility::BoxSpec>& boxes, const visibility::CullOptions& options, bool json);
+             const std::vector<visibility::BoxSpec>& boxes, const std::vector<std::uint64_t>& ids,
+             const visibility::CullOptions& options, bool json);
 int run_datasets(const Args& args, bool json);
 // The flight over one session stream; prints the same report as embedded mode.
 int run_session(const Args& args, const SessionPlayback& playback, bool json, bool every_pose);

@@ -47,24 +47,27 @@ grpc::Status run_cull_boxes(CallScope& scope, const v1::CullBoxesRequest& reques
                    "boxes"));
   // The messages were reserved at admission (VisibilityService::CullBoxes).
   const std::string what = planned_work("this culling request", plan->cost, plan->viewshed.radial.ray_spacing);
-  if (auto s = scope.reserve(plan->cost.bytes, what); !s.ok())
-    return scope.status_of(s.error());
+  if (auto s = scope.reserve(plan->cost.bytes, what); !s.ok()) return scope.status_of(s.error());
 
   // The daemon's GPU contexts are lent to the OHF (backend auto: a hardware GPU for large windows).
-  auto run = visibility::run_cull_boxes(*plan, *d.source, &env.cache, scope.control(), env.gpu, env.backend, &worker_workspace());
+  auto run = visibility::run_cull_boxes(*plan, *d.source, &env.cache, scope.control(), env.gpu, env.backend,
+                                        &worker_workspace());
   if (!run.ok()) return scope.status_of(rename_field(run.error(), ""));
   const visibility::CullResult* const result = &run->result;
   const visibility::WorkStats& stats = result->stats;
   scope.ohf_computed(stats);
 
   response.mutable_boxes()->Reserve(n);
-  for (const visibility::BoxVisibility& b : result->boxes) {
+  for (int i = 0; i < n; ++i) {
+    const visibility::BoxVisibility& b = result->boxes[static_cast<std::size_t>(i)];
     v1::BoxVisibility* out = response.add_boxes();
-    out->set_visible(b.state != visibility::Visibility::kOccluded);
+    out->set_visible(visibility::may_be_seen(b.state));
     out->set_ohf_min(b.ohf_min);
     out->set_state(to_proto_box_state(b.state));
+    out->set_id(request.boxes(i).id());
   }
   response.set_visible_count(static_cast<std::uint32_t>(result->visible_count));
+  response.set_out_of_range_count(static_cast<std::uint32_t>(result->out_of_range_count));
   fill_window(result->window, *response.mutable_window());
   fill_stats(stats, *response.mutable_stats());
   response.set_pyramid_cells_read(result->pyramid_cells_read);

@@ -88,6 +88,8 @@ v1::BoxState to_proto_box_state(visibility::Visibility state) {
       return v1::BOX_STATE_HIDDEN;
     case visibility::Visibility::kUndetermined:
       return v1::BOX_STATE_UNDETERMINED;
+    case visibility::Visibility::kOutOfRange:
+      return v1::BOX_STATE_OUT_OF_RANGE;
   }
   return v1::BOX_STATE_UNSPECIFIED;
 }
@@ -135,22 +137,26 @@ Error rename_field(Error error, std::string_view options_prefix, std::string_vie
   return error;
 }
 
+Result<visibility::NodataPolicy> to_nodata_policy(v1::NodataPolicy policy, const std::string& field) {
+  switch (policy) {
+    case v1::NODATA_POLICY_UNSPECIFIED:
+    case v1::NODATA_POLICY_TRANSPARENT:
+      return visibility::NodataPolicy::kTransparent;
+    case v1::NODATA_POLICY_FILL:
+      return visibility::NodataPolicy::kFill;
+    default:
+      return invalid(field, "unknown value " + std::to_string(static_cast<int>(policy)));
+  }
+}
+
 Result<visibility::ViewshedOptions> to_viewshed_options(const v1::ViewshedOptions& in, unsigned threads) {
   visibility::ViewshedOptions o;
   o.target_height = in.target_height();
   if (in.has_max_distance()) o.max_distance = in.max_distance();
   if (in.has_curvature()) o.curvature_coefficient = in.curvature();
-  switch (in.nodata()) {
-    case v1::NODATA_POLICY_UNSPECIFIED:
-    case v1::NODATA_POLICY_TRANSPARENT:
-      o.nodata = visibility::NodataPolicy::kTransparent;
-      break;
-    case v1::NODATA_POLICY_FILL:
-      o.nodata = visibility::NodataPolicy::kFill;
-      break;
-    default:
-      return invalid("options.nodata", "unknown value " + std::to_string(static_cast<int>(in.nodata())));
-  }
+  auto nodata = to_nodata_policy(in.nodata(), "options.nodata");
+  if (!nodata.ok()) return nodata.error();
+  o.nodata = *nodata;
   o.nodata_fill_height = in.nodata_fill_height();
   auto algorithm = to_algorithm(in.algorithm(), "options.algorithm");
   if (!algorithm.ok()) return algorithm.error();
@@ -186,6 +192,11 @@ Result<visibility::CullOptions> to_cull_options(const v1::CullBoxesRequest& requ
   auto curvature = to_curvature(request.has_curvature(), request.curvature());
   if (!curvature.ok()) return curvature.error();
   options.viewshed.curvature_coefficient = *curvature;
+  auto nodata = to_nodata_policy(request.nodata(), "nodata");
+  if (!nodata.ok()) return nodata.error();
+  options.viewshed.nodata = *nodata;
+  options.viewshed.nodata_fill_height = request.nodata_fill_height();
+  if (auto s = visibility::validate_options(options.viewshed); !s.ok()) return rename_field(s.error(), "");
   options.viewshed.threads = threads;
   options.conservative = request.conservative();
   return options;
@@ -204,7 +215,7 @@ Result<std::vector<visibility::BoxSpec>> to_boxes(const v1::CullBoxesRequest& re
 }
 
 Result<std::pair<geodesy::PointSpec, geodesy::PointSpec>> to_line_ends(const v1::SightLine& line,
-                                                                        const std::string& prefix) {
+                                                                       const std::string& prefix) {
   if (!line.has_from() || !line.has_to()) {
     const std::string field = prefix + (line.has_from() ? "to" : "from");
     return make_error(ErrorCode::kInvalidArgument, field + ": required", field);

@@ -3,6 +3,7 @@
 
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -101,14 +102,18 @@ TEST_F(ServerCli, LineOfSightJsonEqualsEmbedded) {
 TEST_F(ServerCli, CullEqualsEmbeddedAndHidesSomething) {
   // Boxes around the summit of Everest in lon/lat, tall and short.
   std::ostringstream csv;
-  csv << "x_min,y_min,x_max,y_max,z_min,z_max\n";
+  // Client ids (10 i + 7), and box 40 off the map: answered out_of_range, the others still culled.
+  csv << "id,x_min,y_min,x_max,y_max,z_min,z_max\n";
   for (int i = 0; i < 40; ++i) {
     const double lon = 86.88 + 0.002 * i, lat = 27.95 + 0.0015 * (i % 20);
-    csv << lon << ',' << lat << ',' << lon + 0.0008 << ',' << lat + 0.0005 << ",4000," << (i % 2 ? 9000 : 4500) << '\n';
+    csv << 10 * i + 7 << ',' << lon << ',' << lat << ',' << lon + 0.0008 << ',' << lat + 0.0005 << ",4000,"
+        << (i % 2 ? 9000 : 4500) << '\n';
   }
+  csv << "407,80.0,27.95,80.001,27.951,4000,4500\n";
   const std::string boxes = dir_.file("boxes.csv");
   write_file(boxes, csv.str());
-  for (const std::string mode : {"", " --conservative", " --algorithm r3"}) {
+  std::map<std::string, int> seen_states;
+  for (const std::string mode : {"", " --conservative", " --algorithm r3", " --nodata fill:0"}) {
     const std::string flags = " --lat 27.9881 --lon 86.9250 --altitude 8850 --boxes " + boxes + " --lonlat" + mode;
     const auto a = horizon("cull " + bundled_dem("everest_summit_voids_srtm3_300x300.tif") + flags + " --json");
     const auto b = horizon("cull everest" + server() + flags + " --json");
@@ -123,9 +128,24 @@ TEST_F(ServerCli, CullEqualsEmbeddedAndHidesSomething) {
     EXPECT_EQ(ja, jb) << mode;
     EXPECT_GT(ja["visible_count"].get<int>(), 0);
     EXPECT_LT(ja["visible_count"].get<int>(), 40) << mode;
-    for (const Json& box : jb["boxes"])  // the state as a word, agreeing with `visible`
-      EXPECT_EQ(box["state"], box["visible"].get<bool>() ? "visible" : "hidden") << mode << ": " << box;
+    ASSERT_EQ(jb["boxes"].size(), 41u);
+    for (std::size_t i = 0; i < 41; ++i) {  // the state as a word, agreeing with `visible`; the id echoed
+      const Json& box = jb["boxes"][i];
+      const std::string state = box["state"];
+      seen_states[state] += 1;
+      EXPECT_EQ(box["visible"].get<bool>(), state != "hidden") << mode << ": " << box;
+      EXPECT_EQ(box["id"].get<std::uint64_t>(), 10 * i + 7);
+      EXPECT_EQ(state == "out_of_range", i == 40) << mode << ": " << box;
+      // Filled voids are terrain: every box on the map is decided.
+      if (mode == " --nodata fill:0") {
+        EXPECT_NE(state, "undetermined") << box;
+      }
+    }
+    EXPECT_EQ(jb["out_of_range_count"], 1) << mode;
   }
+  // The Everest crop's voids leave some buried boxes undetermined under the default policy.
+  EXPECT_GT(seen_states["undetermined"], 0);
+  EXPECT_GT(seen_states["hidden"], 0);
 }
 
 TEST_F(ServerCli, DatasetsListsEveryPage) {

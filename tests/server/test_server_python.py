@@ -235,16 +235,21 @@ def run_checks(listening, log_path):
     req = CullReq(dataset="rainier", observer=eye, conservative=True)
     for i in range(100):
         b = req.boxes.add(frame=2, x_min=-121.85 + 0.002 * i, x_max=-121.85 + 0.002 * i + 0.0005,
-                          y_min=46.80, y_max=46.8005, z_min=0, z_max=1500 + 30 * i)
+                          y_min=46.80, y_max=46.8005, z_min=0, z_max=1500 + 30 * i, id=5000 + i)
+    req.boxes.add(frame=2, x_min=-100.0, x_max=-99.99, y_min=46.80, y_max=46.8005, z_min=0, z_max=10, id=1)
     culled = cull(req, timeout=10)
-    assert len(culled.boxes) == 100 and culled.algorithm == "conservative"
+    assert len(culled.boxes) == 101 and culled.algorithm == "conservative"
     assert culled.visible_count == sum(b.visible for b in culled.boxes)
-    assert 0 < culled.visible_count < 100, culled.visible_count
-    # Each box's state, by its enum name: one viewpoint answers visible or hidden, as `visible` says.
+    assert 0 < culled.visible_count < 101, culled.visible_count
+    assert [b.id for b in culled.boxes] == [5000 + i for i in range(100)] + [1]
+    assert culled.out_of_range_count == 1
+    # Each box's state, by its enum name: `visible` is false only for hidden boxes, the last is off the map.
     box_states = culled.boxes[0].DESCRIPTOR.fields_by_name["state"].enum_type.values_by_number
-    for b in culled.boxes:
-        expected = "BOX_STATE_VISIBLE" if b.visible else "BOX_STATE_HIDDEN"
-        assert box_states[b.state].name == expected, (b.state, b.visible)
+    names = [box_states[b.state].name for b in culled.boxes]
+    assert names[100] == "BOX_STATE_OUT_OF_RANGE", names[100]
+    for b, name in zip(culled.boxes[:100], names):
+        assert name in ("BOX_STATE_VISIBLE", "BOX_STATE_HIDDEN", "BOX_STATE_UNDETERMINED"), name
+        assert (name != "BOX_STATE_HIDDEN") == b.visible, (name, b.visible)
 
     # Errors with details.
     def expect(call, request, code, field):

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <functional>
 #include <future>
+#include <map>
 #include <optional>
 #include <sstream>
 #include <thread>
@@ -241,10 +242,14 @@ TEST_F(ServerRpc, NotFoundOutOfRangeAndResourceExhausted) {
   far->set_y_min(kEcuadorY);
   far->set_y_max(kEcuadorY + 10);
   far->set_z_max(5000);
+  // A box off the map is answered, not refused: the call succeeds.
   v1::CullBoxesResponse response;
   s = visibility_->CullBoxes(context_with_deadline().get(), cull, &response);
-  EXPECT_EQ(s.error_code(), grpc::StatusCode::OUT_OF_RANGE);
-  EXPECT_EQ(violated_field(s), "boxes[0]");
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  ASSERT_EQ(response.boxes_size(), 1);
+  EXPECT_EQ(response.boxes(0).state(), v1::BOX_STATE_OUT_OF_RANGE);
+  EXPECT_TRUE(response.boxes(0).visible());  // nothing is said of it: never culled
+  EXPECT_EQ(response.out_of_range_count(), 1u);
 
   // Past the configured limits: 1000 boxes, 100 000 cells, 50 lines.
   cull.clear_boxes();
@@ -327,7 +332,9 @@ TEST_F(ServerRpc, LineOfSightBatchAnswersInOrder) {
 }
 
 TEST_F(ServerRpc, CullAnswersEachBoxsStateBesideVisible) {
-  // A row of boxes rising eastwards from the summit: the low ones hidden, the high ones seen.
+  // A row of boxes rising eastwards from the summit: the low ones hidden, the
+  // high ones seen, some buried ones over the crop's voids undetermined; ids
+  // 1000 + i echoed, and box 100 off the map.
   v1::CullBoxesRequest cull;
   cull.set_dataset("rainier");
   *cull.mutable_observer() = point(kRainierLon, kRainierLat, 2, v1::FRAME_WGS84);
@@ -341,23 +348,50 @@ TEST_F(ServerRpc, CullAnswersEachBoxsStateBesideVisible) {
     b->set_y_max(46.8005);
     b->set_z_min(0);
     b->set_z_max(1500 + 30 * i);
+    b->set_id(1000 + i);
   }
+  v1::Box* off = cull.add_boxes();
+  *off = cull.boxes(0);
+  off->set_x_min(-100.0);
+  off->set_x_max(-99.99);
+  off->set_id(7);
+
+  const auto states = [&](const v1::CullBoxesRequest& request, std::map<int, int>& count) {
+    v1::CullBoxesResponse response;
+    const grpc::Status s = visibility_->CullBoxes(context_with_deadline().get(), request, &response);
+    ASSERT_TRUE(s.ok()) << s.error_message();
+    ASSERT_EQ(response.boxes_size(), 101);
+    for (int i = 0; i < response.boxes_size(); ++i) {
+      const v1::BoxVisibility& b = response.boxes(i);
+      EXPECT_EQ(b.id(), i < 100 ? 1000u + i : 7u);
+      EXPECT_NE(b.state(), v1::BOX_STATE_UNSPECIFIED) << "box " << i;
+      EXPECT_EQ(b.visible(), b.state() != v1::BOX_STATE_HIDDEN) << "box " << i;  // only hidden boxes may be culled
+      EXPECT_EQ(b.state() == v1::BOX_STATE_OUT_OF_RANGE, i == 100) << "box " << i;
+      ++count[b.state()];
+    }
+    EXPECT_EQ(response.out_of_range_count(), 1u);
+    EXPECT_EQ(static_cast<int>(response.visible_count()), 101 - count[v1::BOX_STATE_HIDDEN]);
+  };
+  std::map<int, int> transparent;
+  states(cull, transparent);
+  EXPECT_GT(transparent[v1::BOX_STATE_VISIBLE], 0);
+  EXPECT_GT(transparent[v1::BOX_STATE_HIDDEN], 0);
+  EXPECT_GT(transparent[v1::BOX_STATE_UNDETERMINED], 0);
+
+  // Voids filled as terrain: every box on the map is decided.
+  cull.set_nodata(v1::NODATA_POLICY_FILL);
+  cull.set_nodata_fill_height(4000);
+  std::map<int, int> filled;
+  states(cull, filled);
+  EXPECT_EQ(filled[v1::BOX_STATE_UNDETERMINED], 0);
+  EXPECT_EQ(filled[v1::BOX_STATE_VISIBLE] + filled[v1::BOX_STATE_HIDDEN], 100);
+
+  // An unknown policy is refused, naming the field.
+  cull.set_nodata(static_cast<v1::NodataPolicy>(42));
   v1::CullBoxesResponse response;
-  const grpc::Status s = visibility_->CullBoxes(context_with_deadline().get(), cull, &response);
-  ASSERT_TRUE(s.ok()) << s.error_message();
-  ASSERT_EQ(response.boxes_size(), 100);
-  int visible = 0, hidden = 0;
-  for (int i = 0; i < response.boxes_size(); ++i) {
-    const v1::BoxVisibility& b = response.boxes(i);
-    // One viewpoint: never unspecified, never undetermined, and `visible` keeps its meaning.
-    EXPECT_EQ(b.state(), b.visible() ? v1::BOX_STATE_VISIBLE : v1::BOX_STATE_HIDDEN) << "box " << i;
-    visible += b.state() == v1::BOX_STATE_VISIBLE;
-    hidden += b.state() == v1::BOX_STATE_HIDDEN;
-  }
-  EXPECT_GT(visible, 0);
-  EXPECT_GT(hidden, 0);
-  EXPECT_EQ(visible + hidden, 100);
-  EXPECT_EQ(static_cast<int>(response.visible_count()), visible);
+  const grpc::Status bad = visibility_->CullBoxes(context_with_deadline().get(), cull, &response);
+  EXPECT_EQ(bad.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(violated_field(bad), "nodata");
 }
 
 TEST_F(ServerRpc, DeadlineAndCancellationStopTheComputation) {

@@ -74,6 +74,7 @@ TEST(Cull, VisibilityNamesAreTheApiWords) {
   EXPECT_EQ(visibility_name(Visibility::kSeen), "visible");
   EXPECT_EQ(visibility_name(Visibility::kOccluded), "hidden");
   EXPECT_EQ(visibility_name(Visibility::kUndetermined), "undetermined");
+  EXPECT_EQ(visibility_name(Visibility::kOutOfRange), "out_of_range");
   EXPECT_EQ(BoxVisibility{}.state, Visibility::kSeen);
 }
 
@@ -239,17 +240,73 @@ TEST(Cull, RejectsMalformedBoxesNamingTheField) {
   ASSERT_FALSE(nan.ok());
   EXPECT_EQ(nan.error().field, "boxes[1].x_min");
 
+  // Off the map: refused by resolve_boxes when asked to, answered by culling.
   boxes[1] = box_over(dem, 28, 3, 31, 4, 0, 1);  // beyond the last column
+  auto refused = resolve_boxes(dem, boxes);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ErrorCode::kOutOfRange);
+  EXPECT_EQ(refused.error().field, "boxes[1]");
   auto outside = cull_boxes(dem, eye, boxes, o);
-  ASSERT_FALSE(outside.ok());
-  EXPECT_EQ(outside.error().code, ErrorCode::kOutOfRange);
-  EXPECT_EQ(outside.error().field, "boxes[1]");
+  ASSERT_TRUE(outside.ok()) << outside.error().message;
+  EXPECT_EQ(outside->boxes[1].state, Visibility::kOutOfRange);
+  EXPECT_NE(outside->boxes[0].state, Visibility::kOutOfRange);
+  EXPECT_EQ(outside->out_of_range_count, 1u);
 
   boxes[1] = box_over(dem, 3, 3, 4, 4, 0, 1);
   boxes[1].frame = geodesy::PointFrame::kWgs84;  // the wall DEM has no CRS
   auto no_crs = cull_boxes(dem, eye, boxes, o);
   ASSERT_FALSE(no_crs.ok());
   EXPECT_EQ(no_crs.error().code, ErrorCode::kUnsupported);
+}
+
+TEST(Cull, ABoxMeetingAVoidIsDecidedOnItsKnownCellsOrUndetermined) {
+  terrain::Dem dem = wall_dem();
+  for (int r = 3; r <= 5; ++r)
+    for (int c = 18; c <= 19; ++c) dem.elevation.at(c, r) = std::nanf("");
+  const auto eye = eye_at(dem, 2, 4, 10.0);
+  const double ohf17 = 10.0 + 15 * 90.0 / 8;  // the sight line over the wall at column 17
+  const std::vector<BoxSpec> boxes = {
+      box_over(dem, 17, 4, 19, 4, 0, 150),  // buried where known, part over the void
+      box_over(dem, 17, 4, 19, 4, 0, 185),  // above the known part: seen there
+      box_over(dem, 18, 4, 19, 4, 0, 150),  // over the void alone
+      box_over(dem, 20, 4, 21, 4, 0, 150),  // no void: hidden as usual
+  };
+  auto result = cull_boxes(dem, eye, boxes, flat(Algorithm::kR3));
+  ASSERT_TRUE(result.ok()) << result.error().message;
+  EXPECT_EQ(result->boxes[0].state, Visibility::kUndetermined);
+  EXPECT_NEAR(result->boxes[0].ohf_min, ohf17, 1e-3);
+  EXPECT_EQ(result->boxes[1].state, Visibility::kSeen);
+  EXPECT_NEAR(result->boxes[1].ohf_min, ohf17, 1e-3);
+  EXPECT_EQ(result->boxes[2].state, Visibility::kUndetermined);
+  EXPECT_EQ(result->boxes[2].ohf_min, kMinusInf);
+  EXPECT_EQ(result->boxes[3].state, Visibility::kOccluded);
+  EXPECT_EQ(result->visible_count, 3u);  // undetermined boxes may be seen: a client must draw them
+
+  // Voids filled as ground at 0 m: the buried boxes are hidden.
+  CullOptions filled = flat(Algorithm::kR3);
+  filled.viewshed.nodata = NodataPolicy::kFill;
+  filled.viewshed.nodata_fill_height = 0.0;
+  auto fill = cull_boxes(dem, eye, boxes, filled);
+  ASSERT_TRUE(fill.ok()) << fill.error().message;
+  EXPECT_EQ(fill->boxes[0].state, Visibility::kOccluded);
+  EXPECT_NEAR(fill->boxes[0].ohf_min, ohf17, 1e-3);
+  EXPECT_EQ(fill->boxes[2].state, Visibility::kOccluded);
+  EXPECT_EQ(fill->boxes[1].state, Visibility::kSeen);
+}
+
+TEST(Cull, BoxesAllOffTheMapAreAnsweredWithoutAnOhf) {
+  const terrain::Dem dem = wall_dem();
+  const auto eye = eye_at(dem, 2, 4, 10.0);
+  const std::vector<BoxSpec> boxes = {box_over(dem, 28, 3, 31, 4, 0, 1), box_over(dem, -3, 3, 1, 4, 0, 1)};
+  auto plan = plan_cull(dem, eye, boxes, flat(Algorithm::kR3));
+  ASSERT_TRUE(plan.ok());
+  EXPECT_FALSE(plan->any_on_map);
+  auto result = cull_boxes(dem, eye, boxes, flat(Algorithm::kR3));
+  ASSERT_TRUE(result.ok()) << result.error().message;
+  for (const BoxVisibility& b : result->boxes) EXPECT_EQ(b.state, Visibility::kOutOfRange);
+  EXPECT_EQ(result->out_of_range_count, 2u);
+  EXPECT_EQ(result->visible_count, 2u);
+  EXPECT_TRUE(result->window.empty());  // nothing was computed
 }
 
 TEST(Cull, HonoursCancellation) {

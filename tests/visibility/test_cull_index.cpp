@@ -71,7 +71,17 @@ TEST(CullIndex, LevelsHoldTheMinimumOfTheSquareEachCellLeads) {
   EXPECT_EQ(index.level(2)[5], -kInf);
   // Level 2 at (4, 0): column 4, rows 0..2: least is 100 - 40 - 2.
   EXPECT_EQ(index.level(2)[4], 58.0f);
-  EXPECT_EQ(index.bytes(), CullIndex::index_bytes(15, 3));
+  // The void keeps a second set of levels, voids as +inf.
+  ASSERT_TRUE(index.has_voids());
+  EXPECT_EQ(index.bytes(), CullIndex::index_bytes(15, 3, true));
+  EXPECT_EQ(index.known_min_in(2, 0, 4, 2), 70.0f);  // (2,0) 80, (3,0) 70, (2,1) 79, (3,1) void
+  EXPECT_EQ(index.known_min_in(3, 1, 4, 2), kInf);   // the void alone
+  EXPECT_EQ(index.min_in(2, 0, 4, 2), -kInf);
+  // Without voids, one set.
+  g.at(3, 1) = 1.0f;
+  const CullIndex whole(g, {0, 0, 5, 3}, 3);
+  EXPECT_FALSE(whole.has_voids());
+  EXPECT_EQ(whole.bytes(), CullIndex::index_bytes(15, 3));
 }
 
 TEST(CullIndex, MinInIsExactForEveryRectangleShape) {
@@ -134,12 +144,23 @@ Scene random_scene(unsigned seed) {
     if (i % 7 == 0) w = thin(rng);  // elongated: more than four reads
     if (i % 11 == 0) h = 40 + side(rng);
     BoxFootprint f = footprint(c0, r0, c0 + w, r0 + h, 0.0);
+    if (i % 97 == 0) {
+      f = BoxFootprint{};  // off the map
+      f.on_map = false;
+      s.boxes.push_back(f);
+      continue;
+    }
     // Around the true minimum, so that both answers occur, ties included.
     const bool inside = c0 >= 20 && r0 >= 30 && c0 + w <= 117 && r0 + h <= 113;
     const float m = inside ? brute_min(s.ohf, c0 - 20, r0 - 30, c0 + w - 20, r0 + h - 30) : 1000.0f;
-    if (std::isinf(m))
-      f.z_max = 500.0;
-    else if (i % 5 == 0)
+    if (std::isinf(m)) {
+      // Over a void: just below or at the least known value, undetermined or visible.
+      float known = kInf;
+      for (int r = r0 - 30; r < r0 + h - 30; ++r)
+        for (int c = c0 - 20; c < c0 + w - 20; ++c)
+          if (!std::isnan(s.ohf.at(c, r))) known = std::min(known, s.ohf.at(c, r));
+      f.z_max = std::isinf(known) ? 0.0 : static_cast<double>(known) - kTieTolerance - (i % 2 ? 1.0 : 0.0);
+    } else if (i % 5 == 0)
       f.z_max = static_cast<double>(m) - kTieTolerance;  // a tie: visible
     else if (i % 5 == 1)
       f.z_max = std::nextafter(static_cast<double>(m) - kTieTolerance, -1e300);  // just short: hidden
@@ -178,9 +199,15 @@ TEST(CullIndex, BatchAgreesWithThePyramidBoxForBox) {
     BatchStats stats;
     const std::size_t visible = cull_batch(index, batch, got, &stats);
     expect_same(want, got);
-    EXPECT_EQ(visible, static_cast<std::size_t>(std::count_if(want.begin(), want.end(), [](const BoxVisibility& b) {
-                return b.state == Visibility::kSeen;
-              })));
+    EXPECT_EQ(visible, static_cast<std::size_t>(std::count_if(
+                           want.begin(), want.end(), [](const BoxVisibility& b) { return may_be_seen(b.state); })));
+    // Off-map boxes, and boxes over voids that the known cells could not decide, occurred.
+    const auto count = [&](Visibility v) {
+      return std::count_if(want.begin(), want.end(), [&](const BoxVisibility& b) { return b.state == v; });
+    };
+    EXPECT_EQ(count(Visibility::kOutOfRange), 31);
+    EXPECT_GT(count(Visibility::kUndetermined), 0);
+    EXPECT_TRUE(index.has_voids());
     // Both outcomes, ties and off-window boxes all occurred.
     EXPECT_GT(visible, 300u);
     EXPECT_LT(visible, s.boxes.size() - 300u);

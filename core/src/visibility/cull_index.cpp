@@ -87,6 +87,27 @@ void answer(BoxVisibility& out, float ohf_min, float threshold) {
   out = {ohf_min <= threshold ? Visibility::kSeen : Visibility::kOccluded, ohf_min};
 }
 
+// A box whose least OHF read -inf (rare: off the map, outside the index, a
+// void, or the eye's own cell), answered as cull_footprints answers it.
+void settle(const CullIndex& index, const BoxBatch& b, std::size_t i, BoxVisibility& out, BatchStats& stats) {
+  if (!b.on_map[i]) {
+    out = {Visibility::kOutOfRange, -kInf};
+    return;
+  }
+  out = {Visibility::kSeen, -kInf};
+  const terrain::Window& win = index.window();
+  const int c0 = b.col0[i] - win.col0, r0 = b.row0[i] - win.row0;
+  const int c1 = b.col1[i] - win.col0, r1 = b.row1[i] - win.row0;
+  if (!index.has_voids() || c0 < 0 || r0 < 0 || c1 > index.width() || r1 > index.height() || c1 <= c0 || r1 <= r0)
+    return;
+  // The least over the cells that have an OHF: -inf there is a real value
+  // (the eye's cell), seen; otherwise the box meets a void, and is seen only
+  // if the known cells let it be.
+  const float least = index.known_min_in(c0, r0, c1, r1, &stats.reads);
+  if (least == -kInf) return;
+  out = {least <= b.threshold[i] ? Visibility::kSeen : Visibility::kUndetermined, least == kInf ? -kInf : least};
+}
+
 #ifdef HORIZON_SIMD_AVX2
 
 // What a vector kernel leaves for the lanes it could not answer.
@@ -181,43 +202,65 @@ HORIZON_AVX512 void test16(const CullIndex& index, const BoxBatch& b, std::size_
 
 }  // namespace
 
+namespace {
+
+// Fills `values` (levels planes of w x h) from `ohf`, NaN read as `void_value`.
+void build_levels(const terrain::Grid<float>& ohf, float void_value, int levels, unsigned threads,
+                  std::vector<float, LargeAllocator<float>>& values) {
+  const int width = ohf.width(), height = ohf.height();
+  const std::size_t w = static_cast<std::size_t>(width);
+  const std::size_t plane = w * static_cast<std::size_t>(height);
+  values.resize(plane * static_cast<std::size_t>(levels));
+  if (plane == 0) return;
+  const std::size_t items = (static_cast<std::size_t>(height) + kRowsPerItem - 1) / kRowsPerItem;
+  parallel_for(items, threads, [&](std::size_t item) {
+    const int r_end = std::min(height, static_cast<int>((item + 1) * kRowsPerItem));
+    for (int r = static_cast<int>(item) * kRowsPerItem; r < r_end; ++r) {
+      const float* in = &ohf.at(0, r);
+      float* out = values.data() + static_cast<std::size_t>(r) * w;
+      for (std::size_t c = 0; c < w; ++c) out[c] = in[c] == in[c] ? in[c] : void_value;
+    }
+  });
+  for (int k = 1; k < levels; ++k) {
+    const int half = 1 << (k - 1);
+    const float* prev = values.data() + static_cast<std::size_t>(k - 1) * plane;
+    float* cur = values.data() + static_cast<std::size_t>(k) * plane;
+    parallel_for(items, threads, [&](std::size_t item) {
+      const int r_end = std::min(height, static_cast<int>((item + 1) * kRowsPerItem));
+      for (int r = static_cast<int>(item) * kRowsPerItem; r < r_end; ++r) {
+        // Squares hanging over the east or south edge take the last cell
+        // there, which is inside them: still the minimum of their clipped part.
+        const float* a = prev + static_cast<std::size_t>(r) * w;
+        const float* b = prev + static_cast<std::size_t>(std::min(r + half, height - 1)) * w;
+        float* out = cur + static_cast<std::size_t>(r) * w;
+        const int split = std::max(0, width - half);
+        for (int c = 0; c < split; ++c) out[c] = std::min(std::min(a[c], a[c + half]), std::min(b[c], b[c + half]));
+        for (int c = split; c < width; ++c)
+          out[c] = std::min(std::min(a[c], a[width - 1]), std::min(b[c], b[width - 1]));
+      }
+    });
+  }
+}
+
+bool has_nan(const terrain::Grid<float>& g) {
+  for (int r = 0; r < g.height(); ++r) {
+    const float* row = &g.at(0, r);
+    for (int c = 0; c < g.width(); ++c)
+      if (row[c] != row[c]) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
 CullIndex::CullIndex(const terrain::Grid<float>& ohf, const terrain::Window& window, int levels, unsigned threads)
     : window_(window),
       width_(ohf.width()),
       height_(ohf.height()),
       levels_(std::clamp(levels, 1, kMaxLevels)),
       plane_(static_cast<std::size_t>(ohf.width()) * static_cast<std::size_t>(ohf.height())) {
-  values_.resize(plane_ * static_cast<std::size_t>(levels_));
-  if (plane_ == 0) return;
-  const std::size_t w = static_cast<std::size_t>(width_);
-  const std::size_t items = (static_cast<std::size_t>(height_) + kRowsPerItem - 1) / kRowsPerItem;
-  parallel_for(items, threads, [&](std::size_t item) {
-    const int r_end = std::min(height_, static_cast<int>((item + 1) * kRowsPerItem));
-    for (int r = static_cast<int>(item) * kRowsPerItem; r < r_end; ++r) {
-      const float* in = &ohf.at(0, r);
-      float* out = values_.data() + static_cast<std::size_t>(r) * w;
-      for (std::size_t c = 0; c < w; ++c) out[c] = in[c] == in[c] ? in[c] : -kInf;  // NaN: -inf
-    }
-  });
-  for (int k = 1; k < levels_; ++k) {
-    const int half = 1 << (k - 1);
-    const float* prev = level(k - 1);
-    float* cur = values_.data() + static_cast<std::size_t>(k) * plane_;
-    parallel_for(items, threads, [&](std::size_t item) {
-      const int r_end = std::min(height_, static_cast<int>((item + 1) * kRowsPerItem));
-      for (int r = static_cast<int>(item) * kRowsPerItem; r < r_end; ++r) {
-        // Squares hanging over the east or south edge take the last cell
-        // there, which is inside them: still the minimum of their clipped part.
-        const float* a = prev + static_cast<std::size_t>(r) * w;
-        const float* b = prev + static_cast<std::size_t>(std::min(r + half, height_ - 1)) * w;
-        float* out = cur + static_cast<std::size_t>(r) * w;
-        const int split = std::max(0, width_ - half);
-        for (int c = 0; c < split; ++c) out[c] = std::min(std::min(a[c], a[c + half]), std::min(b[c], b[c + half]));
-        for (int c = split; c < width_; ++c)
-          out[c] = std::min(std::min(a[c], a[width_ - 1]), std::min(b[c], b[width_ - 1]));
-      }
-    });
-  }
+  build_levels(ohf, -kInf, levels_, threads, values_);
+  if (plane_ != 0 && has_nan(ohf)) build_levels(ohf, kInf, levels_, threads, known_);
 }
 
 int CullIndex::levels_for(std::span<const BoxFootprint> footprints) {
@@ -229,14 +272,23 @@ int CullIndex::levels_for(std::span<const BoxFootprint> footprints) {
   return std::min(k + 1, kMaxLevels);
 }
 
-std::uint64_t CullIndex::index_bytes(std::uint64_t cells, int levels) {
-  return cells * static_cast<std::uint64_t>(std::clamp(levels, 1, kMaxLevels)) * sizeof(float);
+std::uint64_t CullIndex::index_bytes(std::uint64_t cells, int levels, bool voids) {
+  return cells * static_cast<std::uint64_t>(std::clamp(levels, 1, kMaxLevels)) * sizeof(float) * (voids ? 2 : 1);
 }
 
 float CullIndex::min_in(int col0, int row0, int col1, int row1, std::uint64_t* reads) const {
+  return least_in(values_.data(), col0, row0, col1, row1, reads);
+}
+
+float CullIndex::known_min_in(int col0, int row0, int col1, int row1, std::uint64_t* reads) const {
+  if (known_.empty()) return min_in(col0, row0, col1, row1, reads);
+  return least_in(known_.data(), col0, row0, col1, row1, reads);
+}
+
+float CullIndex::least_in(const float* levels, int col0, int row0, int col1, int row1, std::uint64_t* reads) const {
   assert(col0 >= 0 && row0 >= 0 && col1 <= width_ && row1 <= height_ && col0 < col1 && row0 < row1);
   const Square sq = square_for(col1 - col0, row1 - row0, levels_);
-  const float* values = level(sq.k);
+  const float* values = levels + static_cast<std::size_t>(sq.k) * plane_;
   const std::size_t w = static_cast<std::size_t>(width_);
   float m = kInf;
   std::uint64_t n = 0;
@@ -262,8 +314,9 @@ BoxBatch::BoxBatch(std::span<const BoxFootprint> footprints) {
   for (std::size_t i = 0; i < n; ++i) {
     const terrain::Window& c = footprints[i].cells;
     // Z-order of the north-west corner (cells are >= 0 in a DEM's grid).
-    const auto u = static_cast<std::uint32_t>(std::max(0, c.col0));
-    const auto v = static_cast<std::uint32_t>(std::max(0, c.row0));
+    const bool on = footprints[i].on_map;
+    const auto u = static_cast<std::uint32_t>(on ? std::max(0, c.col0) : 0);
+    const auto v = static_cast<std::uint32_t>(on ? std::max(0, c.row0) : 0);
     keys[i] = {spread_bits(u) | (spread_bits(v) << 1), static_cast<std::uint32_t>(i)};
   }
   std::sort(keys.begin(), keys.end());
@@ -272,10 +325,18 @@ BoxBatch::BoxBatch(std::span<const BoxFootprint> footprints) {
   col1.resize(n);
   row1.resize(n);
   threshold.resize(n);
+  on_map.resize(n);
   order.resize(n);
   for (std::size_t j = 0; j < n; ++j) {
     const BoxFootprint& f = footprints[keys[j].second];
     order[j] = keys[j].second;
+    on_map[j] = f.on_map;
+    if (!f.on_map) {
+      // An empty footprint: outside any index, and answered kOutOfRange.
+      col0[j] = row0[j] = col1[j] = row1[j] = 0;
+      threshold[j] = -kInf;
+      continue;
+    }
     col0[j] = f.cells.col0;
     row0[j] = f.cells.row0;
     col1[j] = f.cells.col1;
@@ -291,8 +352,11 @@ std::size_t cull_batch(const CullIndex& index, const BoxBatch& batch, std::span<
   const std::size_t n = batch.size();
   const auto finish = [&](std::size_t j, float ohf_min) {
     BoxVisibility& o = out[batch.order[j]];
-    answer(o, ohf_min, batch.threshold[j]);
-    visible += o.state == Visibility::kSeen;
+    if (ohf_min == -kInf)
+      settle(index, batch, j, o, local);
+    else
+      answer(o, ohf_min, batch.threshold[j]);
+    visible += may_be_seen(o.state);
   };
   std::size_t j = 0;
 #ifdef HORIZON_SIMD_AVX2

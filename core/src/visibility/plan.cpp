@@ -211,7 +211,7 @@ Result<CullBoxesPlan> plan_cull_boxes(const terrain::ElevationSource& source, Cu
   auto located = locate(source, query.observer, "observer");
   if (!located.ok()) return located.error();
   plan.observer = *located;
-  auto footprints = resolve_boxes(h.georef, h.width, h.height, h.source, query.boxes);
+  auto footprints = resolve_boxes(h.georef, h.width, h.height, h.source, query.boxes, OffMap::kAnswer);
   if (!footprints.ok()) return footprints.error();
   plan.footprints = std::move(*footprints);
 
@@ -237,9 +237,10 @@ Result<CullBoxesPlan> plan_cull_boxes(const terrain::ElevationSource& source, Cu
       source, geodesy::cells_within(h.georef, h.width, h.height, plan.observer, vs.max_distance, kReadMargin));
   add_read_cost(source, plan.read, plan.cost);
   HORIZON_RETURN_IF_ERROR(add_ohf_cost(vs, output, 0.5 * std::hypot(output.width(), output.height()), plan.cost));
-  // The min-pyramid (under 1.4 bytes a cell; 4/3 of the OHF, an upper bound) and, per box, its spec,
-  // footprint and answer.
-  plan.cost.bytes += plan.cost.cells * sizeof(float) * 4 / 3 +
+  // The min-pyramids (each under 1.4 bytes a cell; 4/3 of the OHF, an upper
+  // bound; the second, voids as +inf, only under boxes that meet a void)
+  // and, per box, its spec, footprint and answer.
+  plan.cost.bytes += 2 * (plan.cost.cells * sizeof(float) * 4 / 3) +
                      plan.footprints.size() * (sizeof(BoxSpec) + sizeof(BoxFootprint) + sizeof(BoxVisibility));
   plan.query = std::move(query);
   return plan;
@@ -259,6 +260,8 @@ Result<CullBoxesRun> run_cull_boxes(const CullBoxesPlan& plan, const terrain::El
   // rather than resolve them again on the window's georeference.
   CullPlan local;
   local.viewshed = plan.viewshed;
+  local.any_on_map =
+      std::any_of(plan.footprints.begin(), plan.footprints.end(), [](const BoxFootprint& f) { return f.on_map; });
   local.footprints.reserve(plan.footprints.size());
   for (BoxFootprint f : plan.footprints) {
     f.cells = shifted(f.cells, -got.col0, -got.row0);

@@ -11,7 +11,9 @@
 // reaches the least OHF over the cell centres its footprint covers
 // (cull.hpp). cull_batch gives, box for box, the state and the ohf_min bits
 // that cull_footprints gives with the min-pyramid: both are exact minima of
-// the same cells, voids read as -inf (visible).
+// the same cells. Voids follow cull.hpp's rule (decided on the cells that
+// have an OHF, else undetermined): when the OHF has any, a second set of
+// levels with voids read as +inf answers the boxes whose first read is -inf.
 //
 // The index. Level k (0 <= k <= levels - 1) holds, for every OHF cell, the
 // least OHF over the 2^k x 2^k square of cells whose north-west corner it is
@@ -40,7 +42,8 @@
 // gives the scalar loop's bits (tests/visibility/test_cull_index.cpp checks
 // all three against cull_footprints and brute force).
 //
-// Cost: the index stores levels x the OHF's cells, 4 bytes each, built in
+// Cost: the index stores levels x the OHF's cells, 4 bytes each (twice that
+// when the OHF has voids), built in
 // O(levels x cells); a test reads 4 index cells for a box of aspect up to 2
 // and ceil(w / s) x ceil(h / s) for others. levels_for() picks the fewest
 // levels that give every box of the set the largest square fitting it, at
@@ -77,17 +80,22 @@ class CullIndex {
   // it (side 2^floor(log2 min(w, h))), capped at kMaxLevels; 1 for none.
   static int levels_for(std::span<const BoxFootprint> footprints);
   // Bytes an index of `levels` levels over `cells` OHF cells stores.
-  static std::uint64_t index_bytes(std::uint64_t cells, int levels);
+  // `voids`: the OHF has NaN cells, and a second set of levels is kept.
+  static std::uint64_t index_bytes(std::uint64_t cells, int levels, bool voids = false);
 
   int levels() const { return levels_; }
   int width() const { return width_; }
   int height() const { return height_; }
   const terrain::Window& window() const { return window_; }
-  std::uint64_t bytes() const { return static_cast<std::uint64_t>(values_.size()) * sizeof(float); }
+  bool has_voids() const { return !known_.empty(); }
+  std::uint64_t bytes() const { return static_cast<std::uint64_t>(values_.size() + known_.size()) * sizeof(float); }
 
   // Least OHF over the local cells [col0, col1) x [row0, row1): non-empty
   // and inside the raster (asserted). Adds the index cells read to *reads.
   float min_in(int col0, int row0, int col1, int row1, std::uint64_t* reads = nullptr) const;
+  // The same with voids read as +inf: the least over the cells that have an
+  // OHF (+inf when none has). min_in when the OHF has no voids.
+  float known_min_in(int col0, int row0, int col1, int row1, std::uint64_t* reads = nullptr) const;
 
   // Level k's cells, row-major, width() per row; level k + 1 follows level
   // k, plane() cells on.
@@ -97,8 +105,11 @@ class CullIndex {
  private:
   terrain::Window window_;
   int width_ = 0, height_ = 0, levels_ = 1;
-  std::size_t plane_ = 0;                             // cells per level
+  std::size_t plane_ = 0;  // cells per level
+  float least_in(const float* levels, int col0, int row0, int col1, int row1, std::uint64_t* reads) const;
+
   std::vector<float, LargeAllocator<float>> values_;  // mapped and populated up front, not zeroed
+  std::vector<float, LargeAllocator<float>> known_;   // voids as +inf; empty when the OHF has none
 };
 
 // Boxes as the kernels read them (see the header comment).
@@ -113,19 +124,22 @@ struct BoxBatch {
   // The largest float t with t <= z_max + kTieTolerance (in double): a box
   // is visible iff ohf_min <= threshold, the rule of cull.hpp in float.
   std::vector<float> threshold;
+  std::vector<std::uint8_t> on_map;  // 0: the box is off the map (BoxFootprint::on_map), answered kOutOfRange
   std::vector<std::uint32_t> order;  // sorted position -> caller's index
 };
 
 struct BatchStats {
   std::uint64_t reads = 0;         // index cells read
   std::uint64_t vector_boxes = 0;  // boxes answered by the vector kernel (four reads each)
-  std::uint64_t outside = 0;       // boxes (partly) outside the index's window: -inf, visible
+  std::uint64_t outside = 0;       // boxes (partly) outside the index's window, off-map ones included
 };
 
 // Tests every box of `batch` against `index`; out[i] answers the caller's
-// box i (out.size() == batch.size(), asserted). A footprint not wholly
-// inside the index's window has no answer for part of it: -inf, visible,
-// as in cull_footprints. Returns the number visible.
+// box i (out.size() == batch.size(), asserted). As cull_footprints: a box
+// off the map is kOutOfRange; a footprint not wholly inside the index's
+// window has no answer for part of it (-inf, visible); one meeting a void is
+// decided on its other cells, or undetermined. Returns the number that may
+// be seen (not kOccluded).
 std::size_t cull_batch(const CullIndex& index, const BoxBatch& batch, std::span<BoxVisibility> out,
                        BatchStats* stats = nullptr);
 
