@@ -319,5 +319,63 @@ TEST(Region, ACancelledRunReturnsTheCancellation) {
   EXPECT_EQ(res.error().code, ErrorCode::kCancelled);
 }
 
+// From-region feeding per-frame culling: boxes classified once for a
+// drone's path (30 m above the ground) need no test while it flies it. At every pose along the
+// path, exact (R3) culling from that pose must agree with every verdict.
+TEST(Region, VerdictsForAPathHoldAtEveryPoseAlongIt) {
+  auto dem = terrain::read_dem(testing::bundled_dem("ecuador_andes_utm17s_10m_383x415.tif"));
+  ASSERT_TRUE(dem.ok()) << dem.error().message;
+  const double x0 = 713850, y0 = 9558900, x1 = 713900, y1 = 9558950;  // 71 m in one second
+  const region::RegionSpec path =
+      region::swept_region(x0, y0, x1, y1, 0.5, 0.5, 30.0, 30.0, geodesy::HeightMode::kAboveGround);
+  const auto& t = dem->georef.transform;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::vector<visibility::BoxSpec> boxes;
+  for (int i = 0; i < 400; ++i) {
+    const double col = 20 + u(rng) * (dem->width() - 60), row = 20 + u(rng) * (dem->height() - 60);
+    const double w = 10 + 30 * u(rng);
+    const double ground = dem->elevation.at(static_cast<int>(col), static_cast<int>(row));
+    visibility::BoxSpec b;
+    b.x_min = t.x_at(col);
+    b.x_max = b.x_min + w;
+    b.y_max = t.y_at(row);
+    b.y_min = b.y_max - w;
+    b.z_min = ground;
+    b.z_max = ground + 2 + 18 * u(rng);
+    boxes.push_back(b);
+  }
+  region::RegionOptions options;
+  options.threads = 1;
+  auto verdicts = region::classify_boxes(*dem, path, boxes, options);
+  ASSERT_TRUE(verdicts.ok()) << verdicts.error().message;
+  EXPECT_GT(verdicts->stats.always_hidden, 40u);
+  EXPECT_GT(verdicts->stats.always_visible, 20u);
+  EXPECT_GT(verdicts->stats.undetermined, 0u);
+
+  visibility::CullOptions exact;
+  exact.viewshed.algorithm = visibility::Algorithm::kR3;
+  exact.viewshed.curvature_coefficient = options.curvature_coefficient;
+  for (int pose = 0; pose <= 10; ++pose) {
+    const double f = pose / 10.0;
+    geodesy::PointSpec at;
+    at.x = x0 + f * (x1 - x0);
+    at.y = y0 + f * (y1 - y0);
+    at.height = 30.0;
+    auto eye = geodesy::resolve_point(*dem, at, "observer");
+    ASSERT_TRUE(eye.ok()) << eye.error().message;
+    auto culled = visibility::cull_boxes(*dem, *eye, boxes, exact);
+    ASSERT_TRUE(culled.ok()) << culled.error().message;
+    for (std::size_t i = 0; i < boxes.size(); ++i) {
+      const visibility::Visibility v = culled->boxes[i].state;
+      if (verdicts->verdicts[i] == Verdict::kAlwaysHidden) {
+        EXPECT_EQ(v, visibility::Visibility::kOccluded) << "box " << i << " at pose " << pose;
+      } else if (verdicts->verdicts[i] == Verdict::kAlwaysVisible) {
+        EXPECT_EQ(v, visibility::Visibility::kSeen) << "box " << i << " at pose " << pose;
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace horizon
