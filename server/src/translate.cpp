@@ -203,15 +203,93 @@ Result<visibility::CullOptions> to_cull_options(const v1::CullBoxesRequest& requ
 }
 
 Result<std::vector<visibility::BoxSpec>> to_boxes(const v1::CullBoxesRequest& request) {
-  std::vector<visibility::BoxSpec> boxes(static_cast<std::size_t>(request.boxes_size()));
-  for (int i = 0; i < request.boxes_size(); ++i) {
-    const v1::Box& in = request.boxes(i);
+  return to_boxes(request.boxes());
+}
+
+Result<std::vector<visibility::BoxSpec>> to_boxes(const google::protobuf::RepeatedPtrField<v1::Box>& in_boxes) {
+  std::vector<visibility::BoxSpec> boxes(static_cast<std::size_t>(in_boxes.size()));
+  for (int i = 0; i < in_boxes.size(); ++i) {
+    const v1::Box& in = in_boxes.Get(i);
     auto frame = to_frame(in.frame(), "boxes[" + std::to_string(i) + "].frame");
     if (!frame.ok()) return frame.error();
     boxes[static_cast<std::size_t>(i)] = {*frame,     in.x_min(), in.y_min(), in.x_max(),
                                           in.y_max(), in.z_min(), in.z_max()};
   }
   return boxes;
+}
+
+Result<region::RegionQuery> to_region_query(const v1::RegionVisibilityRequest& request, unsigned threads) {
+  if (!request.has_region()) return invalid("region", "required");
+  region::RegionQuery q;
+  const v1::Region& r = request.region();
+  auto frame = to_frame(r.frame(), "region.frame");
+  if (!frame.ok()) return frame.error();
+  q.region.frame = *frame;
+  q.region.x_min = r.x_min();
+  q.region.y_min = r.y_min();
+  q.region.x_max = r.x_max();
+  q.region.y_max = r.y_max();
+  q.region.z_min = r.z_min();
+  q.region.z_max = r.z_max();
+  switch (r.height_mode()) {
+    case v1::HEIGHT_MODE_UNSPECIFIED:
+    case v1::HEIGHT_MODE_ABOVE_GROUND:
+      q.region.height_mode = geodesy::HeightMode::kAboveGround;
+      break;
+    case v1::HEIGHT_MODE_ABSOLUTE:
+      q.region.height_mode = geodesy::HeightMode::kAbsolute;
+      break;
+    default:
+      return invalid("region.height_mode", "unknown value " + std::to_string(static_cast<int>(r.height_mode())));
+  }
+  q.cells = request.cells();
+  if (q.cells && request.boxes_size() > 0) return invalid("cells", "give boxes or cells, not both");
+  if (!q.cells) {
+    auto boxes = to_boxes(request.boxes());
+    if (!boxes.ok()) return boxes.error();
+    q.boxes = std::move(*boxes);
+  }
+  region::RegionOptions& o = q.options;
+  if (request.max_distance() != 0.0) o.max_distance = request.max_distance();
+  if (!q.cells && request.max_distance() != 0.0) return invalid("max_distance", "only for cells");
+  o.target_height = request.target_height();
+  if (request.face_resolution() != 0)
+    o.face_resolution = static_cast<int>(std::min<std::uint32_t>(request.face_resolution(), 1u << 30));
+  if (request.footprint_splits() != 0)
+    o.footprint_splits = static_cast<int>(std::min<std::uint32_t>(request.footprint_splits(), 1u << 30));
+  auto curvature = to_curvature(request.has_curvature(), request.curvature());
+  if (!curvature.ok()) return curvature.error();
+  o.curvature_coefficient = *curvature;
+  auto nodata = to_nodata_policy(request.nodata(), "nodata");
+  if (!nodata.ok()) return nodata.error();
+  o.nodata = *nodata;
+  o.nodata_fill_height = request.nodata_fill_height();
+  o.threads = threads;
+  if (auto s = region::validate_region_options(o); !s.ok()) return rename_field(s.error(), "");
+  return q;
+}
+
+v1::RegionVerdict to_proto_verdict(region::Verdict verdict) {
+  switch (verdict) {
+    case region::Verdict::kAlwaysHidden:
+      return v1::REGION_VERDICT_ALWAYS_HIDDEN;
+    case region::Verdict::kAlwaysVisible:
+      return v1::REGION_VERDICT_ALWAYS_VISIBLE;
+    case region::Verdict::kUndetermined:
+      return v1::REGION_VERDICT_UNDETERMINED;
+  }
+  return v1::REGION_VERDICT_UNSPECIFIED;
+}
+
+void fill_region_stats(const region::RegionStats& s, v1::RegionStats& out) {
+  out.set_seconds(s.seconds);
+  out.set_walls_swept(s.walls_swept);
+  out.set_wall_nodes_read(s.wall_nodes_read);
+  out.set_pyramid_cells_read(s.pyramid_cells_read);
+  out.set_items(s.items);
+  out.set_always_hidden(s.always_hidden);
+  out.set_always_visible(s.always_visible);
+  out.set_undetermined(s.undetermined);
 }
 
 Result<std::pair<geodesy::PointSpec, geodesy::PointSpec>> to_line_ends(const v1::SightLine& line,

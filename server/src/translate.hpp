@@ -13,6 +13,7 @@
 #include "datasets.hpp"
 #include "horizon/common/error.hpp"
 #include "horizon/geodesy/observer.hpp"
+#include "horizon/region/region_plan.hpp"
 #include "horizon/v1/datasets.pb.h"
 #include "horizon/v1/visibility.pb.h"
 #include "horizon/visibility/cull.hpp"
@@ -41,10 +42,17 @@ Result<visibility::CullOptions> to_cull_options(const v1::CullBoxesRequest& requ
 // A CullBoxes request's boxes, each frame checked ("boxes[i].frame"). The
 // caller bounds boxes_size() by limits.max_boxes first.
 Result<std::vector<visibility::BoxSpec>> to_boxes(const v1::CullBoxesRequest& request);
+Result<std::vector<visibility::BoxSpec>> to_boxes(const google::protobuf::RepeatedPtrField<v1::Box>& boxes);
+// A RegionVisibility request as an engine query: the region (required,
+// "region.height_mode" checked), boxes or cells, options (0 = default;
+// errors renamed to the API fields). The caller bounds boxes_size() first.
+Result<region::RegionQuery> to_region_query(const v1::RegionVisibilityRequest& request, unsigned threads);
+v1::RegionVerdict to_proto_verdict(region::Verdict verdict);
+void fill_region_stats(const region::RegionStats& s, v1::RegionStats& out);
 // A sight line's two ends, both required; `prefix` is its API path
 // ("lines[3].", naming "lines[3].from").
 Result<std::pair<geodesy::PointSpec, geodesy::PointSpec>> to_line_ends(const v1::SightLine& line,
-                                                                        const std::string& prefix);
+                                                                       const std::string& prefix);
 
 // An engine error's field renamed to the API path: core names options by their
 // C++ members ("curvature_coefficient") and WGS84 coordinates "lon"/"lat";

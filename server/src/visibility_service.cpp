@@ -6,8 +6,8 @@
 
 namespace horizon::server {
 
-grpc::ServerWriteReactor<v1::ViewshedResponse>* VisibilityService::ComputeViewshed(
-    grpc::CallbackServerContext* context, const v1::ViewshedRequest* request) {
+grpc::ServerWriteReactor<v1::ViewshedResponse>* VisibilityService::ComputeViewshed(grpc::CallbackServerContext* context,
+                                                                                   const v1::ViewshedRequest* request) {
   return start_viewshed_call(env_, context, request);
 }
 
@@ -15,8 +15,9 @@ grpc::ServerUnaryReactor* VisibilityService::LineOfSight(grpc::CallbackServerCon
                                                          const v1::LineOfSightRequest* request,
                                                          v1::LineOfSightResponse* response) {
   // request and response stay valid until the call finishes.
-  return UnaryCall::start(env_, context, "LineOfSight", held_bytes(*request),
-                          [request, response](CallScope& scope) { return run_line_of_sight(scope, *request, *response); });
+  return UnaryCall::start(env_, context, "LineOfSight", held_bytes(*request), [request, response](CallScope& scope) {
+    return run_line_of_sight(scope, *request, *response);
+  });
 }
 
 grpc::ServerUnaryReactor* VisibilityService::CullBoxes(grpc::CallbackServerContext* context,
@@ -27,6 +28,17 @@ grpc::ServerUnaryReactor* VisibilityService::CullBoxes(grpc::CallbackServerConte
       held_bytes(*request) + static_cast<std::uint64_t>(request->boxes_size()) * MemoryBudget::kResponseBytesPerBox;
   return UnaryCall::start(env_, context, "CullBoxes", messages,
                           [request, response](CallScope& scope) { return run_cull_boxes(scope, *request, *response); });
+}
+
+grpc::ServerUnaryReactor* VisibilityService::RegionVisibility(grpc::CallbackServerContext* context,
+                                                              const v1::RegionVisibilityRequest* request,
+                                                              v1::RegionVisibilityResponse* response) {
+  // The request as received, and a verdict per box.
+  const std::uint64_t messages =
+      held_bytes(*request) + static_cast<std::uint64_t>(request->boxes_size()) * sizeof(v1::RegionBoxVerdict);
+  return UnaryCall::start(env_, context, "RegionVisibility", messages, [request, response](CallScope& scope) {
+    return run_region_visibility(scope, *request, *response);
+  });
 }
 
 }  // namespace horizon::server

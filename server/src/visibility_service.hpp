@@ -1,6 +1,6 @@
 // visibility_service.hpp — horizon.v1.VisibilityService. Each method only
 // hands the call to its handler (viewshed_call, line_of_sight_call,
-// cull_call); the handlers translate and run the engine on the worker pool.
+// cull_call, region_call); the handlers translate and run the engine on the worker pool.
 #pragma once
 
 #include "arena_allocator.hpp"
@@ -22,6 +22,9 @@ class VisibilityService final : public v1::VisibilityService::CallbackService {
                                         v1::LineOfSightResponse* response) override;
   grpc::ServerUnaryReactor* CullBoxes(grpc::CallbackServerContext* context, const v1::CullBoxesRequest* request,
                                       v1::CullBoxesResponse* response) override;
+  grpc::ServerUnaryReactor* RegionVisibility(grpc::CallbackServerContext* context,
+                                             const v1::RegionVisibilityRequest* request,
+                                             v1::RegionVisibilityResponse* response) override;
 
  private:
   ServerEnv& env_;
@@ -35,5 +38,7 @@ class CallScope;
 grpc::Status run_line_of_sight(CallScope& scope, const v1::LineOfSightRequest& request,
                                v1::LineOfSightResponse& response);
 grpc::Status run_cull_boxes(CallScope& scope, const v1::CullBoxesRequest& request, v1::CullBoxesResponse& response);
+grpc::Status run_region_visibility(CallScope& scope, const v1::RegionVisibilityRequest& request,
+                                   v1::RegionVisibilityResponse& response);
 
 }  // namespace horizon::server

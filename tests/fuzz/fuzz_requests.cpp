@@ -1,8 +1,8 @@
 // libFuzzer target: every request's validation, planning and (on a small
 // DEM) execution, from the wire bytes of a v1 request. The first byte picks
-// the message (viewshed, culling, sight lines); the rest is parsed as it.
+// the message (viewshed, culling, sight lines, region); the rest is parsed as it.
 // The steps are the daemon's: the translations of server/src/translate.hpp,
-// then visibility::plan_* and run_* against the bundled Olinda DEM
+// then visibility::plan_* / region::plan_region and run_* against the bundled Olinda DEM
 // (111 x 111 cells), under a 2 s deadline. Any outcome but a crash, a hang
 // or undefined behaviour is fine: an Error names what was wrong.
 #include <chrono>
@@ -14,6 +14,7 @@
 
 #include <google/protobuf/stubs/logging.h>
 
+#include "horizon/region/region_plan.hpp"
 #include "horizon/terrain/block_cache.hpp"
 #include "horizon/terrain/source.hpp"
 #include "horizon/v1/visibility.pb.h"
@@ -93,13 +94,24 @@ void lines(const v1::LineOfSightRequest& req) {
   }
 }
 
+void region(const v1::RegionVisibilityRequest& req) {
+  Fixture& f = fixture();
+  if (req.boxes_size() > 1000) return;  // limits.max_boxes, shrunk
+  auto query = horizon::server::to_region_query(req, 1);
+  if (!query.ok()) return;
+  auto plan = horizon::region::plan_region(*f.source, std::move(*query));
+  if (!plan.ok()) return;
+  const RunControl control = bounded();
+  (void)horizon::region::run_region(*plan, *f.source, &f.cache, &control);
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size < 1 || !fixture().source) return 0;
   const void* body = data + 1;
   const int n = static_cast<int>(size - 1);
-  switch (data[0] % 3) {
+  switch (data[0] % 4) {
     case 0: {
       v1::ViewshedRequest r;
       if (r.ParseFromArray(body, n)) viewshed(r);
@@ -110,9 +122,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       if (r.ParseFromArray(body, n)) cull(r);
       break;
     }
-    default: {
+    case 2: {
       v1::LineOfSightRequest r;
       if (r.ParseFromArray(body, n)) lines(r);
+      break;
+    }
+    default: {
+      v1::RegionVisibilityRequest r;
+      if (r.ParseFromArray(body, n)) region(r);
       break;
     }
   }

@@ -88,7 +88,8 @@
 // their own position; each piece becomes the absolute box from its lowest
 // ground + z_min to its highest + z_max, which holds every such viewpoint
 // over it, so its verdicts hold for them (a piece over voids alone takes the
-// whole region's bounds). The daemon has no region call yet.
+// whole region's bounds). Over a daemon's dataset, region_plan.hpp reads only
+// the window a query needs.
 #pragma once
 
 #include <cstdint>
