@@ -108,6 +108,31 @@ TEST(GeoTiffWriter, UInt8RoundTripGeographic) {
   EXPECT_EQ(elevation_stats(dem->elevation).nodata_cells, 260u);  // one in three of 780 cells
 }
 
+TEST(GeoTiffWriter, UInt32RoundTripKeepsCountsBeyondUInt16) {
+  TempDir dir;
+  const std::string path = dir.file("count.tif");
+  Grid<std::uint32_t> grid(300, 4);
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 300; ++c) grid.at(c, r) = static_cast<std::uint32_t>(c * 997 + r * 70001);
+  grid.at(5, 1) = 4294967295u;  // nodata
+  ASSERT_TRUE(write_geotiff(path, grid, utm_georef(), 4294967295.0).ok());
+  auto dem = read_dem(path);
+  ASSERT_TRUE(dem.ok()) << dem.error().message;
+  EXPECT_EQ(dem->format, "GeoTIFF UInt32 (deflate, tiled 256x256)");
+  EXPECT_EQ(dem->georef.transform, utm_georef().transform);
+  EXPECT_EQ(dem->elevation.at(0, 0), 0.0f);
+  EXPECT_EQ(dem->elevation.at(299, 3), 299.0f * 997 + 3 * 70001);  // 508 106: past 16 bits, exact in float
+  EXPECT_EQ(dem->elevation.at(257, 2), 257.0f * 997 + 2 * 70001);
+  EXPECT_TRUE(std::isnan(dem->elevation.at(5, 1)));
+  EXPECT_EQ(elevation_stats(dem->elevation).nodata_cells, 1u);
+  // A nodata the type cannot hold is refused, and nothing is written.
+  const std::string bad = dir.file("bad.tif");
+  auto s = write_geotiff(bad, grid, utm_georef(), -1.0);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("UInt32"), std::string::npos) << s.error().message;
+  EXPECT_FALSE(std::filesystem::exists(bad));
+}
+
 TEST(GeoTiffWriter, SouthUpRoundTripUsesTransformationMatrix) {
   TempDir dir;
   const std::string path = dir.file("south_up.tif");
@@ -161,8 +186,8 @@ TEST(GeoTiffWriter, GdalReadsThePixelsWritten) {
   const Grid<float> grid = float_grid();
   ASSERT_TRUE(write_geotiff(path, grid, utm_georef(), -9999.0).ok());
   for (auto [c, r] : {std::pair{1, 0}, {255, 255}, {256, 0}, {299, 268}, {12, 269}, {257, 3}}) {
-    const auto run = testing::run_command("gdallocationinfo -valonly '" + path + "' " + std::to_string(c) + " " +
-                                          std::to_string(r));
+    const auto run =
+        testing::run_command("gdallocationinfo -valonly '" + path + "' " + std::to_string(c) + " " + std::to_string(r));
     ASSERT_EQ(run.exit_code, 0) << run.output;
     const double want = std::isnan(grid.at(c, r)) ? -9999.0 : grid.at(c, r);
     EXPECT_EQ(std::stod(run.output), want) << c << "," << r;
@@ -220,8 +245,7 @@ TEST(GeoTiffWriter, NeverWritesThroughANamePlantedForItsTemporary) {
       fs::create_symlink(victim, path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(n));
   };
   const auto unplant = [&] {
-    for (int n = 0; n < kNames; ++n)
-      fs::remove(path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(n));
+    for (int n = 0; n < kNames; ++n) fs::remove(path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(n));
   };
   plant(1);
   const Status refused = write_geotiff(path, float_grid(), utm_georef(), -9999.0);

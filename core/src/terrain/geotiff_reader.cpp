@@ -21,8 +21,9 @@
 // Rotated or sheared transforms are rejected: every algorithm downstream
 // assumes rows run east-west.
 //
-// Pixel types: Int16, UInt16, Int32, Float32, Float64 for DEMs, and UInt8 so
-// that Horizon's own UInt8 results (viewsheds) read back.
+// Pixel types: Int16, UInt16, Int32, Float32, Float64 for DEMs, and UInt8
+// and UInt32 so that Horizon's own results (viewsheds, observer counts) read
+// back (UInt32 values past 2^24 round to float32).
 // Values: integer pixels are converted to float32 exactly (|v| < 2^24 for any
 // real elevation); cells equal to the GDAL_NODATA code become NaN and
 // Dem::nodata keeps the code for writers.
@@ -122,7 +123,7 @@ std::optional<double> parse_nodata(const char* text) {
 }
 
 // The pixel types we read, from the TIFF's SampleFormat and BitsPerSample.
-enum class PixelType { kUInt8, kInt16, kUInt16, kInt32, kFloat32, kFloat64 };
+enum class PixelType { kUInt8, kInt16, kUInt16, kInt32, kUInt32, kFloat32, kFloat64 };
 
 const char* pixel_type_name(PixelType t) {
   switch (t) {
@@ -134,6 +135,8 @@ const char* pixel_type_name(PixelType t) {
       return "UInt16";
     case PixelType::kInt32:
       return "Int32";
+    case PixelType::kUInt32:
+      return "UInt32";
     case PixelType::kFloat32:
       return "Float32";
     case PixelType::kFloat64:
@@ -150,6 +153,7 @@ std::size_t pixel_type_size(PixelType t) {
     case PixelType::kUInt16:
       return 2;
     case PixelType::kInt32:
+    case PixelType::kUInt32:
     case PixelType::kFloat32:
       return 4;
     case PixelType::kFloat64:
@@ -341,12 +345,13 @@ Result<PixelType> pixel_type_of(const TiffFacts& f, const std::string& path) {
   if (fmt == SAMPLEFORMAT_INT && bits == 16) return PixelType::kInt16;
   if (fmt == SAMPLEFORMAT_UINT && bits == 16) return PixelType::kUInt16;
   if (fmt == SAMPLEFORMAT_INT && bits == 32) return PixelType::kInt32;
+  if (fmt == SAMPLEFORMAT_UINT && bits == 32) return PixelType::kUInt32;
   if (fmt == SAMPLEFORMAT_IEEEFP && bits == 32) return PixelType::kFloat32;
   if (fmt == SAMPLEFORMAT_IEEEFP && bits == 64) return PixelType::kFloat64;
   const char* kind = fmt == SAMPLEFORMAT_INT ? "int" : fmt == SAMPLEFORMAT_IEEEFP ? "float" : "uint";
   return dem_error(ErrorCode::kUnsupported, path,
                    std::string("pixel type ") + kind + std::to_string(bits) +
-                       " is not supported (UInt8, Int16, UInt16, Int32, Float32 and Float64 are)");
+                       " is not supported (UInt8, Int16, UInt16, Int32, UInt32, Float32 and Float64 are)");
 }
 
 // The 0-based channel for options.band against `bands`, or the band error.
@@ -399,6 +404,8 @@ void convert_any(PixelType type, const unsigned char* src, std::size_t stride, i
       return convert_run<std::uint16_t>(src, stride, count, dst, nodata);
     case PixelType::kInt32:
       return convert_run<std::int32_t>(src, stride, count, dst, nodata);
+    case PixelType::kUInt32:
+      return convert_run<std::uint32_t>(src, stride, count, dst, nodata);
     case PixelType::kFloat32:
       return convert_run<float>(src, stride, count, dst, nodata);
     case PixelType::kFloat64:

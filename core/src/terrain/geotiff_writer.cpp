@@ -113,13 +113,14 @@ Status write_georef(const std::string& path, TIFF* tif, const Georeference& geor
 
 // TIFF predictors, applied in place to one tile (kTileSize rows of kTileSize
 // samples), exactly as libtiff's encoder applies them (tif_predict.c):
-// horizontal (2) differences each row's bytes; floating point (3) first
-// splits each row into byte planes, most significant first, then
-// differences the row's bytes.
-void predict_horizontal(std::uint8_t* tile) {
+// horizontal (2) differences each row's samples (modulo their width);
+// floating point (3) first splits each row into byte planes, most
+// significant first, then differences the row's bytes.
+template <class T>
+void predict_horizontal(T* tile) {
   for (std::uint32_t r = 0; r < kTileSize; ++r) {
-    std::uint8_t* row = tile + static_cast<std::size_t>(r) * kTileSize;
-    for (std::uint32_t i = kTileSize - 1; i > 0; --i) row[i] = static_cast<std::uint8_t>(row[i] - row[i - 1]);
+    T* row = tile + static_cast<std::size_t>(r) * kTileSize;
+    for (std::uint32_t i = kTileSize - 1; i > 0; --i) row[i] = static_cast<T>(row[i] - row[i - 1]);
   }
 }
 
@@ -155,9 +156,11 @@ Status write_impl(const std::string& path, const Grid<T>& grid, const Georeferen
         return write_error(ErrorCode::kInvalidArgument, path,
                            "nodata " + nodata_text(*nodata) + " is not representable as float32");
     } else {
-      if (!(*nodata >= 0.0 && *nodata <= 255.0 && std::floor(*nodata) == *nodata))
+      constexpr double kMax = static_cast<double>(std::numeric_limits<T>::max());
+      if (!(*nodata >= 0.0 && *nodata <= kMax && std::floor(*nodata) == *nodata))
         return write_error(ErrorCode::kInvalidArgument, path,
-                           "nodata " + nodata_text(*nodata) + " is not a UInt8 value (0..255)");
+                           "nodata " + nodata_text(*nodata) + " is not a " + (sizeof(T) == 1 ? "UInt8" : "UInt32") +
+                               " value (0.." + nodata_text(kMax) + ")");
     }
   }
   // What NaN cells become, and what pads the edge tiles.
@@ -262,6 +265,11 @@ Status write_geotiff(const std::string& path, const Grid<float>& grid, const Geo
 }
 
 Status write_geotiff(const std::string& path, const Grid<std::uint8_t>& grid, const Georeference& georef,
+                     std::optional<double> nodata) {
+  return write_impl(path, grid, georef, nodata);
+}
+
+Status write_geotiff(const std::string& path, const Grid<std::uint32_t>& grid, const Georeference& georef,
                      std::optional<double> nodata) {
   return write_impl(path, grid, georef, nodata);
 }

@@ -2,7 +2,7 @@
 //
 // Formats (chosen by content/extension, not trusted blindly):
 //   * GeoTIFF / BigTIFF / COG: Int16, UInt16, Int32, Float32, Float64 (and
-//     UInt8, so the engine's own viewshed rasters read back); striped
+//     UInt8 and UInt32, so the engine's own rasters read back); striped
 //     or tiled; any compression libtiff handles. Pixels are decoded by
 //     libtiff (only the blocks a window needs, on several threads);
 //     georeferencing (ModelPixelScale + ModelTiepoint or

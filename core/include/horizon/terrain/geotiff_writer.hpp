@@ -32,4 +32,8 @@ Status write_geotiff(const std::string& path, const Grid<float>& grid, const Geo
 Status write_geotiff(const std::string& path, const Grid<std::uint8_t>& grid, const Georeference& georef,
                      std::optional<double> nodata);
 
+// UInt32 raster (e.g. how many observers see each cell).
+Status write_geotiff(const std::string& path, const Grid<std::uint32_t>& grid, const Georeference& georef,
+                     std::optional<double> nodata);
+
 }  // namespace horizon::terrain
