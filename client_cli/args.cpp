@@ -83,7 +83,7 @@ Args Args::parse(std::span<const std::string> argv, std::span<const FlagSpec> sp
     if (!spec) throw UsageError("unknown flag '" + std::string(name) + "'");
     const bool repeated = std::any_of(args.values_.begin(), args.values_.end(),
                                       [&](const auto& entry) { return entry.first == spec->name; });
-    if (repeated) throw UsageError(std::string(spec->name) + ": given more than once");
+    if (repeated && !spec->repeatable) throw UsageError(std::string(spec->name) + ": given more than once");
 
     if (spec->value.empty()) {
       if (inline_value) throw UsageError(std::string(spec->name) + ": takes no value, got '" + *inline_value + "'");
@@ -115,6 +115,18 @@ std::optional<std::string> Args::text(std::string_view flag) const {
   for (const auto& [key, value] : values_)
     if (key == name) return value;
   return std::nullopt;
+}
+
+std::vector<std::string> Args::all(std::string_view flag) const {
+  const std::string_view name = spec(flag).name;
+  std::vector<std::string> out;
+  for (const auto& [key, value] : values_)
+    if (key == name) out.push_back(value);
+  return out;
+}
+
+std::size_t Args::count(std::string_view flag) const {
+  return all(flag).size();
 }
 
 std::optional<double> Args::number(std::string_view flag) const {

@@ -7,7 +7,7 @@
 //   --                            everything after it is positional
 //   --help | -h                   stops parsing; the command prints its help
 // Unknown flags, a missing value, a value given to a switch and a repeated flag
-// are usage errors. The typed getters check a value's syntax and basic range
+// (unless declared repeatable) are usage errors. The typed getters check a value's syntax and basic range
 // and throw UsageError with a message that names the flag and quotes the value
 // ("--max-distance: expected a non-negative number, got 'abc'"). Range checks
 // that belong to the engine (visibility::validate_options) stay there.
@@ -30,10 +30,11 @@ class UsageError : public std::runtime_error {
 };
 
 struct FlagSpec {
-  std::string_view name;   // long form, "--max-distance"
-  std::string_view alias;  // short form ("-o") or empty
-  std::string_view value;  // metavariable shown in help ("M", "X,Y"); empty for a switch
-  std::string_view help;   // one line; defaults and units included
+  std::string_view name;    // long form, "--max-distance"
+  std::string_view alias;   // short form ("-o") or empty
+  std::string_view value;   // metavariable shown in help ("M", "X,Y"); empty for a switch
+  std::string_view help;    // one line; defaults and units included
+  bool repeatable = false;  // may be given several times (read with Args::all)
 };
 
 class Args {
@@ -46,8 +47,13 @@ class Args {
 
   // True when the flag (switch or valued) was given.
   bool has(std::string_view flag) const;
-  // The raw value, or nullopt when the flag was not given.
+  // The raw value, or nullopt when the flag was not given (a repeatable
+  // flag: its first value).
   std::optional<std::string> text(std::string_view flag) const;
+  // Every value of a flag, in command-line order.
+  std::vector<std::string> all(std::string_view flag) const;
+  // How many times the flag was given.
+  std::size_t count(std::string_view flag) const;
 
   // Typed getters: nullopt when absent, UsageError when malformed.
   std::optional<double> number(std::string_view flag) const;        // finite

@@ -5,6 +5,7 @@
 #include <string_view>
 
 #include "commands/command.hpp"
+#include "commands/viewshed_many.hpp"
 #include "horizon/gpu/context_pool.hpp"
 #include "horizon/imageio/imageio.hpp"
 #include "horizon/terrain/dem_reader.hpp"
@@ -23,7 +24,13 @@ namespace horizon::cli {
 namespace {
 
 constexpr FlagSpec kFlags[] = {
-    {"--observer", "", "X,Y", "Observer in the DEM's CRS (metres or degrees, as the DEM)"},
+    {"--observer", "", "X,Y", "Observer in the DEM's CRS (metres or degrees, as the DEM); repeat for many observers",
+     true},
+    {"--observers", "", "FILE",
+     "Many observers: CSV x,y[,height[,max_distance]] (a 'lon,lat' header for WGS84) or GeoJSON points"},
+    {"--accumulate", "", "KIND",
+     "Many observers: 'count' (UInt32 observers seeing each cell, default), 'any' or 'all' (UInt8 1/0/255)"},
+    {"--summary", "", "FILE.csv", "Many observers: a table of each observer's visible cells, area and time"},
     {"--lat", "", "LAT", "Observer latitude, WGS84 degrees (with --lon)"},
     {"--lon", "", "LON", "Observer longitude, WGS84 degrees (with --lat)"},
     {"--height", "", "M", "Observer eye height above the ground, metres (default 2)"},
@@ -191,6 +198,8 @@ Gpu open_gpu(const visibility::ViewshedOptions& o) {
 }
 
 int run_viewshed(const Args& args) {
+  if (wants_many_observers(args)) return run_many_observers(args);
+  refuse_many_flags(args);
   const Request r = parse_request(args);
   if (auto s = check_output_path(r.out_path, "-o", r.dem_path, {".tif", ".tiff"}); !s.ok())
     return report_error(s.error());
@@ -317,19 +326,28 @@ const Command& viewshed_command() {
   static const Command command{
       "viewshed",
       "Compute what an observer can see and write it as a GeoTIFF (and a PNG preview)",
-      "horizon viewshed DEM (--observer X,Y | --lat LAT --lon LON) -o OUT.tif [options]",
+      "horizon viewshed DEM (--observer X,Y... | --lat LAT --lon LON | --observers FILE) -o OUT.tif [options]",
       "Computes the viewshed of one observer over DEM and writes a georeferenced raster\n"
       "covering the cells within --max-distance:\n"
       "  visible            uint8: 1 visible, 0 hidden, 255 not computed (nodata 255)\n"
       "  ohf                float32: lowest visible elevation above each cell, metres\n"
       "  min-target-height  float32: lowest visible height above the ground, metres\n"
       "Float rasters use the DEM's nodata value (NaN when it has none). Outputs are\n"
-      "written to a temporary name and renamed, so a failed run leaves nothing behind.",
+      "written to a temporary name and renamed, so a failed run leaves nothing behind.\n\n"
+      "Many observers (--observers FILE, or --observer more than once) run in parallel on\n"
+      "the CPU, each with its own height and reach, and write one --accumulate raster:\n"
+      "  count              uint32: how many observers see each cell (nodata 4294967295)\n"
+      "  any | all          uint8: 1 seen by at least one / by every observer, 0 not, 255 none\n"
+      "A CSV line is x,y[,height[,max_distance]]; GeoJSON points carry \"height\",\n"
+      "\"max_distance\" and \"name\" properties. --height and --max-distance fill what a\n"
+      "line leaves out; --summary writes each observer's visible cells and area.",
       kFlags,
       "  horizon viewshed data/dem/rainier_summit_srtm3_400x400.tif --lat 46.8529 --lon -121.7604 \\\n"
       "      -o out/rainier.tif --png out/rainier.png\n"
       "  horizon viewshed dem.tif --observer 500100,5000200 --height 30 --max-distance 20000 \\\n"
-      "      --output min-target-height -o mth.tif --json\n",
+      "      --output min-target-height -o mth.tif --json\n"
+      "  horizon viewshed dem.tif --observers towers.csv --height 30 --max-distance 10000 \\\n"
+      "      --accumulate count -o count.tif --summary towers_seen.csv\n",
       run_viewshed,
   };
   return command;
