@@ -75,9 +75,9 @@ Status parse_datasets(const Json& j, const std::string& source, Config& config) 
   for (const auto& [name, value] : j.items()) {
     const std::string key = "datasets." + name;
     if (name.empty() || name.size() > kMaxDatasetName || name.find_first_of("/\\ \t\n") != std::string::npos)
-      return config_error(source, key,
-                          "a dataset name is 1-" + std::to_string(kMaxDatasetName) +
-                              " characters without '/', '\\' or spaces");
+      return config_error(
+          source, key,
+          "a dataset name is 1-" + std::to_string(kMaxDatasetName) + " characters without '/', '\\' or spaces");
     DatasetConfig d;
     d.name = name;
     if (value.is_string()) {
@@ -115,9 +115,9 @@ Status parse_datasets(const Json& j, const std::string& source, Config& config) 
         auto digest = get_string(value, source, "sha256", key + ".sha256", false);
         if (!digest.ok()) return digest.error();
         if (!is_sha256_hex(*digest))
-          return config_error(source, key + ".sha256",
-                              "expected the file's SHA-256 as 64 hex digits (sha256sum's), got '" +
-                                  digest->substr(0, 80) + "'");
+          return config_error(
+              source, key + ".sha256",
+              "expected the file's SHA-256 as 64 hex digits (sha256sum's), got '" + digest->substr(0, 80) + "'");
         d.sha256 = *digest;
         for (char& c : d.sha256) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
       }
@@ -171,8 +171,7 @@ Status parse_security(const Json& j, const std::string& source, const fs::path& 
     }
     c.tls = std::move(tls);
   }
-  if (c.tls && c.plaintext)
-    return config_error(source, "plaintext", "true beside \"tls\": choose one transport");
+  if (c.tls && c.plaintext) return config_error(source, "plaintext", "true beside \"tls\": choose one transport");
   if (j.contains("health_listen")) {
     auto v = get_string(j, source, "health_listen", "health_listen", false);
     if (!v.ok()) return v.error();
@@ -197,7 +196,8 @@ Status parse_security(const Json& j, const std::string& source, const fs::path& 
 
 Status parse_limits(const Json& j, const std::string& source, Limits& limits) {
   if (!j.is_object()) return config_error(source, "limits", "expected an object");
-  HORIZON_RETURN_IF_ERROR(check_keys(j, source, "limits.", {"max_cells", "max_boxes", "max_lines", "max_pending"}));
+  HORIZON_RETURN_IF_ERROR(
+      check_keys(j, source, "limits.", {"max_cells", "max_boxes", "max_lines", "max_pending", "max_observers"}));
   if (j.contains("max_cells")) {
     auto v = get_count(j, source, "max_cells", "limits.max_cells", 1, 2'000'000'000);
     if (!v.ok()) return v.error();
@@ -218,14 +218,18 @@ Status parse_limits(const Json& j, const std::string& source, Limits& limits) {
     if (!v.ok()) return v.error();
     limits.max_pending = static_cast<std::uint32_t>(*v);
   }
+  if (j.contains("max_observers")) {
+    auto v = get_count(j, source, "max_observers", "limits.max_observers", 1, 100'000);
+    if (!v.ok()) return v.error();
+    limits.max_observers = static_cast<std::uint32_t>(*v);
+  }
   return Status::Ok();
 }
 
 Status parse_sessions(const Json& j, const std::string& source, SessionConfig& sessions) {
   if (!j.is_object()) return config_error(source, "sessions", "expected an object");
-  HORIZON_RETURN_IF_ERROR(check_keys(j, source, "sessions.",
-                                     {"max", "idle_ms", "max_boxes", "max_level_size", "level_size", "subtile",
-                                      "exact_mb"}));
+  HORIZON_RETURN_IF_ERROR(check_keys(
+      j, source, "sessions.", {"max", "idle_ms", "max_boxes", "max_level_size", "level_size", "subtile", "exact_mb"}));
   struct Key {
     const char* name;
     std::uint64_t lo, hi;
@@ -246,7 +250,8 @@ Status parse_sessions(const Json& j, const std::string& source, SessionConfig& s
   }
   for (const Key& k : {keys[3], keys[4], keys[5]})
     if ((*k.out & (*k.out - 1)) != 0)
-      return config_error(source, std::string("sessions.") + k.name, "must be a power of two, got " + std::to_string(*k.out));
+      return config_error(source, std::string("sessions.") + k.name,
+                          "must be a power of two, got " + std::to_string(*k.out));
   if (sessions.level_size > sessions.max_level_size)
     return config_error(source, "sessions.level_size", "must not exceed sessions.max_level_size");
   if (sessions.subtile * 2 > sessions.level_size)
@@ -284,11 +289,11 @@ Result<Config> parse_config(const std::string& text, const std::string& source, 
   if (!overrides.listen.empty()) j["listen"] = overrides.listen;
   if (!overrides.metrics_listen.empty()) j["metrics_listen"] = overrides.metrics_listen;
   if (!overrides.data_root.empty()) j["data_root"] = fs::absolute(overrides.data_root).string();
-  HORIZON_RETURN_IF_ERROR(check_keys(j, source, "",
-                                     {"listen", "metrics_listen", "data_root", "datasets", "memory_budget_mb",
-                                      "block_cache_mb", "io_threads", "worker_threads", "engine_threads", "limits",
-                                      "gpu", "default_deadline_ms", "shutdown_grace_ms", "scratch_dir", "tls",
-                                      "health_listen", "plaintext", "auth_tokens_file", "sessions"}));
+  HORIZON_RETURN_IF_ERROR(check_keys(
+      j, source, "",
+      {"listen", "metrics_listen", "data_root", "datasets", "memory_budget_mb", "block_cache_mb", "io_threads",
+       "worker_threads", "engine_threads", "limits", "gpu", "default_deadline_ms", "shutdown_grace_ms", "scratch_dir",
+       "tls", "health_listen", "plaintext", "auth_tokens_file", "sessions"}));
   Config c;
   c.source = source;
   for (const char* required : {"listen", "data_root", "datasets", "memory_budget_mb"})
@@ -413,6 +418,7 @@ std::vector<std::string> keys_needing_restart(const Config& a, const Config& b) 
   differ(a.engine_threads != b.engine_threads, "engine_threads");
   differ(a.limits.max_cells != b.limits.max_cells, "limits.max_cells");
   differ(a.limits.max_boxes != b.limits.max_boxes, "limits.max_boxes");
+  differ(a.limits.max_observers != b.limits.max_observers, "limits.max_observers");
   differ(a.limits.max_lines != b.limits.max_lines, "limits.max_lines");
   differ(a.limits.max_pending != b.limits.max_pending, "limits.max_pending");
   differ(a.sessions.max != b.sessions.max, "sessions.max");

@@ -24,7 +24,8 @@
 //     "limits": {"max_cells": 25000000,     cells in one viewshed or culling window
 //                "max_boxes": 100000,       boxes in one CullBoxes call
 //                "max_lines": 10000,        sight lines in one LineOfSight call
-//                "max_pending": 64},        requests admitted at once (computing, queued or streaming)
+//                "max_pending": 64,         requests admitted at once (computing, queued or streaming)
+//                "max_observers": 1000},    observers in one many-observer ComputeViewshed
 //     "sessions": {"max": 8,                clip-map sessions open at once (0: none); each holds its
 //                  "idle_ms": 60000,        clip-map in memory_budget_mb; ended after idle_ms without
 //                  "max_boxes": 100000,     a message; boxes per session; the largest level_size a
@@ -101,6 +102,7 @@ struct Limits {
   std::uint32_t max_boxes = 100'000;
   std::uint32_t max_lines = 10'000;
   std::uint32_t max_pending = 64;
+  std::uint32_t max_observers = 1'000;
 };
 
 // The gRPC port's TLS: a server certificate, and optionally the CA whose
@@ -112,13 +114,13 @@ struct TlsConfig {
 
 // Clip-map sessions (protos/horizon/v1/session.proto).
 struct SessionConfig {
-  std::uint32_t max = 8;                 // open at once; 0 = no sessions
-  std::uint32_t idle_ms = 60'000;        // a session without a message for this long is ended
-  std::uint32_t max_boxes = 100'000;     // boxes in one session
-  std::uint32_t max_level_size = 2048;   // the largest level_size a client may ask for
-  std::uint32_t level_size = 1024;       // when a client asks for none
-  std::uint32_t subtile = 64;            // when a client asks for none
-  std::uint32_t exact_mb = 256;          // engine memory an exact session reserves for its answers
+  std::uint32_t max = 8;                // open at once; 0 = no sessions
+  std::uint32_t idle_ms = 60'000;       // a session without a message for this long is ended
+  std::uint32_t max_boxes = 100'000;    // boxes in one session
+  std::uint32_t max_level_size = 2048;  // the largest level_size a client may ask for
+  std::uint32_t level_size = 1024;      // when a client asks for none
+  std::uint32_t subtile = 64;           // when a client asks for none
+  std::uint32_t exact_mb = 256;         // engine memory an exact session reserves for its answers
 };
 
 struct GpuConfig {

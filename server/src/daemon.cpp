@@ -8,8 +8,8 @@
 
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/health_check_service_interface.h>
-#include <grpcpp/server.h>
 #include <grpcpp/security/server_credentials.h>
+#include <grpcpp/server.h>
 #include <grpcpp/server_builder.h>
 
 #include "dataset_service.hpp"
@@ -33,9 +33,10 @@ constexpr const char* kServices[] = {"", "horizon.v1.DatasetService", "horizon.v
                                      "horizon.v1.SessionService"};
 
 // Largest request accepted: a full CullBoxes (about 70 bytes per box on the
-// wire) or LineOfSight call, with room to spare.
+// wire), LineOfSight or many-observer ComputeViewshed call, with room to spare.
 int max_receive_bytes(const Limits& limits) {
-  const std::uint64_t need = 1'048'576 + 96ull * std::max<std::uint64_t>(limits.max_boxes, limits.max_lines);
+  const std::uint64_t need =
+      1'048'576 + 96ull * std::max<std::uint64_t>({limits.max_boxes, limits.max_lines, limits.max_observers});
   return static_cast<int>(std::min<std::uint64_t>(need, 512ull << 20));
 }
 
@@ -121,7 +122,7 @@ struct Daemon::Impl {
   WorkerPool pool;
   ServerEnv env;
   HeapTrimmer trimmer{env.live_calls};  // outlives every call (env.trimmer); reads env's count
-  SessionRegistry sessions;  // outlives every session call
+  SessionRegistry sessions;             // outlives every session call
   DatasetService dataset_service;
   VisibilityService visibility_service;
   SessionService session_service;

@@ -54,12 +54,21 @@ Result<std::string> geotiff_bytes(const fs::path& scratch_dir, const terrain::Gr
                 [&](const std::string& p) { return terrain::write_geotiff(p, grid, georef, nodata); });
 }
 
+Result<std::string> geotiff_bytes(const fs::path& scratch_dir, const terrain::Grid<std::uint32_t>& grid,
+                                  const terrain::Georeference& georef, std::optional<double> nodata) {
+  return encode(scratch_dir, ".tif",
+                [&](const std::string& p) { return terrain::write_geotiff(p, grid, georef, nodata); });
+}
+
+Result<std::string> preview_png_bytes(const fs::path& scratch_dir, const terrain::Grid<float>& elevation,
+                                      const terrain::Grid<std::uint8_t>& mask, const terrain::PreviewOptions& preview) {
+  return encode(scratch_dir, ".png",
+                [&](const std::string& p) { return terrain::write_viewshed_preview(p, elevation, mask, preview); });
+}
+
 Result<std::string> preview_png_bytes(const fs::path& scratch_dir, const visibility::ViewshedResult& result,
                                       const terrain::Grid<std::uint8_t>& mask) {
-  const terrain::PreviewOptions preview = visibility::preview_options(result);
-  return encode(scratch_dir, ".png", [&](const std::string& p) {
-    return terrain::write_viewshed_preview(p, result.terrain, mask, preview);
-  });
+  return preview_png_bytes(scratch_dir, result.terrain, mask, visibility::preview_options(result));
 }
 
 }  // namespace horizon::server

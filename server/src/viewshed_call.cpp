@@ -14,6 +14,7 @@
 #include "horizon/visibility/viewshed.hpp"
 #include "raster_files.hpp"
 #include "translate.hpp"
+#include "viewshed_many_call.hpp"
 
 namespace horizon::server {
 namespace {
@@ -84,6 +85,22 @@ class ViewshedCall final : public grpc::ServerWriteReactor<v1::ViewshedResponse>
 
 grpc::Status ViewshedCall::compute() {
   const v1::ViewshedRequest& req = request_;
+  if (req.max_chunk_bytes() < 0)
+    return scope_.status_of(
+        make_error(ErrorCode::kInvalidArgument, "max_chunk_bytes: must be >= 0", "max_chunk_bytes"));
+  if (req.max_chunk_bytes() > 0) chunk_bytes_ = std::clamp(req.max_chunk_bytes(), kMinChunkBytes, kMaxChunkBytes);
+  if (req.observers_size() > 0) {
+    ViewshedParts parts;
+    const grpc::Status status = compute_many_viewshed(scope_, req, parts);
+    if (!status.ok()) return status;
+    header_ = std::move(parts.header);
+    summary_ = std::move(parts.summary);
+    raster_ = std::move(parts.raster);
+    geotiff_ = std::move(parts.geotiff);
+    png_ = std::move(parts.png);
+    row_bytes_ = parts.row_bytes;
+    return grpc::Status::OK;
+  }
   auto dataset = scope_.dataset(req.dataset());
   if (!dataset.ok()) return scope_.status_of(dataset.error());
   const Dataset& d = **dataset;
@@ -101,10 +118,6 @@ grpc::Status ViewshedCall::compute() {
     return scope_.status_of(make_error(ErrorCode::kInvalidArgument, "raster: unknown value", "raster"));
   // Only the visible/hidden raster goes back: exact may skip finding R3's OHF.
   options->visibility_only = kind == v1::RASTER_KIND_VISIBLE;
-  if (req.max_chunk_bytes() < 0)
-    return scope_.status_of(
-        make_error(ErrorCode::kInvalidArgument, "max_chunk_bytes: must be >= 0", "max_chunk_bytes"));
-  if (req.max_chunk_bytes() > 0) chunk_bytes_ = std::clamp(req.max_chunk_bytes(), kMinChunkBytes, kMaxChunkBytes);
 
   // The plan: options and observer checked, the cells and blocks to read and the cost known.
   auto plan = visibility::plan_viewshed(*d.source, {*spec, *options});
@@ -122,7 +135,8 @@ grpc::Status ViewshedCall::compute() {
       !s.ok())
     return scope_.status_of(s.error());
 
-  auto run = visibility::run_viewshed(*plan, *d.source, &env.cache, scope_.control(), env.gpu, env.backend, &worker_workspace());
+  auto run = visibility::run_viewshed(*plan, *d.source, &env.cache, scope_.control(), env.gpu, env.backend,
+                                      &worker_workspace());
   if (!run.ok()) return scope_.status_of(rename_field(run.error(), "options."));
   const visibility::ViewshedResult* const result = &run->result;
   const visibility::WorkStats& stats = result->stats;
@@ -148,8 +162,8 @@ grpc::Status ViewshedCall::compute() {
       std::memcpy(raster_.data(), is_mask ? static_cast<const void*>(mask.data()) : values.data(), raster_.size());
   }
   if (req.include_geotiff()) {
-    auto bytes_or = is_mask ? geotiff_bytes(env.scratch, mask, georef, nodata)
-                            : geotiff_bytes(env.scratch, values, georef, nodata);
+    auto bytes_or =
+        is_mask ? geotiff_bytes(env.scratch, mask, georef, nodata) : geotiff_bytes(env.scratch, values, georef, nodata);
     if (!bytes_or.ok()) return scope_.status_of(bytes_or.error());
     geotiff_ = std::move(*bytes_or);
   }

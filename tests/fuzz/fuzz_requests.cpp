@@ -18,6 +18,7 @@
 #include "horizon/terrain/block_cache.hpp"
 #include "horizon/terrain/source.hpp"
 #include "horizon/v1/visibility.pb.h"
+#include "horizon/visibility/many_observers.hpp"
 #include "horizon/visibility/plan.hpp"
 #include "translate.hpp"
 
@@ -48,8 +49,31 @@ RunControl bounded() {
   return control;
 }
 
+// Many observers: the sites as the daemon reads them, planned and run on
+// the whole (small) DEM.
+void many_observers(const v1::ViewshedRequest& req) {
+  Fixture& f = fixture();
+  if (req.observers_size() > 16) return;  // limits.max_observers, shrunk
+  auto options = horizon::server::to_viewshed_options(req.options(), 1);
+  if (!options.ok()) return;
+  std::vector<vis::ObserverSite> sites;
+  for (const v1::ObserverSite& in : req.observers()) {
+    auto spec = horizon::server::to_point_spec(in.point(), "observers[].point");
+    if (!spec.ok()) return;
+    sites.push_back({.point = *spec, .max_distance = in.max_distance()});
+  }
+  const RunControl control = bounded();
+  const auto& h = f.source->header();
+  auto dem = f.source->read({0, 0, h.width, h.height}, &f.cache, &control);
+  if (!dem.ok()) return;
+  auto plan = vis::plan_many_observers(*dem, sites, {.viewshed = *options, .threads = 1});
+  if (!plan.ok()) return;
+  (void)vis::compute_many_observers(*dem, *plan, &control);
+}
+
 void viewshed(const v1::ViewshedRequest& req) {
   Fixture& f = fixture();
+  if (req.observers_size() > 0) return many_observers(req);
   if (!req.has_observer()) return;
   auto spec = horizon::server::to_point_spec(req.observer(), "observer");
   if (!spec.ok()) return;

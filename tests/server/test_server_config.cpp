@@ -30,17 +30,19 @@ std::string document(const std::string& extra) {
 }
 
 TEST(ServerConfig, GoodDocumentGivesItsValues) {
-  auto c = parse_config(document(R"("worker_threads": 3, "engine_threads": 2, "limits": {"max_boxes": 500},
+  auto c = parse_config(
+      document(R"("worker_threads": 3, "engine_threads": 2, "limits": {"max_boxes": 500, "max_observers": 40},
                                     "default_deadline_ms": 1500, "shutdown_grace_ms": 250,
                                     "datasets": {"b": {"file": "olinda_coast_utm25s_111x111.tif", "band": 1},
                                                  "a": "rainier_summit_srtm3_400x400.tif"})"),
-                        "test.json", "/");
+      "test.json", "/");
   ASSERT_TRUE(c.ok()) << c.error().message;
   EXPECT_EQ(c->listen, "127.0.0.1:0");
   EXPECT_EQ(c->memory_budget_bytes, 256ull << 20);
   EXPECT_EQ(c->worker_threads, 3u);
   EXPECT_EQ(c->engine_threads, 2u);
   EXPECT_EQ(c->limits.max_boxes, 500u);
+  EXPECT_EQ(c->limits.max_observers, 40u);
   EXPECT_EQ(c->limits.max_cells, Limits{}.max_cells);
   EXPECT_EQ(c->default_deadline.count(), 1500);
   EXPECT_EQ(c->shutdown_grace.count(), 250);
@@ -56,8 +58,7 @@ TEST(ServerConfig, GoodDocumentGivesItsValues) {
 // Found by fuzz_config: a number beyond double threw out of the parser
 // (nlohmann's out_of_range, not a parse_error) and terminated the daemon.
 TEST(ServerConfig, ANumberBeyondDoubleIsInvalidJsonNotACrash) {
-  auto c = parse_config(R"({"listen": "127.0.0.1:0", "plaintext": true, "memory_budget_mb": 1e400})", "test.json",
-                        "/");
+  auto c = parse_config(R"({"listen": "127.0.0.1:0", "plaintext": true, "memory_budget_mb": 1e400})", "test.json", "/");
   ASSERT_FALSE(c.ok());
   EXPECT_EQ(c.error().code, ErrorCode::kInvalidArgument);
   EXPECT_NE(c.error().message.find("not valid JSON"), std::string::npos) << c.error().message;
@@ -65,17 +66,13 @@ TEST(ServerConfig, ANumberBeyondDoubleIsInvalidJsonNotACrash) {
 
 TEST(ServerConfig, TokensFileLinesAreCheckedWithoutEchoingThem) {
   const auto path = std::filesystem::temp_directory_path() / ("horizon-tokens-" + std::to_string(::getpid()));
-  {
-    std::ofstream(path) << "# comment\n\n  a-good-token-0123456789  \nshort\n";
-  }
+  { std::ofstream(path) << "# comment\n\n  a-good-token-0123456789  \nshort\n"; }
   auto refused = parse_config(document(R"("auth_tokens_file": ")" + path.string() + R"(")"), "test.json", "/");
   ASSERT_FALSE(refused.ok());
   EXPECT_EQ(refused.error().field, "auth_tokens_file");
   EXPECT_NE(refused.error().message.find("line 4"), std::string::npos) << refused.error().message;
   EXPECT_EQ(refused.error().message.find("short"), std::string::npos) << refused.error().message;
-  {
-    std::ofstream(path) << "# comment\n\n  a-good-token-0123456789  \n";
-  }
+  { std::ofstream(path) << "# comment\n\n  a-good-token-0123456789  \n"; }
   auto accepted = parse_config(document(R"("auth_tokens_file": ")" + path.string() + R"(")"), "test.json", "/");
   ASSERT_TRUE(accepted.ok()) << accepted.error().message;
   EXPECT_EQ(accepted->auth_tokens, std::vector<std::string>{"a-good-token-0123456789"});
@@ -86,7 +83,7 @@ TEST(ServerConfig, BearerTokensCompareWholeAndOnlyWithTheScheme) {
   const std::vector<std::string> tokens{"a-good-token-0123456789", "another-token-0123456789"};
   EXPECT_FALSE(check_bearer("Bearer a-good-token-0123456789", tokens));
   EXPECT_FALSE(check_bearer("Bearer another-token-0123456789", tokens));
-  EXPECT_TRUE(check_bearer("Bearer a-good-token-012345678", tokens));   // a prefix
+  EXPECT_TRUE(check_bearer("Bearer a-good-token-012345678", tokens));    // a prefix
   EXPECT_TRUE(check_bearer("Bearer a-good-token-01234567890", tokens));  // longer
   EXPECT_TRUE(check_bearer("a-good-token-0123456789", tokens));          // no scheme
   EXPECT_TRUE(check_bearer("", tokens));
@@ -102,7 +99,8 @@ TEST(ServerConfig, TiledDatasetsAndTheBlockCache) {
                                     "datasets": {"t": {"file": ".", "missing_tiles": "nodata"},
                                                  "f": {"file": "zion_canyon_srtm3_465x457.tif", "missing_tiles": "error",
                                                        "valid_range": [-100, 30000],
-                                                       "sha256": ")" + std::string(32, 'A') + std::string(32, '0') + R"("}})"),
+                                                       "sha256": ")" +
+                                 std::string(32, 'A') + std::string(32, '0') + R"("}})"),
                         "test.json", "/");
   ASSERT_TRUE(c.ok()) << c.error().message;
   EXPECT_EQ(c->block_cache_bytes, 64ull << 20);
@@ -187,6 +185,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"limits unknown key", document(R"("limits": {"max_cell": 5})"), "limits.max_cell"},
         BadCase{"max_cells 0", document(R"("limits": {"max_cells": 0})"), "limits.max_cells"},
         BadCase{"max_boxes too many", document(R"("limits": {"max_boxes": 2000000})"), "limits.max_boxes"},
+        BadCase{"max_observers zero", document(R"("limits": {"max_observers": 0})"), "limits.max_observers"},
         BadCase{"max_lines negative", document(R"("limits": {"max_lines": -5})"), "limits.max_lines"},
         BadCase{"max_pending 0", document(R"("limits": {"max_pending": 0})"), "limits.max_pending"},
         BadCase{"gpu not an object", document(R"("gpu": 2)"), "gpu"},
@@ -207,8 +206,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"sha256 not hex",
                 document(R"("datasets": {"a": {"file": "x", "sha256": ")" + std::string(63, '0') + R"(g"}})"),
                 "datasets.a.sha256"},
-        BadCase{"valid_range reversed",
-                document(R"("datasets": {"a": {"file": "x", "valid_range": [100, -100]}})"),
+        BadCase{"valid_range reversed", document(R"("datasets": {"a": {"file": "x", "valid_range": [100, -100]}})"),
                 "datasets.a.valid_range"},
         BadCase{"neither tls nor plaintext", document(R"("plaintext": false)"), "plaintext"},
         BadCase{"plaintext not a boolean", document(R"("plaintext": "yes")"), "plaintext"},
@@ -217,8 +215,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"tls without key", document(R"("tls": {"cert_file": "/no/such.pem"})"), "tls.key_file"},
         BadCase{"tls unknown key", document(R"("tls": {"cert": "x"})"), "tls.cert"},
         BadCase{"health_listen without tls", document(R"("health_listen": "127.0.0.1:0")"), "health_listen"},
-        BadCase{"auth_tokens_file missing", document(R"("auth_tokens_file": "/no/such/tokens")"),
-                "auth_tokens_file"},
+        BadCase{"auth_tokens_file missing", document(R"("auth_tokens_file": "/no/such/tokens")"), "auth_tokens_file"},
         BadCase{"block_cache_mb 0", document(R"("block_cache_mb": 0)"), "block_cache_mb"},
         BadCase{"block_cache_mb over the budget", document(R"("block_cache_mb": 300)"), "block_cache_mb"},
         BadCase{"io_threads 0", document(R"("io_threads": 0)"), "io_threads"}),
