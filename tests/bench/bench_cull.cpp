@@ -15,6 +15,8 @@
 // 3 the min-pyramid (cull_footprints, every block already built); layout 0
 // scattered, 1 clustered. The time is one call over every box; the index and
 // the batch are built outside the loop (BM_CullPrepare times them).
+// BM_CullStates: exact minima against states only (whole hidden groups at
+// once), below.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -153,6 +155,38 @@ void BM_CullBoxes(benchmark::State& state) {
   state.counters["reads/box"] = static_cast<double>(reads) / static_cast<double>(n);
 }
 BENCHMARK(BM_CullBoxes)->ArgsProduct({{0, 1, 2, 3}, {0, 1}, {27000}})->Unit(benchmark::kMicrosecond)->UseRealTime();
+
+// States only (CullBatchOptions::exact_minimum false) against exact
+// minima, with the best kernels this CPU has: BM_CullStates/<exact>/<layout>/
+// <boxes>. Hidden groups of Z-order neighbours go at once, so the clustered
+// set's cost should grow slower than its box count (27 000 to 108 000 boxes
+// in the same 30 clusters).
+void BM_CullStates(benchmark::State& state) {
+  const bool exact = state.range(0) != 0, clustered = state.range(1) != 0;
+  const auto n = static_cast<std::size_t>(state.range(2));
+  const Scene& s = scene();
+  const std::vector<visibility::BoxFootprint> boxes = make_boxes(n, clustered);
+  if (boxes.size() != n) {
+    state.SkipWithError("boxes did not resolve");
+    return;
+  }
+  const visibility::CullIndex index(s.ohf.ohf, s.ohf.frame.window, visibility::CullIndex::levels_for(boxes));
+  const visibility::BoxBatch batch(boxes);
+  std::vector<visibility::BoxVisibility> out(n);
+  visibility::BatchStats stats;
+  std::size_t visible = 0;
+  for (auto _ : state) {
+    stats = {};
+    visible = visibility::cull_batch(index, batch, out, &stats, {.exact_minimum = exact});
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * n));
+  state.counters["visible"] = static_cast<double>(visible);
+  state.counters["reads/box"] = static_cast<double>(stats.reads) / static_cast<double>(n);
+  state.counters["grouped"] =
+      static_cast<double>(stats.groups_hidden * visibility::BoxBatch::kGroup) / static_cast<double>(n);
+}
+BENCHMARK(BM_CullStates)->ArgsProduct({{1, 0}, {0, 1}, {27000, 108000}})->Unit(benchmark::kMicrosecond)->UseRealTime();
 
 // What a new box set or a new OHF costs before the calls above: the batch
 // (sort and thresholds, 27 000 boxes) and the index (levels over the 4 M

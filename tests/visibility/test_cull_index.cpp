@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -73,7 +74,7 @@ TEST(CullIndex, LevelsHoldTheMinimumOfTheSquareEachCellLeads) {
   EXPECT_EQ(index.level(2)[4], 58.0f);
   // The void keeps a second set of levels, voids as +inf.
   ASSERT_TRUE(index.has_voids());
-  EXPECT_EQ(index.bytes(), CullIndex::index_bytes(15, 3, true));
+  EXPECT_EQ(index.bytes(), CullIndex::index_bytes(5, 3, 3, true));
   EXPECT_EQ(index.known_min_in(2, 0, 4, 2), 70.0f);  // (2,0) 80, (3,0) 70, (2,1) 79, (3,1) void
   EXPECT_EQ(index.known_min_in(3, 1, 4, 2), kInf);   // the void alone
   EXPECT_EQ(index.min_in(2, 0, 4, 2), -kInf);
@@ -81,7 +82,7 @@ TEST(CullIndex, LevelsHoldTheMinimumOfTheSquareEachCellLeads) {
   g.at(3, 1) = 1.0f;
   const CullIndex whole(g, {0, 0, 5, 3}, 3);
   EXPECT_FALSE(whole.has_voids());
-  EXPECT_EQ(whole.bytes(), CullIndex::index_bytes(15, 3));
+  EXPECT_EQ(whole.bytes(), CullIndex::index_bytes(5, 3, 3));
 }
 
 TEST(CullIndex, MinInIsExactForEveryRectangleShape) {
@@ -311,6 +312,106 @@ TEST(CullIndex, AgreesWithRunCullOnARealOhf) {
   expect_same(run->boxes, got);
   EXPECT_GT(run->visible_count, 100u);
   EXPECT_LT(run->visible_count, 1900u);
+}
+
+TEST(CullIndex, BlockMinIsTheLeastOverTheCoveringBlocks) {
+  const terrain::Grid<float> g = random_ohf(37, 29, 12, 0.01);
+  const CullIndex index(g, {0, 0, 37, 29}, 2);
+  constexpr int b = CullIndex::kBlock;
+  for (const auto& [c0, r0, c1, r1] : {std::array{0, 0, 1, 1}, std::array{3, 5, 20, 9}, std::array{7, 7, 9, 9},
+                                       std::array{30, 20, 37, 29}, std::array{0, 0, 37, 29}}) {
+    const int bc1 = std::min(37, ((c1 - 1) / b + 1) * b), br1 = std::min(29, ((r1 - 1) / b + 1) * b);
+    std::uint64_t reads = 0;
+    EXPECT_EQ(index.block_min_over(c0, r0, c1, r1, &reads), brute_min(g, c0 / b * b, r0 / b * b, bc1, br1))
+        << c0 << "," << r0 << " .. " << c1 << "," << r1;
+    EXPECT_EQ(reads, static_cast<std::uint64_t>(((c1 - 1) / b - c0 / b + 1) * ((r1 - 1) / b - r0 / b + 1)));
+  }
+}
+
+// Clusters of small boxes over a high OHF (mostly hidden, a few tall enough
+// to be seen) and over a low one (seen), and the random scene's boxes.
+Scene clustered_scene() {
+  Scene s;
+  s.window = {0, 0, 256, 128};
+  s.ohf = terrain::Grid<float>(256, 128);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> noise(0.0f, 100.0f);
+  for (int r = 0; r < 128; ++r)
+    for (int c = 0; c < 256; ++c) s.ohf.at(c, r) = (c < 128 ? 1000.0f : 0.0f) + noise(rng);
+  std::uniform_real_distribution<double> u(0, 1);
+  const int centres[][2] = {{40, 40}, {90, 90}, {170, 40}, {220, 90}};
+  for (int i = 0; i < 4000; ++i) {
+    const auto& c = centres[i % 4];
+    const int c0 = c[0] + static_cast<int>(20 * (u(rng) - 0.5)), r0 = c[1] + static_cast<int>(20 * (u(rng) - 0.5));
+    const int w = 1 + static_cast<int>(3 * u(rng)), h = 1 + static_cast<int>(3 * u(rng));
+    const double z = c[0] < 128 ? (u(rng) < 0.02 ? 1050 + 100 * u(rng) : 900 * u(rng)) : 200 * u(rng);
+    s.boxes.push_back(footprint(c0, r0, c0 + w, r0 + h, z));
+  }
+  return s;
+}
+
+TEST(CullIndex, GroupsAnswerHiddenClustersAtOnceWithTheExactStates) {
+  for (const Scene& s : {clustered_scene(), random_scene(5)}) {
+    const std::vector<BoxVisibility> want = with_pyramid(s);
+    const CullIndex index(s.ohf, s.window, CullIndex::levels_for(s.boxes));
+    const BoxBatch batch(s.boxes);
+    std::vector<BoxVisibility> exact(s.boxes.size());
+    BatchStats exact_stats;
+    cull_batch(index, batch, exact, &exact_stats);
+    EXPECT_EQ(exact_stats.groups_tried, 0u);  // exact minima: never grouped
+    const auto check = [&] {
+      std::vector<BoxVisibility> got(s.boxes.size());
+      BatchStats stats;
+      cull_batch(index, batch, got, &stats, {.exact_minimum = false});
+      std::size_t bounded = 0;
+      for (std::size_t i = 0; i < got.size(); ++i) {
+        ASSERT_EQ(got[i].state, want[i].state) << "box " << i;
+        if (got[i].ohf_min != want[i].ohf_min) {
+          // A group's bound: at most the box's own least, still above its z_max.
+          ASSERT_EQ(got[i].state, Visibility::kOccluded) << "box " << i;
+          ASSERT_LT(got[i].ohf_min, want[i].ohf_min) << "box " << i;
+          ASSERT_GT(static_cast<double>(got[i].ohf_min), s.boxes[i].z_max + kTieTolerance) << "box " << i;
+          ++bounded;
+        }
+      }
+      EXPECT_LE(stats.groups_hidden, stats.groups_tried);
+      EXPECT_LE(bounded, stats.groups_hidden * BoxBatch::kGroup);
+      if (s.boxes.size() == 4000) {
+        // The hidden clusters went by whole groups, for fewer reads.
+        EXPECT_GT(stats.groups_hidden, 30u);
+        EXPECT_LT(stats.reads, exact_stats.reads * 3 / 4);
+      }
+    };
+    {
+      struct Restore {
+        ~Restore() { sweep::simd::isa_limit() = sweep::simd::Isa::kAvx512; }
+      } restore;
+      sweep::simd::isa_limit() = sweep::simd::Isa::kScalar;
+      SCOPED_TRACE("scalar");
+      check();
+    }
+    sweep::for_each_vector_form(check);
+  }
+}
+
+TEST(CullIndex, WideGroupsAreNeverTried) {
+  // Boxes scattered over a large OHF: sixteen Z-order neighbours span more
+  // than kGroupSpan cells, so the batch keeps no group to try.
+  const terrain::Grid<float> g = random_ohf(1024, 1024, 8, 0.0);
+  std::mt19937 rng(9);
+  std::uniform_int_distribution<int> at(0, 1020);
+  std::vector<BoxFootprint> boxes;
+  for (int i = 0; i < 256; ++i) {
+    const int c = at(rng), r = at(rng);
+    boxes.push_back(footprint(c, r, c + 2, r + 2, -100.0));
+  }
+  const BoxBatch batch(boxes);
+  EXPECT_TRUE(batch.group_first.empty());
+  const CullIndex index(g, {0, 0, 1024, 1024}, 2);
+  std::vector<BoxVisibility> out(boxes.size());
+  BatchStats stats;
+  EXPECT_EQ(cull_batch(index, batch, out, &stats, {.exact_minimum = false}), 0u);
+  EXPECT_EQ(stats.groups_tried, 0u);
 }
 
 }  // namespace

@@ -261,6 +261,28 @@ CullIndex::CullIndex(const terrain::Grid<float>& ohf, const terrain::Window& win
       plane_(static_cast<std::size_t>(ohf.width()) * static_cast<std::size_t>(ohf.height())) {
   build_levels(ohf, -kInf, levels_, threads, values_);
   if (plane_ != 0 && has_nan(ohf)) build_levels(ohf, kInf, levels_, threads, known_);
+  // Aligned blocks of level 0 (voids -inf), for the groups' test.
+  block_cols_ = (width_ + kBlock - 1) / kBlock;
+  const int block_rows = (height_ + kBlock - 1) / kBlock;
+  blocks_.assign(static_cast<std::size_t>(block_cols_) * static_cast<std::size_t>(block_rows), kInf);
+  const float* cells = values_.data();
+  for (int r = 0; r < height_; ++r) {
+    float* out = blocks_.data() + static_cast<std::size_t>(r / kBlock) * static_cast<std::size_t>(block_cols_);
+    const float* in = cells + static_cast<std::size_t>(r) * static_cast<std::size_t>(width_);
+    for (int c = 0; c < width_; ++c) out[c / kBlock] = std::min(out[c / kBlock], in[c]);
+  }
+}
+
+float CullIndex::block_min_over(int col0, int row0, int col1, int row1, std::uint64_t* reads) const {
+  assert(col0 >= 0 && row0 >= 0 && col1 <= width_ && row1 <= height_ && col0 < col1 && row0 < row1);
+  const int b0 = col0 / kBlock, b1 = (col1 - 1) / kBlock;
+  float m = kInf;
+  for (int r = row0 / kBlock; r <= (row1 - 1) / kBlock; ++r) {
+    const float* row = blocks_.data() + static_cast<std::size_t>(r) * static_cast<std::size_t>(block_cols_);
+    for (int c = b0; c <= b1; ++c) m = std::min(m, row[c]);
+  }
+  if (reads) *reads += static_cast<std::uint64_t>((b1 - b0 + 1) * ((row1 - 1) / kBlock - row0 / kBlock + 1));
+  return m;
 }
 
 int CullIndex::levels_for(std::span<const BoxFootprint> footprints) {
@@ -272,8 +294,12 @@ int CullIndex::levels_for(std::span<const BoxFootprint> footprints) {
   return std::min(k + 1, kMaxLevels);
 }
 
-std::uint64_t CullIndex::index_bytes(std::uint64_t cells, int levels, bool voids) {
-  return cells * static_cast<std::uint64_t>(std::clamp(levels, 1, kMaxLevels)) * sizeof(float) * (voids ? 2 : 1);
+std::uint64_t CullIndex::index_bytes(int width, int height, int levels, bool voids) {
+  const auto cells = static_cast<std::uint64_t>(width) * static_cast<std::uint64_t>(height);
+  const auto blocks = static_cast<std::uint64_t>((width + kBlock - 1) / kBlock) *
+                      static_cast<std::uint64_t>((height + kBlock - 1) / kBlock);
+  return (cells * static_cast<std::uint64_t>(std::clamp(levels, 1, kMaxLevels)) * (voids ? 2 : 1) + blocks) *
+         sizeof(float);
 }
 
 float CullIndex::min_in(int col0, int row0, int col1, int row1, std::uint64_t* reads) const {
@@ -343,13 +369,53 @@ BoxBatch::BoxBatch(std::span<const BoxFootprint> footprints) {
     row1[j] = f.cells.row1;
     threshold[j] = float_at_or_below(f.z_max + kTieTolerance);
   }
+  // Groups of kGroup neighbours in Z order whose rectangle is small enough to try.
+  for (std::size_t g = 0; g + kGroup <= n; g += kGroup) {
+    std::int32_t c0 = col0[g], r0 = row0[g], c1 = col1[g], r1 = row1[g];
+    float t = threshold[g];
+    bool on = true;
+    for (std::size_t j = g; j < g + kGroup; ++j) {
+      on = on && on_map[j] && col1[j] > col0[j] && row1[j] > row0[j];
+      c0 = std::min(c0, col0[j]);
+      r0 = std::min(r0, row0[j]);
+      c1 = std::max(c1, col1[j]);
+      r1 = std::max(r1, row1[j]);
+      t = std::max(t, threshold[j]);
+    }
+    if (!on || c1 - c0 > kGroupSpan || r1 - r0 > kGroupSpan) continue;
+    group_first.push_back(static_cast<std::uint32_t>(g));
+    group_col0.push_back(c0);
+    group_row0.push_back(r0);
+    group_col1.push_back(c1);
+    group_row1.push_back(r1);
+    group_threshold.push_back(t);
+  }
 }
 
-std::size_t cull_batch(const CullIndex& index, const BoxBatch& batch, std::span<BoxVisibility> out, BatchStats* stats) {
+std::size_t cull_batch(const CullIndex& index, const BoxBatch& batch, std::span<BoxVisibility> out, BatchStats* stats,
+                       const CullBatchOptions& options) {
   assert(out.size() == batch.size());
   BatchStats local;
   std::size_t visible = 0;
   const std::size_t n = batch.size();
+  // The next group to try (states only): answers boxes j .. j + kGroup and
+  // returns true when it is hidden as a whole.
+  std::size_t next_group = options.exact_minimum ? batch.group_first.size() : 0;
+  const auto group_hidden = [&](std::size_t j) {
+    while (next_group < batch.group_first.size() && batch.group_first[next_group] < j) ++next_group;
+    if (next_group == batch.group_first.size() || batch.group_first[next_group] != j) return false;
+    const std::size_t g = next_group++;
+    const terrain::Window& win = index.window();
+    const int c0 = batch.group_col0[g] - win.col0, r0 = batch.group_row0[g] - win.row0;
+    const int c1 = batch.group_col1[g] - win.col0, r1 = batch.group_row1[g] - win.row0;
+    if (c0 < 0 || r0 < 0 || c1 > index.width() || r1 > index.height()) return false;
+    ++local.groups_tried;
+    const float least = index.block_min_over(c0, r0, c1, r1, &local.reads);
+    if (!(least > batch.group_threshold[g])) return false;
+    ++local.groups_hidden;
+    for (std::size_t i = j; i < j + BoxBatch::kGroup; ++i) out[batch.order[i]] = {Visibility::kOccluded, least};
+    return true;
+  };
   const auto finish = [&](std::size_t j, float ohf_min) {
     BoxVisibility& o = out[batch.order[j]];
     if (ohf_min == -kInf)
@@ -365,7 +431,11 @@ std::size_t cull_batch(const CullIndex& index, const BoxBatch& batch, std::span<
   if (fits && index.width() > 0) {
     const auto vector_pass = [&](auto kernel, std::size_t width) {
       float ohf[16];
-      for (; j + width <= n; j += width) {
+      while (j + width <= n) {
+        if (j % BoxBatch::kGroup == 0 && group_hidden(j)) {
+          j += BoxBatch::kGroup;
+          continue;
+        }
         LaneMasks lanes;
         kernel(index, batch, j, ohf, lanes);
         for (std::size_t l = 0; l < width; ++l) {
@@ -381,6 +451,7 @@ std::size_t cull_batch(const CullIndex& index, const BoxBatch& batch, std::span<
           }
           finish(j + l, ohf[l]);
         }
+        j += width;
       }
     };
     if (simd::has_avx512())
@@ -389,11 +460,20 @@ std::size_t cull_batch(const CullIndex& index, const BoxBatch& batch, std::span<
       vector_pass(test8, 8);
   }
 #endif
-  for (; j < n; ++j) finish(j, test_box(index, batch, j, local));
+  while (j < n) {
+    if (j % BoxBatch::kGroup == 0 && group_hidden(j)) {
+      j += BoxBatch::kGroup;
+      continue;
+    }
+    finish(j, test_box(index, batch, j, local));
+    ++j;
+  }
   if (stats) {
     stats->reads += local.reads;
     stats->vector_boxes += local.vector_boxes;
     stats->outside += local.outside;
+    stats->groups_tried += local.groups_tried;
+    stats->groups_hidden += local.groups_hidden;
   }
   return visible;
 }

@@ -42,8 +42,24 @@
 // gives the scalar loop's bits (tests/visibility/test_cull_index.cpp checks
 // all three against cull_footprints and brute force).
 //
+// Groups, when only the states are wanted (CullBatchOptions::exact_minimum
+// false). The batch also keeps, for each run of kGroup boxes in Z order,
+// the rectangle bounding their footprints and the highest of their
+// thresholds; the index keeps the least OHF over each aligned block of
+// kBlock x kBlock cells (voids -inf). When a group's rectangle is at most
+// kGroupSpan cells a side and the least over the blocks that cover it lies
+// above the group's highest threshold, every box of the group is hidden
+// (each box's minimum is at least that least, above its threshold): the
+// group is answered kOccluded from a few block reads (at most 25) without
+// testing its boxes, each box's ohf_min then that least, a lower bound on
+// its own. Otherwise its boxes are tested one by one as above. Clustered
+// boxes make small rectangles, and more boxes in the same clusters make
+// them smaller, so the cost of a hidden cluster grows slower than its box
+// count; scattered boxes make wide rectangles, which are never tried.
+// States are always the exact ones.
+//
 // Cost: the index stores levels x the OHF's cells, 4 bytes each (twice that
-// when the OHF has voids), built in
+// when the OHF has voids), and one block value per 64 cells, built in
 // O(levels x cells); a test reads 4 index cells for a box of aspect up to 2
 // and ceil(w / s) x ceil(h / s) for others. levels_for() picks the fewest
 // levels that give every box of the set the largest square fitting it, at
@@ -68,6 +84,7 @@ namespace horizon::visibility {
 class CullIndex {
  public:
   static constexpr int kMaxLevels = 5;  // squares of 1, 2, 4, 8 and 16 cells
+  static constexpr int kBlock = 8;      // side of the blocks of block_min_over, cells
 
   // Over `ohf`, whose cell (0, 0) is DEM cell (window.col0, window.row0)
   // (a ViewshedResult's ohf and frame.window). `levels` is clamped to
@@ -79,16 +96,18 @@ class CullIndex {
   // The fewest levels giving every footprint the largest square that fits
   // it (side 2^floor(log2 min(w, h))), capped at kMaxLevels; 1 for none.
   static int levels_for(std::span<const BoxFootprint> footprints);
-  // Bytes an index of `levels` levels over `cells` OHF cells stores.
+  // Bytes an index of `levels` levels over a width x height OHF stores.
   // `voids`: the OHF has NaN cells, and a second set of levels is kept.
-  static std::uint64_t index_bytes(std::uint64_t cells, int levels, bool voids = false);
+  static std::uint64_t index_bytes(int width, int height, int levels, bool voids = false);
 
   int levels() const { return levels_; }
   int width() const { return width_; }
   int height() const { return height_; }
   const terrain::Window& window() const { return window_; }
   bool has_voids() const { return !known_.empty(); }
-  std::uint64_t bytes() const { return static_cast<std::uint64_t>(values_.size() + known_.size()) * sizeof(float); }
+  std::uint64_t bytes() const {
+    return static_cast<std::uint64_t>(values_.size() + known_.size() + blocks_.size()) * sizeof(float);
+  }
 
   // Least OHF over the local cells [col0, col1) x [row0, row1): non-empty
   // and inside the raster (asserted). Adds the index cells read to *reads.
@@ -96,6 +115,11 @@ class CullIndex {
   // The same with voids read as +inf: the least over the cells that have an
   // OHF (+inf when none has). min_in when the OHF has no voids.
   float known_min_in(int col0, int row0, int col1, int row1, std::uint64_t* reads = nullptr) const;
+
+  // Least OHF (voids -inf) over the aligned kBlock x kBlock blocks that
+  // cover the local cells [col0, col1) x [row0, row1) (non-empty, inside):
+  // at most the least over the rectangle itself. Adds the blocks read to *reads.
+  float block_min_over(int col0, int row0, int col1, int row1, std::uint64_t* reads = nullptr) const;
 
   // Level k's cells, row-major, width() per row; level k + 1 follows level
   // k, plane() cells on.
@@ -110,10 +134,15 @@ class CullIndex {
 
   std::vector<float, LargeAllocator<float>> values_;  // mapped and populated up front, not zeroed
   std::vector<float, LargeAllocator<float>> known_;   // voids as +inf; empty when the OHF has none
+  std::vector<float> blocks_;                         // least over each kBlock x kBlock block, voids -inf
+  int block_cols_ = 0;
 };
 
 // Boxes as the kernels read them (see the header comment).
 struct BoxBatch {
+  static constexpr std::size_t kGroup = 16;  // boxes a group, consecutive in Z order
+  static constexpr int kGroupSpan = 32;      // the widest group rectangle tried, cells
+
   BoxBatch() = default;
   explicit BoxBatch(std::span<const BoxFootprint> footprints);
 
@@ -126,12 +155,27 @@ struct BoxBatch {
   std::vector<float> threshold;
   std::vector<std::uint8_t> on_map;  // 0: the box is off the map (BoxFootprint::on_map), answered kOutOfRange
   std::vector<std::uint32_t> order;  // sorted position -> caller's index
+  // Group g (sorted boxes g * kGroup .. + kGroup): the DEM cells bounding
+  // their footprints and their highest threshold; only groups of kGroup
+  // boxes on the map whose rectangle is at most kGroupSpan a side are kept
+  // (group_first: their first sorted position).
+  std::vector<std::uint32_t> group_first;
+  std::vector<std::int32_t> group_col0, group_row0, group_col1, group_row1;
+  std::vector<float> group_threshold;
+};
+
+struct CullBatchOptions {
+  // true: every box's ohf_min is its exact least OHF (as cull_footprints).
+  // false: a group shown hidden as a whole gives its boxes a lower bound
+  // (above their thresholds) instead; the states are the same.
+  bool exact_minimum = true;
 };
 
 struct BatchStats {
   std::uint64_t reads = 0;         // index cells read
   std::uint64_t vector_boxes = 0;  // boxes answered by the vector kernel (four reads each)
   std::uint64_t outside = 0;       // boxes (partly) outside the index's window, off-map ones included
+  std::uint64_t groups_tried = 0, groups_hidden = 0;  // whole groups tested, and answered hidden at once
 };
 
 // Tests every box of `batch` against `index`; out[i] answers the caller's
@@ -141,6 +185,6 @@ struct BatchStats {
 // decided on its other cells, or undetermined. Returns the number that may
 // be seen (not kOccluded).
 std::size_t cull_batch(const CullIndex& index, const BoxBatch& batch, std::span<BoxVisibility> out,
-                       BatchStats* stats = nullptr);
+                       BatchStats* stats = nullptr, const CullBatchOptions& options = {});
 
 }  // namespace horizon::visibility
