@@ -10,6 +10,7 @@
 #include <sstream>
 #include <string_view>
 
+#include "commands/bench_region.hpp"
 #include "commands/command.hpp"
 #include "horizon/evaluation/bench.hpp"
 #include "inputs.hpp"
@@ -39,6 +40,16 @@ constexpr FlagSpec kFlags[] = {
     {"--gpu", "", "", "Also run fast's GPU rows on an EGL context (the GPU, or Mesa llvmpipe without one)"},
     {"--out", "-o", "DIR", "Directory for bench.csv, bench.md and the charts (default bench-out)"},
     {"--markdown", "", "FILE", "Also write the Markdown tables to FILE"},
+    // The from-region sweep (commands/bench_region.cpp).
+    {"--region", "", "", "Sweep from-region visibility instead: region size x fuzzy-array resolution"},
+    {"--sizes", "", "LIST", "--region: square footprints' sides, ground metres (default 30,120,480)"},
+    {"--face-resolutions", "", "LIST", "--region: fuzzy-array columns a face (default 64,256,1024,4096)"},
+    {"--splits", "", "LIST", "--region: footprint splits (default 2)"},
+    {"--heights", "", "ZMIN,ZMAX", "--region: viewpoint heights above the ground, metres (default 2,20)"},
+    {"--regions", "", "N", "--region: region centres per DEM, on valid ground, fixed seed (default 2)"},
+    {"--check", "", "N",
+     "--region: check the verdicts with R3 from the corners, edges, faces and N interior points (default 200; "
+     "0: no check)"},
 };
 
 constexpr std::string_view kAlgorithmNames[] = {"fast", "exact", "conservative", "r3"};
@@ -101,14 +112,10 @@ evaluation::BenchConfig parse_config(const Args& args) {
   return c;
 }
 
-std::string slug(const std::string& dem) {
-  std::string s = fs::path(dem).stem().string();
-  for (char& ch : s)
-    if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '_' && ch != '-') ch = '_';
-  return s;
-}
-
 int run_bench(const Args& args) {
+  if (args.has("--region")) return run_region_bench(args);
+  for (std::string_view f : kRegionOnlyFlags)
+    if (args.has(f)) throw UsageError(std::string(f) + ": a flag of the region sweep; add --region");
   evaluation::BenchConfig config = parse_config(args);
   const std::string out_dir = args.text("--out").value_or("bench-out");
   std::error_code ec;
@@ -163,7 +170,7 @@ int run_bench(const Args& args) {
   auto flush = [&]() -> Status {
     if (group.empty()) return Status::Ok();
     const bool pooled = group.front().dem.empty();
-    const std::string name = pooled ? "pareto_all.png" : "pareto_" + slug(group.front().dem) + ".png";
+    const std::string name = pooled ? "pareto_all.png" : "pareto_" + dem_slug(group.front().dem) + ".png";
     const std::string title = pooled ? "All DEMs: runtime against error"
                                      : group.front().dem + ": runtime against error (" +
                                            std::to_string(group.front().observers) + " observers)";
@@ -212,7 +219,9 @@ const Command& bench_command() {
       "bench",
       "Sweep algorithms and their accuracy knobs: runtime against error (CSV, PNG, Markdown)",
       "horizon bench DEM... [--observers N | --observer X,Y[;X,Y...]] [--algorithms LIST] [--peers LIST] "
-      "[--repeats N] [-o DIR]",
+      "[--repeats N] [-o DIR]\n"
+      "horizon bench --region DEM... [--sizes LIST] [--face-resolutions LIST] [--splits LIST] [--heights ZMIN,ZMAX] "
+      "[--check N] [-o DIR]",
       "For each DEM, observer and setting of each algorithm's knobs (the knob table in\n"
       "core/src/evaluation/bench.cpp), computes the viewshed after --warmup untimed runs,\n"
       "--repeats times, keeps the median compute time, and measures the result against R3\n"
@@ -220,10 +229,16 @@ const Command& bench_command() {
       "r.viewshed are run on the same files and observers when installed (a missing peer is\n"
       "reported, not an error). Writes DIR/bench.csv (one line per run), DIR/bench.md (tables\n"
       "pooled per DEM and over all DEMs) and DIR/pareto_*.png (time against 1 - IoU, log axes,\n"
-      "the Pareto front drawn).",
+      "the Pareto front drawn).\n"
+      "With --region, sweeps from-region visibility instead (core/evaluation/region_bench.hpp): square\n"
+      "regions of each --sizes side at --regions centres, classified at each --face-resolutions and\n"
+      "--splits (median of --repeats), every cell within --max-distance (default 3000 m): the decided\n"
+      "share against time, each verdict checked with R3 (--check). Writes DIR/bench_region.csv,\n"
+      "DIR/bench_region.md and DIR/region_*.png; exits 1 if any verdict contradicts R3.",
       kFlags,
       "  horizon bench data/dem/zion_canyon_srtm3_465x457.tif --observers 2 --peers none -o out/bench\n"
-      "  horizon bench a.tif b.tif --algorithms fast,r3 --repeats 5 --markdown docs/table.md\n",
+      "  horizon bench a.tif b.tif --algorithms fast,r3 --repeats 5 --markdown docs/table.md\n"
+      "  horizon bench --region data/dem/ecuador_andes_utm17s_10m_383x415.tif --sizes 20,100 -o out/region\n",
       run_bench,
   };
   return command;

@@ -54,6 +54,42 @@ TEST(CliBench, RejectsBadFlagsWithUsageStatus) {
   EXPECT_EQ(none.exit_code, 2);
 }
 
+TEST(CliBench, RegionSweepWritesItsTablesAndChartAndChecksEveryVerdict) {
+  TempDir dir;
+  const std::string out = dir.file("region");
+  auto r = horizon("bench --region " + bundled_dem("ecuador_andes_utm17s_10m_383x415.tif") +
+                   " --sizes 20,200 --face-resolutions 64,1024 --regions 1 --max-distance 600 --check 20 --repeats 1"
+                   " --warmup 0 -o " +
+                   out);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(out + "/bench_region.csv"));
+  EXPECT_TRUE(fs::exists(out + "/bench_region.md"));
+  EXPECT_TRUE(fs::exists(out + "/region_ecuador_andes_utm17s_10m_383x415.png"));
+  EXPECT_NE(r.output.find("R3 check: 0 wrong verdicts"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("200 m region"), std::string::npos) << r.output;
+  std::ifstream csv(out + "/bench_region.csv");
+  int lines = 0;
+  for (std::string line; std::getline(csv, line);) ++lines;
+  EXPECT_EQ(lines, 1 + 2 * 2);
+}
+
+TEST(CliBench, RegionAndViewshedFlagsDoNotMix) {
+  const std::string dem = bundled_dem("olinda_coast_utm25s_111x111.tif");
+  auto a = horizon("bench " + dem + " --sizes 20 --peers none");
+  EXPECT_EQ(a.exit_code, 2);
+  EXPECT_NE(a.output.find("--sizes: a flag of the region sweep; add --region"), std::string::npos) << a.output;
+  auto b = horizon("bench --region " + dem + " --algorithms fast");
+  EXPECT_EQ(b.exit_code, 2);
+  EXPECT_NE(b.output.find("--algorithms: not a flag of the region sweep"), std::string::npos) << b.output;
+  auto c = horizon("bench --region " + dem + " --face-resolutions 64,5");
+  EXPECT_EQ(c.exit_code, 2);
+  EXPECT_NE(c.output.find("--face-resolutions: each must be a whole number in [8, 65536]"), std::string::npos)
+      << c.output;
+  auto d = horizon("bench --region " + dem + " --heights 30,2");
+  EXPECT_EQ(d.exit_code, 2);
+  EXPECT_NE(d.output.find("--heights"), std::string::npos) << d.output;
+}
+
 TEST(CliStress, PrintsAReportAndExitsZeroWhenChecksPass) {
   TempDir dir;
   auto r = horizon("stress --algorithms r3 --checks flat_all_visible,wall_1000m --markdown " + dir.file("s.md"));

@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -26,20 +27,27 @@ namespace {
 
 constexpr int kWidth = 1000, kHeight = 640;
 constexpr int kLeft = 90, kRight = 200, kTop = 56, kBottom = 64;  // plot margins (legend on the right)
-constexpr double kErrorFloorLog = -3.0;                           // 0.001 %
 constexpr double kErrorCeilLog = 2.0;                             // 100 %
 constexpr const char* kFont = "DejaVuSans";
 
 using Colour = imageio::Colour;
 
-Colour colour_of(const std::string& algorithm) {
+// The algorithms' and peers' own colours; other series (the region sweep's
+// sizes) take a qualitative palette in the order they first appear.
+std::optional<Colour> own_colour(const std::string& algorithm) {
   static const std::map<std::string, Colour> known = {
       {"fast", {0.12f, 0.47f, 0.71f}}, {"exact", {0.17f, 0.63f, 0.17f}}, {"conservative", {1.0f, 0.5f, 0.05f}},
       {"r3", {0.3f, 0.3f, 0.3f}},      {"gdal", {0.84f, 0.15f, 0.16f}},  {"grass", {0.58f, 0.4f, 0.74f}},
   };
   if (auto it = known.find(algorithm); it != known.end()) return it->second;
-  const float h = float(std::hash<std::string>{}(algorithm) % 7) / 7.0f;
-  return {0.3f + 0.6f * h, 0.6f - 0.4f * h, 0.5f};
+  return std::nullopt;
+}
+
+Colour palette_colour(int nth) {
+  static const Colour palette[] = {{0.12f, 0.47f, 0.71f}, {1.0f, 0.5f, 0.05f},  {0.17f, 0.63f, 0.17f},
+                                   {0.84f, 0.15f, 0.16f}, {0.58f, 0.4f, 0.74f}, {0.55f, 0.34f, 0.29f},
+                                   {0.89f, 0.47f, 0.76f}, {0.5f, 0.5f, 0.5f}};
+  return palette[static_cast<std::size_t>(nth) % std::size(palette)];
 }
 
 std::string decade_label_time(int e) {
@@ -80,7 +88,8 @@ struct Canvas {
 
 }  // namespace
 
-Status write_chart(const std::string& path, const std::vector<Aggregate>& group, const std::string& title) {
+Status write_chart(const std::string& path, const std::vector<Aggregate>& group, const std::string& title,
+                   const ChartText& words) {
   if (group.empty()) return make_error(ErrorCode::kInvalidArgument, "chart: nothing to draw", "chart");
   auto surface = imageio::make_canvas(kWidth, kHeight);
   if (!surface.ok()) return surface.error();
@@ -88,6 +97,17 @@ Status write_chart(const std::string& path, const std::vector<Aggregate>& group,
   const int px0 = kLeft, px1 = kWidth - kRight, py0 = kTop, py1 = kHeight - kBottom;
   const int zero_line = py1 - 18;         // y of "0 error"
   const int log_bottom = zero_line - 22;  // y of the log range's floor
+  const double floor_log = std::min(words.error_floor_log, static_cast<int>(kErrorCeilLog) - 1);
+  // Series in order of appearance, each with its colour.
+  std::vector<std::string> algorithms;
+  std::map<std::string, Colour> colours;
+  int unknown = 0;
+  for (const Aggregate& a : group)
+    if (std::find(algorithms.begin(), algorithms.end(), a.algorithm) == algorithms.end()) {
+      algorithms.push_back(a.algorithm);
+      const std::optional<Colour> own = own_colour(a.algorithm);
+      colours[a.algorithm] = own ? *own : palette_colour(unknown++);
+    }
 
   double t_min = std::numeric_limits<double>::infinity(), t_max = 0;
   for (const Aggregate& a : group) {
@@ -104,9 +124,9 @@ Status write_chart(const std::string& path, const std::vector<Aggregate>& group,
   auto y_of = [&](double error) {
     const double pct = 100.0 * error;
     if (!(pct > 0)) return zero_line;
-    const double l = std::clamp(std::log10(pct), kErrorFloorLog, kErrorCeilLog);
+    const double l = std::clamp(std::log10(pct), floor_log, kErrorCeilLog);
     return log_bottom -
-           static_cast<int>(std::lround((l - kErrorFloorLog) / (kErrorCeilLog - kErrorFloorLog) * (log_bottom - py0)));
+           static_cast<int>(std::lround((l - floor_log) / (kErrorCeilLog - floor_log) * (log_bottom - py0)));
   };
 
   // Grid, ticks and labels.
@@ -122,7 +142,7 @@ Status write_chart(const std::string& path, const std::vector<Aggregate>& group,
         cv.line(xm, py1, xm, py1 + 3, black);
       }
   }
-  for (int e = static_cast<int>(kErrorFloorLog); e <= static_cast<int>(kErrorCeilLog); ++e) {
+  for (int e = static_cast<int>(floor_log); e <= static_cast<int>(kErrorCeilLog); ++e) {
     const int y = y_of(std::pow(10.0, e) / 100.0);
     cv.line(px0, y, px1, y, grid);
     cv.line(px0 - 6, y, px0, y, black);
@@ -130,19 +150,18 @@ Status write_chart(const std::string& path, const std::vector<Aggregate>& group,
   }
   cv.line(px0, zero_line, px1, zero_line, {0.75f, 0.85f, 0.75f});
   cv.line(px0 - 6, zero_line, px0, zero_line, black);
-  cv.text(px0 - 9, zero_line - 7, "0 (exact)", 13, 2);
+  cv.text(px0 - 9, zero_line - 7, words.zero_line, 13, 2);
   cv.box(px0, py0, px1, py1, black, false);
-  cv.text((px0 + px1) / 2, py1 + 30, "time, summed over the observers (log scale)", 15, 1);
-  cv.text(8, py0 - 22, "error: 1 - IoU against R3 (log scale)", 13);
+  cv.text((px0 + px1) / 2, py1 + 30, words.x_axis, 15, 1);
+  cv.text(8, py0 - 22, words.y_axis, 13);
   cv.text((px0 + px1) / 2, 8, title, 17, 1);
-  cv.text(px1 + 16, py1 - 46, "time: Horizon compute;", 11);
-  cv.text(px1 + 16, py1 - 32, "gdal whole process;", 11);
-  cv.text(px1 + 16, py1 - 18, "grass r.viewshed module", 11);
+  for (std::size_t i = 0; i < words.notes.size(); ++i)
+    cv.text(px1 + 16, py1 - 18 - 14 * static_cast<int>(words.notes.size() - 1 - i), words.notes[i], 11);
 
   // The front: a staircase through the front's points by time.
   std::vector<const Aggregate*> front;
   for (const Aggregate& a : group)
-    if (a.on_front) front.push_back(&a);
+    if (a.on_front && words.pareto_front) front.push_back(&a);
   std::sort(front.begin(), front.end(), [](const Aggregate* a, const Aggregate* b) { return a->seconds < b->seconds; });
   for (std::size_t i = 0; i + 1 < front.size(); ++i) {
     const int xa = x_of(front[i]->seconds), ya = y_of(front[i]->error());
@@ -151,15 +170,23 @@ Status write_chart(const std::string& path, const std::vector<Aggregate>& group,
     cv.thick_line(xb, ya, xb, yb, black);
   }
 
+  // Without a front, each series' points joined in order and each named.
+  if (!words.pareto_front)
+    for (const std::string& name : algorithms) {
+      const Aggregate* last = nullptr;
+      for (const Aggregate& a : group) {
+        if (a.algorithm != name) continue;
+        if (last) cv.line(x_of(last->seconds), y_of(last->error()), x_of(a.seconds), y_of(a.error()), colours[name]);
+        cv.text(x_of(a.seconds) + 8, y_of(a.error()) - 18, a.setting, 11, 0, {0.25f, 0.25f, 0.25f});
+        last = &a;
+      }
+    }
   // Points, coloured by algorithm; default settings ringed; front points outlined.
-  std::vector<std::string> algorithms;
   for (const Aggregate& a : group) {
-    if (std::find(algorithms.begin(), algorithms.end(), a.algorithm) == algorithms.end())
-      algorithms.push_back(a.algorithm);
     const int x = x_of(a.seconds), y = y_of(a.error());
-    const Colour c = colour_of(a.algorithm);
+    const Colour c = colours[a.algorithm];
     cv.box(x - 5, y - 5, x + 5, y + 5, c, true);
-    if (a.on_front) cv.box(x - 6, y - 6, x + 6, y + 6, black, false);
+    if (a.on_front && words.pareto_front) cv.box(x - 6, y - 6, x + 6, y + 6, black, false);
     if (a.is_default) cv.box(x - 9, y - 9, x + 9, y + 9, c, false);
   }
   // Front points named (the setting, or the peer), right of the point.
@@ -177,14 +204,16 @@ Status write_chart(const std::string& path, const std::vector<Aggregate>& group,
   int ly = py0 + 6;
   const int lx = px1 + 16;
   for (const std::string& name : algorithms) {
-    cv.box(lx, ly + 2, lx + 12, ly + 14, colour_of(name), true);
+    cv.box(lx, ly + 2, lx + 12, ly + 14, colours[name], true);
     cv.text(lx + 20, ly, name, 14);
     ly += 22;
   }
   ly += 8;
-  cv.thick_line(lx, ly + 8, lx + 14, ly + 8, black);
-  cv.text(lx + 20, ly, "Pareto front", 13);
-  ly += 22;
+  if (words.pareto_front) {
+    cv.thick_line(lx, ly + 8, lx + 14, ly + 8, black);
+    cv.text(lx + 20, ly, "Pareto front", 13);
+    ly += 22;
+  }
   cv.box(lx - 2, ly, lx + 14, ly + 16, {0.4f, 0.4f, 0.4f}, false);
   cv.text(lx + 20, ly, "default setting", 13);
 

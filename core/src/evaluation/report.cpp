@@ -19,23 +19,6 @@ std::string fmt(const char* f, double v) {
   return buf;
 }
 
-// Marks the members of `group` that no other member beats on both time and
-// error (ties on both count as not dominated).
-void mark_front(std::vector<Aggregate*>& group) {
-  for (Aggregate* a : group) {
-    a->on_front = true;
-    for (const Aggregate* b : group) {
-      if (a == b) continue;
-      const bool no_worse = b->seconds <= a->seconds && b->error() <= a->error();
-      const bool better = b->seconds < a->seconds || b->error() < a->error();
-      if (no_worse && better) {
-        a->on_front = false;
-        break;
-      }
-    }
-  }
-}
-
 void add(Aggregate& a, const BenchRow& r, double& sq_weighted) {
   a.observers += 1;
   a.seconds += r.seconds_median;
@@ -78,6 +61,21 @@ std::string metres(double v) {
 }
 
 }  // namespace
+
+void mark_front(std::vector<Aggregate*>& group) {
+  for (Aggregate* a : group) {
+    a->on_front = true;
+    for (const Aggregate* b : group) {
+      if (a == b) continue;
+      const bool no_worse = b->seconds <= a->seconds && b->error() <= a->error();
+      const bool better = b->seconds < a->seconds || b->error() < a->error();
+      if (no_worse && better) {
+        a->on_front = false;
+        break;
+      }
+    }
+  }
+}
 
 std::vector<Aggregate> aggregate(const std::vector<BenchRow>& input, bool overall) {
   // A peer's setting is its command line, which names the observer: pool

@@ -160,6 +160,10 @@ struct Aggregate {
 // observer of a DEM are pooled across DEMs.
 std::vector<Aggregate> aggregate(const std::vector<BenchRow>& rows, bool overall);
 
+// Marks the members of `group` that no other member beats on both time and
+// error (ties on both count as not dominated).
+void mark_front(std::vector<Aggregate*>& group);
+
 // CSV, one line per BenchRow, with a header line.
 Status write_csv(const std::string& path, const std::vector<BenchRow>& rows);
 // The Markdown tables of docs/benchmarks.md: per DEM, then pooled.
@@ -169,6 +173,19 @@ Status write_markdown(const std::string& path, const BenchReport& report, const 
 // A PNG chart of one group (aggregates with the same `dem`): time on a
 // log axis against 1 - IoU on a log axis (exact answers on a "0" line),
 // one colour per algorithm with a legend, the Pareto front drawn.
-Status write_chart(const std::string& path, const std::vector<Aggregate>& group, const std::string& title);
+// The words around the plot: the region sweep (region_bench.hpp) draws its
+// own axes' meaning on the same chart.
+struct ChartText {
+  std::string x_axis = "time, summed over the observers (log scale)";
+  std::string y_axis = "error: 1 - IoU against R3 (log scale)";
+  std::string zero_line = "0 (exact)";
+  std::vector<std::string> notes = {"time: Horizon compute;", "gdal whole process;", "grass r.viewshed module"};
+  int error_floor_log = -3;  // the error axis' lowest decade: 10^-3 %
+  // Draw the Pareto front and name its points; otherwise join each
+  // algorithm's points in group order and name every point by its setting.
+  bool pareto_front = true;
+};
+Status write_chart(const std::string& path, const std::vector<Aggregate>& group, const std::string& title,
+                   const ChartText& text = {});
 
 }  // namespace horizon::evaluation
