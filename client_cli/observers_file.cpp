@@ -1,7 +1,10 @@
 #include "observers_file.hpp"
 
+#include <unistd.h>
+
 #include <cctype>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -9,6 +12,7 @@
 
 #include "args.hpp"
 #include "inputs.hpp"
+#include "output.hpp"
 
 namespace horizon::cli {
 namespace {
@@ -135,6 +139,41 @@ std::vector<NamedObserver> read_observers_file(const std::string& path, double h
                                                     : read_csv(path, in, height, mode, max_distance);
   if (out.empty()) throw UsageError("--observers: '" + path + "' holds no observers");
   return out;
+}
+
+Status write_observer_summary(const std::string& path, const std::vector<ObserverLine>& lines, bool geographic) {
+  const std::string temp = path + ".tmp-" + std::to_string(::getpid());
+  {
+    std::ofstream out(temp, std::ios::trunc);
+    if (!out) return make_error(ErrorCode::kIoError, "--summary: cannot create '" + temp + "'", "summary");
+    out << "observer,name,x,y,lon,lat,ground_m,eye_m,max_distance_m,cells_answered,cells_visible,visible_km2,"
+           "visible_percent,seconds\n";
+    for (std::size_t i = 0; i < lines.size(); ++i) {
+      const ObserverLine& l = lines[i];
+      std::string name = l.name;
+      for (char& c : name)
+        if (c == '"') c = '\'';
+      const double percent =
+          l.cells_answered ? 100.0 * static_cast<double>(l.cells_visible) / static_cast<double>(l.cells_answered) : 0.0;
+      out << i + 1 << ",\"" << name << "\"," << coordinate(l.x, geographic) << ',' << coordinate(l.y, geographic) << ','
+          << (l.lon ? fixed(*l.lon, 7) : "") << ',' << (l.lat ? fixed(*l.lat, 7) : "") << ',' << fixed(l.ground, 2)
+          << ',' << fixed(l.eye, 2) << ',' << (l.max_distance ? fixed(*l.max_distance, 1) : "") << ','
+          << l.cells_answered << ',' << l.cells_visible << ',' << fixed(l.visible_km2, 4) << ',' << fixed(percent, 2)
+          << ',' << fixed(l.seconds, 4) << '\n';
+    }
+    out.close();
+    if (!out) {
+      std::filesystem::remove(temp);
+      return make_error(ErrorCode::kIoError, "--summary: cannot write '" + path + "'", "summary");
+    }
+  }
+  std::error_code ec;
+  std::filesystem::rename(temp, path, ec);
+  if (ec) {
+    std::filesystem::remove(temp);
+    return make_error(ErrorCode::kIoError, "--summary: cannot write '" + path + "' (" + ec.message() + ")", "summary");
+  }
+  return Status::Ok();
 }
 
 }  // namespace horizon::cli

@@ -18,6 +18,8 @@
 // mistake is a UsageError naming the file and the line or feature.
 #pragma once
 
+#include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -34,5 +36,22 @@ struct NamedObserver {
 // or feature leaves out.
 std::vector<NamedObserver> read_observers_file(const std::string& path, double height, geodesy::HeightMode mode,
                                                double max_distance);
+
+// One line of the --summary table: an observer as resolved and what it saw.
+struct ObserverLine {
+  std::string name;
+  double x = 0, y = 0;                 // the DEM's CRS
+  std::optional<double> lon, lat;      // WGS84, when the CRS converts
+  double ground = 0, eye = 0;          // metres
+  std::optional<double> max_distance;  // ground metres; none: unbounded
+  std::uint64_t cells_answered = 0, cells_visible = 0;
+  double visible_km2 = 0, seconds = 0;
+};
+
+// The --summary CSV, one line an observer in order (observer,name,x,y,lon,
+// lat,ground_m,eye_m,max_distance_m,cells_answered,cells_visible,
+// visible_km2,visible_percent,seconds), written whole to a temporary and
+// renamed; `geographic` prints x,y as degrees.
+Status write_observer_summary(const std::string& path, const std::vector<ObserverLine>& lines, bool geographic);
 
 }  // namespace horizon::cli

@@ -19,6 +19,7 @@
 #include "observers_file.hpp"
 #include "output.hpp"
 #include "progress.hpp"
+#include "remote/remote.hpp"
 
 namespace horizon::cli {
 namespace {
@@ -57,8 +58,6 @@ ManyRequest parse_many(const Args& args) {
     if (args.has(flag))
       throw UsageError(std::string(flag) +
                        ": not with many observers (they run on the CPU and write the --accumulate raster)");
-  if (args.has("--server"))
-    throw UsageError("--server: many observers run embedded on a local DEM; the daemon takes one per ComputeViewshed");
 
   ManyRequest r;
   r.dem_path = single_operand(args, "DEM");
@@ -121,46 +120,33 @@ Error in_user_words(Error e, const std::vector<NamedObserver>& observers) {
   return e;
 }
 
-// The per-observer table, written whole to a temporary and renamed.
-Status write_summary(const std::string& path, const terrain::Dem& dem, const visibility::ManyObserversPlan& plan,
-                     const visibility::ManyObserversResult& res, const std::vector<NamedObserver>& observers) {
-  const std::string temp = path + ".tmp-" + std::to_string(::getpid());
-  {
-    std::ofstream out(temp, std::ios::trunc);
-    if (!out) return make_error(ErrorCode::kIoError, "--summary: cannot create '" + temp + "'", "summary");
-    out << "observer,name,x,y,lon,lat,ground_m,eye_m,max_distance_m,cells_answered,cells_visible,visible_km2,"
-           "visible_percent,seconds\n";
-    const bool geographic = is_geographic(dem);
-    for (std::size_t i = 0; i < observers.size(); ++i) {
-      const geodesy::GridPoint& p = plan.points[i];
-      const visibility::ViewFrame& f = plan.frames[i];
-      const visibility::ObserverSummary& s = res.observers[i];
-      const auto ll = lonlat_of(dem, p.x, p.y);
-      std::string name = observers[i].name;
-      for (char& c : name)
-        if (c == '"') c = '\'';
-      const double percent =
-          s.cells_answered ? 100.0 * static_cast<double>(s.cells_visible) / static_cast<double>(s.cells_answered) : 0.0;
-      out << i + 1 << ",\"" << name << "\"," << coordinate(p.x, geographic) << ',' << coordinate(p.y, geographic) << ','
-          << (ll ? fixed(ll->lon, 7) : "") << ',' << (ll ? fixed(ll->lat, 7) : "") << ',' << fixed(p.ground, 2) << ','
-          << fixed(p.elevation, 2) << ',' << (std::isfinite(f.max_distance) ? fixed(f.max_distance, 1) : "") << ','
-          << s.cells_answered << ',' << s.cells_visible << ','
-          << fixed(static_cast<double>(s.cells_visible) * f.metres_per_col * f.metres_per_row / 1e6, 4) << ','
-          << fixed(percent, 2) << ',' << fixed(s.seconds, 4) << '\n';
+// The per-observer table's lines, from the plan and the result.
+std::vector<ObserverLine> summary_lines(const terrain::Dem& dem, const visibility::ManyObserversPlan& plan,
+                                        const visibility::ManyObserversResult& res,
+                                        const std::vector<NamedObserver>& observers) {
+  std::vector<ObserverLine> lines;
+  for (std::size_t i = 0; i < observers.size(); ++i) {
+    const geodesy::GridPoint& p = plan.points[i];
+    const visibility::ViewFrame& f = plan.frames[i];
+    const visibility::ObserverSummary& s = res.observers[i];
+    ObserverLine l;
+    l.name = observers[i].name;
+    l.x = p.x;
+    l.y = p.y;
+    l.ground = p.ground;
+    l.eye = p.elevation;
+    if (const auto ll = lonlat_of(dem, p.x, p.y)) {
+      l.lon = ll->lon;
+      l.lat = ll->lat;
     }
-    out.close();
-    if (!out) {
-      std::filesystem::remove(temp);
-      return make_error(ErrorCode::kIoError, "--summary: cannot write '" + path + "'", "summary");
-    }
+    if (std::isfinite(f.max_distance)) l.max_distance = f.max_distance;
+    l.cells_answered = s.cells_answered;
+    l.cells_visible = s.cells_visible;
+    l.visible_km2 = static_cast<double>(s.cells_visible) * f.metres_per_col * f.metres_per_row / 1e6;
+    l.seconds = s.seconds;
+    lines.push_back(std::move(l));
   }
-  std::error_code ec;
-  std::filesystem::rename(temp, path, ec);
-  if (ec) {
-    std::filesystem::remove(temp);
-    return make_error(ErrorCode::kIoError, "--summary: cannot write '" + path + "' (" + ec.message() + ")", "summary");
-  }
-  return Status::Ok();
+  return lines;
 }
 
 }  // namespace
@@ -186,6 +172,17 @@ int run_many_observers(const Args& args) {
     if (auto s = check_output_path(*r.png_path, "--png", r.dem_path, {".png"}); !s.ok()) return report_error(s.error());
     if (auto plugin = imageio::plugin_path(); !plugin.ok()) return report_error(plugin.error());
   }
+
+  if (args.has("--server"))  // DEM is a dataset name; the daemon computes
+    return remote::run_viewshed_many(args, {.dataset = r.dem_path,
+                                            .out_path = r.out_path,
+                                            .accumulate = r.accumulate,
+                                            .png_path = r.png_path,
+                                            .summary_path = r.summary_path,
+                                            .observers = r.observers,
+                                            .options = r.options.viewshed,
+                                            .algorithm_name = r.algorithm_name,
+                                            .json = r.json});
 
   const auto started = std::chrono::steady_clock::now();
   auto source = terrain::ElevationSource::open(r.dem_path, source_options(args));
@@ -229,7 +226,9 @@ int run_many_observers(const Args& args) {
       return report_error(s.error());
   }
   if (r.summary_path)
-    if (auto s = write_summary(*r.summary_path, *dem, *plan, *res, r.observers); !s.ok())
+    if (auto s =
+            write_observer_summary(*r.summary_path, summary_lines(*dem, *plan, *res, r.observers), is_geographic(*dem));
+        !s.ok())
       return report_error(s.error());
   const double total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
 

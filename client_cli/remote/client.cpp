@@ -1,5 +1,7 @@
 #include "remote/client.hpp"
 
+#include <cmath>
+
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -10,9 +12,9 @@
 #include <grpcpp/security/credentials.h>
 #include <grpcpp/support/channel_arguments.h>
 
+#include "commands/command.hpp"
 #include "google/rpc/error_details.pb.h"
 #include "google/rpc/status.pb.h"
-#include "commands/command.hpp"
 
 namespace horizon::cli::remote {
 namespace {
@@ -33,7 +35,8 @@ Client::Client(const Args& args) {
   if (address_.empty() || address_.find(':') == std::string::npos)
     throw UsageError("--server: expected HOST:PORT, got '" + address_ + "'");
   if (auto d = args.non_negative("--deadline")) {
-    if (*d <= 0) throw UsageError("--deadline: expected a positive number of seconds, got '" + *args.text("--deadline") + "'");
+    if (*d <= 0)
+      throw UsageError("--deadline: expected a positive number of seconds, got '" + *args.text("--deadline") + "'");
     deadline_seconds_ = *d;
   }
   grpc::ChannelArguments channel_args;
@@ -45,8 +48,7 @@ Client::Client(const Args& args) {
     tls.pem_root_certs = read_text(*ca, "--ca");
     if (auto pair = args.text("--client-cert")) {
       const auto comma = pair->find(',');
-      if (comma == std::string::npos)
-        throw UsageError("--client-cert: expected CERT.pem,KEY.pem, got '" + *pair + "'");
+      if (comma == std::string::npos) throw UsageError("--client-cert: expected CERT.pem,KEY.pem, got '" + *pair + "'");
       tls.pem_cert_chain = read_text(pair->substr(0, comma), "--client-cert");
       tls.pem_private_key = read_text(pair->substr(comma + 1), "--client-cert");
     }
@@ -87,10 +89,11 @@ int report_status(const grpc::Status& status, const std::string& address) {
       if (any.UnpackTo(&quota) && quota.violations_size() > 0) field = quota.violations(0).subject();
     }
   }
-  static const char* kNames[] = {"OK",        "CANCELLED",         "UNKNOWN",  "INVALID_ARGUMENT", "DEADLINE_EXCEEDED",
-                                 "NOT_FOUND", "ALREADY_EXISTS",    "PERMISSION_DENIED", "RESOURCE_EXHAUSTED",
-                                 "FAILED_PRECONDITION", "ABORTED", "OUT_OF_RANGE", "UNIMPLEMENTED", "INTERNAL",
-                                 "UNAVAILABLE", "DATA_LOSS", "UNAUTHENTICATED"};
+  static const char* kNames[] = {
+      "OK",        "CANCELLED",      "UNKNOWN",           "INVALID_ARGUMENT",   "DEADLINE_EXCEEDED",
+      "NOT_FOUND", "ALREADY_EXISTS", "PERMISSION_DENIED", "RESOURCE_EXHAUSTED", "FAILED_PRECONDITION",
+      "ABORTED",   "OUT_OF_RANGE",   "UNIMPLEMENTED",     "INTERNAL",           "UNAVAILABLE",
+      "DATA_LOSS", "UNAUTHENTICATED"};
   const int code = static_cast<int>(status.error_code());
   const char* name = code >= 0 && code <= 16 ? kNames[code] : "UNKNOWN";
   std::fprintf(stderr, "horizon: error: %s (%s from %s%s%s)\n", status.error_message().c_str(), name, address.c_str(),
@@ -148,35 +151,55 @@ v1::Point to_proto_point(const geodesy::PointSpec& spec) {
   p.set_y(spec.y);
   p.set_height(spec.height);
   p.set_height_mode(spec.height_mode == geodesy::HeightMode::kAbsolute ? v1::HEIGHT_MODE_ABSOLUTE
-                                                                        : v1::HEIGHT_MODE_ABOVE_GROUND);
+                                                                       : v1::HEIGHT_MODE_ABOVE_GROUND);
   return p;
 }
 
 v1::Algorithm to_proto_algorithm(visibility::Algorithm algorithm) {
   switch (algorithm) {
-    case visibility::Algorithm::kRadial: return v1::ALGORITHM_FAST;
-    case visibility::Algorithm::kExact: return v1::ALGORITHM_EXACT;
-    case visibility::Algorithm::kConservative: return v1::ALGORITHM_CONSERVATIVE;
-    case visibility::Algorithm::kR3: return v1::ALGORITHM_R3;
+    case visibility::Algorithm::kRadial:
+      return v1::ALGORITHM_FAST;
+    case visibility::Algorithm::kExact:
+      return v1::ALGORITHM_EXACT;
+    case visibility::Algorithm::kConservative:
+      return v1::ALGORITHM_CONSERVATIVE;
+    case visibility::Algorithm::kR3:
+      return v1::ALGORITHM_R3;
   }
   return v1::ALGORITHM_UNSPECIFIED;
 }
 
 v1::Backend to_proto_backend(visibility::Backend backend) {
   switch (backend) {
-    case visibility::Backend::kAuto: return v1::BACKEND_AUTO;
-    case visibility::Backend::kCpu: return v1::BACKEND_CPU;
-    case visibility::Backend::kGpu: return v1::BACKEND_GPU;
+    case visibility::Backend::kAuto:
+      return v1::BACKEND_AUTO;
+    case visibility::Backend::kCpu:
+      return v1::BACKEND_CPU;
+    case visibility::Backend::kGpu:
+      return v1::BACKEND_GPU;
   }
   return v1::BACKEND_UNSPECIFIED;
 }
 
 v1::GpuMethod to_proto_gpu_method(visibility::GpuMethod method) {
   switch (method) {
-    case visibility::GpuMethod::kFragment: return v1::GPU_METHOD_FRAGMENT;
-    case visibility::GpuMethod::kCompute: return v1::GPU_METHOD_COMPUTE;
+    case visibility::GpuMethod::kFragment:
+      return v1::GPU_METHOD_FRAGMENT;
+    case visibility::GpuMethod::kCompute:
+      return v1::GPU_METHOD_COMPUTE;
   }
   return v1::GPU_METHOD_UNSPECIFIED;
+}
+
+void fill_options(const visibility::ViewshedOptions& options, v1::ViewshedOptions& o) {
+  o.set_target_height(options.target_height);
+  if (std::isfinite(options.max_distance)) o.set_max_distance(options.max_distance);
+  o.set_curvature(options.curvature_coefficient);
+  o.set_nodata(options.nodata == visibility::NodataPolicy::kFill ? v1::NODATA_POLICY_FILL
+                                                                 : v1::NODATA_POLICY_TRANSPARENT);
+  o.set_nodata_fill_height(options.nodata_fill_height);
+  o.set_algorithm(to_proto_algorithm(options.algorithm));
+  o.set_ray_spacing(options.radial.ray_spacing);
 }
 
 }  // namespace horizon::cli::remote

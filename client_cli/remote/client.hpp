@@ -61,5 +61,8 @@ v1::Box to_proto_box(const visibility::BoxSpec& box);
 v1::Algorithm to_proto_algorithm(visibility::Algorithm algorithm);
 v1::Backend to_proto_backend(visibility::Backend backend);
 v1::GpuMethod to_proto_gpu_method(visibility::GpuMethod method);
+// The options every viewshed request shares (target height, reach,
+// curvature, nodata, algorithm, ray spacing); backend and GPU are the caller's.
+void fill_options(const visibility::ViewshedOptions& options, v1::ViewshedOptions& out);
 
 }  // namespace horizon::cli::remote

@@ -16,6 +16,7 @@
 #include "horizon/visibility/cull.hpp"
 #include "horizon/visibility/line_of_sight.hpp"
 #include "horizon/visibility/options.hpp"
+#include "observers_file.hpp"
 
 namespace horizon::cli {
 struct SessionPlayback;
@@ -46,7 +47,19 @@ struct ViewshedInputs {
   bool json = false;
 };
 
+// `horizon viewshed DATASET --server ... --observers FILE`: as embedded
+// mode's many observers (viewshed_many.cpp), computed by the daemon.
+struct ManyViewshedInputs {
+  std::string dataset, out_path, accumulate;  // "count", "any", "all"
+  std::optional<std::string> png_path, summary_path;
+  std::vector<NamedObserver> observers;
+  visibility::ViewshedOptions options;
+  std::string algorithm_name;
+  bool json = false;
+};
+
 int run_info(const Args& args, const std::string& dataset, bool json);
+int run_viewshed_many(const Args& args, const ManyViewshedInputs& inputs);
 int run_viewshed(const Args& args, const ViewshedInputs& inputs);
 int run_los(const Args& args, const std::string& dataset, const geodesy::PointSpec& from, const geodesy::PointSpec& to,
             const visibility::LosOptions& options, bool json);

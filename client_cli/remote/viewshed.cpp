@@ -26,14 +26,7 @@ int run_viewshed(const Args& args, const ViewshedInputs& in) {
   request.set_dataset(in.dataset);
   *request.mutable_observer() = to_proto_point(in.observer);
   v1::ViewshedOptions& o = *request.mutable_options();
-  o.set_target_height(in.options.target_height);
-  if (std::isfinite(in.options.max_distance)) o.set_max_distance(in.options.max_distance);
-  o.set_curvature(in.options.curvature_coefficient);
-  o.set_nodata(in.options.nodata == visibility::NodataPolicy::kFill ? v1::NODATA_POLICY_FILL
-                                                                    : v1::NODATA_POLICY_TRANSPARENT);
-  o.set_nodata_fill_height(in.options.nodata_fill_height);
-  o.set_algorithm(to_proto_algorithm(in.options.algorithm));
-  o.set_ray_spacing(in.options.radial.ray_spacing);
+  fill_options(in.options, o);
   o.set_backend(to_proto_backend(in.options.backend));
   if (in.options.gpu) {  // absent: the daemon's measured fastest variant
     o.set_gpu_method(to_proto_gpu_method(in.options.gpu->method));

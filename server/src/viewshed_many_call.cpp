@@ -205,6 +205,10 @@ grpc::Status compute_many_viewshed(CallScope& scope, const v1::ViewshedRequest& 
     o->set_answered_cells(res->observers[k].cells_answered);
     o->set_visible_cells(res->observers[k].cells_visible);
     o->set_seconds(res->observers[k].seconds);
+    const visibility::ViewFrame& f = plan->frames[k];
+    o->set_visible_area_km2(static_cast<double>(res->observers[k].cells_visible) * f.metres_per_col * f.metres_per_row /
+                            1e6);
+    if (std::isfinite(f.max_distance)) o->set_max_distance(f.max_distance);
   }
   return grpc::Status::OK;
 }

@@ -177,5 +177,53 @@ TEST_F(ServerCli, DaemonErrorsAreReportedWithTheirCodeAndField) {
   EXPECT_NE(down.output.find("UNAVAILABLE"), std::string::npos) << down.output;
 }
 
+// Many observers: the count GeoTIFF and the PNG byte for byte, the summary
+// table line for line (but the times), from the daemon's union window.
+TEST_F(ServerCli, ManyObserversEqualEmbeddedByteForByte) {
+  const std::string towers = dir_.file("towers.csv");
+  {
+    std::ofstream f(towers);
+    f << "lon,lat,height,max_distance\n-121.7604,46.8529,10,3000\n-121.7400,46.8600,5\n-121.7800,46.8550,20,2000\n";
+  }
+  const std::string flags = " --observers " + towers + " --max-distance 2500 --target-height 1.5";
+  const std::string dem = bundled_dem("rainier_summit_srtm3_400x400.tif");
+  const auto a = horizon("viewshed " + dem + flags + " -o " + dir_.file("local.tif") + " --png " +
+                         dir_.file("local.png") + " --summary " + dir_.file("local.csv") + " --json");
+  ASSERT_EQ(a.exit_code, 0) << a.output;
+  const auto b = horizon("viewshed rainier" + server() + flags + " -o " + dir_.file("remote.tif") + " --png " +
+                         dir_.file("remote.png") + " --summary " + dir_.file("remote.csv") + " --json");
+  ASSERT_EQ(b.exit_code, 0) << b.output;
+  const std::string tif = read_bytes(dir_.file("local.tif"));
+  ASSERT_GT(tif.size(), 1000u);
+  EXPECT_TRUE(tif == read_bytes(dir_.file("remote.tif"))) << "count GeoTIFFs differ";
+  EXPECT_TRUE(read_bytes(dir_.file("local.png")) == read_bytes(dir_.file("remote.png"))) << "PNGs differ";
+  const Json ja = json_of(a), jb = json_of(b);
+  for (const char* key : {"cells_answered", "cells_seen_by_any", "cells_seen_by_all", "max_count", "window",
+                          "work_cells", "observers", "accumulate"})
+    EXPECT_EQ(ja[key], jb[key]) << key;
+  EXPECT_GE(ja["max_count"].get<int>(), 2);  // the towers' views overlap: a count, not a mask
+  // The tables, without the last column (seconds).
+  const auto lines = [](const std::string& path) {
+    std::vector<std::string> out;
+    std::ifstream f(path);
+    for (std::string line; std::getline(f, line);) out.push_back(line.substr(0, line.rfind(',')));
+    return out;
+  };
+  const auto la = lines(dir_.file("local.csv")), lb = lines(dir_.file("remote.csv"));
+  ASSERT_EQ(la.size(), 4u);
+  EXPECT_EQ(la, lb);
+
+  // A site off the dataset is named as the user gave it, and nothing is written.
+  {
+    std::ofstream f(towers, std::ios::app);
+    f << "10,10\n";
+  }
+  const auto off = horizon("viewshed rainier" + server() + flags + " -o " + dir_.file("off.tif"));
+  EXPECT_EQ(off.exit_code, 1);
+  EXPECT_NE(off.output.find("OUT_OF_RANGE"), std::string::npos) << off.output;
+  EXPECT_NE(off.output.find("observer 4 (line 5)"), std::string::npos) << off.output;
+  EXPECT_FALSE(std::ifstream(dir_.file("off.tif")).good());
+}
+
 }  // namespace
 }  // namespace horizon::testing
