@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -19,8 +20,8 @@ namespace horizon::testing {
 using clipmap::Clipmap;
 using clipmap::ClipmapShape;
 using clipmap::ClipmapUpdater;
-using clipmap::UpdaterOptions;
 using clipmap::pyramid_options_for;
+using clipmap::UpdaterOptions;
 using terrain::BlockCache;
 using terrain::ElevationSource;
 using terrain::Grid;
@@ -55,7 +56,10 @@ struct ClipWorld {
   std::shared_ptr<const SourcePyramid> pyramid;
   std::vector<Grid<float>> levels;
 
-  explicit ClipWorld(const ClipmapShape& shape = small_shape()) {
+  // `voids`: cells made NaN (no terrain) before the tiles are written.
+  explicit ClipWorld(const ClipmapShape& shape = small_shape(), terrain::Window voids = {}) {
+    for (int r = voids.row0; r < voids.row1; ++r)
+      for (int c = voids.col0; c < voids.col1; ++c) dem.elevation.at(c, r) = std::numeric_limits<float>::quiet_NaN();
     dem.georef.epsg = 32633;
     dem.georef.transform = {500000.0, 30.0, 5000000.0, -30.0};
     write_tiles(dem, 2, 2, dir.path().string());

@@ -28,8 +28,12 @@ using testing::small_shape;
 using visibility::Visibility;
 
 // Cell (col, row) of the world's grid in its CRS.
-double x_of(const ClipWorld& w, double col) { return w.dem.georef.transform.x_at(col); }
-double y_of(const ClipWorld& w, double row) { return w.dem.georef.transform.y_at(row); }
+double x_of(const ClipWorld& w, double col) {
+  return w.dem.georef.transform.x_at(col);
+}
+double y_of(const ClipWorld& w, double row) {
+  return w.dem.georef.transform.y_at(row);
+}
 
 SessionPose pose_at(const ClipWorld& w, double col, double row, std::uint64_t seq, double east = 0.0) {
   SessionPose p;
@@ -76,7 +80,8 @@ SessionOptions options_for(ClipMode mode, bool asynchronous) {
 }
 
 std::shared_ptr<const terrain::SourcePyramid> pyramid_for(const ClipWorld& w, ClipMode mode) {
-  ClipmapShape shape = small_shape(mode == ClipMode::kConservative ? terrain::Reduction::kMin : terrain::Reduction::kMean);
+  ClipmapShape shape =
+      small_shape(mode == ClipMode::kConservative ? terrain::Reduction::kMin : terrain::Reduction::kMean);
   auto made = terrain::SourcePyramid::make(w.source, const_cast<terrain::BlockCache&>(w.cache), shape.reduction,
                                            pyramid_options_for(shape));
   EXPECT_TRUE(made.ok()) << made.error().message;
@@ -128,8 +133,10 @@ TEST(ClipSession, AClientApplyingTheChangesHoldsEveryBoxsStateAndConservativeNev
     ASSERT_TRUE(answer.ok()) << answer.error().message;
     EXPECT_EQ(answer->seq, static_cast<std::uint64_t>(step + 1));
     EXPECT_EQ(answer->boxes, boxes.size());
-    if (step == 0) EXPECT_EQ(answer->changes.size(), boxes.size()) << "the first answer tells every box";
-    else reported_after_first += answer->changes.size();
+    if (step == 0)
+      EXPECT_EQ(answer->changes.size(), boxes.size()) << "the first answer tells every box";
+    else
+      reported_after_first += answer->changes.size();
     for (const BoxChange& c : answer->changes) told[c.id] = c.state;
     ASSERT_EQ(told.size(), boxes.size());
     std::size_t visible = 0;
@@ -155,8 +162,8 @@ TEST(ClipSession, AnExactSessionAnswersEveryBoxAsR3DoesAndBoundsItsMemory) {
   ClipWorld world;
   SessionOptions options = options_for(ClipMode::kExact, false);
   auto first = pose_at(world, 300.0, 200.0, 1, 250.0);
-  auto session = ClipSession::open(world.source, world.cache, pyramid_for(world, ClipMode::kConservative), options,
-                                   first);
+  auto session =
+      ClipSession::open(world.source, world.cache, pyramid_for(world, ClipMode::kConservative), options, first);
   ASSERT_TRUE(session.ok()) << session.error().message;
   const std::vector<SessionBox> boxes = boxes_on(world, 300, 1, 9);
   ASSERT_TRUE((*session)->add_boxes(boxes).ok());
@@ -261,7 +268,7 @@ TEST(ClipSession, BoxBatchesChangeNothingWhenAnyEntryIsWrong) {
   ClipSession& s = **session;
   std::vector<SessionBox> boxes = boxes_on(world, 10, 1, 9);
   ASSERT_TRUE(s.add_boxes(boxes).ok());
-  // A repeated id, an id already registered, a box off the dataset: nothing changes.
+  // A repeated id, an id already registered, a box upside down: nothing changes.
   std::vector<SessionBox> more = boxes_on(world, 5, 100, 10);
   more[3].id = 100;
   Status repeated = s.add_boxes(more);
@@ -270,8 +277,8 @@ TEST(ClipSession, BoxBatchesChangeNothingWhenAnyEntryIsWrong) {
   more[3].id = 5;
   EXPECT_EQ(s.add_boxes(more).error().field, "add[3].id");
   more[3].id = 103;
-  more[4].box.x_max = x_of(world, kWidth + 10.0);
-  EXPECT_EQ(s.add_boxes(more).error().code, ErrorCode::kOutOfRange);
+  more[4].box.z_max = more[4].box.z_min - 1.0;
+  EXPECT_EQ(s.add_boxes(more).error().field, "add[4].z_max");
   EXPECT_EQ(s.box_count(), 10u);
   EXPECT_EQ(s.add_boxes(boxes_on(world, 41, 200, 11)).error().code, ErrorCode::kResourceExhausted);
   // Moves and removals by id.
@@ -314,6 +321,84 @@ TEST(ClipSession, BoxBatchesChangeNothingWhenAnyEntryIsWrong) {
   EXPECT_EQ(off.error().code, ErrorCode::kOutOfRange);
 }
 
+// Per-box answers, as CullBoxes gives them: a box off the map is registered
+// and answered out of range at every pose, costing the others nothing (their
+// answers are those of a session without it); a box meeting a void is never
+// hidden (undetermined instead), in every mode.
+TEST(ClipSession, BoxesOffTheMapAreOutOfRangeAndBoxesOnVoidsAreNeverHidden) {
+  const terrain::Window hole{600, 320, 612, 332};
+  ClipWorld world(small_shape(), hole);
+  // Buried boxes across the hole's west edge: hidden where the terrain is
+  // known (below the ground of the cells around them), so undetermined.
+  std::vector<SessionBox> on_void;
+  for (int k = 0; k < 4; ++k) {
+    const int c = hole.col0 - 2, r = hole.row0 + 3 * k;
+    SessionBox b;
+    b.id = 900 + static_cast<std::uint64_t>(k);
+    b.box.x_min = x_of(world, c);
+    b.box.x_max = x_of(world, c + 3);
+    b.box.y_min = y_of(world, r + 1);
+    b.box.y_max = y_of(world, r);
+    b.box.z_min = world.dem.elevation.at(c, r) - 310.0;
+    b.box.z_max = world.dem.elevation.at(c, r) - 300.0;
+    on_void.push_back(b);
+  }
+  std::vector<SessionBox> off_map(2, on_void[0]);
+  off_map[0].id = 950;  // past the east edge by a few cells
+  off_map[0].box.x_min = x_of(world, kWidth - 3);
+  off_map[0].box.x_max = x_of(world, kWidth + 4);
+  off_map[1].id = 951;  // nowhere near the dataset
+  off_map[1].box.x_min = x_of(world, -5000);
+  off_map[1].box.x_max = x_of(world, -4990);
+  std::vector<SessionBox> boxes = boxes_on(world, 200, 1, 21);
+  // Keep the random boxes off the hole, so that only the chosen ones meet it.
+  std::erase_if(boxes, [&](const SessionBox& b) {
+    return b.box.x_max >= x_of(world, hole.col0 - 1) && b.box.x_min <= x_of(world, hole.col1) &&
+           b.box.y_min <= y_of(world, hole.row0 - 1) && b.box.y_max >= y_of(world, hole.row1);
+  });
+  std::vector<SessionBox> all = boxes;
+  all.insert(all.end(), on_void.begin(), on_void.end());
+  all.insert(all.end(), off_map.begin(), off_map.end());
+
+  for (ClipMode mode : {ClipMode::kFast, ClipMode::kConservative, ClipMode::kExact}) {
+    const auto open = [&](const std::vector<SessionBox>& registered) {
+      auto s = ClipSession::open(world.source, world.cache, pyramid_for(world, mode), options_for(mode, false),
+                                 pose_at(world, 540.0, 330.0, 1));
+      EXPECT_TRUE(s.ok()) << s.error().message;
+      EXPECT_TRUE((*s)->add_boxes(registered).ok());
+      return std::move(*s);
+    };
+    auto with = open(all), without = open(boxes);
+    ASSERT_EQ(with->box_count(), all.size()) << mode_name(mode);
+    std::size_t undetermined = 0;
+    std::map<std::uint64_t, BoxChange> told_with, told_without;  // what each client holds
+    for (int step = 0; step < 3; ++step) {
+      const auto pose = pose_at(world, 540.0 + 15.0 * step, 330.0, static_cast<std::uint64_t>(step + 2));
+      auto a = with->answer(pose), b = without->answer(pose);
+      ASSERT_TRUE(a.ok()) << a.error().message;
+      ASSERT_TRUE(b.ok()) << b.error().message;
+      for (const BoxChange& c : a->changes) told_with[c.id] = c;
+      for (const BoxChange& c : b->changes) told_without[c.id] = c;
+      ASSERT_EQ(told_with.size(), all.size()) << mode_name(mode);
+      for (const auto& [id, c] : told_without) {
+        EXPECT_EQ(told_with[id].state, c.state) << mode_name(mode) << " box " << id;
+        EXPECT_EQ(told_with[id].ohf_min, c.ohf_min) << mode_name(mode) << " box " << id;
+      }
+      for (const SessionBox& o : off_map) EXPECT_EQ(told_with[o.id].state, Visibility::kOutOfRange) << mode_name(mode);
+      for (const SessionBox& v : on_void) {
+        EXPECT_NE(told_with[v.id].state, Visibility::kOccluded) << mode_name(mode) << " box " << v.id;
+        undetermined += step == 0 && told_with[v.id].state == Visibility::kUndetermined;
+      }
+      // Out of range and undetermined boxes may be seen: counted with the visible ones.
+      EXPECT_EQ(a->visible, b->visible + off_map.size() + on_void.size()) << mode_name(mode);
+    }
+    // Buried under the known terrain: R3 (exact) and the min clip-map (conservative) hide them there.
+    if (mode != ClipMode::kFast) {
+      EXPECT_EQ(undetermined, on_void.size()) << mode_name(mode);
+    }
+  }
+}
+
 TEST(ClipSession, AnAsynchronousSessionAnswersEveryPoseWhileItsLoaderFollows) {
   ClipWorld world;
   auto session = ClipSession::open(world.source, world.cache, pyramid_for(world, ClipMode::kFast),
@@ -322,8 +407,8 @@ TEST(ClipSession, AnAsynchronousSessionAnswersEveryPoseWhileItsLoaderFollows) {
   ASSERT_TRUE((*session)->add_boxes(boxes_on(world, 300, 1, 3)).ok());
   std::uint64_t loaded = 0;
   for (int step = 0; step < 120; ++step) {
-    auto answer = (*session)->answer(pose_at(world, 60.0 + step * 7.0, 100.0 + step * 4.0,
-                                             static_cast<std::uint64_t>(step + 2), 300.0));
+    auto answer = (*session)->answer(
+        pose_at(world, 60.0 + step * 7.0, 100.0 + step * 4.0, static_cast<std::uint64_t>(step + 2), 300.0));
     ASSERT_TRUE(answer.ok()) << answer.error().message;
     EXPECT_FALSE(answer->loader_error.has_value());
     ASSERT_EQ(answer->levels.size(), 4u);
@@ -353,8 +438,8 @@ TEST(ClipSession, AGpuSessionAnswersEveryPoseAsTheCpuSessionDoes) {
     ASSERT_TRUE((*gl)->add_boxes(boxes).ok());
     std::size_t changes = 0;
     for (int step = 0; step < 40; ++step) {  // a diagonal flight: levels move and lag
-      const SessionPose pose = pose_at(world, 80.0 + step * 19.0, 120.0 + step * 11.0,
-                                       static_cast<std::uint64_t>(step + 2), 250.0);
+      const SessionPose pose =
+          pose_at(world, 80.0 + step * 19.0, 120.0 + step * 11.0, static_cast<std::uint64_t>(step + 2), 250.0);
       auto a = (*cpu)->answer(pose);
       auto b = (*gl)->answer(pose);
       ASSERT_TRUE(a.ok() && b.ok()) << (a.ok() ? b.error().message : a.error().message);

@@ -161,7 +161,8 @@ TEST(ServerSession, AFlightsChangesNeverHideWhatExactCullingSees) {
       hidden += session_hidden;
       EXPECT_FALSE(session_hidden && exact.boxes(i).visible())
           << "box " << i << " at step " << step << ": z_max " << start[static_cast<std::size_t>(i)].box().z_max()
-          << ", exact ohf_min " << exact.boxes(i).ohf_min() << ", session's " << told_ohf[start[static_cast<std::size_t>(i)].id()];
+          << ", exact ohf_min " << exact.boxes(i).ohf_min() << ", session's "
+          << told_ohf[start[static_cast<std::size_t>(i)].id()];
     }
   }
   EXPECT_GT(hidden, 10u) << "the terrain hides some boxes";
@@ -269,6 +270,11 @@ TEST(ServerSession, WrongPosesAndDeltasAreRejectedAndTheSessionGoesOn) {
   // A good delta and pose after them: the rejected ones changed nothing.
   v1::SessionRequest good;
   for (const auto& b : boxes(2, 20, 4)) *good.mutable_boxes()->add_add() = b;
+  // A box off the dataset is not a wrong entry: it is answered out of range.
+  v1::SessionBox far = boxes(1, 30, 5)[0];
+  far.mutable_box()->set_x_min(-100.0);
+  far.mutable_box()->set_x_max(-99.99);
+  *good.mutable_boxes()->add_add() = far;
   good.mutable_boxes()->add_remove(1);
   ASSERT_TRUE(s.stream->Write(good));
   v1::SessionRequest next;
@@ -277,8 +283,14 @@ TEST(ServerSession, WrongPosesAndDeltasAreRejectedAndTheSessionGoesOn) {
   const v1::SessionResponse answer = s.read();
   ASSERT_TRUE(answer.has_answer()) << answer.DebugString();
   EXPECT_EQ(answer.answer().seq(), 8u);
-  EXPECT_EQ(answer.answer().boxes(), 6u);  // 5 - 1 + 2
-  EXPECT_EQ(answer.answer().changes_size(), 2) << "the two new boxes are told";
+  EXPECT_EQ(answer.answer().boxes(), 7u);  // 5 - 1 + 3
+  ASSERT_EQ(answer.answer().changes_size(), 3) << "the three new boxes are told";
+  for (const v1::BoxChange& c : answer.answer().changes())
+    if (c.id() == 30) {
+      EXPECT_EQ(c.state(), v1::BOX_STATE_OUT_OF_RANGE);
+    } else {
+      EXPECT_NE(c.state(), v1::BOX_STATE_OUT_OF_RANGE) << c.id();
+    }
   EXPECT_TRUE(s.close().ok());
 }
 

@@ -31,8 +31,9 @@ double angle_of(double y, double x) {
     base = std::numbers::pi / 6;
   }
   const double t2 = t * t;
-  double a = base + t * (1.0 + t2 * (-1.0 / 3 + t2 * (1.0 / 5 + t2 * (-1.0 / 7 + t2 * (1.0 / 9 + t2 * (-1.0 / 11 +
-                                                                                                   t2 / 13))))));
+  double a =
+      base +
+      t * (1.0 + t2 * (-1.0 / 3 + t2 * (1.0 / 5 + t2 * (-1.0 / 7 + t2 * (1.0 / 9 + t2 * (-1.0 / 11 + t2 / 13))))));
   if (steep) a = std::numbers::pi / 2 - a;
   if (x < 0.0) a = std::numbers::pi - a;
   return y < 0.0 ? -a : a;
@@ -42,6 +43,10 @@ namespace {
 
 BoxSpan span_of(const visibility::BoxFootprint& box, const ClipEye& eye, const Geometry& g, ClipMode mode) {
   BoxSpan s;
+  if (!box.on_map) {
+    s.off_map = true;
+    return s;
+  }
   const double c0 = box.cells.col0, c1 = box.cells.col1 - 1, r0 = box.cells.row0, r1 = box.cells.row1 - 1;
   if (eye.col >= c0 && eye.col <= c1 && eye.row >= r0 && eye.row <= r1) {
     s.eye_inside = true;
@@ -116,7 +121,7 @@ std::size_t count_before(const TracePlan& plan, double d, Before before) {
   if (d >= 0.0) {
     const double b = std::floor(d * plan.inv_bucket_width);
     i = b < static_cast<double>(plan.bucket_first.size()) ? plan.bucket_first[static_cast<std::size_t>(b)]
-                                                           : edges.size();
+                                                          : edges.size();
   }
   while (i > 0 && !before(edges[i - 1], d)) --i;
   while (i < edges.size() && before(edges[i], d)) ++i;
@@ -150,7 +155,7 @@ Result<TracePlan> plan_trace(const ClipEye& eye, std::span<const visibility::Box
   double farthest = 0.0;
   for (std::size_t i = 0; i < footprints.size(); ++i) {
     const BoxSpan& s = w.spans[i] = span_of(footprints[i], eye, plan.g, options.mode);
-    if (s.eye_inside) continue;
+    if (s.eye_inside || s.off_map) continue;
     const long last = std::min(s.a1, s.a0 + rays - 1);
     for (long a = s.a0; a <= last; ++a) {
       double& r = w.reach[column_of(a, rays)];
@@ -162,7 +167,7 @@ Result<TracePlan> plan_trace(const ClipEye& eye, std::span<const visibility::Box
   set_rings(plan, eye);
   // The box tests this will take, bounded before any tracing.
   for (BoxSpan& s : w.spans) {
-    if (s.eye_inside) continue;
+    if (s.eye_inside || s.off_map) continue;
     const std::size_t first = plan.edges_upto(s.near), last = plan.edges_below(s.far);
     s.first_ring = static_cast<std::uint32_t>(first > 0 ? first - 1 : 0);
     const std::uint64_t ring_count = last + 1 > first ? last + 1 - first : 1;
@@ -262,12 +267,10 @@ Status test_boxes(const TracePlan& plan, const ClipEye& eye, std::span<const vis
     set_answer(result.boxes[i], least, footprints[i]);
   };
   const std::size_t box_chunk = 256;
-  HORIZON_RETURN_IF_ERROR(parallel_for((footprints.size() + box_chunk - 1) / box_chunk, options.threads, control,
-                                       [&](std::size_t c) {
-                                         for (std::size_t i = c * box_chunk;
-                                              i < std::min(footprints.size(), (c + 1) * box_chunk); ++i)
-                                           test(i);
-                                       }));
+  HORIZON_RETURN_IF_ERROR(
+      parallel_for((footprints.size() + box_chunk - 1) / box_chunk, options.threads, control, [&](std::size_t c) {
+        for (std::size_t i = c * box_chunk; i < std::min(footprints.size(), (c + 1) * box_chunk); ++i) test(i);
+      }));
   std::uint64_t tests = 0;
   for (std::uint64_t t : w.tests) tests += t;
   summarize(w, tests, result);
@@ -276,7 +279,7 @@ Status test_boxes(const TracePlan& plan, const ClipEye& eye, std::span<const vis
 
 void summarize(const ClipCullScratch& w, std::uint64_t box_tests, ClipCullResult& result) {
   result.visible_count = 0;
-  for (const auto& b : result.boxes) result.visible_count += b.state == visibility::Visibility::kSeen;
+  for (const auto& b : result.boxes) result.visible_count += visibility::may_be_seen(b.state);
   for (std::size_t a = 0; a < w.traced.size(); ++a) {
     result.stats.samples += w.stats[a].samples;
     result.stats.fallbacks += w.stats[a].fallbacks;

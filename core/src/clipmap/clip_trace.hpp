@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <vector>
 
@@ -58,8 +59,8 @@ struct Ring {
 struct TracePlan {
   Geometry g;
   int rays = 0;
-  std::vector<double> edges;  // ring edges, metres (ring_edges())
-  std::vector<Ring> rings;    // edges.size() - 1 of them
+  std::vector<double> edges;    // ring edges, metres (ring_edges())
+  std::vector<Ring> rings;      // edges.size() - 1 of them
   std::uint64_t box_tests = 0;  // planned (ray or wedge, ring) pairs
 
   // How many edges are <= d (std::upper_bound's index) and < d
@@ -80,9 +81,8 @@ struct ColumnRays {
 };
 inline ColumnRays column_rays(std::size_t a, double dtheta, const ClipEye& eye) {
   const double t0 = static_cast<double>(a) * dtheta, t1 = t0 + dtheta, tm = t0 + dtheta / 2;
-  return {std::cos(t0) / eye.metres_per_col, std::sin(t0) / eye.metres_per_row,
-          std::cos(t1) / eye.metres_per_col, std::sin(t1) / eye.metres_per_row,
-          std::cos(tm) / eye.metres_per_col, std::sin(tm) / eye.metres_per_row};
+  return {std::cos(t0) / eye.metres_per_col, std::sin(t0) / eye.metres_per_row, std::cos(t1) / eye.metres_per_col,
+          std::sin(t1) / eye.metres_per_row, std::cos(tm) / eye.metres_per_col, std::sin(tm) / eye.metres_per_row};
 }
 
 // Fills scratch.spans and scratch.reach for `footprints` and returns the
@@ -133,7 +133,9 @@ inline Status trace(const TracePlan& plan, const ClipmapReader& view, const Clip
 }
 
 // Column a of `rays`, for an unwrapped a.
-inline std::size_t column_of(long a, int rays) { return static_cast<std::size_t>(((a % rays) + rays) % rays); }
+inline std::size_t column_of(long a, int rays) {
+  return static_cast<std::size_t>(((a % rays) + rays) % rays);
+}
 
 // The horizon slope of column a over the rings before ring j (j in
 // [0, traced[a]]), stored ring by ring.
@@ -146,9 +148,10 @@ inline double& horizon_at(ClipCullScratch& w, int rays, std::size_t a, std::size
 void prepare_horizons(const TracePlan& plan, ClipCullScratch& scratch);
 
 // True when span s is tested against horizons; a hull holding the eye, or
-// nearer than the first ring, is visible without a test (least OHF -inf).
+// nearer than the first ring, is visible without a test (least OHF -inf),
+// and a box off the map is out of range.
 inline bool testable(const ClipCullScratch::BoxSpan& s, const TracePlan& plan) {
-  return !s.eye_inside && s.near >= plan.edges.front();
+  return !s.eye_inside && !s.off_map && s.near >= plan.edges.front();
 }
 
 // The least OHF over span s's part of one column: `horizons[j * stride]` is
@@ -157,8 +160,12 @@ inline bool testable(const ClipCullScratch::BoxSpan& s, const TracePlan& plan) {
 double least_on_column(const TracePlan& plan, const ClipEye& eye, const ClipCullScratch::BoxSpan& s,
                        const double* horizons, std::size_t stride, std::size_t traced, std::uint64_t& tests);
 
-// Sets a box's answer from its least OHF.
+// Sets a box's answer from its least OHF (out of range off the map).
 inline void set_answer(visibility::BoxVisibility& out, double least, const visibility::BoxFootprint& box) {
+  if (!box.on_map) {
+    out = {visibility::Visibility::kOutOfRange, -std::numeric_limits<float>::infinity()};
+    return;
+  }
   out.ohf_min = static_cast<float>(least);
   out.state = box.z_max + visibility::kTieTolerance >= least ? visibility::Visibility::kSeen
                                                              : visibility::Visibility::kOccluded;

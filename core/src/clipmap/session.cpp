@@ -117,8 +117,8 @@ Result<ClipEye> ClipSession::eye_for(const SessionPose& pose, ClipPose& clip) co
   if (!placed.ok()) return placed.error();
   auto metres = visibility::metric_cell_size(h.georef, located->x, located->y, h.source);
   if (!metres.ok()) return metres.error();
-  ClipEye eye{located->col, located->row, placed->elevation, metres->per_col, metres->per_row,
-              options_.curvature_coefficient / (2.0 * geodesy::kEarthRadiusMetres)};
+  ClipEye eye{located->col,    located->row,    placed->elevation,
+              metres->per_col, metres->per_row, options_.curvature_coefficient / (2.0 * geodesy::kEarthRadiusMetres)};
   const double north_row = h.georef.transform.pixel_height < 0 ? -1.0 : 1.0;  // rows run south on a north-up grid
   clip.col = eye.col;
   clip.row = eye.row;
@@ -133,7 +133,8 @@ Result<std::vector<visibility::BoxFootprint>> ClipSession::resolve(std::span<con
   specs.reserve(boxes.size());
   for (const SessionBox& b : boxes) specs.push_back(b.box);
   const terrain::DemHeader& h = source_->header();
-  auto footprints = visibility::resolve_boxes(h.georef, h.width, h.height, h.source, specs);
+  auto footprints =
+      visibility::resolve_boxes(h.georef, h.width, h.height, h.source, specs, visibility::OffMap::kAnswer);
   if (footprints.ok()) return footprints;
   Error e = footprints.error();  // "boxes[3].z_max" -> "add[3].z_max"
   for (std::string* text : {&e.field, &e.message})
@@ -157,9 +158,9 @@ Result<bool> ClipSession::touches_void(const visibility::BoxFootprint& f) const 
   }
   if (!pyramid_ || pyramid_->reduction() != terrain::Reduction::kMin) return false;
   int level = 1;
-  while (level < pyramid_->levels() &&
-         (static_cast<std::uint64_t>(f.cells.width() >> level) + 1) * (static_cast<std::uint64_t>(f.cells.height() >> level) + 1) >
-             kMaxCells)
+  while (level < pyramid_->levels() && (static_cast<std::uint64_t>(f.cells.width() >> level) + 1) *
+                                               (static_cast<std::uint64_t>(f.cells.height() >> level) + 1) >
+                                           kMaxCells)
     ++level;
   const terrain::Window w{f.cells.col0 >> level, f.cells.row0 >> level, ((f.cells.col1 - 1) >> level) + 1,
                           ((f.cells.row1 - 1) >> level) + 1};
@@ -206,10 +207,15 @@ Status ClipSession::apply(const BoxDelta& delta) {
   if (!moved_footprints.ok()) return moved_footprints.error();
   auto added_footprints = resolve(delta.add, "add");
   if (!added_footprints.ok()) return added_footprints.error();
-  // Boxes over voids are visible, as culling has them (cull.hpp): known before anything changes.
+  // Boxes over voids, as culling has them (cull.hpp): known before anything changes. Off the map: none.
   std::vector<bool> moved_voids, added_voids;
-  for (const auto& [footprints, voids] : {std::pair{&*moved_footprints, &moved_voids}, std::pair{&*added_footprints, &added_voids}})
+  for (const auto& [footprints, voids] :
+       {std::pair{&*moved_footprints, &moved_voids}, std::pair{&*added_footprints, &added_voids}})
     for (const visibility::BoxFootprint& f : *footprints) {
+      if (!f.on_map) {
+        voids->push_back(false);
+        continue;
+      }
       auto v = touches_void(f);
       if (!v.ok()) return v.error();
       voids->push_back(*v);
@@ -418,8 +424,8 @@ Result<SessionAnswer> ClipSession::answer(const SessionPose& pose, const RunCont
     Entry& e = entries_[i];
     visibility::BoxVisibility& b = culled->boxes[i];
     if (e.on_void && b.state == visibility::Visibility::kOccluded) {
-      b = {visibility::Visibility::kSeen, -std::numeric_limits<float>::infinity()};
-      ++culled->visible_count;
+      b.state = visibility::Visibility::kUndetermined;
+      ++culled->visible_count;  // may be seen
     }
     if (!e.reported || b.state != e.state) out.changes.push_back({e.id, b.state, b.ohf_min});
     e.reported = true;

@@ -37,7 +37,9 @@
 // the least OHF over its footprint's cell-centre hull. For each ray or wedge
 // the box meets and each ring its distance range meets, the OHF there is
 // eye + d·horizon + curvature·d² (convex in d), minimised over the part of
-// the ring inside the box's range. A hull that holds the eye is visible.
+// the ring inside the box's range. A hull that holds the eye is visible. A
+// footprint off the map (BoxFootprint::on_map false, resolved with
+// visibility::OffMap::kAnswer) is answered kOutOfRange and costs nothing.
 //
 // Work: only the rays or wedges some box meets are traced, each only as far
 // as the farthest box on it; the stats say how many rings and samples that
@@ -94,19 +96,19 @@ struct ClipCullOptions {
 };
 
 struct ClipCullStats {
-  std::uint64_t rays_traced = 0;  // rays (fast) or wedges (conservative) some box needed
-  std::uint64_t rings = 0;        // ring steps over all of them
-  std::uint64_t samples = 0;      // clip-map reads (bilinear samples or lowest() calls)
-  std::uint64_t fallbacks = 0;    // of which read a coarser level than asked
-  std::uint64_t box_tests = 0;    // (ray or wedge, ring) pairs tested against boxes
-  bool gpu = false;               // traced on a GL context
+  std::uint64_t rays_traced = 0;     // rays (fast) or wedges (conservative) some box needed
+  std::uint64_t rings = 0;           // ring steps over all of them
+  std::uint64_t samples = 0;         // clip-map reads (bilinear samples or lowest() calls)
+  std::uint64_t fallbacks = 0;       // of which read a coarser level than asked
+  std::uint64_t box_tests = 0;       // (ray or wedge, ring) pairs tested against boxes
+  bool gpu = false;                  // traced on a GL context
   std::uint64_t bytes_uploaded = 0;  // GL: level bytes copied to the context (only levels changed since its last trace)
   double seconds = 0.0;
 };
 
 struct ClipCullResult {
   std::vector<visibility::BoxVisibility> boxes;  // one per footprint, same order
-  std::size_t visible_count = 0;
+  std::size_t visible_count = 0;                 // boxes that may be seen (visibility::may_be_seen: not kOccluded)
   ClipCullStats stats;
 };
 
@@ -115,10 +117,11 @@ struct ClipCullResult {
 // the call's working data, of no use after it.
 struct ClipCullScratch {
   struct BoxSpan {
-    long a0 = 0, a1 = -1;             // the box's columns (rays or wedges), unwrapped
-    double near = 0.0, far = 0.0;     // its ground distance range, metres
-    std::uint32_t first_ring = 0;     // the ring holding `near`
-    bool eye_inside = false;          // its hull holds the eye
+    long a0 = 0, a1 = -1;          // the box's columns (rays or wedges), unwrapped
+    double near = 0.0, far = 0.0;  // its ground distance range, metres
+    std::uint32_t first_ring = 0;  // the ring holding `near`
+    bool eye_inside = false;       // its hull holds the eye
+    bool off_map = false;          // not on the dataset: answered out of range, never traced
   };
   std::vector<BoxSpan> spans;
   std::vector<double> reach;          // per column: the farthest box on it

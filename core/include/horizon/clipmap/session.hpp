@@ -28,12 +28,17 @@
 // than SessionOptions::exact_bytes of engine memory is refused
 // (kResourceExhausted "boxes") before anything is read.
 //
-// Boxes follow culling's rule (visibility/cull.hpp): a box whose footprint
-// meets a void (no terrain, so no answer) is visible, with ohf_min -inf;
-// whether it does is found when the box is added or moved: from its own
-// cells, or for a footprint over 64 x 64 cells from the min pyramid's in
-// conservative mode (which may also count a void just beside it; fast mode
-// does not check such a footprint).
+// Boxes follow culling's rule (visibility/cull.hpp). A box whose footprint
+// is not wholly on the dataset is registered and answered kOutOfRange at
+// every pose (never culled, no work). A box whose footprint meets a void
+// (no terrain, so no answer there) is decided on the rest: visible stays
+// visible, and hidden becomes kUndetermined (the void might hold the point
+// that shows it); whether it meets one is found when the box is added or
+// moved: from its own cells, or for a footprint over 64 x 64 cells from the
+// min pyramid's in conservative mode (which may also count a void just
+// beside it; fast mode does not check such a footprint). Exact sessions
+// answer as a CullBoxes request under the default nodata policy, which is
+// the same rule.
 //
 // Viewsheds. With SessionOptions::viewshed_radius, each answer also says
 // which cells within that radius of the eye are seen (clip_viewshed.hpp on
@@ -50,7 +55,8 @@
 //
 // Boxes are added, moved and removed by id, a delta at a time: a delta with
 // any bad entry (unknown or repeated id, bad box, over max_boxes) changes
-// nothing, and the error names the entry ("add[3].id").
+// nothing, and the error names the entry ("add[3].id"). A box off the map is
+// not a bad entry (it is answered out of range, above).
 //
 // One client drives a session: its methods are not to be called
 // concurrently (the loader thread is the session's own business).
@@ -82,9 +88,9 @@ struct SessionOptions {
   UpdaterOptions updater;
   ClipMode mode = ClipMode::kFast;
   int rays = 1024;
-  unsigned threads = 1;                // culling threads per answer (0: all cores)
-  bool asynchronous = true;            // load on the session's loader thread
-  std::size_t max_boxes = 100000;      // registered at once
+  unsigned threads = 1;                    // culling threads per answer (0: all cores)
+  bool asynchronous = true;                // load on the session's loader thread
+  std::size_t max_boxes = 100000;          // registered at once
   double curvature_coefficient = 0.85714;  // as visibility::ViewshedOptions
   // A viewshed summary with every answer: the cells within this many metres
   // of the eye seen and hidden (clip_viewshed.hpp; exact mode: R3's). 0: none.
@@ -127,7 +133,7 @@ struct BoxChange {
 // The cells within SessionOptions::viewshed_radius of the eye, from the
 // same snapshot (or, exact mode, the same source) as the boxes' answer.
 struct ViewshedSummary {
-  terrain::Window window;  // source cells of `mask`
+  terrain::Window window;            // source cells of `mask`
   terrain::Grid<std::uint8_t> mask;  // visibility::kVisible / kHidden / kNoAnswer (beyond the radius, voids)
   std::uint64_t visible_cells = 0, hidden_cells = 0;
   double seconds = 0.0;
@@ -139,8 +145,8 @@ struct LevelReport {
 };
 
 struct SessionAnswer {
-  std::uint64_t seq = 0;        // the pose answered
-  double eye_elevation = 0.0;   // absolute metres
+  std::uint64_t seq = 0;       // the pose answered
+  double eye_elevation = 0.0;  // absolute metres
   std::vector<BoxChange> changes;
   std::size_t boxes = 0, visible = 0;
   std::vector<LevelReport> levels;
@@ -197,7 +203,7 @@ class ClipSession {
  private:
   struct Entry {
     std::uint64_t id = 0;
-    bool on_void = false;  // its footprint meets a void: visible (cull.hpp's rule)
+    bool on_void = false;  // its footprint meets a void: never hidden, undetermined instead (cull.hpp's rule)
     bool reported = false;
     visibility::Visibility state = visibility::Visibility::kSeen;
   };
@@ -224,7 +230,7 @@ class ClipSession {
   std::vector<Entry> entries_;
   std::vector<visibility::BoxFootprint> footprints_;  // entries_' boxes, same order
   std::vector<visibility::BoxSpec> specs_;            // and as the client gave them (exact mode plans from them)
-  visibility::Workspace workspace_;                    // exact mode's buffers between answers
+  visibility::Workspace workspace_;                   // exact mode's buffers between answers
   ClipCullScratch scratch_;
   std::unordered_map<std::uint64_t, std::size_t> index_;
 };
