@@ -72,6 +72,8 @@ grpc::Status compute_many_viewshed(CallScope& scope, const v1::ViewshedRequest& 
   // Each observer located on the header and its reach's cells bounded: the
   // union window and the work, before any read.
   std::vector<visibility::ObserverSite> sites(static_cast<std::size_t>(n));
+  std::vector<geodesy::GridPoint> located_points;  // in the dataset's grid
+  located_points.reserve(sites.size());
   terrain::Window window;
   std::uint64_t largest = 0, work = 0;
   for (int i = 0; i < n; ++i) {
@@ -90,6 +92,7 @@ grpc::Status compute_many_viewshed(CallScope& scope, const v1::ViewshedRequest& 
                                         name + ".max_distance"));
     auto located = geodesy::locate_point(h.georef, h.width, h.height, *spec, (name + ".point").c_str(), d.name);
     if (!located.ok()) return scope.status_of(located.error());
+    located_points.push_back(*located);
     const double reach = site.max_distance > 0 ? site.max_distance : shared->max_distance;
     const terrain::Window w = geodesy::cells_within(h.georef, h.width, h.height, *located, reach, 2);
     window = merged(window, w);
@@ -118,13 +121,23 @@ grpc::Status compute_many_viewshed(CallScope& scope, const v1::ViewshedRequest& 
   terrain::SourceReadStats read;
   auto dem = d.source->read(window, &env.cache, scope.control(), &read, env.config.engine_threads);
   if (!dem.ok()) return scope.status_of(dem.error());
+  // Each site's ground, with a void named by its cell in the dataset's grid
+  // (the plan below would name the window's).
+  const terrain::Window& got = read.window;
+  for (std::size_t i = 0; i < sites.size(); ++i) {
+    geodesy::GridPoint p = located_points[i];
+    p.col -= got.col0;
+    p.row -= got.row0;
+    const std::string name = "observers[" + std::to_string(i) + "].point";
+    auto placed = geodesy::place_on_ground(*dem, p, sites[i].point, name.c_str(), got.col0, got.row0);
+    if (!placed.ok()) return scope.status_of(placed.error());
+  }
   auto plan = visibility::plan_many_observers(*dem, sites, options);
   if (!plan.ok()) return scope.status_of(as_request_field(plan.error()));
   auto res = visibility::compute_many_observers(*dem, *plan, scope.control());
   if (!res.ok()) return scope.status_of(as_request_field(res.error()));
 
   // The raster asked for, georeferenced in the dataset's grid.
-  const terrain::Window& got = read.window;
   terrain::Georeference georef = h.georef;
   georef.transform = h.georef.transform.shifted(got.col0 + res->window.col0, got.row0 + res->window.row0);
   const auto any = visibility::seen_from_any(*res);

@@ -28,7 +28,8 @@ class ServerMany : public ::testing::Test {
  protected:
   void SetUp() override {
     DaemonOptions o;
-    o.datasets = {{"ecuador", "ecuador_andes_utm17s_10m_383x415.tif"}};
+    o.datasets = {{"ecuador", "ecuador_andes_utm17s_10m_383x415.tif"},
+                  {"everest", "everest_summit_voids_srtm3_300x300.tif"}};
     // The whole raster is over max_cells; the towers' windows are not.
     o.extra_json = R"("limits": {"max_observers": 5, "max_cells": 100000}, "engine_threads": 2,)";
     daemon_ = std::make_unique<DaemonProcess>(o);
@@ -255,6 +256,19 @@ TEST_F(ServerMany, WrongSitesAndOversizedWindowsAreRefusedNamingThem) {
   }
   const std::string span = refused(r, grpc::StatusCode::RESOURCE_EXHAUSTED, "observers");
   EXPECT_NE(span.find("100000"), std::string::npos) << span;
+
+  // A site 10 m above a void (the Everest crop's cell col 237, row 150):
+  // named by its cell in the dataset's grid, not in the window read for it.
+  r.clear_observers();
+  r.set_dataset("everest");
+  for (const auto& [lon, lat] : {std::pair{86.86, 27.95}, std::pair{86.9483333333333, 27.875}}) {
+    v1::ObserverSite* s = r.add_observers();
+    *s->mutable_point() = point(lon, lat, 10);
+    s->set_max_distance(1500);
+  }
+  const std::string hole = refused(r, grpc::StatusCode::FAILED_PRECONDITION, "observers[1].point");
+  EXPECT_NE(hole.find("col 237.00, row 150.00"), std::string::npos) << hole;
+  EXPECT_EQ(hole.find("/"), std::string::npos) << "no server path: " << hole;
 }
 
 }  // namespace
