@@ -45,6 +45,8 @@ constexpr FlagSpec kFlags[] = {
     {"--sizes", "", "LIST", "--region: square footprints' sides, ground metres (default 30,120,480)"},
     {"--face-resolutions", "", "LIST", "--region: fuzzy-array columns a face (default 64,256,1024,4096)"},
     {"--splits", "", "LIST", "--region: footprint splits (default 2)"},
+    {"--rows", "", "LIST",
+     "--region: 0 for the continuous cover (default), N for the seed's fuzzy array of N slope rows, to compare"},
     {"--heights", "", "ZMIN,ZMAX", "--region: viewpoint heights above the ground, metres (default 2,20)"},
     {"--regions", "", "N", "--region: region centres per DEM, on valid ground, fixed seed (default 2)"},
     {"--check", "", "N",
@@ -220,8 +222,8 @@ const Command& bench_command() {
       "Sweep algorithms and their accuracy knobs: runtime against error (CSV, PNG, Markdown)",
       "horizon bench DEM... [--observers N | --observer X,Y[;X,Y...]] [--algorithms LIST] [--peers LIST] "
       "[--repeats N] [-o DIR]\n"
-      "horizon bench --region DEM... [--sizes LIST] [--face-resolutions LIST] [--splits LIST] [--heights ZMIN,ZMAX] "
-      "[--check N] [-o DIR]",
+      "horizon bench --region DEM... [--sizes LIST] [--face-resolutions LIST] [--splits LIST] [--rows LIST] "
+      "[--heights ZMIN,ZMAX] [--check N] [-o DIR]",
       "For each DEM, observer and setting of each algorithm's knobs (the knob table in\n"
       "core/src/evaluation/bench.cpp), computes the viewshed after --warmup untimed runs,\n"
       "--repeats times, keeps the median compute time, and measures the result against R3\n"
@@ -232,7 +234,8 @@ const Command& bench_command() {
       "the Pareto front drawn).\n"
       "With --region, sweeps from-region visibility instead (core/evaluation/region_bench.hpp): square\n"
       "regions of each --sizes side at --regions centres, classified at each --face-resolutions and\n"
-      "--splits (median of --repeats), every cell within --max-distance (default 3000 m): the decided\n"
+      "--splits (median of --repeats), and with --rows on the seed's row-snapped fuzzy array too, every\n"
+      "cell within --max-distance (default 3000 m): the decided\n"
       "share against time, each verdict checked with R3 (--check). Writes DIR/bench_region.csv,\n"
       "DIR/bench_region.md and DIR/region_*.png; exits 1 if any verdict contradicts R3.",
       kFlags,

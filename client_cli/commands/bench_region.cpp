@@ -50,6 +50,11 @@ evaluation::RegionBenchConfig parse_config(const Args& args) {
   }
   if (args.has("--face-resolutions")) c.face_resolutions = integer_list(args, "--face-resolutions", 8, 65536);
   if (args.has("--splits")) c.footprint_splits = integer_list(args, "--splits", 1, 16);
+  if (args.has("--rows")) {
+    c.fuzzy_rows = integer_list(args, "--rows", 0, 65536);
+    for (int r : c.fuzzy_rows)
+      if (r == 1) throw UsageError("--rows: 0 (the continuous cover) or at least 2 rows, got 1");
+  }
   if (args.has("--heights")) {
     const std::vector<double> z = number_list(args, "--heights");
     if (z.size() != 2 || z[0] < 0 || z[0] > z[1])
@@ -74,7 +79,7 @@ evaluation::RegionBenchConfig parse_config(const Args& args) {
 std::string command_line(const Args& args, const evaluation::RegionBenchConfig& c) {
   std::string command = "horizon bench --region";
   for (const std::string& d : c.dems) command += " " + d;
-  for (std::string_view f : {"--sizes", "--face-resolutions", "--splits", "--heights", "--regions", "--check",
+  for (std::string_view f : {"--sizes", "--face-resolutions", "--splits", "--rows", "--heights", "--regions", "--check",
                              "--repeats", "--warmup", "--target-height", "--max-distance", "--curvature", "--threads"})
     if (auto v = args.text(f)) {
       command += ' ';

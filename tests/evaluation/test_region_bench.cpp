@@ -95,9 +95,18 @@ TEST(RegionBench, WritesCsvAndMarkdownWithEveryRow) {
   c.regions = 1;
   c.sizes = {40};
   c.footprint_splits = {2};
+  c.fuzzy_rows = {0, 64};  // the continuous cover, and the seed's array of 64 slope rows
   c.check_points = 0;
   auto report = run_region_bench(c);
   ASSERT_TRUE(report.ok()) << report.error().message;
+  ASSERT_EQ(report->rows.size(), 3u * 2);
+  for (std::size_t i = 0; i < report->rows.size(); i += 2) {
+    const RegionBenchRow &continuous = report->rows[i], &rows = report->rows[i + 1];
+    ASSERT_EQ(continuous.fuzzy_rows, 0);
+    ASSERT_EQ(rows.fuzzy_rows, 64);
+    EXPECT_LE(rows.always_hidden, continuous.always_hidden) << "the rows only ever lose verdicts";
+    EXPECT_EQ(rows.always_visible, continuous.always_visible);
+  }
   testing::TempDir dir;
   const std::string csv = dir.file("r.csv"), md = dir.file("r.md");
   ASSERT_TRUE(write_region_csv(csv, report->rows).ok());
@@ -105,13 +114,15 @@ TEST(RegionBench, WritesCsvAndMarkdownWithEveryRow) {
   std::ifstream f(csv);
   int lines = 0;
   for (std::string line; std::getline(f, line);) ++lines;
-  EXPECT_EQ(lines, 1 + 3);
+  EXPECT_EQ(lines, 1 + 6);
   std::ifstream m(md);
   const std::string text((std::istreambuf_iterator<char>(m)), std::istreambuf_iterator<char>());
-  EXPECT_NE(text.find("| 40 m | 256 | 2 | 1 |"), std::string::npos) << text;
+  EXPECT_NE(text.find("| 40 m | 256 | 2 | continuous | 1 |"), std::string::npos) << text;
+  EXPECT_NE(text.find("| 40 m | 256 | 2 | 64 | 1 |"), std::string::npos) << text;
   EXPECT_NE(text.find("<!-- horizon bench --region x -->"), std::string::npos);
   const auto pooled = aggregate_regions(report->rows);
-  ASSERT_EQ(pooled.size(), 3u);
+  ASSERT_EQ(pooled.size(), 6u);
+  EXPECT_EQ(pooled[1].setting, "64, 64 rows");
   const std::string png = dir.file("r.png");
   ASSERT_TRUE(write_chart(png, pooled, "t", region_chart_text()).ok());
   EXPECT_GT(std::filesystem::file_size(png), 1000u);
@@ -132,6 +143,9 @@ TEST(RegionBench, AWrongConfigNamesItsField) {
   c = small_sweep();
   c.footprint_splits = {17};
   EXPECT_EQ(field_of(c), "footprint_splits");
+  c = small_sweep();
+  c.fuzzy_rows = {0, 1};
+  EXPECT_EQ(field_of(c), "fuzzy_rows");
   c = small_sweep();
   c.z_min = 30;  // above z_max
   EXPECT_EQ(field_of(c), "heights");

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
+#include <optional>
 #include <random>
 
 #include "horizon/evaluation/region_check.hpp"
@@ -245,6 +247,42 @@ TEST(Region, AFinerFuzzyArrayDecidesAtLeastAsManyHidden) {
   EXPECT_GT(last, 1000u);
 }
 
+// The seed's two-dimensional array (rows of slope) on the same occluders:
+// each row grid nests in the next (16 | 256 | 4096), so its hidden cells are
+// a subset of the next one's, and all of them of the continuous cover's;
+// the visible verdicts do not depend on it. The coarse array loses some.
+TEST(Region, TheSeedsSlopeRowsDecideASubsetOfTheContinuousCover) {
+  const terrain::Dem dem = testing::make_random_terrain(200, 200, 21, 300.0, 30.0);
+  auto spec = region_over(dem, 95, 95, 105, 105, 2, 10, geodesy::HeightMode::kAboveGround);
+  auto continuous = region::classify_cells(dem, spec, flat(1024));
+  ASSERT_TRUE(continuous.ok());
+  const auto hidden = [](const region::RegionCellsResult& r, int i, int j) { return r.codes.at(i, j) == 0; };
+  std::optional<region::RegionCellsResult> coarser;
+  for (int rows : {16, 256, 4096}) {
+    region::RegionOptions o = flat(1024);
+    o.fuzzy_rows = rows;
+    auto res = region::classify_cells(dem, spec, o);
+    ASSERT_TRUE(res.ok()) << res.error().message;
+    ASSERT_EQ(res->codes.width(), continuous->codes.width());
+    for (int j = 0; j < res->codes.height(); ++j)
+      for (int i = 0; i < res->codes.width(); ++i) {
+        if (hidden(*res, i, j)) {
+          EXPECT_TRUE(hidden(*continuous, i, j)) << rows << " rows, " << i << "," << j;
+        }
+        if (coarser && hidden(*coarser, i, j)) {
+          EXPECT_TRUE(hidden(*res, i, j)) << rows << " rows, " << i << "," << j;
+        }
+        EXPECT_EQ(res->codes.at(i, j) == 1, continuous->codes.at(i, j) == 1) << rows << " rows, " << i << "," << j;
+      }
+    if (rows == 16) {
+      EXPECT_LT(res->stats.always_hidden, continuous->stats.always_hidden * 9 / 10) << "16 rows lose cells";
+    }
+    EXPECT_LE(res->stats.always_hidden, continuous->stats.always_hidden);
+    coarser = std::move(*res);
+  }
+  EXPECT_GT(continuous->stats.always_hidden, 1000u);
+}
+
 TEST(Region, BadInputsAreRefusedByName) {
   const terrain::Dem dem = walled();
   const region::RegionSpec good = region_over(dem, 5, 25, 8, 35, 2, 10);
@@ -275,7 +313,9 @@ TEST(Region, BadInputsAreRefusedByName) {
            {"curvature_coefficient", [](region::RegionOptions& o) { o.curvature_coefficient = -1; }},
            {"target_height", [](region::RegionOptions& o) { o.target_height = -1; }},
            {"max_distance", [](region::RegionOptions& o) { o.max_distance = 0; }},
-           {"visible_test_budget", [](region::RegionOptions& o) { o.visible_test_budget = 1; }}}) {
+           {"visible_test_budget", [](region::RegionOptions& o) { o.visible_test_budget = 1; }},
+           {"fuzzy_rows", [](region::RegionOptions& o) { o.fuzzy_rows = 1; }},
+           {"fuzzy_rows", [](region::RegionOptions& o) { o.fuzzy_rows = 70000; }}}) {
     region::RegionOptions o = flat();
     edit(o);
     auto r = region::classify_cells(dem, good, o);

@@ -33,6 +33,10 @@ Status validate(const RegionBenchConfig& c) {
   if (c.face_resolutions.empty()) return bad("face_resolutions", "no resolution given");
   for (int f : c.face_resolutions)
     if (f < 8 || f > 65536) return bad("face_resolutions", "each must be in [8, 65536], got " + std::to_string(f));
+  if (c.fuzzy_rows.empty()) return bad("fuzzy_rows", "no rows given (0: the continuous cover)");
+  for (int r : c.fuzzy_rows)
+    if (r != 0 && (r < 2 || r > 65536))
+      return bad("fuzzy_rows", "each must be 0 or in [2, 65536], got " + std::to_string(r));
   if (c.footprint_splits.empty()) return bad("footprint_splits", "no split given");
   for (int s : c.footprint_splits)
     if (s < 1 || s > 16) return bad("footprint_splits", "each must be in [1, 16], got " + std::to_string(s));
@@ -101,8 +105,11 @@ std::string fmt(const char* f, double v) {
 std::string size_label(double m) {
   return fmt("%g", m) + " m region";
 }
-std::string setting_label(int face, int splits) {
-  return std::to_string(face) + (splits == 2 ? "" : ", " + std::to_string(splits) + "x" + std::to_string(splits));
+std::string setting_label(int face, int splits, int rows) {
+  std::string s = std::to_string(face);
+  if (splits != 2) s += ", " + std::to_string(splits) + "x" + std::to_string(splits);
+  if (rows > 0) s += ", " + std::to_string(rows) + " rows";
+  return s;
 }
 
 }  // namespace
@@ -135,59 +142,62 @@ Result<RegionBenchReport> run_region_bench(const RegionBenchConfig& config, cons
         proto.size_m = side;
         bool skipped = false;
         for (int splits : config.footprint_splits)
-          for (int face : config.face_resolutions) {
-            if (skipped) break;
-            HORIZON_RETURN_IF_ERROR(check_control(control));
-            region::RegionOptions options;
-            options.face_resolution = face;
-            options.footprint_splits = splits;
-            options.curvature_coefficient = config.curvature;
-            options.target_height = config.target_height;
-            options.max_distance = config.max_distance;
-            options.threads = config.threads;
-            std::vector<double> times;
-            Result<region::RegionCellsResult> res = make_error(ErrorCode::kInternal, "not run");
-            for (int i = 0; i < config.warmup + config.repeats; ++i) {
-              const auto start = std::chrono::steady_clock::now();
-              res = region::classify_cells(*dem, *spec, options, control);
-              const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-              if (!res.ok()) break;
-              if (i >= config.warmup) times.push_back(s);
+          for (int face : config.face_resolutions)
+            for (int rows : config.fuzzy_rows) {
+              if (skipped) break;
+              HORIZON_RETURN_IF_ERROR(check_control(control));
+              region::RegionOptions options;
+              options.face_resolution = face;
+              options.footprint_splits = splits;
+              options.fuzzy_rows = rows;
+              options.curvature_coefficient = config.curvature;
+              options.target_height = config.target_height;
+              options.max_distance = config.max_distance;
+              options.threads = config.threads;
+              std::vector<double> times;
+              Result<region::RegionCellsResult> res = make_error(ErrorCode::kInternal, "not run");
+              for (int i = 0; i < config.warmup + config.repeats; ++i) {
+                const auto start = std::chrono::steady_clock::now();
+                res = region::classify_cells(*dem, *spec, options, control);
+                const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+                if (!res.ok()) break;
+                if (i >= config.warmup) times.push_back(s);
+              }
+              if (!res.ok()) {
+                if (res.error().code == ErrorCode::kCancelled || res.error().code == ErrorCode::kDeadlineExceeded)
+                  return res.error();
+                // A footprint off the DEM or over voids alone: that region at that size is left out.
+                report.notes.push_back(name + ", " + proto.region + ", " + size_label(side) +
+                                       ": skipped: " + res.error().message);
+                skipped = true;
+                break;
+              }
+              RegionBenchRow r = proto;
+              r.face_resolution = face;
+              r.footprint_splits = splits;
+              r.fuzzy_rows = rows;
+              r.repeats = config.repeats;
+              r.seconds_median = median_of(times);
+              r.seconds_min = *std::min_element(times.begin(), times.end());
+              const region::RegionStats& st = res->stats;
+              r.cells = st.items;
+              r.always_hidden = st.always_hidden;
+              r.always_visible = st.always_visible;
+              r.undetermined = st.undetermined;
+              r.walls_swept = st.walls_swept;
+              r.wall_nodes_read = st.wall_nodes_read;
+              r.pyramid_cells_read = st.pyramid_cells_read;
+              if (config.check_points > 0) {
+                const auto viewpoints = sample_region(*dem, *spec, res->frame, {8, config.check_points, 1});
+                const RegionCheck c = check_cells(*dem, *res, options, viewpoints, config.check_cells, config.threads);
+                r.checked_cells = c.items_checked;
+                r.viewpoints = c.viewpoints;
+                r.wrong = c.wrong_hidden + c.wrong_visible;
+                r.sampled_hidden = c.sampled_hidden;
+                r.hidden_checked = c.hidden_checked;
+              }
+              report.rows.push_back(std::move(r));
             }
-            if (!res.ok()) {
-              if (res.error().code == ErrorCode::kCancelled || res.error().code == ErrorCode::kDeadlineExceeded)
-                return res.error();
-              // A footprint off the DEM or over voids alone: that region at that size is left out.
-              report.notes.push_back(name + ", " + proto.region + ", " + size_label(side) +
-                                     ": skipped: " + res.error().message);
-              skipped = true;
-              break;
-            }
-            RegionBenchRow r = proto;
-            r.face_resolution = face;
-            r.footprint_splits = splits;
-            r.repeats = config.repeats;
-            r.seconds_median = median_of(times);
-            r.seconds_min = *std::min_element(times.begin(), times.end());
-            const region::RegionStats& st = res->stats;
-            r.cells = st.items;
-            r.always_hidden = st.always_hidden;
-            r.always_visible = st.always_visible;
-            r.undetermined = st.undetermined;
-            r.walls_swept = st.walls_swept;
-            r.wall_nodes_read = st.wall_nodes_read;
-            r.pyramid_cells_read = st.pyramid_cells_read;
-            if (config.check_points > 0) {
-              const auto viewpoints = sample_region(*dem, *spec, res->frame, {8, config.check_points, 1});
-              const RegionCheck c = check_cells(*dem, *res, options, viewpoints, config.check_cells, config.threads);
-              r.checked_cells = c.items_checked;
-              r.viewpoints = c.viewpoints;
-              r.wrong = c.wrong_hidden + c.wrong_visible;
-              r.sampled_hidden = c.sampled_hidden;
-              r.hidden_checked = c.hidden_checked;
-            }
-            report.rows.push_back(std::move(r));
-          }
         done += 1;
         report_progress(control, done / units);
       }
@@ -197,20 +207,20 @@ Result<RegionBenchReport> run_region_bench(const RegionBenchConfig& config, cons
 }
 
 std::vector<Aggregate> aggregate_regions(const std::vector<RegionBenchRow>& rows) {
-  // Keyed by (DEM, size, splits, face) in first-seen order of the DEMs.
+  // Keyed by (DEM, size, splits, face, rows) in first-seen order of the DEMs.
   std::vector<Aggregate> out;
-  std::map<std::tuple<std::string, double, int, int>, std::size_t> index;
+  std::map<std::tuple<std::string, double, int, int, int>, std::size_t> index;
   std::vector<std::pair<std::uint64_t, std::uint64_t>> counts;  // decided, cells
   for (const RegionBenchRow& r : rows) {
-    const auto key = std::make_tuple(r.dem, r.size_m, r.footprint_splits, r.face_resolution);
+    const auto key = std::make_tuple(r.dem, r.size_m, r.footprint_splits, r.face_resolution, r.fuzzy_rows);
     auto [it, fresh] = index.try_emplace(key, out.size());
     if (fresh) {
       Aggregate a;
       a.dem = r.dem;
       a.algorithm = size_label(r.size_m);
-      a.setting = setting_label(r.face_resolution, r.footprint_splits);
+      a.setting = setting_label(r.face_resolution, r.footprint_splits, r.fuzzy_rows);
       a.is_default = r.face_resolution == region::RegionOptions{}.face_resolution &&
-                     r.footprint_splits == region::RegionOptions{}.footprint_splits;
+                     r.footprint_splits == region::RegionOptions{}.footprint_splits && r.fuzzy_rows == 0;
       out.push_back(a);
       counts.emplace_back(0, 0);
     }
@@ -234,14 +244,15 @@ Status write_region_csv(const std::string& path, const std::vector<RegionBenchRo
   {
     std::ofstream f(tmp);
     if (!f) return make_error(ErrorCode::kIoError, "cannot write '" + path + "'", path);
-    f << "dem,region,x_min,y_min,x_max,y_max,size_m,face_resolution,footprint_splits,repeats,seconds_median,seconds_"
+    f << "dem,region,x_min,y_min,x_max,y_max,size_m,face_resolution,footprint_splits,fuzzy_rows,repeats,seconds_median,"
+         "seconds_"
          "min,cells,"
          "always_hidden,always_visible,undetermined,decided,walls_swept,wall_nodes_read,pyramid_cells_read,"
          "checked_cells,viewpoints,wrong,sampled_hidden,hidden_checked\n";
     for (const RegionBenchRow& r : rows)
       f << r.dem << ',' << r.region << ',' << fmt("%.9g", r.x_min) << ',' << fmt("%.9g", r.y_min) << ','
         << fmt("%.9g", r.x_max) << ',' << fmt("%.9g", r.y_max) << ',' << r.size_m << ',' << r.face_resolution << ','
-        << r.footprint_splits << ',' << r.repeats << ',' << fmt("%.6f", r.seconds_median) << ','
+        << r.footprint_splits << ',' << r.fuzzy_rows << ',' << r.repeats << ',' << fmt("%.6f", r.seconds_median) << ','
         << fmt("%.6f", r.seconds_min) << ',' << r.cells << ',' << r.always_hidden << ',' << r.always_visible << ','
         << r.undetermined << ',' << fmt("%.5f", r.decided()) << ',' << r.walls_swept << ',' << r.wall_nodes_read << ','
         << r.pyramid_cells_read << ',' << r.checked_cells << ',' << r.viewpoints << ',' << r.wrong << ','
@@ -258,7 +269,7 @@ Status write_region_markdown(const std::string& path, const RegionBenchReport& r
   struct Pool {
     std::string dem;
     double size = 0;
-    int face = 0, splits = 0, regions = 0;
+    int face = 0, splits = 0, rows = 0, regions = 0;
     double seconds = 0;
     std::uint64_t cells = 0, hidden = 0, visible = 0, undetermined = 0, wrong = 0, checked = 0, sampled_hidden = 0,
                   hidden_checked = 0;
@@ -266,10 +277,15 @@ Status write_region_markdown(const std::string& path, const RegionBenchReport& r
   std::vector<Pool> pools;
   for (const RegionBenchRow& r : report.rows) {
     auto it = std::find_if(pools.begin(), pools.end(), [&](const Pool& p) {
-      return p.dem == r.dem && p.size == r.size_m && p.face == r.face_resolution && p.splits == r.footprint_splits;
+      return p.dem == r.dem && p.size == r.size_m && p.face == r.face_resolution && p.splits == r.footprint_splits &&
+             p.rows == r.fuzzy_rows;
     });
     if (it == pools.end()) {
-      pools.push_back({.dem = r.dem, .size = r.size_m, .face = r.face_resolution, .splits = r.footprint_splits});
+      pools.push_back({.dem = r.dem,
+                       .size = r.size_m,
+                       .face = r.face_resolution,
+                       .splits = r.footprint_splits,
+                       .rows = r.fuzzy_rows});
       it = pools.end() - 1;
     }
     it->regions += 1;
@@ -296,11 +312,12 @@ Status write_region_markdown(const std::string& path, const RegionBenchReport& r
       if (p.dem != dem) {
         dem = p.dem;
         f << "\n### " << dem << "\n\n"
-          << "| region side | face resolution | splits | regions | time (sum of medians) | cells | always hidden "
-             "| always visible | undetermined | wrong (R3 check) | decided of sampled-hidden |\n"
-          << "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+          << "| region side | face resolution | splits | slope rows | regions | time (sum of medians) | cells "
+             "| always hidden | always visible | undetermined | wrong (R3 check) | decided of sampled-hidden |\n"
+          << "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
       }
-      f << "| " << fmt("%g", p.size) << " m | " << p.face << " | " << p.splits << " | " << p.regions << " | "
+      f << "| " << fmt("%g", p.size) << " m | " << p.face << " | " << p.splits << " | "
+        << (p.rows ? std::to_string(p.rows) : std::string("continuous")) << " | " << p.regions << " | "
         << (p.seconds < 1 ? fmt("%.1f ms", p.seconds * 1e3) : fmt("%.2f s", p.seconds)) << " | " << p.cells << " | "
         << pct(p.hidden, p.cells) << " | " << pct(p.visible, p.cells) << " | " << pct(p.undetermined, p.cells) << " | "
         << (p.checked ? std::to_string(p.wrong) + " of " + std::to_string(p.checked) + " cells" : std::string("-"))
@@ -316,12 +333,13 @@ Status write_region_markdown(const std::string& path, const RegionBenchReport& r
 }
 
 ChartText region_chart_text() {
-  return {.x_axis = "time, summed over the regions (log scale)",
-          .y_axis = "undetermined share of the cells (log scale)",
-          .zero_line = "0",
-          .notes = {"time: classify_cells;", "labels: fuzzy-array", "columns a face"},
-          .error_floor_log = 0,
-          .pareto_front = false};
+  return {
+      .x_axis = "time, summed over the regions (log scale)",
+      .y_axis = "undetermined share of the cells (log scale)",
+      .zero_line = "0",
+      .notes = {"time: classify_cells;", "labels: fuzzy-array", "columns a face", "(N rows: the seed's", "slope rows)"},
+      .error_floor_log = 0,
+      .pareto_front = false};
 }
 
 }  // namespace horizon::evaluation

@@ -148,10 +148,17 @@ std::uint64_t FaceGeometry::add_wall(int w, const std::vector<float>& nodes, std
   return static_cast<std::uint64_t>(pushed);
 }
 
-bool covered(const FaceFit& fit, const std::vector<double>& cover) {
+bool covered(const FaceFit& fit, const std::vector<double>& cover, int rows) {
   double lowest = kInf;
   for (int c = fit.column_lo; c <= fit.column_hi; ++c) lowest = std::min(lowest, cover[static_cast<std::size_t>(c)]);
-  return lowest > fit.slope_max + fit.slope_slack;
+  const double top = fit.slope_max + fit.slope_slack;
+  if (rows == 0) return lowest > top;
+  // Rows [-1 + k * width, -1 + (k + 1) * width); the item's top row is the
+  // one holding `top`, and it must lie wholly below the cover.
+  if (top >= 1.0) return false;
+  const double width = 2.0 / rows;
+  const double row = std::floor((std::max(top, -1.0) + 1.0) / width);
+  return -1.0 + (row + 1.0) * width < lowest;
 }
 
 Status sweep_face(const FaceGeometry& geometry, const terrain::HeightView& terrain, int wall_end,

@@ -81,7 +81,10 @@ class FaceGeometry {
 
 // True when every point of the item is hidden from every viewpoint by the
 // cover of the walls before it: min of cover over the fit's columns > slope_max.
-bool covered(const FaceFit& fit, const std::vector<double>& cover);
+// rows > 0: as the seed's fuzzy array of `rows` slope rows over [-1, 1]
+// (RegionOptions::fuzzy_rows): the rows up to the one holding slope_max lie
+// wholly below that min.
+bool covered(const FaceFit& fit, const std::vector<double>& cover, int rows = 0);
 
 // Sweeps one face's walls outward from the region, up to wall_end
 // (exclusive, at most wall_count()). Before adding wall w (first_wall() <= w

@@ -152,6 +152,9 @@ Status validate_region_options(const RegionOptions& o) {
   HORIZON_RETURN_IF_ERROR(visibility::validate_options(shared));
   if (o.footprint_splits < 1 || o.footprint_splits > 16)
     return bad_option("footprint_splits", "must be an integer in [1, 16], got " + std::to_string(o.footprint_splits));
+  if (o.fuzzy_rows != 0 && (o.fuzzy_rows < 2 || o.fuzzy_rows > 65536))
+    return bad_option("fuzzy_rows",
+                      "must be 0 (continuous) or an integer in [2, 65536], got " + std::to_string(o.fuzzy_rows));
   if (o.visible_test_budget < 16 || o.visible_test_budget > (1 << 24))
     return bad_option("visible_test_budget",
                       "must be an integer in [16, 16777216], got " + std::to_string(o.visible_test_budget));
@@ -319,7 +322,7 @@ Result<RegionCellsResult> classify_cells_from(const terrain::Dem& dem, const Reg
           const int i = c - win.col0, j = r - win.row0;
           if (face_of.row(j)[i] != k) continue;
           FaceFit fit;
-          if (g.fit(target(c, r), fit) && fit.wall_limit == w && covered(fit, cover))
+          if (g.fit(target(c, r), fit) && fit.wall_limit == w && covered(fit, cover, options.fuzzy_rows))
             out.codes.row(j)[i] = static_cast<std::uint8_t>(Verdict::kAlwaysHidden);
         }
       },
@@ -475,7 +478,7 @@ Result<RegionBoxesResult> classify_boxes_from(const terrain::Dem& dem, const Reg
         if (static_cast<std::size_t>(w) >= bucket.size()) return;
         for (std::size_t b : bucket[static_cast<std::size_t>(w)]) {
           FaceFit fit;
-          if (faces[static_cast<std::size_t>(k)].fit(items[b], fit) && covered(fit, cover))
+          if (faces[static_cast<std::size_t>(k)].fit(items[b], fit) && covered(fit, cover, options.fuzzy_rows))
             out.verdicts[b] = Verdict::kAlwaysHidden;
         }
       },

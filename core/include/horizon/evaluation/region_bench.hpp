@@ -4,7 +4,9 @@
 // For every DEM, `regions` region centres (valid ground, drawn with a fixed
 // seed in the middle 60 % of the DEM), every region size (the side of a
 // square footprint, ground metres), every fuzzy-array resolution
-// (RegionOptions::face_resolution) and every footprint split, run() times
+// (RegionOptions::face_resolution), every footprint split and every
+// fuzzy_rows (0, the continuous cover, by default; N > 0 the seed's array
+// of N slope rows on the same occluders, for comparison), run() times
 // region::classify_cells (`warmup` untimed runs, then `repeats` timed, the
 // median kept) over every cell within `max_distance` of the footprint, and
 // counts the verdicts. A from-region answer is never wrong by construction,
@@ -15,7 +17,7 @@
 // `check_points` interior points (evaluation/region_check.hpp); any wrong
 // verdict is reported in the row (and must be zero).
 //
-// Cost: DEMs x regions x sizes x resolutions x splits x (warmup + repeats)
+// Cost: DEMs x regions x sizes x resolutions x splits x rows x (warmup + repeats)
 // classifications, plus one R3 check per setting (check_cells x viewpoints
 // sight lines).
 #pragma once
@@ -36,6 +38,7 @@ struct RegionBenchConfig {
   std::vector<double> sizes = {30, 120, 480};                 // footprint sides, ground metres, > 0
   std::vector<int> face_resolutions = {64, 256, 1024, 4096};  // each [8, 65536]
   std::vector<int> footprint_splits = {2};                    // each [1, 16]
+  std::vector<int> fuzzy_rows = {0};                          // each 0 or [2, 65536]
   double z_min = 2, z_max = 20;                               // viewpoint heights above the ground, metres
   double target_height = 1.5;                                 // metres above each cell
   double max_distance = 3000;                                 // ground metres from the footprint, > 0
@@ -52,7 +55,7 @@ struct RegionBenchRow {
   // The footprint in the DEM's CRS (`horizon region --from-box` takes it as is).
   double x_min = 0, y_min = 0, x_max = 0, y_max = 0;
   double size_m = 0;
-  int face_resolution = 0, footprint_splits = 0;
+  int face_resolution = 0, footprint_splits = 0, fuzzy_rows = 0;
   int repeats = 0;
   double seconds_median = 0, seconds_min = 0;
   std::uint64_t cells = 0, always_hidden = 0, always_visible = 0, undetermined = 0;
@@ -73,10 +76,11 @@ struct RegionBenchReport {
 // of (DEM, region, size) units done, cancellation polled between runs.
 Result<RegionBenchReport> run_region_bench(const RegionBenchConfig& config, const RunControl* control = nullptr);
 
-// Per DEM and setting (size, resolution, splits), pooled over the regions:
-// time summed, verdicts summed. As bench.hpp's Aggregate for the chart:
-// algorithm = "<size> m region", setting = "<resolution>" (", NxN" when
-// the splits are not 2), iou = decided share (so error() is the
+// Per DEM and setting (size, resolution, splits, rows), pooled over the
+// regions: time summed, verdicts summed. As bench.hpp's Aggregate for the
+// chart: algorithm = "<size> m region", setting = "<resolution>" (", NxN"
+// when the splits are not 2, ", R rows" for the seed's array), iou =
+// decided share (so error() is the
 // undetermined share), the front marked per DEM and size.
 std::vector<Aggregate> aggregate_regions(const std::vector<RegionBenchRow>& rows);
 

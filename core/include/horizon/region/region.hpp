@@ -48,6 +48,17 @@
 // Items whose footprint meets B's (seen straight down), or whose directions
 // leave every face's span, are not decided hidden.
 //
+// The seed's array, for comparison (RegionOptions::fuzzy_rows = N > 0): the
+// same occluders on a two-dimensional fuzzy array of N rows of slope over b
+// in [-1, 1] per column, as WO 93/00650 tessellates a face. A row is in a
+// column's umbra when all of it lies below that column's cover, and an
+// item's fuzzy extent is snapped outward to whole rows, so it is hidden when
+// the rows up to the one holding its steepest direction are umbra in every
+// column of its extent (directions steeper than 1 leave the array:
+// undetermined; those below -1 are granted, as if the bottom face's array
+// hid them). Every verdict of that array is one the continuous cover gives
+// too; `horizon bench --region --rows` measures what the rows lose.
+//
 // Always visible: every segment from B to a point q must pass at or above
 // R3's terrain at every crossing. The segments fill conv(B + q); over a
 // rectangle F of DEM squares its lowest point is bounded from the fractions
@@ -144,6 +155,9 @@ struct RegionOptions {
   double max_distance = std::numeric_limits<double>::infinity();
   // Pyramid cells one always-visible test may read, [16, 1 << 24].
   int visible_test_budget = 4096;
+  // 0: the continuous cover (above). N in [2, 65536]: the seed's fuzzy
+  // array of N slope rows a column, for comparison (see above).
+  int fuzzy_rows = 0;
   unsigned threads = 0;  // 0: all hardware threads
 };
 
@@ -166,7 +180,7 @@ struct RegionFrame {
   double col_min = 0.0, col_max = 0.0, row_min = 0.0, row_max = 0.0;  // continuous grid coordinates
   double z_min = 0.0, z_max = 0.0;                                    // absolute metres
   double metres_per_col = 1.0, metres_per_row = 1.0;                  // at the region's centre
-  double curvature = 0.0;  // metres of drop per metre^2: coefficient / (2 R)
+  double curvature = 0.0;                                             // metres of drop per metre^2: coefficient / (2 R)
 };
 
 // Checks the region (finite, ordered, inside the DEM's outer extent; above
@@ -185,13 +199,12 @@ struct RegionStats {
 // What a classification will cost, known before any work.
 struct RegionPlan {
   RegionFrame frame;
-  terrain::Window window;     // classify_cells: the cells answered
+  terrain::Window window;        // classify_cells: the cells answered
   std::uint64_t sweep_work = 0;  // bound on wall-sweep steps (nodes + columns) over all faces
   std::uint64_t test_work = 0;   // bound on pyramid reads by the visible tests
 };
 
-Result<RegionPlan> plan_region_cells(const terrain::Dem& dem, const RegionSpec& region,
-                                     const RegionOptions& options);
+Result<RegionPlan> plan_region_cells(const terrain::Dem& dem, const RegionSpec& region, const RegionOptions& options);
 Result<RegionPlan> plan_region_boxes(const terrain::Dem& dem, const RegionSpec& region,
                                      std::span<const visibility::BoxSpec> boxes, const RegionOptions& options);
 
