@@ -47,6 +47,8 @@ constexpr FlagSpec kFlags[] = {
     {"--splits", "", "LIST", "--region: footprint splits (default 2)"},
     {"--rows", "", "LIST",
      "--region: 0 for the continuous cover (default), N for the seed's fuzzy array of N slope rows, to compare"},
+    {"--seed-rows", "", "N",
+     "--region: also the seed's own construction (DEM triangles, sub-surfaces) on columns x N elements, one piece"},
     {"--heights", "", "ZMIN,ZMAX", "--region: viewpoint heights above the ground, metres (default 2,20)"},
     {"--regions", "", "N", "--region: region centres per DEM, on valid ground, fixed seed (default 2)"},
     {"--check", "", "N",

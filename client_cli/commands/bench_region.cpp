@@ -50,6 +50,11 @@ evaluation::RegionBenchConfig parse_config(const Args& args) {
   }
   if (args.has("--face-resolutions")) c.face_resolutions = integer_list(args, "--face-resolutions", 8, 65536);
   if (args.has("--splits")) c.footprint_splits = integer_list(args, "--splits", 1, 16);
+  if (auto n = args.positive_integer("--seed-rows")) {
+    if (*n < 8 || *n > 4096) throw UsageError("--seed-rows: must be a whole number in [8, 4096]");
+    c.seed_rows = static_cast<int>(*n);
+    if (!args.has("--splits")) c.footprint_splits = {1, 2};
+  }
   if (args.has("--rows")) {
     c.fuzzy_rows = integer_list(args, "--rows", 0, 65536);
     for (int r : c.fuzzy_rows)
@@ -79,8 +84,9 @@ evaluation::RegionBenchConfig parse_config(const Args& args) {
 std::string command_line(const Args& args, const evaluation::RegionBenchConfig& c) {
   std::string command = "horizon bench --region";
   for (const std::string& d : c.dems) command += " " + d;
-  for (std::string_view f : {"--sizes", "--face-resolutions", "--splits", "--rows", "--heights", "--regions", "--check",
-                             "--repeats", "--warmup", "--target-height", "--max-distance", "--curvature", "--threads"})
+  for (std::string_view f :
+       {"--sizes", "--face-resolutions", "--splits", "--rows", "--seed-rows", "--heights", "--regions", "--check",
+        "--repeats", "--warmup", "--target-height", "--max-distance", "--curvature", "--threads"})
     if (auto v = args.text(f)) {
       command += ' ';
       command += f;

@@ -11,8 +11,8 @@
 namespace horizon::cli {
 
 // Flags of the region sweep alone (bench.cpp lists them with its own).
-inline constexpr std::string_view kRegionOnlyFlags[] = {"--sizes",   "--face-resolutions", "--splits", "--rows",
-                                                        "--heights", "--regions",          "--check"};
+inline constexpr std::string_view kRegionOnlyFlags[] = {"--sizes",     "--face-resolutions", "--splits",  "--rows",
+                                                        "--seed-rows", "--heights",          "--regions", "--check"};
 // Flags of the viewshed sweep that mean nothing with --region.
 inline constexpr std::string_view kViewshedOnlyFlags[] = {"--observers", "--observer", "--algorithms",
                                                           "--peers",     "--height",   "--gpu"};

@@ -117,8 +117,8 @@ TEST(RegionBench, WritesCsvAndMarkdownWithEveryRow) {
   EXPECT_EQ(lines, 1 + 6);
   std::ifstream m(md);
   const std::string text((std::istreambuf_iterator<char>(m)), std::istreambuf_iterator<char>());
-  EXPECT_NE(text.find("| 40 m | 256 | 2 | continuous | 1 |"), std::string::npos) << text;
-  EXPECT_NE(text.find("| 40 m | 256 | 2 | 64 | 1 |"), std::string::npos) << text;
+  EXPECT_NE(text.find("| 40 m | walls | 256 | 2 | continuous | 1 |"), std::string::npos) << text;
+  EXPECT_NE(text.find("| 40 m | walls | 256 | 2 | 64 | 1 |"), std::string::npos) << text;
   EXPECT_NE(text.find("<!-- horizon bench --region x -->"), std::string::npos);
   const auto pooled = aggregate_regions(report->rows);
   ASSERT_EQ(pooled.size(), 6u);
@@ -126,6 +126,33 @@ TEST(RegionBench, WritesCsvAndMarkdownWithEveryRow) {
   const std::string png = dir.file("r.png");
   ASSERT_TRUE(write_chart(png, pooled, "t", region_chart_text()).ok());
   EXPECT_GT(std::filesystem::file_size(png), 1000u);
+}
+
+// The seed's own construction beside the walls, one piece: a row for each
+// region, size and resolution, on the walls' cells, checked with R3.
+TEST(RegionBench, TheSeedsConstructionRunsBesideTheWallsOnTheSameCells) {
+  RegionBenchConfig c = small_sweep();
+  c.sizes = {20};
+  c.face_resolutions = {256};
+  c.footprint_splits = {1};
+  c.seed_rows = 256;
+  auto report = run_region_bench(c);
+  ASSERT_TRUE(report.ok()) << report.error().message;
+  ASSERT_EQ(report->rows.size(), 2u * 2);
+  for (std::size_t i = 0; i < report->rows.size(); i += 2) {
+    const RegionBenchRow &walls = report->rows[i], &seed = report->rows[i + 1];
+    EXPECT_EQ(walls.construction, "walls");
+    ASSERT_EQ(seed.construction, "seed");
+    EXPECT_EQ(seed.cells, walls.cells);
+    EXPECT_EQ(seed.always_visible, 0u);
+    EXPECT_EQ(seed.always_hidden + seed.undetermined, seed.cells);
+    EXPECT_GT(seed.patches, 0u);
+    EXPECT_GT(seed.checked_cells, 0u);
+    EXPECT_EQ(seed.wrong, 0u);
+  }
+  const auto pooled = aggregate_regions(report->rows);
+  ASSERT_EQ(pooled.size(), 2u);
+  EXPECT_EQ(pooled[1].setting, "seed 256x256");
 }
 
 TEST(RegionBench, AWrongConfigNamesItsField) {
@@ -146,6 +173,13 @@ TEST(RegionBench, AWrongConfigNamesItsField) {
   c = small_sweep();
   c.fuzzy_rows = {0, 1};
   EXPECT_EQ(field_of(c), "fuzzy_rows");
+  c = small_sweep();
+  c.seed_rows = 5;
+  EXPECT_EQ(field_of(c), "seed_rows");
+  c = small_sweep();
+  c.seed_rows = 64;
+  c.footprint_splits = {2};
+  EXPECT_EQ(field_of(c), "footprint_splits");
   c = small_sweep();
   c.z_min = 30;  // above z_max
   EXPECT_EQ(field_of(c), "heights");

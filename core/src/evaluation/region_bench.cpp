@@ -14,6 +14,7 @@
 #include <tuple>
 
 #include "horizon/evaluation/region_check.hpp"
+#include "horizon/evaluation/seed_fuzzy.hpp"
 #include "horizon/region/region.hpp"
 #include "horizon/terrain/dem_reader.hpp"
 
@@ -37,6 +38,16 @@ Status validate(const RegionBenchConfig& c) {
   for (int r : c.fuzzy_rows)
     if (r != 0 && (r < 2 || r > 65536))
       return bad("fuzzy_rows", "each must be 0 or in [2, 65536], got " + std::to_string(r));
+  if (c.seed_rows != 0 && (c.seed_rows < 8 || c.seed_rows > 4096))
+    return bad("seed_rows", "must be 0 (no seed construction) or in [8, 4096], got " + std::to_string(c.seed_rows));
+  if (c.seed_rows != 0 &&
+      std::find(c.footprint_splits.begin(), c.footprint_splits.end(), 1) == c.footprint_splits.end())
+    return bad("footprint_splits", "the seed's construction answers the region as one piece: include split 1");
+  if (c.seed_rows != 0 && std::find(c.fuzzy_rows.begin(), c.fuzzy_rows.end(), 0) == c.fuzzy_rows.end())
+    return bad("fuzzy_rows", "the seed's construction is compared with the continuous cover: include rows 0");
+  for (int f : c.face_resolutions)
+    if (c.seed_rows != 0 && f > 4096)
+      return bad("face_resolutions", "the seed's array takes at most 4096 columns, got " + std::to_string(f));
   if (c.footprint_splits.empty()) return bad("footprint_splits", "no split given");
   for (int s : c.footprint_splits)
     if (s < 1 || s > 16) return bad("footprint_splits", "each must be in [1, 16], got " + std::to_string(s));
@@ -105,7 +116,8 @@ std::string fmt(const char* f, double v) {
 std::string size_label(double m) {
   return fmt("%g", m) + " m region";
 }
-std::string setting_label(int face, int splits, int rows) {
+std::string setting_label(const std::string& construction, int face, int splits, int rows) {
+  if (construction == "seed") return "seed " + std::to_string(face) + "x" + std::to_string(rows);
   std::string s = std::to_string(face);
   if (splits != 2) s += ", " + std::to_string(splits) + "x" + std::to_string(splits);
   if (rows > 0) s += ", " + std::to_string(rows) + " rows";
@@ -196,7 +208,55 @@ Result<RegionBenchReport> run_region_bench(const RegionBenchConfig& config, cons
                 r.sampled_hidden = c.sampled_hidden;
                 r.hidden_checked = c.hidden_checked;
               }
+              const bool with_seed = config.seed_rows > 0 && splits == 1 && rows == 0;
               report.rows.push_back(std::move(r));
+              if (!with_seed) continue;
+              // The seed's construction (seed_fuzzy.hpp) on the same cells, one piece, `face` columns.
+              const SeedFuzzyOptions so{
+                  .columns = face, .rows = config.seed_rows, .target_height = config.target_height};
+              std::vector<double> seed_times;
+              Result<SeedFuzzyResult> seed = make_error(ErrorCode::kInternal, "not run");
+              for (int i = 0; i < config.warmup + config.repeats; ++i) {
+                seed = seed_fuzzy_hidden(*dem, *res, so, control);
+                if (!seed.ok()) return seed.error();
+                if (i >= config.warmup) seed_times.push_back(seed->stats.seconds);
+              }
+              RegionBenchRow s = proto;
+              s.construction = "seed";
+              s.face_resolution = face;
+              s.footprint_splits = 1;
+              s.fuzzy_rows = config.seed_rows;
+              s.repeats = config.repeats;
+              s.seconds_median = median_of(seed_times);
+              s.seconds_min = *std::min_element(seed_times.begin(), seed_times.end());
+              s.cells = seed->stats.items;
+              s.always_hidden = seed->stats.always_hidden;
+              s.undetermined = s.cells - s.always_hidden;
+              s.patches = seed->stats.patches;
+              s.sub_surfaces = seed->stats.sub_surfaces;
+              s.not_umbra = seed->stats.not_umbra;
+              s.too_deep = seed->stats.too_deep;
+              s.off_array = seed->stats.off_array;
+              s.elements = seed->stats.elements;
+              s.umbra_elements = seed->stats.umbra_elements;
+              for (int j = 0; j < res->codes.height(); ++j)
+                for (int i = 0; i < res->codes.width(); ++i)
+                  s.seed_only += seed->codes.at(i, j) == 0 && res->codes.at(i, j) != 0;
+              if (config.check_points > 0) {
+                region::RegionCellsResult as_cells;
+                as_cells.window = seed->window;
+                as_cells.frame = res->frame;
+                as_cells.codes = std::move(seed->codes);
+                const auto viewpoints = sample_region(*dem, *spec, res->frame, {8, config.check_points, 1});
+                const RegionCheck ch =
+                    check_cells(*dem, as_cells, options, viewpoints, config.check_cells, config.threads);
+                s.checked_cells = ch.items_checked;
+                s.viewpoints = ch.viewpoints;
+                s.wrong = ch.wrong_hidden + ch.wrong_visible;
+                s.sampled_hidden = ch.sampled_hidden;
+                s.hidden_checked = ch.hidden_checked;
+              }
+              report.rows.push_back(std::move(s));
             }
         done += 1;
         report_progress(control, done / units);
@@ -209,18 +269,20 @@ Result<RegionBenchReport> run_region_bench(const RegionBenchConfig& config, cons
 std::vector<Aggregate> aggregate_regions(const std::vector<RegionBenchRow>& rows) {
   // Keyed by (DEM, size, splits, face, rows) in first-seen order of the DEMs.
   std::vector<Aggregate> out;
-  std::map<std::tuple<std::string, double, int, int, int>, std::size_t> index;
+  std::map<std::tuple<std::string, double, int, int, int, std::string>, std::size_t> index;
   std::vector<std::pair<std::uint64_t, std::uint64_t>> counts;  // decided, cells
   for (const RegionBenchRow& r : rows) {
-    const auto key = std::make_tuple(r.dem, r.size_m, r.footprint_splits, r.face_resolution, r.fuzzy_rows);
+    const auto key =
+        std::make_tuple(r.dem, r.size_m, r.footprint_splits, r.face_resolution, r.fuzzy_rows, r.construction);
     auto [it, fresh] = index.try_emplace(key, out.size());
     if (fresh) {
       Aggregate a;
       a.dem = r.dem;
-      a.algorithm = size_label(r.size_m);
-      a.setting = setting_label(r.face_resolution, r.footprint_splits, r.fuzzy_rows);
+      a.algorithm = size_label(r.size_m) + (r.construction == "seed" ? " (seed)" : "");
+      a.setting = setting_label(r.construction, r.face_resolution, r.footprint_splits, r.fuzzy_rows);
       a.is_default = r.face_resolution == region::RegionOptions{}.face_resolution &&
-                     r.footprint_splits == region::RegionOptions{}.footprint_splits && r.fuzzy_rows == 0;
+                     r.footprint_splits == region::RegionOptions{}.footprint_splits && r.fuzzy_rows == 0 &&
+                     r.construction == "walls";
       out.push_back(a);
       counts.emplace_back(0, 0);
     }
@@ -244,19 +306,21 @@ Status write_region_csv(const std::string& path, const std::vector<RegionBenchRo
   {
     std::ofstream f(tmp);
     if (!f) return make_error(ErrorCode::kIoError, "cannot write '" + path + "'", path);
-    f << "dem,region,x_min,y_min,x_max,y_max,size_m,face_resolution,footprint_splits,fuzzy_rows,repeats,seconds_median,"
-         "seconds_"
-         "min,cells,"
+    f << "dem,region,x_min,y_min,x_max,y_max,size_m,construction,face_resolution,footprint_splits,fuzzy_rows,repeats,"
+         "seconds_median,seconds_min,cells,"
          "always_hidden,always_visible,undetermined,decided,walls_swept,wall_nodes_read,pyramid_cells_read,"
-         "checked_cells,viewpoints,wrong,sampled_hidden,hidden_checked\n";
+         "checked_cells,viewpoints,wrong,sampled_hidden,hidden_checked,patches,sub_surfaces,not_umbra,too_deep,"
+         "off_array,elements,umbra_elements,seed_only\n";
     for (const RegionBenchRow& r : rows)
       f << r.dem << ',' << r.region << ',' << fmt("%.9g", r.x_min) << ',' << fmt("%.9g", r.y_min) << ','
-        << fmt("%.9g", r.x_max) << ',' << fmt("%.9g", r.y_max) << ',' << r.size_m << ',' << r.face_resolution << ','
-        << r.footprint_splits << ',' << r.fuzzy_rows << ',' << r.repeats << ',' << fmt("%.6f", r.seconds_median) << ','
-        << fmt("%.6f", r.seconds_min) << ',' << r.cells << ',' << r.always_hidden << ',' << r.always_visible << ','
-        << r.undetermined << ',' << fmt("%.5f", r.decided()) << ',' << r.walls_swept << ',' << r.wall_nodes_read << ','
-        << r.pyramid_cells_read << ',' << r.checked_cells << ',' << r.viewpoints << ',' << r.wrong << ','
-        << r.sampled_hidden << ',' << r.hidden_checked << '\n';
+        << fmt("%.9g", r.x_max) << ',' << fmt("%.9g", r.y_max) << ',' << r.size_m << ',' << r.construction << ','
+        << r.face_resolution << ',' << r.footprint_splits << ',' << r.fuzzy_rows << ',' << r.repeats << ','
+        << fmt("%.6f", r.seconds_median) << ',' << fmt("%.6f", r.seconds_min) << ',' << r.cells << ','
+        << r.always_hidden << ',' << r.always_visible << ',' << r.undetermined << ',' << fmt("%.5f", r.decided()) << ','
+        << r.walls_swept << ',' << r.wall_nodes_read << ',' << r.pyramid_cells_read << ',' << r.checked_cells << ','
+        << r.viewpoints << ',' << r.wrong << ',' << r.sampled_hidden << ',' << r.hidden_checked << ',' << r.patches
+        << ',' << r.sub_surfaces << ',' << r.not_umbra << ',' << r.too_deep << ',' << r.off_array << ',' << r.elements
+        << ',' << r.umbra_elements << ',' << r.seed_only << '\n';
     if (!f.flush()) return make_error(ErrorCode::kIoError, "cannot write '" + path + "'", path);
   }
   std::error_code ec;
@@ -269,6 +333,7 @@ Status write_region_markdown(const std::string& path, const RegionBenchReport& r
   struct Pool {
     std::string dem;
     double size = 0;
+    std::string construction;
     int face = 0, splits = 0, rows = 0, regions = 0;
     double seconds = 0;
     std::uint64_t cells = 0, hidden = 0, visible = 0, undetermined = 0, wrong = 0, checked = 0, sampled_hidden = 0,
@@ -278,11 +343,12 @@ Status write_region_markdown(const std::string& path, const RegionBenchReport& r
   for (const RegionBenchRow& r : report.rows) {
     auto it = std::find_if(pools.begin(), pools.end(), [&](const Pool& p) {
       return p.dem == r.dem && p.size == r.size_m && p.face == r.face_resolution && p.splits == r.footprint_splits &&
-             p.rows == r.fuzzy_rows;
+             p.rows == r.fuzzy_rows && p.construction == r.construction;
     });
     if (it == pools.end()) {
       pools.push_back({.dem = r.dem,
                        .size = r.size_m,
+                       .construction = r.construction,
                        .face = r.face_resolution,
                        .splits = r.footprint_splits,
                        .rows = r.fuzzy_rows});
@@ -312,11 +378,12 @@ Status write_region_markdown(const std::string& path, const RegionBenchReport& r
       if (p.dem != dem) {
         dem = p.dem;
         f << "\n### " << dem << "\n\n"
-          << "| region side | face resolution | splits | slope rows | regions | time (sum of medians) | cells "
-             "| always hidden | always visible | undetermined | wrong (R3 check) | decided of sampled-hidden |\n"
-          << "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+          << "| region side | construction | face resolution | splits | slope rows | regions | time (sum of medians) "
+             "| cells | always hidden | always visible | undetermined | wrong (R3 check) | decided of sampled-hidden "
+             "|\n"
+          << "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
       }
-      f << "| " << fmt("%g", p.size) << " m | " << p.face << " | " << p.splits << " | "
+      f << "| " << fmt("%g", p.size) << " m | " << p.construction << " | " << p.face << " | " << p.splits << " | "
         << (p.rows ? std::to_string(p.rows) : std::string("continuous")) << " | " << p.regions << " | "
         << (p.seconds < 1 ? fmt("%.1f ms", p.seconds * 1e3) : fmt("%.2f s", p.seconds)) << " | " << p.cells << " | "
         << pct(p.hidden, p.cells) << " | " << pct(p.visible, p.cells) << " | " << pct(p.undetermined, p.cells) << " | "
@@ -333,13 +400,13 @@ Status write_region_markdown(const std::string& path, const RegionBenchReport& r
 }
 
 ChartText region_chart_text() {
-  return {
-      .x_axis = "time, summed over the regions (log scale)",
-      .y_axis = "undetermined share of the cells (log scale)",
-      .zero_line = "0",
-      .notes = {"time: classify_cells;", "labels: fuzzy-array", "columns a face", "(N rows: the seed's", "slope rows)"},
-      .error_floor_log = 0,
-      .pareto_front = false};
+  return {.x_axis = "time, summed over the regions (log scale)",
+          .y_axis = "undetermined share of the cells (log scale)",
+          .zero_line = "0",
+          .notes = {"time: one", "classification;", "labels: fuzzy-array", "columns a face", "(N rows: the seed's",
+                    "slope rows)"},
+          .error_floor_log = 0,
+          .pareto_front = false};
 }
 
 }  // namespace horizon::evaluation

@@ -39,9 +39,14 @@ struct RegionBenchConfig {
   std::vector<int> face_resolutions = {64, 256, 1024, 4096};  // each [8, 65536]
   std::vector<int> footprint_splits = {2};                    // each [1, 16]
   std::vector<int> fuzzy_rows = {0};                          // each 0 or [2, 65536]
-  double z_min = 2, z_max = 20;                               // viewpoint heights above the ground, metres
-  double target_height = 1.5;                                 // metres above each cell
-  double max_distance = 3000;                                 // ground metres from the footprint, > 0
+  // > 0: each region and size is also answered by the seed's own
+  // construction (seed_fuzzy.hpp) on a fuzzy array of each face resolution
+  // x seed_rows elements, beside the walls at footprint split 1 and rows 0
+  // (both must be in the sweep); [8, 4096].
+  int seed_rows = 0;
+  double z_min = 2, z_max = 20;  // viewpoint heights above the ground, metres
+  double target_height = 1.5;    // metres above each cell
+  double max_distance = 3000;    // ground metres from the footprint, > 0
   double curvature = 0.85714;
   int repeats = 3, warmup = 1;
   int check_points = 200;  // interior viewpoints of the R3 check; 0: no check
@@ -55,11 +60,17 @@ struct RegionBenchRow {
   // The footprint in the DEM's CRS (`horizon region --from-box` takes it as is).
   double x_min = 0, y_min = 0, x_max = 0, y_max = 0;
   double size_m = 0;
+  std::string construction = "walls";  // or "seed" (seed_fuzzy.hpp: no always-visible test)
   int face_resolution = 0, footprint_splits = 0, fuzzy_rows = 0;
   int repeats = 0;
   double seconds_median = 0, seconds_min = 0;
   std::uint64_t cells = 0, always_hidden = 0, always_visible = 0, undetermined = 0;
   std::uint64_t walls_swept = 0, wall_nodes_read = 0, pyramid_cells_read = 0;
+  // The seed's (SeedFuzzyStats), over its faces: patches and sub-surfaces,
+  // the undecided items by reason, and its umbra elements.
+  std::uint64_t patches = 0, sub_surfaces = 0, not_umbra = 0, too_deep = 0, off_array = 0;
+  std::uint64_t elements = 0, umbra_elements = 0;
+  std::uint64_t seed_only = 0;  // cells the seed hides and the walls (the row before, same cells) do not
   // The R3 check (zeros when not run).
   std::uint64_t checked_cells = 0, viewpoints = 0, wrong = 0;
   std::uint64_t sampled_hidden = 0, hidden_checked = 0;  // of the checked cells
@@ -78,7 +89,8 @@ Result<RegionBenchReport> run_region_bench(const RegionBenchConfig& config, cons
 
 // Per DEM and setting (size, resolution, splits, rows), pooled over the
 // regions: time summed, verdicts summed. As bench.hpp's Aggregate for the
-// chart: algorithm = "<size> m region", setting = "<resolution>" (", NxN"
+// chart: algorithm = "<size> m region" (" (seed)" for the seed's
+// rows), setting = "<resolution>" (", NxN"
 // when the splits are not 2, ", R rows" for the seed's array), iou =
 // decided share (so error() is the
 // undetermined share), the front marked per DEM and size.
