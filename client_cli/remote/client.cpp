@@ -69,6 +69,12 @@ Client::Client(const Args& args) {
   sessions_ = v1::SessionService::NewStub(channel);
 }
 
+grpc::Status Client::get_dataset(const std::string& name, v1::Dataset& out) {
+  v1::GetDatasetRequest request;
+  request.set_name(name);
+  return datasets_->GetDataset(context().get(), request, &out);
+}
+
 std::unique_ptr<grpc::ClientContext> Client::context() const {
   auto context = std::make_unique<grpc::ClientContext>();
   if (!token_.empty()) context->AddMetadata("authorization", "Bearer " + token_);

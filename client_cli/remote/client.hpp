@@ -34,6 +34,8 @@ class Client {
   std::unique_ptr<grpc::ClientContext> context() const;
 
   v1::DatasetService::Stub& datasets() { return *datasets_; }
+  // GetDataset for `name` into `out`, under context()'s deadline.
+  grpc::Status get_dataset(const std::string& name, v1::Dataset& out);
   v1::VisibilityService::Stub& visibility() { return *visibility_; }
   v1::SessionService::Stub& sessions() { return *sessions_; }
 

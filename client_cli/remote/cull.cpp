@@ -34,11 +34,8 @@ int run_cull(const Args& args, const std::string& dataset, const geodesy::PointS
              const visibility::CullOptions& options, bool json) {
   Client client(args);
   const auto started = std::chrono::steady_clock::now();
-  v1::GetDatasetRequest get;
-  get.set_name(dataset);
   v1::Dataset d;
-  if (auto s = client.datasets().GetDataset(client.context().get(), get, &d); !s.ok())
-    return report_status(s, client.address());
+  if (auto s = client.get_dataset(dataset, d); !s.ok()) return report_status(s, client.address());
 
   v1::CullBoxesRequest request;
   request.set_dataset(dataset);

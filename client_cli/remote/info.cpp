@@ -11,11 +11,8 @@ namespace horizon::cli::remote {
 
 int run_info(const Args& args, const std::string& name, bool json) {
   Client client(args);
-  v1::GetDatasetRequest request;
-  request.set_name(name);
   v1::Dataset d;
-  if (auto s = client.datasets().GetDataset(client.context().get(), request, &d); !s.ok())
-    return report_status(s, client.address());
+  if (auto s = client.get_dataset(name, d); !s.ok()) return report_status(s, client.address());
 
   const auto& t = d.transform();
   const auto& e = d.extent();

@@ -20,11 +20,8 @@ visibility::ProfileSample to_sample(const v1::ProfileSample& s) {
 int run_los(const Args& args, const std::string& dataset, const geodesy::PointSpec& from_spec,
             const geodesy::PointSpec& to_spec, const visibility::LosOptions& options, bool json) {
   Client client(args);
-  v1::GetDatasetRequest get;
-  get.set_name(dataset);
   v1::Dataset d;
-  if (auto s = client.datasets().GetDataset(client.context().get(), get, &d); !s.ok())
-    return report_status(s, client.address());
+  if (auto s = client.get_dataset(dataset, d); !s.ok()) return report_status(s, client.address());
 
   v1::LineOfSightRequest request;
   request.set_dataset(dataset);

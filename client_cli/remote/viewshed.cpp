@@ -16,11 +16,8 @@ int run_viewshed(const Args& args, const ViewshedInputs& in) {
   Client client(args);
   const auto started = std::chrono::steady_clock::now();
 
-  v1::GetDatasetRequest get;
-  get.set_name(in.dataset);
   v1::Dataset dataset;
-  if (auto s = client.datasets().GetDataset(client.context().get(), get, &dataset); !s.ok())
-    return report_status(s, client.address());
+  if (auto s = client.get_dataset(in.dataset, dataset); !s.ok()) return report_status(s, client.address());
 
   v1::ViewshedRequest request;
   request.set_dataset(in.dataset);

@@ -33,6 +33,21 @@ struct FaceFrame {
   Point3 at(double x, double y, double z) const { return along_x ? Point3{sp * x, y, z} : Point3{sp * y, x, z}; }
 };
 
+struct Extent {
+  double a0 = kInf, a1 = -kInf, b0 = kInf, b1 = -kInf;
+  void add(double a, double b) {
+    a0 = std::min(a0, a);
+    a1 = std::max(a1, a);
+    b0 = std::min(b0, b);
+    b1 = std::max(b1, b);
+  }
+};
+
+// Elements [i0, i1] x [j0, j1] of an array (possibly outside it).
+struct Rect {
+  long i0 = 0, i1 = -1, j0 = 0, j1 = -1;
+};
+
 // The fuzzy array of one face and its element arithmetic.
 struct Array {
   int columns = 0, rows = 0;
@@ -54,21 +69,22 @@ struct Array {
     far.assign(n, -kInf);
   }
   std::size_t at(int i, int j) const { return static_cast<std::size_t>(j) * static_cast<std::size_t>(columns) + i; }
-  // The elements holding [lo, hi], snapped outward (a value on a grid line
-  // takes both neighbours); unclipped.
-  static void span(double lo, double hi, double span, double w, long& k0, long& k1) {
-    k0 = static_cast<long>(std::floor((lo + span) / w - 1e-9));
-    k1 = static_cast<long>(std::floor((hi + span) / w + 1e-9));
+  // The elements holding an extent, snapped outward (a value on a grid
+  // line takes both neighbours); unclipped.
+  Rect rect_of(const Extent& e) const {
+    const auto lo = [](double v, double span, double w) {
+      return static_cast<long>(std::floor((v + span) / w - 1e-9));
+    };
+    const auto hi = [](double v, double span, double w) {
+      return static_cast<long>(std::floor((v + span) / w + 1e-9));
+    };
+    return {lo(e.a0, kSpanA, wa), hi(e.a1, kSpanA, wa), lo(e.b0, kSpanB, wb), hi(e.b1, kSpanB, wb)};
   }
-};
-
-struct Extent {
-  double a0 = kInf, a1 = -kInf, b0 = kInf, b1 = -kInf;
-  void add(double a, double b) {
-    a0 = std::min(a0, a);
-    a1 = std::max(a1, a);
-    b0 = std::min(b0, b);
-    b1 = std::max(b1, b);
+  bool holds(const Rect& r) const { return r.i0 >= 0 && r.j0 >= 0 && r.i1 < columns && r.j1 < rows; }
+  Rect clip(Rect r) const {
+    r.i0 = std::max(r.i0, 0L), r.j0 = std::max(r.j0, 0L);
+    r.i1 = std::min(r.i1, static_cast<long>(columns) - 1), r.j1 = std::min(r.j1, static_cast<long>(rows) - 1);
+    return r;
   }
 };
 
@@ -272,11 +288,9 @@ Result<SeedFuzzyResult> seed_fuzzy_hidden(const terrain::Dem& dem, const region:
         a[k] = (v[k].l - v0.l) / d;
         b[k] = (v[k].z - v0.z) / d;
       }
-      long i0, i1, j0, j1;
-      Array::span(std::min({a[0], a[1], a[2]}), std::max({a[0], a[1], a[2]}), kSpanA, array.wa, i0, i1);
-      Array::span(std::min({b[0], b[1], b[2]}), std::max({b[0], b[1], b[2]}), kSpanB, array.wb, j0, j1);
-      i0 = std::max(i0, 0L), j0 = std::max(j0, 0L);
-      i1 = std::min(i1, static_cast<long>(array.columns) - 1), j1 = std::min(j1, static_cast<long>(array.rows) - 1);
+      Extent seen;
+      for (std::size_t k = 0; k < 3; ++k) seen.add(a[k], b[k]);
+      const auto [i0, i1, j0, j1] = array.clip(array.rect_of(seen));
       if (i0 > i1 || j0 > j1) continue;
       const double area = (a[1] - a[0]) * (b[2] - b[0]) - (a[2] - a[0]) * (b[1] - b[0]);
       if (area == 0.0) continue;
@@ -318,11 +332,7 @@ Result<SeedFuzzyResult> seed_fuzzy_hidden(const terrain::Dem& dem, const region:
     for (const Boundary& edge : boundary) {
       const auto ends = edge_ends(edge.tri, edge.slot, ff);
       const Extent e = extent_of(ends, corners);
-      long i0, i1, j0, j1;
-      Array::span(e.a0, e.a1, kSpanA, array.wa, i0, i1);
-      Array::span(e.b0, e.b1, kSpanB, array.wb, j0, j1);
-      i0 = std::max(i0, 0L), j0 = std::max(j0, 0L);
-      i1 = std::min(i1, static_cast<long>(array.columns) - 1), j1 = std::min(j1, static_cast<long>(array.rows) - 1);
+      const auto [i0, i1, j0, j1] = array.clip(array.rect_of(e));
       const std::int32_t root = find(parent, static_cast<std::int32_t>(edge.tri));
       for (long j = j0; j <= j1; ++j)
         for (long i = i0; i <= i1; ++i) {
@@ -336,11 +346,7 @@ Result<SeedFuzzyResult> seed_fuzzy_hidden(const terrain::Dem& dem, const region:
       if (state[tri] != kFront) continue;
       const auto v = vertices(tri, ff);
       const Extent e = extent_of(v, corners);
-      long i0, i1, j0, j1;
-      Array::span(e.a0, e.a1, kSpanA, array.wa, i0, i1);
-      Array::span(e.b0, e.b1, kSpanB, array.wb, j0, j1);
-      i0 = std::max(i0, 0L), j0 = std::max(j0, 0L);
-      i1 = std::min(i1, static_cast<long>(array.columns) - 1), j1 = std::min(j1, static_cast<long>(array.rows) - 1);
+      const auto [i0, i1, j0, j1] = array.clip(array.rect_of(e));
       const std::int32_t root = find(parent, static_cast<std::int32_t>(tri));
       const double farthest = std::max({v[0].p, v[1].p, v[2].p});
       for (long j = j0; j <= j1; ++j)
@@ -362,10 +368,9 @@ Result<SeedFuzzyResult> seed_fuzzy_hidden(const terrain::Dem& dem, const region:
         const Point3 q = ff.at(gc * mx, gr * my, dem.elevation.at(gc, gr) + options.target_height);
         if (!(q.p > p1)) continue;
         const Extent e = extent_of(std::array<Point3, 1>{q}, corners);
-        long i0, i1, j0, j1;
-        Array::span(e.a0, e.a1, kSpanA, array.wa, i0, i1);
-        Array::span(e.b0, e.b1, kSpanB, array.wb, j0, j1);
-        if (i0 < 0 || j0 < 0 || i1 >= array.columns || j1 >= array.rows) continue;  // leaves the array
+        const Rect r = array.rect_of(e);
+        if (!array.holds(r)) continue;  // leaves the array
+        const auto [i0, i1, j0, j1] = r;
         bool hidden = true;
         std::uint8_t why = 0;  // 1 not umbra, 2 too deep
         for (long jj = j0; hidden && jj <= j1; ++jj)
