@@ -4,6 +4,7 @@
 
 #include <cctype>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -139,6 +140,16 @@ std::vector<NamedObserver> read_observers_file(const std::string& path, double h
                                                     : read_csv(path, in, height, mode, max_distance);
   if (out.empty()) throw UsageError("--observers: '" + path + "' holds no observers");
   return out;
+}
+
+std::string in_user_words(const std::string& where, const std::string& message,
+                          const std::vector<NamedObserver>& observers) {
+  const std::string key = "observers[";
+  const auto at = where.find(key);
+  if (at == std::string::npos) return message;
+  const std::size_t i = std::strtoul(where.c_str() + at + key.size(), nullptr, 10);
+  if (i >= observers.size()) return message;
+  return "observer " + std::to_string(i + 1) + " (" + observers[i].name + "): " + message;
 }
 
 Status write_observer_summary(const std::string& path, const std::vector<ObserverLine>& lines, bool geographic) {

@@ -37,6 +37,13 @@ struct NamedObserver {
 std::vector<NamedObserver> read_observers_file(const std::string& path, double height, geodesy::HeightMode mode,
                                                double max_distance);
 
+// The engine and the daemon name a site "observers[3]"; the user knows it
+// by its flag or file line. When `where` (an error's field, or a daemon's
+// message) names observers[i], returns "observer i+1 (NAME): " + message;
+// otherwise message unchanged.
+std::string in_user_words(const std::string& where, const std::string& message,
+                          const std::vector<NamedObserver>& observers);
+
 // One line of the --summary table: an observer as resolved and what it saw.
 struct ObserverLine {
   std::string name;

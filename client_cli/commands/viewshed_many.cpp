@@ -111,12 +111,7 @@ ManyRequest parse_many(const Args& args) {
 
 // An engine error about observers[i], said with the observer's own name.
 Error in_user_words(Error e, const std::vector<NamedObserver>& observers) {
-  const std::string prefix = "observers[";
-  if (!e.field.starts_with(prefix)) return e;
-  const auto close = e.field.find(']');
-  const std::size_t i = std::stoul(e.field.substr(prefix.size(), close - prefix.size()));
-  if (i < observers.size())
-    e.message = "observer " + std::to_string(i + 1) + " (" + observers[i].name + "): " + e.message;
+  e.message = in_user_words(e.field, e.message, observers);
   return e;
 }
 

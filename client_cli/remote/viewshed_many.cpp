@@ -21,12 +21,7 @@ namespace {
 // The daemon names observers[i]; the user knows them by their file line or flag.
 grpc::Status in_user_words(const grpc::Status& status, const std::vector<NamedObserver>& observers) {
   const std::string& m = status.error_message();
-  const auto at = m.find("observers[");
-  if (at == std::string::npos) return status;
-  const std::size_t i = std::strtoul(m.c_str() + at + 10, nullptr, 10);
-  if (i >= observers.size()) return status;
-  return {status.error_code(), "observer " + std::to_string(i + 1) + " (" + observers[i].name + "): " + m,
-          status.error_details()};
+  return {status.error_code(), cli::in_user_words(m, m, observers), status.error_details()};
 }
 
 }  // namespace

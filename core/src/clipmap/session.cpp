@@ -146,7 +146,9 @@ Result<std::vector<visibility::BoxFootprint>> ClipSession::resolve(std::span<con
 Result<bool> ClipSession::touches_void(const visibility::BoxFootprint& f) const {
   // Small footprints: their own cells. Larger ones (conservative mode): the
   // min pyramid's cells over them, where -inf marks a void somewhere in the
-  // block, which errs only towards "visible".
+  // block, which errs only towards "visible". A footprint off the map has
+  // no cells here: it meets none.
+  if (!f.on_map) return false;
   constexpr std::uint64_t kMaxCells = 64 * 64;
   if (f.cells.cell_count() <= kMaxCells) {
     auto cells = source_->read(f.cells, cache_);
@@ -207,15 +209,11 @@ Status ClipSession::apply(const BoxDelta& delta) {
   if (!moved_footprints.ok()) return moved_footprints.error();
   auto added_footprints = resolve(delta.add, "add");
   if (!added_footprints.ok()) return added_footprints.error();
-  // Boxes over voids, as culling has them (cull.hpp): known before anything changes. Off the map: none.
+  // Boxes over voids, as culling has them (cull.hpp): known before anything changes.
   std::vector<bool> moved_voids, added_voids;
   for (const auto& [footprints, voids] :
        {std::pair{&*moved_footprints, &moved_voids}, std::pair{&*added_footprints, &added_voids}})
     for (const visibility::BoxFootprint& f : *footprints) {
-      if (!f.on_map) {
-        voids->push_back(false);
-        continue;
-      }
       auto v = touches_void(f);
       if (!v.ok()) return v.error();
       voids->push_back(*v);
