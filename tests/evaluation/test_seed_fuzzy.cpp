@@ -11,24 +11,13 @@
 #include "horizon/evaluation/seed_fuzzy.hpp"
 #include "horizon/region/region.hpp"
 #include "horizon/terrain/dem_reader.hpp"
+#include "region_spec.hpp"
 #include "test_support.hpp"
 
 namespace horizon::evaluation {
 namespace {
 
-region::RegionSpec region_over(const terrain::Dem& dem, double c0, double r0, double c1, double r1, double z0,
-                               double z1, geodesy::HeightMode mode) {
-  const auto& t = dem.georef.transform;
-  region::RegionSpec s;
-  s.x_min = std::min(t.x_at(c0), t.x_at(c1));
-  s.x_max = std::max(t.x_at(c0), t.x_at(c1));
-  s.y_min = std::min(t.y_at(r0), t.y_at(r1));
-  s.y_max = std::max(t.y_at(r0), t.y_at(r1));
-  s.z_min = z0;
-  s.z_max = z1;
-  s.height_mode = mode;
-  return s;
-}
+using testing::region_over;
 
 // The seed's verdicts as a classification: hidden where it says so, the
 // rest undetermined (for evaluation::check_cells).

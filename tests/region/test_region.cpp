@@ -10,6 +10,7 @@
 #include "horizon/evaluation/region_check.hpp"
 #include "horizon/region/region.hpp"
 #include "horizon/terrain/dem_reader.hpp"
+#include "region_spec.hpp"
 #include "test_support.hpp"
 
 namespace horizon {
@@ -17,21 +18,7 @@ namespace {
 
 using region::Verdict;
 
-// A region over grid cells [c0, c1] x [r0, r1] of a no-CRS DEM (metres =
-// grid units x cell size), at absolute heights.
-region::RegionSpec region_over(const terrain::Dem& dem, double c0, double r0, double c1, double r1, double z0,
-                               double z1, geodesy::HeightMode mode = geodesy::HeightMode::kAbsolute) {
-  const auto& t = dem.georef.transform;
-  region::RegionSpec s;
-  s.x_min = std::min(t.x_at(c0), t.x_at(c1));
-  s.x_max = std::max(t.x_at(c0), t.x_at(c1));
-  s.y_min = std::min(t.y_at(r0), t.y_at(r1));
-  s.y_max = std::max(t.y_at(r0), t.y_at(r1));
-  s.z_min = z0;
-  s.z_max = z1;
-  s.height_mode = mode;
-  return s;
-}
+using testing::region_over;
 
 Verdict code_at(const region::RegionCellsResult& r, int c, int row) {
   return static_cast<Verdict>(r.codes.at(c - r.window.col0, row - r.window.row0));
