@@ -199,15 +199,20 @@ Result<RegionBenchReport> run_region_bench(const RegionBenchConfig& config, cons
               r.walls_swept = st.walls_swept;
               r.wall_nodes_read = st.wall_nodes_read;
               r.pyramid_cells_read = st.pyramid_cells_read;
-              if (config.check_points > 0) {
-                const auto viewpoints = sample_region(*dem, *spec, res->frame, {8, config.check_points, 1});
-                const RegionCheck c = check_cells(*dem, *res, options, viewpoints, config.check_cells, config.threads);
-                r.checked_cells = c.items_checked;
-                r.viewpoints = c.viewpoints;
-                r.wrong = c.wrong_hidden + c.wrong_visible;
-                r.sampled_hidden = c.sampled_hidden;
-                r.hidden_checked = c.hidden_checked;
-              }
+              // The R3 check, from one sampling of the region for every row of this setting.
+              const auto viewpoints = config.check_points > 0
+                                          ? sample_region(*dem, *spec, res->frame, {8, config.check_points, 1})
+                                          : std::vector<geodesy::GridPoint>{};
+              const auto check_into = [&](RegionBenchRow& out, const region::RegionCellsResult& cells) {
+                if (viewpoints.empty()) return;
+                const RegionCheck c = check_cells(*dem, cells, options, viewpoints, config.check_cells, config.threads);
+                out.checked_cells = c.items_checked;
+                out.viewpoints = c.viewpoints;
+                out.wrong = c.wrong_hidden + c.wrong_visible;
+                out.sampled_hidden = c.sampled_hidden;
+                out.hidden_checked = c.hidden_checked;
+              };
+              check_into(r, *res);
               const bool with_seed = config.seed_rows > 0 && splits == 1 && rows == 0;
               report.rows.push_back(std::move(r));
               if (!with_seed) continue;
@@ -242,20 +247,11 @@ Result<RegionBenchReport> run_region_bench(const RegionBenchConfig& config, cons
               for (int j = 0; j < res->codes.height(); ++j)
                 for (int i = 0; i < res->codes.width(); ++i)
                   s.seed_only += seed->codes.at(i, j) == 0 && res->codes.at(i, j) != 0;
-              if (config.check_points > 0) {
-                region::RegionCellsResult as_cells;
-                as_cells.window = seed->window;
-                as_cells.frame = res->frame;
-                as_cells.codes = std::move(seed->codes);
-                const auto viewpoints = sample_region(*dem, *spec, res->frame, {8, config.check_points, 1});
-                const RegionCheck ch =
-                    check_cells(*dem, as_cells, options, viewpoints, config.check_cells, config.threads);
-                s.checked_cells = ch.items_checked;
-                s.viewpoints = ch.viewpoints;
-                s.wrong = ch.wrong_hidden + ch.wrong_visible;
-                s.sampled_hidden = ch.sampled_hidden;
-                s.hidden_checked = ch.hidden_checked;
-              }
+              region::RegionCellsResult as_cells;  // the seed's verdicts, checked as a classification
+              as_cells.window = seed->window;
+              as_cells.frame = res->frame;
+              as_cells.codes = std::move(seed->codes);
+              check_into(s, as_cells);
               report.rows.push_back(std::move(s));
             }
         done += 1;
