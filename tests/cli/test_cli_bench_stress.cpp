@@ -88,6 +88,15 @@ TEST(CliBench, RegionAndViewshedFlagsDoNotMix) {
   auto d = horizon("bench --region " + dem + " --heights 30,2");
   EXPECT_EQ(d.exit_code, 2);
   EXPECT_NE(d.output.find("--heights"), std::string::npos) << d.output;
+  auto e = horizon("bench --region " + dem + " --rows 0,1");
+  EXPECT_EQ(e.exit_code, 2);
+  EXPECT_NE(e.output.find("--rows: 0 (the continuous cover) or at least 2 rows, got 1"), std::string::npos) << e.output;
+  auto f = horizon("bench --region " + dem + " --seed-rows 5");
+  EXPECT_EQ(f.exit_code, 2);
+  EXPECT_NE(f.output.find("--seed-rows: must be a whole number in [8, 4096]"), std::string::npos) << f.output;
+  auto g = horizon("bench " + dem + " --seed-rows 64 --peers none");
+  EXPECT_EQ(g.exit_code, 2);
+  EXPECT_NE(g.output.find("--seed-rows: a flag of the region sweep; add --region"), std::string::npos) << g.output;
 }
 
 TEST(CliStress, PrintsAReportAndExitsZeroWhenChecksPass) {
