@@ -18,9 +18,9 @@
 namespace horizon::cli {
 namespace {
 
-const Command* const kCommands[] = {&info_command(), &viewshed_command(), &los_command(), &bench_command(),
-                                     &stress_command(), &cull_command(), &region_command(), &session_command(),
-                                     &datasets_command()};
+const Command* const kCommands[] = {&info_command(),   &viewshed_command(), &los_command(),    &bench_command(),
+                                    &stress_command(), &cull_command(),     &region_command(), &session_command(),
+                                    &trace_command(),  &datasets_command()};
 
 const Command* find_command(std::string_view name) {
   for (const Command* c : kCommands)

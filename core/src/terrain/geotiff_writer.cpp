@@ -30,6 +30,7 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <span>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -144,12 +145,19 @@ struct CompressorDeleter {
   void operator()(libdeflate_compressor* c) const { libdeflate_free_compressor(c); }
 };
 
+// Writes `bands` (one or more grids of one size) as one file, band after
+// band (planar configuration "separate"); georeferenced when `georef` is
+// given, a plain image otherwise.
 template <class T>
-Status write_impl(const std::string& path, const Grid<T>& grid, const Georeference& georef,
+Status write_impl(const std::string& path, std::span<const Grid<T>* const> bands, const Georeference* georef,
                   std::optional<double> nodata) {
   constexpr bool kFloat = std::is_floating_point_v<T>;
-  if (grid.empty()) return write_error(ErrorCode::kInvalidArgument, path, "grid is empty");
-  HORIZON_RETURN_IF_ERROR(check_georef(path, georef));
+  if (bands.empty() || bands[0]->empty()) return write_error(ErrorCode::kInvalidArgument, path, "grid is empty");
+  const Grid<T>& first_band = *bands[0];
+  for (const Grid<T>* b : bands)
+    if (b->width() != first_band.width() || b->height() != first_band.height())
+      return write_error(ErrorCode::kInvalidArgument, path, "bands differ in size");
+  if (georef) HORIZON_RETURN_IF_ERROR(check_georef(path, *georef));
   if (nodata) {
     if constexpr (kFloat) {
       if (std::isinf(*nodata) || (std::isfinite(*nodata) && std::abs(*nodata) > std::numeric_limits<float>::max()))
@@ -165,7 +173,7 @@ Status write_impl(const std::string& path, const Grid<T>& grid, const Georeferen
   }
   // What NaN cells become, and what pads the edge tiles.
   const T fill = nodata ? static_cast<T>(*nodata) : T{};
-  const std::uint64_t bytes = static_cast<std::uint64_t>(grid.size()) * sizeof(T);
+  const std::uint64_t bytes = static_cast<std::uint64_t>(first_band.size()) * sizeof(T) * bands.size();
 
   detail::AtomicFile file(path);
   HORIZON_RETURN_IF_ERROR(file.create("geotiff"));
@@ -177,13 +185,13 @@ Status write_impl(const std::string& path, const Grid<T>& grid, const Georeferen
                          "cannot create '" + file.temp_path() + "' (" + messages.errors + ")");
 
     TIFF* t = tif.get();
-    TIFFSetField(t, TIFFTAG_IMAGEWIDTH, static_cast<std::uint32_t>(grid.width()));
-    TIFFSetField(t, TIFFTAG_IMAGELENGTH, static_cast<std::uint32_t>(grid.height()));
-    TIFFSetField(t, TIFFTAG_SAMPLESPERPIXEL, 1);
+    TIFFSetField(t, TIFFTAG_IMAGEWIDTH, static_cast<std::uint32_t>(first_band.width()));
+    TIFFSetField(t, TIFFTAG_IMAGELENGTH, static_cast<std::uint32_t>(first_band.height()));
+    TIFFSetField(t, TIFFTAG_SAMPLESPERPIXEL, static_cast<int>(bands.size()));
     TIFFSetField(t, TIFFTAG_BITSPERSAMPLE, static_cast<int>(8 * sizeof(T)));
     TIFFSetField(t, TIFFTAG_SAMPLEFORMAT, kFloat ? SAMPLEFORMAT_IEEEFP : SAMPLEFORMAT_UINT);
     TIFFSetField(t, TIFFTAG_PHOTOMETRIC, PHOTOMETRIC_MINISBLACK);
-    TIFFSetField(t, TIFFTAG_PLANARCONFIG, PLANARCONFIG_CONTIG);
+    TIFFSetField(t, TIFFTAG_PLANARCONFIG, bands.size() > 1 ? PLANARCONFIG_SEPARATE : PLANARCONFIG_CONTIG);
     TIFFSetField(t, TIFFTAG_COMPRESSION, COMPRESSION_ADOBE_DEFLATE);
     TIFFSetField(t, TIFFTAG_PREDICTOR, kFloat ? PREDICTOR_FLOATINGPOINT : PREDICTOR_HORIZONTAL);
     TIFFSetField(t, TIFFTAG_TILEWIDTH, kTileSize);
@@ -192,62 +200,66 @@ Status write_impl(const std::string& path, const Grid<T>& grid, const Georeferen
       const std::string text = nodata ? nodata_text(*nodata) : std::string("nan");
       TIFFSetField(t, detail::kTagGdalNodata, text.c_str());
     }
-    HORIZON_RETURN_IF_ERROR(write_georef(path, t, georef));
+    if (georef) HORIZON_RETURN_IF_ERROR(write_georef(path, t, *georef));
 
-    // Encode every tile in parallel, then write them in order.
-    const int tiles_x = static_cast<int>((grid.width() + kTileSize - 1) / kTileSize);
-    const int tiles_y = static_cast<int>((grid.height() + kTileSize - 1) / kTileSize);
-    std::vector<std::vector<std::uint8_t>> encoded(static_cast<std::size_t>(tiles_x) * tiles_y);
-    std::vector<char> failed(encoded.size(), 0);
-    const std::size_t tile_bytes = static_cast<std::size_t>(kTileSize) * kTileSize * sizeof(T);
-    parallel_for(static_cast<std::size_t>(tiles_y), 0, [&](std::size_t band) {
-      std::unique_ptr<libdeflate_compressor, CompressorDeleter> compressor(
-          libdeflate_alloc_compressor(sizeof(T) == 1 ? 1 : 6));
-      std::vector<T> tile(static_cast<std::size_t>(kTileSize) * kTileSize);
-      std::vector<std::uint8_t> scratch;
-      const int ty = static_cast<int>(band * kTileSize);
-      const std::size_t first = band * static_cast<std::size_t>(tiles_x);
-      if (!compressor) {
-        std::fill_n(failed.begin() + static_cast<std::ptrdiff_t>(first), tiles_x, 1);
-        return;
-      }
-      for (int ti = 0; ti < tiles_x; ++ti) {
-        const std::size_t index = first + static_cast<std::size_t>(ti);
-        const int tx = ti * static_cast<int>(kTileSize);
-        std::fill(tile.begin(), tile.end(), fill);
-        const int rows = std::min<int>(kTileSize, grid.height() - ty);
-        const int cols = std::min<int>(kTileSize, grid.width() - tx);
-        for (int r = 0; r < rows; ++r) {
-          const T* src = grid.row(ty + r) + tx;
-          T* dst = tile.data() + static_cast<std::size_t>(r) * kTileSize;
-          for (int c = 0; c < cols; ++c) {
-            if constexpr (kFloat)
-              dst[c] = (nodata && std::isnan(src[c])) ? fill : src[c];
-            else
-              dst[c] = src[c];
-          }
+    for (std::size_t band_index = 0; band_index < bands.size(); ++band_index) {
+      const Grid<T>& grid = *bands[band_index];
+      // Encode every tile in parallel, then write them in order.
+      const int tiles_x = static_cast<int>((grid.width() + kTileSize - 1) / kTileSize);
+      const int tiles_y = static_cast<int>((grid.height() + kTileSize - 1) / kTileSize);
+      std::vector<std::vector<std::uint8_t>> encoded(static_cast<std::size_t>(tiles_x) * tiles_y);
+      std::vector<char> failed(encoded.size(), 0);
+      const std::size_t tile_bytes = static_cast<std::size_t>(kTileSize) * kTileSize * sizeof(T);
+      parallel_for(static_cast<std::size_t>(tiles_y), 0, [&](std::size_t band) {
+        std::unique_ptr<libdeflate_compressor, CompressorDeleter> compressor(
+            libdeflate_alloc_compressor(sizeof(T) == 1 ? 1 : 6));
+        std::vector<T> tile(static_cast<std::size_t>(kTileSize) * kTileSize);
+        std::vector<std::uint8_t> scratch;
+        const int ty = static_cast<int>(band * kTileSize);
+        const std::size_t first = band * static_cast<std::size_t>(tiles_x);
+        if (!compressor) {
+          std::fill_n(failed.begin() + static_cast<std::ptrdiff_t>(first), tiles_x, 1);
+          return;
         }
-        if constexpr (kFloat)
-          predict_floating_point(tile.data(), scratch);
-        else
-          predict_horizontal(tile.data());
-        std::vector<std::uint8_t>& out = encoded[index];
-        out.resize(libdeflate_zlib_compress_bound(compressor.get(), tile_bytes));
-        const std::size_t size =
-            libdeflate_zlib_compress(compressor.get(), tile.data(), tile_bytes, out.data(), out.size());
-        if (size == 0) failed[index] = 1;
-        out.resize(size);
-      }
-    });
-    for (int ty = 0; ty < tiles_y; ++ty)
-      for (int ti = 0; ti < tiles_x; ++ti) {
-        const std::size_t index = static_cast<std::size_t>(ty) * tiles_x + static_cast<std::size_t>(ti);
-        if (failed[index]) return write_error(ErrorCode::kInternal, path, "cannot deflate a tile (libdeflate)");
-        const ttile_t tile_index = TIFFComputeTile(t, static_cast<std::uint32_t>(ti) * kTileSize,
-                                                   static_cast<std::uint32_t>(ty) * kTileSize, 0, 0);
-        if (TIFFWriteRawTile(t, tile_index, encoded[index].data(), static_cast<tmsize_t>(encoded[index].size())) < 0)
-          return write_error(ErrorCode::kIoError, path, "cannot write tile (" + messages.errors + ")");
-      }
+        for (int ti = 0; ti < tiles_x; ++ti) {
+          const std::size_t index = first + static_cast<std::size_t>(ti);
+          const int tx = ti * static_cast<int>(kTileSize);
+          std::fill(tile.begin(), tile.end(), fill);
+          const int rows = std::min<int>(kTileSize, grid.height() - ty);
+          const int cols = std::min<int>(kTileSize, grid.width() - tx);
+          for (int r = 0; r < rows; ++r) {
+            const T* src = grid.row(ty + r) + tx;
+            T* dst = tile.data() + static_cast<std::size_t>(r) * kTileSize;
+            for (int c = 0; c < cols; ++c) {
+              if constexpr (kFloat)
+                dst[c] = (nodata && std::isnan(src[c])) ? fill : src[c];
+              else
+                dst[c] = src[c];
+            }
+          }
+          if constexpr (kFloat)
+            predict_floating_point(tile.data(), scratch);
+          else
+            predict_horizontal(tile.data());
+          std::vector<std::uint8_t>& out = encoded[index];
+          out.resize(libdeflate_zlib_compress_bound(compressor.get(), tile_bytes));
+          const std::size_t size =
+              libdeflate_zlib_compress(compressor.get(), tile.data(), tile_bytes, out.data(), out.size());
+          if (size == 0) failed[index] = 1;
+          out.resize(size);
+        }
+      });
+      for (int ty = 0; ty < tiles_y; ++ty)
+        for (int ti = 0; ti < tiles_x; ++ti) {
+          const std::size_t index = static_cast<std::size_t>(ty) * tiles_x + static_cast<std::size_t>(ti);
+          if (failed[index]) return write_error(ErrorCode::kInternal, path, "cannot deflate a tile (libdeflate)");
+          const ttile_t tile_index =
+              TIFFComputeTile(t, static_cast<std::uint32_t>(ti) * kTileSize, static_cast<std::uint32_t>(ty) * kTileSize,
+                              0, static_cast<std::uint16_t>(band_index));
+          if (TIFFWriteRawTile(t, tile_index, encoded[index].data(), static_cast<tmsize_t>(encoded[index].size())) < 0)
+            return write_error(ErrorCode::kIoError, path, "cannot write tile (" + messages.errors + ")");
+        }
+    }
     if (TIFFFlush(t) != 1 || !messages.errors.empty())
       return write_error(ErrorCode::kIoError, path, "cannot finish the file (" + messages.errors + ")");
     tif.reset();  // TIFFClose
@@ -261,17 +273,24 @@ Status write_impl(const std::string& path, const Grid<T>& grid, const Georeferen
 
 Status write_geotiff(const std::string& path, const Grid<float>& grid, const Georeference& georef,
                      std::optional<double> nodata) {
-  return write_impl(path, grid, georef, nodata);
+  const Grid<float>* band = &grid;
+  return write_impl<float>(path, {&band, 1}, &georef, nodata);
 }
 
 Status write_geotiff(const std::string& path, const Grid<std::uint8_t>& grid, const Georeference& georef,
                      std::optional<double> nodata) {
-  return write_impl(path, grid, georef, nodata);
+  const Grid<std::uint8_t>* band = &grid;
+  return write_impl<std::uint8_t>(path, {&band, 1}, &georef, nodata);
 }
 
 Status write_geotiff(const std::string& path, const Grid<std::uint32_t>& grid, const Georeference& georef,
                      std::optional<double> nodata) {
-  return write_impl(path, grid, georef, nodata);
+  const Grid<std::uint32_t>* band = &grid;
+  return write_impl<std::uint32_t>(path, {&band, 1}, &georef, nodata);
+}
+
+Status write_tiff_image(const std::string& path, std::span<const Grid<float>* const> bands) {
+  return write_impl<float>(path, bands, nullptr, std::nullopt);
 }
 
 }  // namespace horizon::terrain

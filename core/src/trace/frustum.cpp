@@ -13,12 +13,16 @@ namespace {
 constexpr double kQuarter = std::numbers::pi / 2.0;
 
 // The quadrant of an azimuth (radians, any value) and its angle off the
-// quadrant's axis, in [-pi/4, pi/4).
-void quadrant_of(double azimuth, int& quadrant, double& phi) {
-  const double turns = std::floor((azimuth + kQuarter / 2.0) / kQuarter);
-  phi = azimuth - turns * kQuarter;
+// quadrant's axis. The quadrant is chosen in grid terms: the family of
+// lines the ray crosses more often per metre (on cells wider than tall,
+// row lines win over a wider fan), so that a crossing moves at most one
+// cell along its line from the last; phi is the metric angle, within 45
+// degrees on square cells.
+void quadrant_of(double azimuth, double per_col, double per_row, int& quadrant, double& phi) {
+  const double grid = std::atan2(std::sin(azimuth) / per_col, std::cos(azimuth) / per_row);
+  const double turns = std::floor((grid + kQuarter / 2.0) / kQuarter);
   quadrant = static_cast<int>(turns - 4.0 * std::floor(turns / 4.0));
-  if (phi >= kQuarter / 2.0) phi -= kQuarter;  // rounding at the boundary
+  phi = std::remainder(azimuth - quadrant * kQuarter, 2.0 * std::numbers::pi);
 }
 
 // The lines of one family ahead of `eye` (its coordinate across the lines) in
@@ -89,7 +93,8 @@ FrameGeometry make_frame_geometry(const Camera& camera, const terrain::HeightVie
   for (int x = 0; x < width; ++x) {
     int quadrant = 0;
     double phi = 0.0;
-    quadrant_of(camera.azimuth[static_cast<std::size_t>(x)], quadrant, phi);
+    quadrant_of(camera.azimuth[static_cast<std::size_t>(x)], camera.metres_per_col, camera.metres_per_row, quadrant,
+                phi);
     if (g.runs.empty() || g.runs.back().quadrant != quadrant) {
       Run run;
       run.x0 = x;

@@ -6,7 +6,8 @@
 // column lines (x = c) one after another. Sakalauskas's method orders one
 // family of parallel lines front to back and partitions them; that family
 // must be the one the ray crosses most squarely, so the screen is cut into
-// sub-frusta ("runs" of adjacent columns) by the quadrant of their azimuth:
+// sub-frusta ("runs" of adjacent columns) by the quadrant of their azimuth
+// in grid terms (on square cells, the metric azimuth):
 //
 //   quadrant 0, azimuth in [-45, 45) degrees (north): row lines, rows decreasing
 //   quadrant 1, [45, 135) (east):                      column lines, columns increasing
@@ -19,9 +20,9 @@
 // the column's azimuth off that axis (|phi| <= 45 degrees), crossing k lies
 //   position along the line = eye_along + t * pos_per_t   (cells)
 //   ground distance         = t * dist_per_t              (metres)
-// with pos_per_t = +-tan(phi) * spacing / along_cell and dist_per_t =
-// spacing / cos(phi): both linear in t, so nothing per crossing but a
-// multiply-add. The "secondary" lines (the other family, R3's other
+// with pos_per_t = +-tan(phi) * spacing / along_cell (at most one cell a
+// line) and dist_per_t = spacing / cos(phi): both linear in t, so nothing
+// per crossing but a multiply-add. The "secondary" lines (the other family, R3's other
 // crossings: the exact extension) follow the same form per column, ordered
 // by their own t from the eye to the side phi leans to; a column looking
 // straight down the axis (phi = 0) crosses none.

@@ -15,6 +15,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 
 #include "horizon/common/error.hpp"
@@ -31,6 +32,11 @@ Status write_geotiff(const std::string& path, const Grid<float>& grid, const Geo
 // UInt8 raster (e.g. a viewshed: 1 visible, 0 hidden, 255 nodata).
 Status write_geotiff(const std::string& path, const Grid<std::uint8_t>& grid, const Georeference& georef,
                      std::optional<double> nodata);
+
+// A Float32 image with no georeference (a camera's depth image, its hits):
+// one or more bands of one size, band after band, NaN for no value, the
+// same tiling, compression and atomicity as the rasters above.
+Status write_tiff_image(const std::string& path, std::span<const Grid<float>* const> bands);
 
 // UInt32 raster (e.g. how many observers see each cell).
 Status write_geotiff(const std::string& path, const Grid<std::uint32_t>& grid, const Georeference& georef,
