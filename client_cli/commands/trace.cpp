@@ -95,7 +95,7 @@ EditFlag parse_edit(const std::string& text) {
   const std::string& h = parts[4];
   if (h.empty() || (h[0] != '=' && h[0] != '+' && h[0] != '-'))
     throw UsageError(where + ": the height must start with '=' (set) or '+'/'-' (raise or lower), got '" + h + "'");
-  auto height = parse_finite(h[0] == '=' ? std::string_view(h).substr(1) : std::string_view(h));
+  auto height = parse_finite(h[0] == '-' ? std::string_view(h) : std::string_view(h).substr(1));
   if (!height) throw UsageError(where + ": '" + h + "' is not a height in metres");
   return {v[0],
           v[1],
