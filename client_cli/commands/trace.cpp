@@ -8,6 +8,7 @@
 #include <iostream>
 
 #include "commands/command.hpp"
+#include "horizon/gpu/context_pool.hpp"
 #include "horizon/imageio/imageio.hpp"
 #include "horizon/terrain/block_cache.hpp"
 #include "horizon/terrain/geotiff_writer.hpp"
@@ -57,6 +58,9 @@ constexpr FlagSpec kFlags[] = {
      "prints per-frame times"},
     {"--altitude-path", "", "", "--path heights are absolute altitudes"},
     {"--frames", "", "DIR", "With --path: write each frame's shaded view as DIR/frame_NNNN.png"},
+    {"--backend", "", "B",
+     "'cpu' (default) or 'gpu': the paper's GL passes on an EGL context (pinhole and rows only; otherwise, or if "
+     "the GPU fails, the CPU answers, with a warning)"},
     {"--threads", "", "N", "Worker threads (default 0 = all cores)"},
     {"--band", "", "N", "DEM band to read, 1-based (required when the file has several)"},
     kValidRangeFlag,
@@ -69,6 +73,7 @@ constexpr FlagSpec kFlags[] = {
 };
 
 constexpr std::string_view kProjections[] = {"perspective", "cylindrical"};
+constexpr std::string_view kBackends[] = {"cpu", "gpu"};
 
 // One --edit: a rectangle in the DEM's CRS and what happens to it.
 struct EditFlag {
@@ -131,7 +136,37 @@ struct Request {
   std::vector<EditFlag> edits;
   std::optional<std::string> path_file;
   bool json = false;
+  bool gpu = false;
 };
+
+// The one EGL context a --backend gpu run traces on, or why there is none
+// (the CPU then answers, with a warning).
+struct Gpu {
+  std::unique_ptr<gpu::ContextPool> pool;
+  std::optional<gpu::Lease> lease;
+  std::string unavailable;
+  gpu::Lease* get() { return lease ? &*lease : nullptr; }
+};
+
+void open_gpu(Gpu& g) {
+  auto pool = gpu::ContextPool::create({.contexts = 1});
+  if (!pool.ok()) {
+    g.unavailable = pool.error().message;
+    return;
+  }
+  g.pool = std::move(pool).value();
+  auto lease = g.pool->borrow();
+  if (lease.ok())
+    g.lease.emplace(std::move(*lease));
+  else
+    g.unavailable = lease.error().message;
+}
+
+// "horizon: warning: GPU ... ; answered on the CPU" when the GPU was asked for and the CPU answered.
+void warn_fallback(const trace::TraceStats& stats, const Gpu& g) {
+  const std::string why = !g.unavailable.empty() ? g.unavailable : stats.gpu_fallback;
+  if (!why.empty()) std::cerr << "horizon: warning: GPU not used (" << why << "); answered on the CPU\n";
+}
 
 std::pair<int, int> parse_size(const std::string& text) {
   const auto x = text.find('x');
@@ -180,6 +215,7 @@ Request parse_request(const Args& args) {
   if (auto policy = args.text("--nodata")) o.nodata = parse_nodata(*policy, o.nodata_fill_height);
   o.column_crossings = args.has("--columns");
   o.threads = args.non_negative_integer("--threads").value_or(0);
+  r.gpu = args.choice("--backend", kBackends).value_or("cpu") == "gpu";
   throw_if_invalid_option(trace::validate_trace_options(o));
   for (const std::string& e : args.all("--edit")) r.edits.push_back(parse_edit(e));
   if (auto boxes = args.text("--boxes")) r.query.boxes = read_boxes_file(*boxes, args.has("--lonlat"));
@@ -275,8 +311,11 @@ int run_frame(const Request& r, const terrain::ElevationSource& source) {
   InterruptScope interrupt;  // Ctrl-C cancels; nothing is written
   RunControl control;
   control.cancel = &interrupt.token();
-  auto run = trace::run_trace(*plan, source, nullptr, &control);
+  Gpu gpu;
+  if (r.gpu) open_gpu(gpu);
+  auto run = trace::run_trace(*plan, source, nullptr, &control, gpu.get());
   if (!run.ok()) return report_error(run.error());
+  if (r.gpu) warn_fallback(run->frame.stats, gpu);
   const auto traced = std::chrono::steady_clock::now();
   if (Status s = write_outputs(r, *run); !s.ok()) return report_error(s.error());
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
@@ -295,6 +334,7 @@ int run_frame(const Request& r, const terrain::ElevationSource& source) {
     j["width"] = r.query.camera.width;
     j["height"] = r.query.camera.height;
     j["mode"] = r.query.options.column_crossings ? "rows+columns" : "rows";
+    j["gpu_fallback"] = st.gpu_fallback.empty() ? Json(nullptr) : Json(st.gpu_fallback);
     j["trace"] = stats_json(st);
     j["read"] = {
         {"window", to_json(run->window)},
@@ -320,7 +360,8 @@ int run_frame(const Request& r, const terrain::ElevationSource& source) {
             << ", " << r.query.camera.width << "x" << r.query.camera.height << " pixels\n"
             << "  mode:       "
             << (r.query.options.column_crossings ? "rows and columns (exact)" : "rows (the paper's)") << ", "
-            << st.sub_frusta << " sub-frust" << (st.sub_frusta == 1 ? "um" : "a") << '\n'
+            << st.sub_frusta << " sub-frust" << (st.sub_frusta == 1 ? "um" : "a") << ", on the "
+            << (st.backend == "gpu" ? "GPU" : "CPU") << '\n'
             << "  sky:        " << with_separators(st.sky_pixels) << " of " << with_separators(st.pixels) << " pixels\n"
             << "  work:       " << with_separators(st.crossings) << " crossings over " << st.max_lines << " lines, "
             << st.reads_per_pixel << " reads a pixel\n"
@@ -352,6 +393,8 @@ int run_path(const Request& r, const Args& args, const terrain::ElevationSource&
   InterruptScope interrupt;
   RunControl control;
   control.cancel = &interrupt.token();
+  Gpu gpu;
+  if (r.gpu) open_gpu(gpu);
   std::vector<double> trace_ms, frame_ms;
   Json per_frame = Json::array();
   for (std::size_t i = 0; i < frames.size(); ++i) {
@@ -360,8 +403,9 @@ int run_path(const Request& r, const Args& args, const terrain::ElevationSource&
     q.camera = frames[i];
     auto plan = trace::plan_trace(source, q, q.options.threads);
     if (!plan.ok()) return report_error(plan.error());
-    auto run = trace::run_trace(*plan, source, &cache, &control);
+    auto run = trace::run_trace(*plan, source, &cache, &control, gpu.get());
     if (!run.ok()) return report_error(run.error());
+    if (r.gpu && i == 0) warn_fallback(run->frame.stats, gpu);
     const double frame = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count() * 1e3;
     trace_ms.push_back(run->frame.stats.seconds * 1e3);
     frame_ms.push_back(frame);

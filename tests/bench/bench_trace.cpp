@@ -15,6 +15,7 @@
 #include <memory>
 #include <random>
 
+#include "horizon/gpu/context_pool.hpp"
 #include "horizon/terrain/dem_reader.hpp"
 #include "horizon/trace/camera.hpp"
 #include "horizon/trace/trace.hpp"
@@ -124,6 +125,42 @@ BENCHMARK(BM_TraceCpu)
     ->Args({1920, 1080, 1, 2})
     ->Args({1024, 1024, 0, 1})
     ->Args({1920, 1080, 0, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+// The GL form on the device EGL gives (llvmpipe without a GPU): the same
+// frames. Args: width, height.
+void BM_TraceGl(benchmark::State& state) {
+  static auto pool = gpu::ContextPool::create({.contexts = 1});
+  if (!pool.ok()) {
+    state.SkipWithError(pool.error().message.c_str());
+    return;
+  }
+  auto lease = (*pool)->borrow();
+  if (!lease.ok()) {
+    state.SkipWithError(lease.error().message.c_str());
+    return;
+  }
+  const terrain::Dem& dem = bench_dem();
+  const trace::Camera camera = bench_camera(dem, static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  trace::TraceOptions options;
+  trace::TraceResult frame;
+  for (auto _ : state) {
+    const Status status =
+        trace::trace_frame(terrain::HeightView(dem.elevation), camera, options, frame, nullptr, &*lease);
+    if (!status.ok() || frame.stats.backend != "gpu") {
+      state.SkipWithError(status.ok() ? frame.stats.gpu_fallback.c_str() : status.error().message.c_str());
+      break;
+    }
+    benchmark::DoNotOptimize(frame.image.distance.data());
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()) * static_cast<int64_t>(frame.stats.pixels));
+  state.SetLabel((*pool)->device().renderer);
+}
+BENCHMARK(BM_TraceGl)
+    ->Args({512, 512})
+    ->Args({1024, 1024})
+    ->Args({1920, 1080})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 

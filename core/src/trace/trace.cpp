@@ -13,6 +13,7 @@
 #include "horizon/common/parallel.hpp"
 #include "horizon/geodesy/crs.hpp"
 #include "silhouette.hpp"
+#include "trace_gl.hpp"
 
 namespace horizon::trace {
 namespace {
@@ -138,14 +139,14 @@ Hit TraceResult::hit(int x, int j) const {
 }
 
 Result<TraceResult> trace_frame(const terrain::HeightView& view, const Camera& camera, const TraceOptions& options,
-                                const RunControl* control) {
+                                const RunControl* control, gpu::Lease* gpu) {
   TraceResult result;
-  HORIZON_RETURN_IF_ERROR(trace_frame(view, camera, options, result, control));
+  HORIZON_RETURN_IF_ERROR(trace_frame(view, camera, options, result, control, gpu));
   return result;
 }
 
 Status trace_frame(const terrain::HeightView& view, const Camera& camera, const TraceOptions& options,
-                   TraceResult& result, const RunControl* control) {
+                   TraceResult& result, const RunControl* control, gpu::Lease* gpu) {
   const auto start = std::chrono::steady_clock::now();
   HORIZON_RETURN_IF_ERROR(validate_trace_options(options));
   HORIZON_RETURN_IF_ERROR(validate_camera(camera.spec));
@@ -178,6 +179,23 @@ Status trace_frame(const terrain::HeightView& view, const Camera& camera, const 
   stats.sub_frusta = static_cast<int>(g.runs.size());
   stats.pixels = pixels;
   result.curvature = options.curvature_coefficient / (2.0 * geodesy::kEarthRadiusMetres);
+
+  if (gpu) {
+    const Status gl = detail::trace_gl(view, camera, g, options, *gpu, control, image, stats);
+    if (gl.ok()) {
+      stats.backend = "gpu";
+      stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      return Status::Ok();
+    }
+    const ErrorCode code = gl.error().code;
+    if (code == ErrorCode::kCancelled || code == ErrorCode::kDeadlineExceeded) return gl;
+    // What the GL form does not do, or a GL failure: the CPU answers, and says why.
+    const std::string why = gl.error().message;
+    stats = {};
+    stats.sub_frusta = static_cast<int>(g.runs.size());
+    stats.pixels = pixels;
+    stats.gpu_fallback = why;
+  }
 
   struct Block {
     const detail::Run* run;

@@ -141,7 +141,7 @@ Result<TracePlan> plan_trace(const terrain::ElevationSource& source, const Trace
 }
 
 Result<TraceRun> run_trace(const TracePlan& plan, const terrain::ElevationSource& source, terrain::BlockCache* cache,
-                           const RunControl* control) {
+                           const RunControl* control, gpu::Lease* gpu) {
   TraceRun run;
   auto dem = source.read(plan.read, cache, control, &run.read, plan.query.options.threads);
   if (!dem.ok()) return dem.error();
@@ -165,7 +165,7 @@ Result<TraceRun> run_trace(const TracePlan& plan, const terrain::ElevationSource
   run.eye.col += run.window.col0;
   run.eye.row += run.window.row0;
 
-  HORIZON_RETURN_IF_ERROR(trace_frame(run.view(), *camera, plan.query.options, run.frame, control));
+  HORIZON_RETURN_IF_ERROR(trace_frame(run.view(), *camera, plan.query.options, run.frame, control, gpu));
 
   std::vector<ViewBox> boxes(plan.boxes.size());
   std::vector<std::size_t> on_map;

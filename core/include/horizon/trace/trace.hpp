@@ -147,15 +147,26 @@ struct TraceResult {
 };
 
 // Traces one frame of `camera` over `view` (whose grid the camera's eye is
-// in; at least 2 x 2 cells). Polls `control` between blocks.
+// in; at least 2 x 2 cells). Polls `control` between blocks. With `gpu` (a
+// borrowed context) the map, tree and trace run as the paper's GL passes
+// (trace_gl.cpp): DEM lines drawn as line strips into the silhouette map,
+// a fragment pass a pair level, one full-screen trace pass. The GL form
+// does the pinhole and rows; a cylindrical camera, column crossings, a
+// frame beyond the device's textures or a GL failure are traced on the CPU,
+// with stats.gpu_fallback saying why. The shaders repeat the CPU's float
+// operations in its order (`precise`): on Mesa's llvmpipe every pixel is
+// the CPU's, bit for bit; a device whose arithmetic differs (a division by
+// reciprocal) may stop a grazing ray one line apart (tests/gpu/
+// test_gpu_trace.cpp states the tolerance: 99 % of pixels on the same
+// line, those within 1e-3 of the CPU's distance).
 Result<TraceResult> trace_frame(const terrain::HeightView& view, const Camera& camera, const TraceOptions& options,
-                                const RunControl* control = nullptr);
+                                const RunControl* control = nullptr, gpu::Lease* gpu = nullptr);
 // The same into `result`, whose image storage is reused when it is large
 // enough: a caller tracing frame after frame (a camera path, a simulator)
 // then pays no allocation or page fault per frame. On an error `result`
 // holds nothing of use.
 Status trace_frame(const terrain::HeightView& view, const Camera& camera, const TraceOptions& options,
-                   TraceResult& result, const RunControl* control = nullptr);
+                   TraceResult& result, const RunControl* control = nullptr, gpu::Lease* gpu = nullptr);
 
 // The reference the tests and benchmarks hold the trace to: every pixel's
 // ray walked through every crossing in order of distance (rows only, or

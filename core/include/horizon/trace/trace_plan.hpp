@@ -96,8 +96,9 @@ struct TraceRun {
 
 // Reads the planned cells (`cache` may be null: read the files directly),
 // applies the edits, places the eye (kDataError on a void under an
-// above-ground eye, naming "camera"), traces, and answers the boxes.
+// above-ground eye, naming "camera"), traces (on `gpu`'s context when one
+// is lent, as trace_frame), and answers the boxes.
 Result<TraceRun> run_trace(const TracePlan& plan, const terrain::ElevationSource& source, terrain::BlockCache* cache,
-                           const RunControl* control = nullptr);
+                           const RunControl* control = nullptr, gpu::Lease* gpu = nullptr);
 
 }  // namespace horizon::trace
