@@ -90,8 +90,8 @@ std::vector<std::uint8_t> shaded_view(const TraceResult& frame, const terrain::H
       const Hit& h = hits[i];
       Rgb c;
       if (h.sky) {
-        const double up = std::clamp(std::atan(cam.slope(x, j)) / (M_PI / 4.0), 0.0, 1.0);
-        c = mix(haze, zenith, std::sqrt(up));
+        const double up = std::clamp(std::atan(cam.slope(x, j)) / (M_PI / 3.0), 0.0, 1.0);
+        c = mix(haze, zenith, up * (2.0 - up));  // eases in from the horizon
       } else {
         // The terrain's slope at the hit: central differences at the four
         // cells around it, blended bilinearly (smooth shading, no facets).
