@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace horizon::trace::detail {
 
@@ -231,6 +232,113 @@ HORIZON_AVX512 void descend_avx512(const float* pairs, const TreeShape& shape, c
 
 #endif  // HORIZON_SIMD_AVX2
 
+// ---- the hits -----------------------------------------------------------
+
+void resolve_rows_scalar(const float* map, const BlockLines& b, const float* slope, const std::int32_t* leaf, int lanes,
+                         float* distance, std::int32_t* line) {
+  for (int x = 0; x < lanes; ++x) {
+    const int k = leaf[x];
+    if (k < 0) {
+      distance[x] = std::numeric_limits<float>::infinity();
+      line[x] = -1;
+      continue;
+    }
+    const float d1 = (static_cast<float>(k) + b.t0[x]) * b.dist_per_t[x];
+    const float s1 = map[static_cast<std::size_t>(k) * kBlock + static_cast<std::size_t>(x)];
+    float d0 = 0.0f, s0 = kNoCrossing;
+    if (k > 0) {
+      d0 = (static_cast<float>(k - 1) + b.t0[x]) * b.dist_per_t[x];
+      s0 = map[static_cast<std::size_t>(k - 1) * kBlock + static_cast<std::size_t>(x)];
+    }
+    distance[x] = chord_hit(slope[x], d0, s0, d1, s1);
+    line[x] = b.first[x] + b.step[x] * k;
+  }
+}
+
+#ifdef HORIZON_SIMD_AVX2
+
+HORIZON_AVX2 void resolve_rows_avx2(const float* map, const BlockLines& b, const float* slope, const std::int32_t* leaf,
+                                    int lanes, float* distance, std::int32_t* line) {
+  const __m256 none = _mm256_set1_ps(kNoCrossing), inf = _mm256_set1_ps(std::numeric_limits<float>::infinity());
+  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
+  const __m256i minus = _mm256_set1_epi32(-1), ione = _mm256_set1_epi32(1);
+  for (int x = 0; x < lanes; x += 8) {
+    const __m256i lane = _mm256_add_epi32(_mm256_set1_epi32(x), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+    const __m256i k = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(leaf + x));
+    const __m256i sky = _mm256_cmpgt_epi32(ione, _mm256_add_epi32(k, ione));  // k < 0
+    const __m256i prev = _mm256_cmpgt_epi32(k, _mm256_setzero_si256());       // k > 0
+    const __m256i k1 = _mm256_max_epi32(k, _mm256_setzero_si256());
+    const __m256i k0 = _mm256_max_epi32(_mm256_sub_epi32(k, ione), _mm256_setzero_si256());
+    const __m256 t0 = _mm256_loadu_ps(b.t0 + x), dpt = _mm256_loadu_ps(b.dist_per_t + x);
+    const __m256 d1 = _mm256_mul_ps(_mm256_add_ps(_mm256_cvtepi32_ps(k1), t0), dpt);
+    const __m256 d0 = _mm256_mul_ps(_mm256_add_ps(_mm256_cvtepi32_ps(_mm256_sub_epi32(k1, ione)), t0), dpt);
+    const __m256 s1 = _mm256_i32gather_ps(map, _mm256_add_epi32(_mm256_slli_epi32(k1, 5), lane), 4);
+    __m256 s0 = _mm256_mask_i32gather_ps(none, map, _mm256_add_epi32(_mm256_slli_epi32(k0, 5), lane),
+                                         _mm256_castsi256_ps(prev), 4);
+    const __m256 s = _mm256_loadu_ps(slope + x);
+    // chord_hit, lane by lane.
+    const __m256 z0 = _mm256_mul_ps(s0, d0), z1 = _mm256_mul_ps(s1, d1);
+    const __m256 denom = _mm256_sub_ps(_mm256_sub_ps(z1, z0), _mm256_mul_ps(s, _mm256_sub_ps(d1, d0)));
+    __m256 t = _mm256_div_ps(_mm256_sub_ps(_mm256_mul_ps(s, d0), z0), denom);
+    t = _mm256_blendv_ps(t, zero, _mm256_cmp_ps(t, zero, _CMP_LT_OQ));
+    t = _mm256_blendv_ps(t, one, _mm256_cmp_ps(t, one, _CMP_GT_OQ));
+    const __m256 chord = _mm256_add_ps(d0, _mm256_mul_ps(t, _mm256_sub_ps(d1, d0)));
+    const __m256 use = _mm256_and_ps(_mm256_cmp_ps(s0, none, _CMP_GT_OQ), _mm256_cmp_ps(denom, zero, _CMP_GT_OQ));
+    __m256 d = _mm256_blendv_ps(d1, chord, use);
+    d = _mm256_blendv_ps(d, inf, _mm256_castsi256_ps(sky));
+    const __m256i l =
+        _mm256_add_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(b.first + x)),
+                         _mm256_mullo_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(b.step + x)), k1));
+    const __m256i out_line = _mm256_blendv_epi8(l, minus, sky);
+    if (x + 8 <= lanes) {
+      _mm256_storeu_ps(distance + x, d);
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(line + x), out_line);
+    } else {
+      const __m256i keep = _mm256_cmpgt_epi32(_mm256_set1_epi32(lanes), lane);
+      _mm256_maskstore_ps(distance + x, keep, d);
+      _mm256_maskstore_epi32(line + x, keep, out_line);
+    }
+  }
+}
+
+HORIZON_AVX512 void resolve_rows_avx512(const float* map, const BlockLines& b, const float* slope,
+                                        const std::int32_t* leaf, int lanes, float* distance, std::int32_t* line) {
+  const __m512 none = _mm512_set1_ps(kNoCrossing), inf = _mm512_set1_ps(std::numeric_limits<float>::infinity());
+  const __m512 zero = _mm512_setzero_ps(), one = _mm512_set1_ps(1.0f);
+  const __m512i ione = _mm512_set1_epi32(1), izero = _mm512_setzero_si512();
+  for (int x = 0; x < lanes; x += 16) {
+    const __m512i lane =
+        _mm512_add_epi32(_mm512_set1_epi32(x), _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15));
+    const __mmask16 in = lanes - x >= 16 ? __mmask16(0xffff) : __mmask16((1u << (lanes - x)) - 1u);
+    const __m512i k = _mm512_loadu_si512(leaf + x);
+    const __mmask16 sky = _mm512_cmplt_epi32_mask(k, izero);
+    const __mmask16 prev = _mm512_cmpgt_epi32_mask(k, izero);
+    const __m512i k1 = _mm512_max_epi32(k, izero);
+    const __m512i k0 = _mm512_max_epi32(_mm512_sub_epi32(k, ione), izero);
+    const __m512 t0 = _mm512_loadu_ps(b.t0 + x), dpt = _mm512_loadu_ps(b.dist_per_t + x);
+    const __m512 d1 = _mm512_mul_ps(_mm512_add_ps(_mm512_cvtepi32_ps(k1), t0), dpt);
+    const __m512 d0 = _mm512_mul_ps(_mm512_add_ps(_mm512_cvtepi32_ps(_mm512_sub_epi32(k1, ione)), t0), dpt);
+    const __m512 s1 = _mm512_i32gather_ps(_mm512_add_epi32(_mm512_slli_epi32(k1, 5), lane), map, 4);
+    const __m512 s0 = _mm512_mask_i32gather_ps(none, prev, _mm512_add_epi32(_mm512_slli_epi32(k0, 5), lane), map, 4);
+    const __m512 s = _mm512_loadu_ps(slope + x);
+    const __m512 z0 = _mm512_mul_ps(s0, d0), z1 = _mm512_mul_ps(s1, d1);
+    const __m512 denom = _mm512_sub_ps(_mm512_sub_ps(z1, z0), _mm512_mul_ps(s, _mm512_sub_ps(d1, d0)));
+    __m512 t = _mm512_div_ps(_mm512_sub_ps(_mm512_mul_ps(s, d0), z0), denom);
+    t = _mm512_mask_blend_ps(_mm512_cmp_ps_mask(t, zero, _CMP_LT_OQ), t, zero);
+    t = _mm512_mask_blend_ps(_mm512_cmp_ps_mask(t, one, _CMP_GT_OQ), t, one);
+    const __m512 chord = _mm512_add_ps(d0, _mm512_mul_ps(t, _mm512_sub_ps(d1, d0)));
+    const __mmask16 use = _mm512_cmp_ps_mask(s0, none, _CMP_GT_OQ) & _mm512_cmp_ps_mask(denom, zero, _CMP_GT_OQ);
+    __m512 d = _mm512_mask_blend_ps(use, d1, chord);
+    d = _mm512_mask_blend_ps(sky, d, inf);
+    const __m512i l =
+        _mm512_add_epi32(_mm512_loadu_si512(b.first + x), _mm512_mullo_epi32(_mm512_loadu_si512(b.step + x), k1));
+    _mm512_mask_storeu_ps(distance + x, in, d);
+    _mm512_mask_storeu_epi32(line + x, in, _mm512_mask_blend_epi32(sky, l, _mm512_set1_epi32(-1)));
+  }
+}
+
+#endif  // HORIZON_SIMD_AVX2
+
 }  // namespace
 
 static_assert(kBlock == 32, "descend's SIMD forms multiply by 4 * kBlock with a shift of 7");
@@ -271,6 +379,16 @@ void build_tree(const float* map, const TreeShape& shape, float* pairs) {
       }
     }
   }
+}
+
+void resolve_rows(Isa isa, const float* map, const BlockLines& b, const float* slope, const std::int32_t* leaf,
+                  int lanes, float* distance, std::int32_t* line) {
+#ifdef HORIZON_SIMD_AVX2
+  if (isa >= Isa::kAvx512) return resolve_rows_avx512(map, b, slope, leaf, lanes, distance, line);
+  if (isa >= Isa::kAvx2) return resolve_rows_avx2(map, b, slope, leaf, lanes, distance, line);
+#endif
+  (void)isa;
+  resolve_rows_scalar(map, b, slope, leaf, lanes, distance, line);
 }
 
 void descend(Isa isa, const float* pairs, const TreeShape& shape, const float* slope, std::int32_t* leaf) {

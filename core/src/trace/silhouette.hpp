@@ -66,4 +66,11 @@ void build_tree(const float* map, const TreeShape& shape, float* pairs);
 // levels: `levels` texel reads a lane.
 void descend(Isa isa, const float* pairs, const TreeShape& shape, const float* slope, std::int32_t* leaf);
 
+// One family's hits (the paper's rows-only trace): for each lane < lanes
+// with leaf >= 0, the ground distance where its ray (slope) meets the chord
+// between crossing leaf - 1 and crossing leaf (chord_hit), and the grid line
+// of the hit; +inf and -1 for sky (leaf -1).
+void resolve_rows(Isa isa, const float* map, const BlockLines& b, const float* slope, const std::int32_t* leaf,
+                  int lanes, float* distance, std::int32_t* line);
+
 }  // namespace horizon::trace::detail

@@ -253,9 +253,26 @@ Status trace_frame(const terrain::HeightView& view, const Camera& camera, const 
       detail::descend(isa, s.pairs.data(), shape, s.slope, s.leaf);
       if (columns) detail::descend(isa, s.pairs2.data(), shape2, s.slope, s.leaf2);
       const std::size_t row = static_cast<std::size_t>(j) * static_cast<std::size_t>(width);
+      if (!columns) {
+        // One family: the hits of the whole block row at once.
+        float* distance = image.distance.data() + row + static_cast<std::size_t>(blk.x0);
+        std::int32_t* line = image.line.data() + row + static_cast<std::size_t>(blk.x0);
+        if (lines > 0) {
+          detail::resolve_rows(isa, s.map.data(), b1, s.slope, s.leaf, blk.lanes, distance, line);
+        } else {
+          std::fill(distance, distance + blk.lanes, std::numeric_limits<float>::infinity());
+          std::fill(line, line + blk.lanes, -1);
+        }
+        LineAxis* axis = image.axis.data() + row + static_cast<std::size_t>(blk.x0);
+        for (int i = 0; i < blk.lanes; ++i) {
+          axis[i] = line[i] < 0 ? LineAxis::kRows : axis1;
+          sky[bi] += line[i] < 0;
+        }
+        continue;
+      }
       for (int i = 0; i < blk.lanes; ++i) {
         const float slope = s.slope[i];
-        const int k1 = s.leaf[i], k2 = columns ? s.leaf2[i] : -1;
+        const int k1 = s.leaf[i], k2 = s.leaf2[i];
         const std::size_t at = row + static_cast<std::size_t>(blk.x0 + i);
         if (k1 < 0 && k2 < 0) {
           image.distance[at] = std::numeric_limits<float>::infinity();
@@ -265,19 +282,17 @@ Status trace_frame(const terrain::HeightView& view, const Camera& camera, const 
           continue;
         }
         const Crossing h1 = crossing_of(s.map.data(), i, b1, k1);
-        const Crossing h2 = columns ? crossing_of(s.map2.data(), i, b2, k2) : Crossing{};
+        const Crossing h2 = crossing_of(s.map2.data(), i, b2, k2);
         const bool first = h1.valid && !(h2.distance < h1.distance);
         const Crossing& hit = first ? h1 : h2;
         // The crossing before the hit: the same family's previous one, or
         // the other family's last one nearer than the hit, whichever is later.
         Crossing before = first ? crossing_of(s.map.data(), i, b1, k1 - 1) : crossing_of(s.map2.data(), i, b2, k2 - 1);
-        if (columns) {
-          const Crossing other = first ? crossing_of(s.map2.data(), i, b2, last_before(b2, i, hit.distance))
-                                       : crossing_of(s.map.data(), i, b1, last_before(b1, i, hit.distance));
-          if (other.valid &&
-              (!before.valid || (first ? other.distance > before.distance : !(other.distance < before.distance))))
-            before = other;
-        }
+        const Crossing other = first ? crossing_of(s.map2.data(), i, b2, last_before(b2, i, hit.distance))
+                                     : crossing_of(s.map.data(), i, b1, last_before(b1, i, hit.distance));
+        if (other.valid &&
+            (!before.valid || (first ? other.distance > before.distance : !(other.distance < before.distance))))
+          before = other;
         image.distance[at] = detail::chord_hit(slope, before.distance, before.slope, hit.distance, hit.slope);
         image.line[at] = first ? b1.first[i] + b1.step[i] * k1 : b2.first[i] + b2.step[i] * k2;
         image.axis[at] = first ? axis1 : axis2;
