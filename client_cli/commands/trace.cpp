@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
 
 #include "commands/command.hpp"
 #include "horizon/gpu/context_pool.hpp"
@@ -396,6 +397,7 @@ int run_path(const Request& r, const Args& args, const terrain::ElevationSource&
   Gpu gpu;
   if (r.gpu) open_gpu(gpu);
   std::vector<double> trace_ms, frame_ms;
+  std::optional<trace::TraceRun> last;  // its image storage serves the next frame
   Json per_frame = Json::array();
   for (std::size_t i = 0; i < frames.size(); ++i) {
     const auto started = std::chrono::steady_clock::now();
@@ -403,7 +405,7 @@ int run_path(const Request& r, const Args& args, const terrain::ElevationSource&
     q.camera = frames[i];
     auto plan = trace::plan_trace(source, q, q.options.threads);
     if (!plan.ok()) return report_error(plan.error());
-    auto run = trace::run_trace(*plan, source, &cache, &control, gpu.get());
+    auto run = trace::run_trace(*plan, source, &cache, &control, gpu.get(), last ? &*last : nullptr);
     if (!run.ok()) return report_error(run.error());
     if (r.gpu && i == 0) warn_fallback(run->frame.stats, gpu);
     const double frame = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count() * 1e3;
@@ -422,6 +424,7 @@ int run_path(const Request& r, const Args& args, const terrain::ElevationSource&
                          {"frame_ms", frame},
                          {"sky_pixels", run->frame.stats.sky_pixels},
                          {"crossings", run->frame.stats.crossings}});
+    last = std::move(*run);
   }
   auto stats_of = [](std::vector<double> v) {
     std::sort(v.begin(), v.end());

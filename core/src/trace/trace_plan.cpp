@@ -141,8 +141,9 @@ Result<TracePlan> plan_trace(const terrain::ElevationSource& source, const Trace
 }
 
 Result<TraceRun> run_trace(const TracePlan& plan, const terrain::ElevationSource& source, terrain::BlockCache* cache,
-                           const RunControl* control, gpu::Lease* gpu) {
+                           const RunControl* control, gpu::Lease* gpu, TraceRun* previous) {
   TraceRun run;
+  if (previous) run.frame = std::move(previous->frame);
   auto dem = source.read(plan.read, cache, control, &run.read, plan.query.options.threads);
   if (!dem.ok()) return dem.error();
   run.dem = std::move(*dem);

@@ -97,8 +97,11 @@ struct TraceRun {
 // Reads the planned cells (`cache` may be null: read the files directly),
 // applies the edits, places the eye (kDataError on a void under an
 // above-ground eye, naming "camera"), traces (on `gpu`'s context when one
-// is lent, as trace_frame), and answers the boxes.
+// is lent, as trace_frame), and answers the boxes. `previous` (may be
+// null): a finished run whose frame storage this one takes over, so that a
+// camera path allocates no image per frame.
 Result<TraceRun> run_trace(const TracePlan& plan, const terrain::ElevationSource& source, terrain::BlockCache* cache,
-                           const RunControl* control = nullptr, gpu::Lease* gpu = nullptr);
+                           const RunControl* control = nullptr, gpu::Lease* gpu = nullptr,
+                           TraceRun* previous = nullptr);
 
 }  // namespace horizon::trace
