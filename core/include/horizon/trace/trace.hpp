@@ -28,6 +28,11 @@
 //     hit row and the one before it), whatever the terrain: the cost per
 //     frame is fixed, and the terrain may change between frames with
 //     nothing to rebuild. s above the root's A is sky.
+//     The paper's pseudo-code says this with screen y growing downward in
+//     its Trace branch ("sil_y < x", read "< y") and upward in its Eq. 2-4
+//     (max = higher); here y grows up and everything is a slope: a line
+//     whose slope reaches the ray's stops it, ranges combine by max, and
+//     the nearer half is taken whenever its maximum reaches the ray.
 //  4. The hit: the ray meets the chord between the crossing before the hit
 //     and the hit crossing, perspective-correct (the paper blends in screen
 //     space); the pixel gets that point's ground distance.
