@@ -13,9 +13,15 @@
 
 #include "auth.hpp"
 #include "file_digest.hpp"
+#include "horizon/trace/camera.hpp"
 #include "memory_budget.hpp"
 
 namespace horizon::server {
+
+static_assert(kMaxTracePixelsCeiling ==
+                  static_cast<std::uint64_t>(trace::kMaxSide) * static_cast<std::uint64_t>(trace::kMaxSide),
+              "limits.max_trace_pixels tops out at the engine's largest frame");
+
 namespace {
 
 using Json = nlohmann::json;
@@ -197,7 +203,8 @@ Status parse_security(const Json& j, const std::string& source, const fs::path& 
 Status parse_limits(const Json& j, const std::string& source, Limits& limits) {
   if (!j.is_object()) return config_error(source, "limits", "expected an object");
   HORIZON_RETURN_IF_ERROR(
-      check_keys(j, source, "limits.", {"max_cells", "max_boxes", "max_lines", "max_pending", "max_observers"}));
+      check_keys(j, source, "limits.",
+                 {"max_cells", "max_boxes", "max_lines", "max_pending", "max_observers", "max_trace_pixels"}));
   if (j.contains("max_cells")) {
     auto v = get_count(j, source, "max_cells", "limits.max_cells", 1, 2'000'000'000);
     if (!v.ok()) return v.error();
@@ -222,6 +229,11 @@ Status parse_limits(const Json& j, const std::string& source, Limits& limits) {
     auto v = get_count(j, source, "max_observers", "limits.max_observers", 1, 100'000);
     if (!v.ok()) return v.error();
     limits.max_observers = static_cast<std::uint32_t>(*v);
+  }
+  if (j.contains("max_trace_pixels")) {
+    auto v = get_count(j, source, "max_trace_pixels", "limits.max_trace_pixels", 1, kMaxTracePixelsCeiling);
+    if (!v.ok()) return v.error();
+    limits.max_trace_pixels = *v;
   }
   return Status::Ok();
 }
@@ -421,6 +433,7 @@ std::vector<std::string> keys_needing_restart(const Config& a, const Config& b) 
   differ(a.limits.max_observers != b.limits.max_observers, "limits.max_observers");
   differ(a.limits.max_lines != b.limits.max_lines, "limits.max_lines");
   differ(a.limits.max_pending != b.limits.max_pending, "limits.max_pending");
+  differ(a.limits.max_trace_pixels != b.limits.max_trace_pixels, "limits.max_trace_pixels");
   differ(a.sessions.max != b.sessions.max, "sessions.max");
   differ(a.sessions.idle_ms != b.sessions.idle_ms, "sessions.idle_ms");
   differ(a.sessions.max_boxes != b.sessions.max_boxes, "sessions.max_boxes");

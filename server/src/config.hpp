@@ -25,7 +25,9 @@
 //                "max_boxes": 100000,       boxes in one CullBoxes call
 //                "max_lines": 10000,        sight lines in one LineOfSight call
 //                "max_pending": 64,         requests admitted at once (computing, queued or streaming)
-//                "max_observers": 1000},    observers in one many-observer ComputeViewshed
+//                "max_observers": 1000,     observers in one many-observer ComputeViewshed
+//                "max_trace_pixels":        pixels (width x height) of one TraceCamera frame,
+//                    16777216},             [1, 67108864] (8192 x 8192, the engine's largest frame)
 //     "sessions": {"max": 8,                clip-map sessions open at once (0: none); each holds its
 //                  "idle_ms": 60000,        clip-map in memory_budget_mb; ended after idle_ms without
 //                  "max_boxes": 100000,     a message; boxes per session; the largest level_size a
@@ -103,7 +105,12 @@ struct Limits {
   std::uint32_t max_lines = 10'000;
   std::uint32_t max_pending = 64;
   std::uint32_t max_observers = 1'000;
+  std::uint64_t max_trace_pixels = 4096ull * 4096ull;
 };
+
+// The most limits.max_trace_pixels may be: the engine's largest frame
+// (trace::kMaxSide squared).
+inline constexpr std::uint64_t kMaxTracePixelsCeiling = 8192ull * 8192ull;
 
 // The gRPC port's TLS: a server certificate, and optionally the CA whose
 // client certificates it requires (mutual TLS). PEM text, read at load.

@@ -31,7 +31,8 @@ std::string document(const std::string& extra) {
 
 TEST(ServerConfig, GoodDocumentGivesItsValues) {
   auto c = parse_config(
-      document(R"("worker_threads": 3, "engine_threads": 2, "limits": {"max_boxes": 500, "max_observers": 40},
+      document(R"("worker_threads": 3, "engine_threads": 2, "limits": {"max_boxes": 500, "max_observers": 40,
+                                               "max_trace_pixels": 1000000},
                                     "default_deadline_ms": 1500, "shutdown_grace_ms": 250,
                                     "datasets": {"b": {"file": "olinda_coast_utm25s_111x111.tif", "band": 1},
                                                  "a": "rainier_summit_srtm3_400x400.tif"})"),
@@ -44,6 +45,8 @@ TEST(ServerConfig, GoodDocumentGivesItsValues) {
   EXPECT_EQ(c->limits.max_boxes, 500u);
   EXPECT_EQ(c->limits.max_observers, 40u);
   EXPECT_EQ(c->limits.max_cells, Limits{}.max_cells);
+  EXPECT_EQ(c->limits.max_trace_pixels, 1'000'000u);
+  EXPECT_EQ(Limits{}.max_trace_pixels, 4096u * 4096u);  // the default
   EXPECT_EQ(c->default_deadline.count(), 1500);
   EXPECT_EQ(c->shutdown_grace.count(), 250);
   ASSERT_EQ(c->datasets.size(), 2u);
@@ -188,6 +191,11 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"max_observers zero", document(R"("limits": {"max_observers": 0})"), "limits.max_observers"},
         BadCase{"max_lines negative", document(R"("limits": {"max_lines": -5})"), "limits.max_lines"},
         BadCase{"max_pending 0", document(R"("limits": {"max_pending": 0})"), "limits.max_pending"},
+        BadCase{"max_trace_pixels 0", document(R"("limits": {"max_trace_pixels": 0})"), "limits.max_trace_pixels"},
+        BadCase{"max_trace_pixels past 8192 x 8192", document(R"("limits": {"max_trace_pixels": 67108865})"),
+                "limits.max_trace_pixels"},
+        BadCase{"max_trace_pixels fractional", document(R"("limits": {"max_trace_pixels": 1e6})"),
+                "limits.max_trace_pixels"},
         BadCase{"gpu not an object", document(R"("gpu": 2)"), "gpu"},
         BadCase{"gpu unknown key", document(R"("gpu": {"context": 2})"), "gpu.context"},
         BadCase{"gpu contexts string", document(R"("gpu": {"contexts": "2"})"), "gpu.contexts"},
