@@ -23,6 +23,7 @@
 #include "scratch_dir.hpp"
 #include "server_env.hpp"
 #include "session_service.hpp"
+#include "trace_service.hpp"
 #include "visibility_service.hpp"
 #include "worker_pool.hpp"
 
@@ -30,7 +31,7 @@ namespace horizon::server {
 namespace {
 
 constexpr const char* kServices[] = {"", "horizon.v1.DatasetService", "horizon.v1.VisibilityService",
-                                     "horizon.v1.SessionService"};
+                                     "horizon.v1.SessionService", "horizon.v1.TraceService"};
 
 // Largest request accepted: a full CullBoxes (about 70 bytes per box on the
 // wire), LineOfSight or many-observer ComputeViewshed call, with room to spare.
@@ -91,7 +92,8 @@ struct Daemon::Impl {
         sessions(env),
         dataset_service(env),
         visibility_service(env),
-        session_service(env, sessions) {
+        session_service(env, sessions),
+        trace_service(env) {
     env.trimmer = &trimmer;
     env.deadlines = &deadlines;
   }
@@ -126,6 +128,7 @@ struct Daemon::Impl {
   DatasetService dataset_service;
   VisibilityService visibility_service;
   SessionService session_service;
+  TraceService trace_service;
   ScratchDir scratch;  // env.scratch; removed after the last call
   std::unique_ptr<grpc::Server> server;
   int port = 0;
@@ -199,6 +202,7 @@ Status Daemon::start() {
   builder.RegisterService(&d.dataset_service);
   builder.RegisterService(&d.visibility_service);
   builder.RegisterService(&d.session_service);
+  builder.RegisterService(&d.trace_service);
   builder.SetMaxReceiveMessageSize(max_receive_bytes(d.config.limits));
   d.server = builder.BuildAndStart();
   if (!d.server || port == 0 || (!d.config.health_listen.empty() && health_port == 0)) {

@@ -22,10 +22,6 @@ namespace {
 static_assert(std::endian::native == std::endian::little,
               "raster chunks are sent in host order, which must be little-endian");
 
-constexpr int kDefaultChunkBytes = 1 << 20;
-constexpr int kMinChunkBytes = 4 << 10;
-constexpr int kMaxChunkBytes = 3 << 20;
-
 class ViewshedCall final : public grpc::ServerWriteReactor<v1::ViewshedResponse> {
  public:
   ViewshedCall(ServerEnv& env, grpc::CallbackServerContext* context, const v1::ViewshedRequest& request)
@@ -88,7 +84,7 @@ grpc::Status ViewshedCall::compute() {
   if (req.max_chunk_bytes() < 0)
     return scope_.status_of(
         make_error(ErrorCode::kInvalidArgument, "max_chunk_bytes: must be >= 0", "max_chunk_bytes"));
-  if (req.max_chunk_bytes() > 0) chunk_bytes_ = std::clamp(req.max_chunk_bytes(), kMinChunkBytes, kMaxChunkBytes);
+  chunk_bytes_ = chunk_bytes_for(req.max_chunk_bytes());
   if (req.observers_size() > 0) {
     ViewshedParts parts;
     const grpc::Status status = compute_many_viewshed(scope_, req, parts);

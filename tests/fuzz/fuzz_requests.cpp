@@ -1,8 +1,9 @@
 // libFuzzer target: every request's validation, planning and (on a small
 // DEM) execution, from the wire bytes of a v1 request. The first byte picks
-// the message (viewshed, culling, sight lines, region); the rest is parsed as it.
-// The steps are the daemon's: the translations of server/src/translate.hpp,
-// then visibility::plan_* / region::plan_region and run_* against the bundled Olinda DEM
+// the message (viewshed, culling, sight lines, region, camera trace); the rest
+// is parsed as it. The steps are the daemon's: the translations of
+// server/src/translate.hpp and trace_translate.hpp, then visibility::plan_* /
+// region::plan_region / trace::plan_trace and run_* against the bundled Olinda DEM
 // (111 x 111 cells), under a 2 s deadline. Any outcome but a crash, a hang
 // or undefined behaviour is fine: an Error names what was wrong.
 #include <chrono>
@@ -17,9 +18,11 @@
 #include "horizon/region/region_plan.hpp"
 #include "horizon/terrain/block_cache.hpp"
 #include "horizon/terrain/source.hpp"
+#include "horizon/trace/trace_plan.hpp"
 #include "horizon/v1/visibility.pb.h"
 #include "horizon/visibility/many_observers.hpp"
 #include "horizon/visibility/plan.hpp"
+#include "trace_translate.hpp"
 #include "translate.hpp"
 
 namespace {
@@ -129,13 +132,27 @@ void region(const v1::RegionVisibilityRequest& req) {
   (void)horizon::region::run_region(*plan, *f.source, &f.cache, &control);
 }
 
+void camera_trace(const v1::TraceRequest& req) {
+  Fixture& f = fixture();
+  if (req.boxes_size() > 1000) return;  // limits.max_boxes, shrunk
+  auto ask = horizon::server::to_trace_ask(req, f.source->header(), 1);
+  if (!ask.ok()) return;
+  const horizon::trace::CameraSpec& c = ask->query.camera;
+  if (static_cast<std::uint64_t>(c.width) * static_cast<std::uint64_t>(c.height) > 256 * 256)
+    return;  // limits.max_trace_pixels, shrunk
+  auto plan = horizon::trace::plan_trace(*f.source, ask->query, 1);
+  if (!plan.ok()) return;
+  const RunControl control = bounded();
+  (void)horizon::trace::run_trace(*plan, *f.source, &f.cache, &control, nullptr);
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size < 1 || !fixture().source) return 0;
   const void* body = data + 1;
   const int n = static_cast<int>(size - 1);
-  switch (data[0] % 4) {
+  switch (data[0] % 5) {
     case 0: {
       v1::ViewshedRequest r;
       if (r.ParseFromArray(body, n)) viewshed(r);
@@ -151,9 +168,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       if (r.ParseFromArray(body, n)) lines(r);
       break;
     }
-    default: {
+    case 3: {
       v1::RegionVisibilityRequest r;
       if (r.ParseFromArray(body, n)) region(r);
+      break;
+    }
+    default: {
+      v1::TraceRequest r;
+      if (r.ParseFromArray(body, n)) camera_trace(r);
       break;
     }
   }

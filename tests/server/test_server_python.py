@@ -12,6 +12,7 @@ import json
 import os
 import queue
 import signal
+import struct
 import subprocess
 import sys
 import tempfile
@@ -251,6 +252,27 @@ def run_checks(listening, log_path):
         assert name in ("BOX_STATE_VISIBLE", "BOX_STATE_HIDDEN", "BOX_STATE_UNDETERMINED"), name
         assert (name != "BOX_STATE_HIDDEN") == b.visible, (name, b.visible)
 
+    # A camera trace: the header (eye, work, boxes with their ids), then the
+    # depth rows in order; sky pixels are NaN.
+    assert "horizon.v1.TraceService" in api.services, api.services
+    TrReq, trace = api.method("horizon.v1.TraceService", "TraceCamera")
+    req = TrReq(dataset="rainier", channels=[1], max_chunk_bytes=4096)  # TRACE_CHANNEL_DEPTH
+    req.camera.position.CopyFrom(Point(frame=2, x=-121.90, y=46.70, height=800))
+    req.camera.yaw, req.camera.pitch, req.camera.hfov, req.camera.width, req.camera.height = 40, -3, 60, 160, 90
+    req.boxes.add(frame=2, x_min=-121.765, x_max=-121.755, y_min=46.848, y_max=46.856, z_min=4300, z_max=4500, id=77)
+    header, depth = None, b""
+    for m in trace(req, timeout=30):
+        if m.WhichOneof("part") == "header":
+            header = m.header
+        else:
+            assert m.rows.row0 * 160 * 4 == len(depth) and m.rows.channel == 1
+            depth += m.rows.data
+    assert header and (header.width, header.height) == (160, 90)
+    assert abs(header.camera.elevation - header.camera.ground - 800) < 1e-6
+    assert [b.id for b in header.boxes] == [77] and header.boxes[0].visible_pixels > 0
+    values = struct.unpack("<%df" % (160 * 90), depth)
+    assert sum(v != v for v in values) == header.stats.sky_pixels > 0  # NaN != NaN
+
     # Errors with details.
     def expect(call, request, code, field):
         try:
@@ -275,6 +297,10 @@ def run_checks(listening, log_path):
         line.__getattribute__("from").CopyFrom(eye)
         line.to.CopyFrom(Point(frame=2, x=-121.74, y=46.84, height=2))
     expect(los, too_many, "RESOURCE_EXHAUSTED", None)
+    wide = TrReq()
+    wide.CopyFrom(req)
+    wide.camera.hfov = 175
+    expect(trace, wide, "INVALID_ARGUMENT", "camera.hfov")
     # A deadline that passes mid-computation: the client sees DEADLINE_EXCEEDED
     # and the daemon stops the engine and logs the call with that status.
     slow = VsReq(dataset="rainier", observer=eye)
