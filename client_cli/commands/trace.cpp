@@ -8,6 +8,8 @@
 #include <iostream>
 #include <optional>
 
+#include "commands/trace.hpp"
+
 #include "commands/command.hpp"
 #include "horizon/gpu/context_pool.hpp"
 #include "horizon/imageio/imageio.hpp"
@@ -77,11 +79,7 @@ constexpr std::string_view kProjections[] = {"perspective", "cylindrical"};
 constexpr std::string_view kBackends[] = {"cpu", "gpu"};
 
 // One --edit: a rectangle in the DEM's CRS and what happens to it.
-struct EditFlag {
-  double x_min, y_min, x_max, y_max;
-  terrain::EditMode mode;
-  float height;
-};
+using EditFlag = remote::TraceEditRect;
 
 EditFlag parse_edit(const std::string& text) {
   const std::string where = "--edit: '" + text + "'";
@@ -111,16 +109,19 @@ EditFlag parse_edit(const std::string& text) {
           static_cast<float>(*height)};
 }
 
-// The cells whose centres lie inside the rectangle; kOutOfRange when none.
+// The cells whose centres lie inside the rectangle (clipped to the DEM, and
+// clamped before any cast, so a rectangle far off it is empty, not an
+// overflow); kOutOfRange when none. The daemon converts a TraceCamera
+// request's rectangles the same way (server/src/trace_translate.cpp).
 Result<terrain::HeightEdit> edit_cells(const EditFlag& e, const terrain::DemHeader& h, std::size_t index) {
   const terrain::GeoTransform& t = h.georef.transform;
   const double c0 = t.col_at(e.x_min), c1 = t.col_at(e.x_max);
   const double r0 = t.row_at(e.y_min), r1 = t.row_at(e.y_max);
+  const auto first = [](double v, int n) { return static_cast<int>(std::clamp(std::ceil(v), 0.0, double(n))); };
+  const auto end = [](double v, int n) { return static_cast<int>(std::clamp(std::floor(v) + 1.0, 0.0, double(n))); };
   terrain::HeightEdit edit;
-  edit.cells = {std::max(0, static_cast<int>(std::ceil(std::min(c0, c1)))),
-                std::max(0, static_cast<int>(std::ceil(std::min(r0, r1)))),
-                std::min(h.width, static_cast<int>(std::floor(std::max(c0, c1))) + 1),
-                std::min(h.height, static_cast<int>(std::floor(std::max(r0, r1))) + 1)};
+  edit.cells = {first(std::min(c0, c1), h.width), first(std::min(r0, r1), h.height), end(std::max(c0, c1), h.width),
+                end(std::max(r0, r1), h.height)};
   if (edit.cells.empty())
     return make_error(
         ErrorCode::kOutOfRange,
@@ -134,6 +135,7 @@ struct Request {
   std::string dem_path;
   std::optional<std::string> depth_path, png_path, hits_path, footprint_path, frames_dir;
   trace::TraceQuery query;
+  std::vector<std::uint64_t> box_ids;  // from the --boxes file's id column, one per box, or none
   std::vector<EditFlag> edits;
   std::optional<std::string> path_file;
   bool json = false;
@@ -219,7 +221,7 @@ Request parse_request(const Args& args) {
   r.gpu = args.choice("--backend", kBackends).value_or("cpu") == "gpu";
   throw_if_invalid_option(trace::validate_trace_options(o));
   for (const std::string& e : args.all("--edit")) r.edits.push_back(parse_edit(e));
-  if (auto boxes = args.text("--boxes")) r.query.boxes = read_boxes_file(*boxes, args.has("--lonlat"));
+  if (auto boxes = args.text("--boxes")) r.query.boxes = read_boxes_file(*boxes, args.has("--lonlat"), &r.box_ids);
   (void)source_options(args);
 
   r.depth_path = args.text("--out");
@@ -236,6 +238,12 @@ Request parse_request(const Args& args) {
     for (std::size_t k = i + 1; k < 4; ++k)
       if (*outputs[i] && *outputs[k] && same_file(**outputs[i], **outputs[k]))
         throw UsageError("'" + **outputs[i] + "' is given for two outputs; give each its own file");
+  if (args.has("--server"))
+    for (const char* flag : {"--path", "--frames", "--altitude-path", "--band", "--threads"})
+      if (args.has(flag))
+        throw UsageError(std::string(flag) +
+                         " runs embedded only: with --server the daemon's configuration sets the dataset's band and "
+                         "the threads a request uses, and a camera path (--path, --frames) is flown on a local DEM");
   if (!r.path_file && !r.depth_path && !r.png_path && !r.hits_path && !r.footprint_path && !r.json &&
       r.query.boxes.empty())
     throw UsageError("nothing to write: give -o DEPTH.tif, --png VIEW.png, --hits, --footprint, --boxes or --json");
@@ -319,64 +327,26 @@ int run_frame(const Request& r, const terrain::ElevationSource& source) {
   if (r.gpu) warn_fallback(run->frame.stats, gpu);
   const auto traced = std::chrono::steady_clock::now();
   if (Status s = write_outputs(r, *run); !s.ok()) return report_error(s.error());
-  const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-  const double write_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - traced).count();
-  const trace::TraceStats& st = run->frame.stats;
   const terrain::Georeference& georef = source.header().georef;
 
-  if (r.json) {
-    Json j;
-    j["dem"] = r.dem_path;
-    j["camera"] = to_json(run->eye, lonlat_of(georef, run->eye.x, run->eye.y));
-    j["yaw"] = r.query.camera.yaw;
-    j["pitch"] = r.query.camera.pitch;
-    j["hfov"] = r.query.camera.hfov;
-    j["projection"] = trace::projection_name(r.query.camera.projection);
-    j["width"] = r.query.camera.width;
-    j["height"] = r.query.camera.height;
-    j["mode"] = r.query.options.column_crossings ? "rows+columns" : "rows";
-    j["gpu_fallback"] = st.gpu_fallback.empty() ? Json(nullptr) : Json(st.gpu_fallback);
-    j["trace"] = stats_json(st);
-    j["read"] = {
-        {"window", to_json(run->window)},
-        {"cells", run->window.cell_count()},
-        {"dem_cells", static_cast<std::uint64_t>(source.width()) * static_cast<std::uint64_t>(source.height())},
-        {"blocks", run->read.blocks},
-        {"blocks_total", run->read.blocks_total}};
-    j["edited_cells"] = run->edited_cells;
-    Json boxes = Json::array();
-    for (const trace::BoxView& b : run->boxes)
-      boxes.push_back({{"pixels", b.pixels}, {"visible_pixels", b.visible}, {"fraction", b.fraction()}});
-    j["boxes"] = std::move(boxes);
-    j["seconds"] = {{"total", total}, {"trace", st.seconds}, {"write", write_seconds}};
-    print_json(j);
-    return kExitOk;
-  }
-  const bool geographic = is_geographic(georef);
-  std::cout << "Camera trace over " << r.dem_path << '\n'
-            << "  camera:     x " << coordinate(run->eye.x, geographic) << ", y " << coordinate(run->eye.y, geographic)
-            << ", eye " << fixed(run->eye.elevation, 1) << " m (ground " << fixed(run->eye.ground, 1) << " m)\n"
-            << "  view:       yaw " << fixed(r.query.camera.yaw, 1) << ", pitch " << fixed(r.query.camera.pitch, 1)
-            << ", " << fixed(r.query.camera.hfov, 1) << " degrees " << trace::projection_name(r.query.camera.projection)
-            << ", " << r.query.camera.width << "x" << r.query.camera.height << " pixels\n"
-            << "  mode:       "
-            << (r.query.options.column_crossings ? "rows and columns (exact)" : "rows (the paper's)") << ", "
-            << st.sub_frusta << " sub-frust" << (st.sub_frusta == 1 ? "um" : "a") << ", on the "
-            << (st.backend == "gpu" ? "GPU" : "CPU") << '\n'
-            << "  sky:        " << with_separators(st.sky_pixels) << " of " << with_separators(st.pixels) << " pixels\n"
-            << "  work:       " << with_separators(st.crossings) << " crossings over " << st.max_lines << " lines, "
-            << st.reads_per_pixel << " reads a pixel\n"
-            << "  read:       " << with_separators(run->window.cell_count()) << " of "
-            << with_separators(static_cast<std::uint64_t>(source.width()) * static_cast<std::uint64_t>(source.height()))
-            << " cells, " << run->read.blocks << " of " << run->read.blocks_total << " blocks\n";
-  if (run->edited_cells) std::cout << "  edited:     " << with_separators(run->edited_cells) << " cells\n";
-  for (std::size_t i = 0; i < run->boxes.size(); ++i)
-    std::cout << "  box " << i + 1 << ":      "
-              << (run->boxes[i].pixels ? fixed(100.0 * run->boxes[i].fraction(), 1) + " % of " +
-                                             with_separators(run->boxes[i].pixels) + " pixels seen"
-                                       : std::string("not in the frame"))
-              << '\n';
-  std::cout << "  time:       " << fixed(st.seconds * 1e3, 1) << " ms trace, " << fixed(total, 3) << " s in all\n";
+  TraceReport report;
+  report.dem = r.dem_path;
+  report.eye = run->eye;
+  report.eye_lonlat = lonlat_of(georef, run->eye.x, run->eye.y);
+  report.geographic = is_geographic(georef);
+  report.camera = r.query.camera;
+  report.columns = r.query.options.column_crossings;
+  report.stats = run->frame.stats;
+  report.window = run->window;
+  report.dem_cells = static_cast<std::uint64_t>(source.width()) * static_cast<std::uint64_t>(source.height());
+  report.blocks = run->read.blocks;
+  report.blocks_total = run->read.blocks_total;
+  report.edited_cells = run->edited_cells;
+  report.boxes = run->boxes;
+  report.ids = r.box_ids;
+  report.total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  report.write_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - traced).count();
+  print_trace(report, r.json);
   return kExitOk;
 }
 
@@ -464,6 +434,19 @@ int run_trace(const Args& args) {
         return report_error(s.error());
   if (r.png_path || r.frames_dir)
     if (auto plugin = imageio::plugin_path(); !plugin.ok()) return report_error(plugin.error());
+  if (args.has("--server"))  // DEM is a dataset name; the daemon traces, this writes the same files
+    return remote::run_trace(args, {.dataset = r.dem_path,
+                                    .depth_path = r.depth_path,
+                                    .png_path = r.png_path,
+                                    .hits_path = r.hits_path,
+                                    .footprint_path = r.footprint_path,
+                                    .camera = r.query.camera,
+                                    .options = r.query.options,
+                                    .boxes = r.query.boxes,
+                                    .box_ids = r.box_ids,
+                                    .edits = r.edits,
+                                    .json = r.json,
+                                    .gpu = r.gpu});
   auto source = terrain::ElevationSource::open(r.dem_path, source_options(args));
   if (!source.ok()) return report_error(source.error());
   for (std::size_t i = 0; i < r.edits.size(); ++i) {
@@ -475,6 +458,66 @@ int run_trace(const Args& args) {
 }
 
 }  // namespace
+
+void print_trace(const TraceReport& r, bool json) {
+  const trace::TraceStats& st = r.stats;
+  if (json) {
+    Json j;
+    j["dem"] = r.dem;
+    j["camera"] = to_json(r.eye, r.eye_lonlat);
+    j["yaw"] = r.camera.yaw;
+    j["pitch"] = r.camera.pitch;
+    j["hfov"] = r.camera.hfov;
+    j["projection"] = trace::projection_name(r.camera.projection);
+    j["width"] = r.camera.width;
+    j["height"] = r.camera.height;
+    j["mode"] = r.columns ? "rows+columns" : "rows";
+    j["gpu_fallback"] = st.gpu_fallback.empty() ? Json(nullptr) : Json(st.gpu_fallback);
+    j["trace"] = stats_json(st);
+    j["read"] = {{"window", to_json(r.window)},
+                 {"cells", r.window.cell_count()},
+                 {"dem_cells", r.dem_cells},
+                 {"blocks", r.blocks},
+                 {"blocks_total", r.blocks_total}};
+    j["edited_cells"] = r.edited_cells;
+    Json boxes = Json::array();
+    for (std::size_t i = 0; i < r.boxes.size(); ++i) {
+      const trace::BoxView& b = r.boxes[i];
+      Json box = {{"pixels", b.pixels}, {"visible_pixels", b.visible}, {"fraction", b.fraction()}};
+      if (!r.ids.empty()) box["id"] = r.ids[i];
+      boxes.push_back(std::move(box));
+    }
+    j["boxes"] = std::move(boxes);
+    j["seconds"] = {{"total", r.total_seconds}, {"trace", st.seconds}, {"write", r.write_seconds}};
+    if (!r.server.empty()) j["server"] = {{"address", r.server}};
+    print_json(j);
+    return;
+  }
+  std::cout << "Camera trace over " << r.dem << (r.server.empty() ? "" : " on " + r.server) << '\n'
+            << "  camera:     x " << coordinate(r.eye.x, r.geographic) << ", y " << coordinate(r.eye.y, r.geographic)
+            << ", eye " << fixed(r.eye.elevation, 1) << " m (ground " << fixed(r.eye.ground, 1) << " m)\n"
+            << "  view:       yaw " << fixed(r.camera.yaw, 1) << ", pitch " << fixed(r.camera.pitch, 1) << ", "
+            << fixed(r.camera.hfov, 1) << " degrees " << trace::projection_name(r.camera.projection) << ", "
+            << r.camera.width << "x" << r.camera.height << " pixels\n"
+            << "  mode:       " << (r.columns ? "rows and columns (exact)" : "rows (the paper's)") << ", "
+            << st.sub_frusta << " sub-frust" << (st.sub_frusta == 1 ? "um" : "a") << ", on the "
+            << (st.backend == "gpu" ? "GPU" : "CPU") << '\n'
+            << "  sky:        " << with_separators(st.sky_pixels) << " of " << with_separators(st.pixels) << " pixels\n"
+            << "  work:       " << with_separators(st.crossings) << " crossings over " << st.max_lines << " lines, "
+            << st.reads_per_pixel << " reads a pixel\n"
+            << "  read:       " << with_separators(r.window.cell_count()) << " of " << with_separators(r.dem_cells)
+            << " cells, " << r.blocks << " of " << r.blocks_total << " blocks\n";
+  if (r.edited_cells) std::cout << "  edited:     " << with_separators(r.edited_cells) << " cells\n";
+  for (std::size_t i = 0; i < r.boxes.size(); ++i) {
+    const trace::BoxView& b = r.boxes[i];
+    std::cout << "  box " << (r.ids.empty() ? i + 1 : r.ids[i]) << ":      "
+              << (b.pixels ? fixed(100.0 * b.fraction(), 1) + " % of " + with_separators(b.pixels) + " pixels seen"
+                           : std::string("not in the frame"))
+              << '\n';
+  }
+  std::cout << "  time:       " << fixed(st.seconds * 1e3, 1) << " ms trace, " << fixed(r.total_seconds, 3)
+            << " s in all\n";
+}
 
 const Command& trace_command() {
   static const Command command{
@@ -498,7 +541,9 @@ const Command& trace_command() {
       "      --yaw 20 --pitch 5 --hfov 70 --size 960x540 --png view.png -o depth.tif\n"
       "  horizon trace data/dem/everest_summit_voids_srtm3_300x300.tif --lat 27.9881 --lon 86.925 --altitude 8850 \\\n"
       "      --projection cylindrical --hfov 360 --pitch -10 --size 1440x240 --png panorama.png\n"
-      "  horizon trace dem.tif --path flight.csv --size 512x512 --json\n",
+      "  horizon trace dem.tif --path flight.csv --size 512x512 --json\n"
+      "  horizon trace rainier --server localhost:50051 --lat 46.70 --lon -121.90 --height 800 --yaw 40 \\\n"
+      "      -o depth.tif --png view.png     # a horizond dataset: the same files, traced by the daemon\n",
       run_trace,
   };
   return command;

@@ -67,6 +67,7 @@ Client::Client(const Args& args) {
   datasets_ = v1::DatasetService::NewStub(channel);
   visibility_ = v1::VisibilityService::NewStub(channel);
   sessions_ = v1::SessionService::NewStub(channel);
+  traces_ = v1::TraceService::NewStub(channel);
 }
 
 grpc::Status Client::get_dataset(const std::string& name, v1::Dataset& out) {

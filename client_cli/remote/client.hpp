@@ -15,6 +15,7 @@
 #include "horizon/geodesy/observer.hpp"
 #include "horizon/v1/datasets.grpc.pb.h"
 #include "horizon/v1/session.grpc.pb.h"
+#include "horizon/v1/trace.grpc.pb.h"
 #include "horizon/v1/visibility.grpc.pb.h"
 #include "horizon/visibility/cull.hpp"
 #include "horizon/visibility/options.hpp"
@@ -38,6 +39,7 @@ class Client {
   grpc::Status get_dataset(const std::string& name, v1::Dataset& out);
   v1::VisibilityService::Stub& visibility() { return *visibility_; }
   v1::SessionService::Stub& sessions() { return *sessions_; }
+  v1::TraceService::Stub& traces() { return *traces_; }
 
  private:
   std::string address_;
@@ -46,6 +48,7 @@ class Client {
   std::unique_ptr<v1::DatasetService::Stub> datasets_;
   std::unique_ptr<v1::VisibilityService::Stub> visibility_;
   std::unique_ptr<v1::SessionService::Stub> sessions_;
+  std::unique_ptr<v1::TraceService::Stub> traces_;
 };
 
 // Prints "horizon: error: <message> (<CODE> from HOST:PORT[, field F])" and

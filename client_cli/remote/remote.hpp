@@ -13,6 +13,9 @@
 
 #include "args.hpp"
 #include "horizon/geodesy/observer.hpp"
+#include "horizon/terrain/height_edit.hpp"
+#include "horizon/trace/camera.hpp"
+#include "horizon/trace/trace.hpp"
 #include "horizon/visibility/cull.hpp"
 #include "horizon/visibility/line_of_sight.hpp"
 #include "horizon/visibility/options.hpp"
@@ -58,6 +61,28 @@ struct ManyViewshedInputs {
   bool json = false;
 };
 
+// One `horizon trace --edit`: a rectangle in the DEM's CRS (the cells whose
+// centres it holds) set to, or raised by, `height` metres.
+struct TraceEditRect {
+  double x_min, y_min, x_max, y_max;
+  terrain::EditMode mode;
+  float height;
+};
+
+// `horizon trace DATASET --server ...`: one frame traced by the daemon
+// (TraceService.TraceCamera); the same files and report as embedded mode.
+struct TraceInputs {
+  std::string dataset;
+  std::optional<std::string> depth_path, png_path, hits_path, footprint_path;
+  trace::CameraSpec camera;
+  trace::TraceOptions options;  // threads: the daemon's
+  std::vector<visibility::BoxSpec> boxes;
+  std::vector<std::uint64_t> box_ids;  // one per box, or none
+  std::vector<TraceEditRect> edits;
+  bool json = false;
+  bool gpu = false;  // --backend gpu: on one of the daemon's GL contexts
+};
+
 int run_info(const Args& args, const std::string& dataset, bool json);
 int run_viewshed_many(const Args& args, const ManyViewshedInputs& inputs);
 int run_viewshed(const Args& args, const ViewshedInputs& inputs);
@@ -69,6 +94,7 @@ int run_cull(const Args& args, const std::string& dataset, const geodesy::PointS
              const std::vector<visibility::BoxSpec>& boxes, const std::vector<std::uint64_t>& ids,
              const visibility::CullOptions& options, bool json);
 int run_datasets(const Args& args, bool json);
+int run_trace(const Args& args, const TraceInputs& inputs);
 // The flight over one session stream; prints the same report as embedded mode.
 int run_session(const Args& args, const SessionPlayback& playback, bool json, bool every_pose);
 

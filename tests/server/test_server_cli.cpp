@@ -225,5 +225,103 @@ TEST_F(ServerCli, ManyObserversEqualEmbeddedByteForByte) {
   EXPECT_FALSE(std::ifstream(dir_.file("off.tif")).good());
 }
 
+// `horizon trace --server`: the depth and hit TIFFs, the footprint GeoTIFF
+// and the shaded PNG byte for byte, and the JSON but the times: a pinhole
+// with boxes (their ids echoed) and an edit over Rainier, and a panorama
+// with column crossings over Everest's filled voids.
+TEST_F(ServerCli, TraceFilesAreByteIdenticalToEmbedded) {
+  const std::string boxes = dir_.file("boxes.csv");
+  write_file(boxes,
+             "id,x_min,y_min,x_max,y_max,z_min,z_max\n"
+             "17,-121.765,46.848,-121.755,46.856,4300,4500\n"
+             "23,-121.80,46.75,-121.79,46.76,0,10\n"
+             "99,-80.0,46.75,-79.99,46.76,0,10\n");
+  struct Run {
+    std::string dataset, file, flags;
+  };
+  const Run runs[] = {
+      {"rainier", "rainier_summit_srtm3_400x400.tif",
+       " --lat 46.70 --lon -121.90 --height 800 --yaw 40 --pitch -3 --hfov 60 --size 320x180 --boxes " + boxes +
+           " --lonlat --edit -121.89,46.72,-121.86,46.73,+300"},
+      {"everest", "everest_summit_voids_srtm3_300x300.tif",
+       " --lat 27.9881 --lon 86.925 --altitude 8850 --projection cylindrical --hfov 360 --pitch -10 --size 720x120"
+       " --columns --nodata fill:0 --max-distance 12000 --near 5 --curvature 0.5"},
+  };
+  for (const Run& run : runs) {
+    std::string outputs[2];
+    for (int k = 0; k < 2; ++k) {
+      const std::string p = dir_.file(k ? "remote" : "local");
+      outputs[k] = " -o " + p + "_depth.tif --hits " + p + "_hits.tif --footprint " + p + "_seen.tif --png " + p +
+                   "_view.png --json";
+    }
+    const auto a = horizon("trace " + bundled_dem(run.file) + run.flags + outputs[0]);
+    ASSERT_EQ(a.exit_code, 0) << a.output;
+    const auto b = horizon("trace " + run.dataset + server() + run.flags + outputs[1]);
+    ASSERT_EQ(b.exit_code, 0) << b.output;
+    for (const char* file : {"_depth.tif", "_hits.tif", "_seen.tif", "_view.png"}) {
+      const std::string local = read_bytes(dir_.file(std::string("local") + file));
+      ASSERT_GT(local.size(), 1000u) << file;
+      EXPECT_TRUE(local == read_bytes(dir_.file(std::string("remote") + file)))
+          << file << " differs for " << run.dataset;
+    }
+    Json ja = json_of(a), jb = json_of(b);
+    EXPECT_EQ(jb["server"]["address"], daemon_->address());
+    for (Json* j : {&ja, &jb}) {
+      j->erase("dem");
+      j->erase("seconds");
+      j->erase("server");
+      (*j)["trace"].erase("seconds");
+    }
+    EXPECT_EQ(ja, jb) << run.dataset;
+    EXPECT_GT(ja["trace"]["sky_pixels"].get<std::uint64_t>(), 0u);
+    if (run.dataset == "rainier") {
+      ASSERT_EQ(jb["boxes"].size(), 3u);
+      EXPECT_EQ(jb["boxes"][0]["id"], 17);
+      EXPECT_EQ(jb["boxes"][1]["id"], 23);
+      EXPECT_EQ(jb["boxes"][2]["id"], 99);
+      EXPECT_GT(jb["boxes"][0]["visible_pixels"].get<std::uint64_t>(), 0u);
+      EXPECT_EQ(jb["boxes"][2]["pixels"], 0);  // off the dataset
+      EXPECT_GT(jb["edited_cells"].get<std::uint64_t>(), 10u);
+    } else {
+      EXPECT_EQ(jb["mode"], "rows+columns");
+      EXPECT_EQ(jb["projection"], "cylindrical");
+    }
+  }
+  // The text report names the daemon and the boxes by their ids.
+  const auto text = horizon("trace rainier" + server() + runs[0].flags);
+  ASSERT_EQ(text.exit_code, 0) << text.output;
+  EXPECT_NE(text.output.find("Camera trace over rainier on " + daemon_->address()), std::string::npos) << text.output;
+  EXPECT_NE(text.output.find("box 99:      not in the frame"), std::string::npos) << text.output;
+}
+
+TEST_F(ServerCli, TraceRefusesEmbeddedOnlyFlagsAndReportsTheDaemonsErrors) {
+  const std::string out = dir_.file("depth.tif");
+  const std::string camera = " --lat 46.70 --lon -121.90 --height 800 --size 64x36 -o " + out;
+  for (const char* flag : {" --band 1", " --threads 2"}) {
+    const auto r = horizon("trace rainier" + server() + camera + flag);
+    EXPECT_EQ(r.exit_code, 2) << flag << ": " << r.output;
+    EXPECT_NE(r.output.find(std::string(flag).substr(1, std::string(flag).find(' ', 1) - 1)), std::string::npos)
+        << r.output;
+    EXPECT_NE(r.output.find("runs embedded only"), std::string::npos) << r.output;
+  }
+  const std::string path = dir_.file("path.csv");
+  write_file(path, "-121.90,46.70,800,40\n");
+  const auto flown = horizon("trace rainier" + server() + " --path " + path + " --lonlat --json");
+  EXPECT_EQ(flown.exit_code, 2) << flown.output;
+  EXPECT_NE(flown.output.find("--path runs embedded only"), std::string::npos) << flown.output;
+  // The daemon's refusals: a camera off the dataset, an edit off it; nothing is written.
+  const auto off = horizon("trace rainier" + server() + " --lat 46.0 --lon -121.7 -o " + out);
+  EXPECT_EQ(off.exit_code, 1) << off.output;
+  EXPECT_NE(off.output.find("OUT_OF_RANGE"), std::string::npos) << off.output;
+  EXPECT_NE(off.output.find("field camera.position"), std::string::npos) << off.output;
+  const auto edit = horizon("trace rainier" + server() + camera + " --edit 0,0,1,1,=5");
+  EXPECT_EQ(edit.exit_code, 1) << edit.output;
+  EXPECT_NE(edit.output.find("field edits[0].rect"), std::string::npos) << edit.output;
+  const auto unknown = horizon("trace nowhere" + server() + camera);
+  EXPECT_EQ(unknown.exit_code, 1) << unknown.output;
+  EXPECT_NE(unknown.output.find("NOT_FOUND"), std::string::npos) << unknown.output;
+  EXPECT_FALSE(std::ifstream(out).good());
+}
+
 }  // namespace
 }  // namespace horizon::testing
