@@ -45,7 +45,9 @@ TEST(TraceBoxes, OpenBoxesAreSeenWholeAndBoxesBehindAWallNotAtAll) {
       {55, 65, 150, 155, 0, 200},  // behind the wall, towering over it: part seen
       {55, 65, 305, 310, 0, 20},   // behind the camera: not in the frame
   };
-  const std::vector<BoxView> v = box_views(frame, boxes, options);
+  auto views = box_views(frame, boxes, options);
+  ASSERT_TRUE(views.ok());
+  const std::vector<BoxView>& v = *views;
   ASSERT_EQ(v.size(), 4u);
   EXPECT_GT(v[0].pixels, 100u);
   EXPECT_EQ(v[0].visible, v[0].pixels);
@@ -65,6 +67,20 @@ TEST(TraceBoxes, OpenBoxesAreSeenWholeAndBoxesBehindAWallNotAtAll) {
   EXPECT_LE(bound, 4u * 200u * 100u);
 }
 
+TEST(TraceBoxes, ACancelledCallStopsBetweenBoxes) {
+  const terrain::Dem dem = walled();
+  const Camera camera = camera_at(dem, 60.0, 290.0, 10.0, spec_of(0.0, 0.0, 40.0, 64, 32));
+  const TraceResult frame = traced(dem, camera);
+  const std::vector<ViewBox> boxes(100, ViewBox{55, 65, 240, 245, 1, 8});
+  CancelToken cancel;
+  cancel.cancel();
+  RunControl control;
+  control.cancel = &cancel;
+  auto v = box_views(frame, boxes, {}, &control);
+  ASSERT_FALSE(v.ok());
+  EXPECT_EQ(v.error().code, ErrorCode::kCancelled);
+}
+
 TEST(TraceBoxes, APanoramaSeesABoxAcrossItsSeam) {
   // A 360 degree panorama looking north has its seam due south: a box due
   // south is seen at both ends of the frame, and counted once per pixel.
@@ -75,7 +91,7 @@ TEST(TraceBoxes, APanoramaSeesABoxAcrossItsSeam) {
   options.curvature_coefficient = 0.0;
   const TraceResult frame = traced(dem, camera, options);
   const ViewBox south[] = {{95, 105, 140, 150, 0, 30}};
-  const BoxView v = box_views(frame, south, options)[0];
+  const BoxView v = (*box_views(frame, south, options))[0];
   EXPECT_GT(v.pixels, 50u);
   EXPECT_EQ(v.visible, v.pixels);
 }

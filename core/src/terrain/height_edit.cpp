@@ -15,20 +15,20 @@ Status validate_edits(std::span<const HeightEdit> edits, int width, int height) 
     const Window& w = e.cells;
     if (w.col0 < 0 || w.row0 < 0 || w.col1 > width || w.row1 > height || w.col0 >= w.col1 || w.row0 >= w.row1)
       return make_error(ErrorCode::kOutOfRange,
-                        name + ": cells " + std::to_string(w.col0) + ".." + std::to_string(w.col1) + " x " +
+                        name + ".cells: " + std::to_string(w.col0) + ".." + std::to_string(w.col1) + " x " +
                             std::to_string(w.row0) + ".." + std::to_string(w.row1) +
                             " must be a non-empty window inside the dataset's " + std::to_string(width) + "x" +
                             std::to_string(height) + " cells",
                         name + ".cells");
     if (e.heights.size() != 1 && e.heights.size() != w.cell_count())
       return make_error(ErrorCode::kInvalidArgument,
-                        name + ": " + std::to_string(e.heights.size()) + " heights for a window of " +
+                        name + ".heights: " + std::to_string(e.heights.size()) + " heights for a window of " +
                             std::to_string(w.cell_count()) + " cells (give 1, or 1 per cell)",
                         name + ".heights");
     for (float h : e.heights)
       if (!std::isfinite(h) || std::abs(h) > 100000.0f)
         return make_error(ErrorCode::kInvalidArgument,
-                          name + ": heights must be finite metres within +-100 km, got " + number_text(h),
+                          name + ".heights: must be finite metres within +-100 km, got " + number_text(h),
                           name + ".heights");
     cells += w.cell_count();
     if (cells > kMaxEditCells)

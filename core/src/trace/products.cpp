@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "../terrain/atomic_file.hpp"
+#include "horizon/common/parallel.hpp"
 #include "horizon/imageio/imageio.hpp"
 
 namespace horizon::trace {
@@ -245,11 +246,12 @@ std::uint64_t box_pixel_bound(const Camera& camera, std::span<const ViewBox> box
   return bound;
 }
 
-std::vector<BoxView> box_views(const TraceResult& frame, std::span<const ViewBox> boxes, const TraceOptions& options) {
+Result<std::vector<BoxView>> box_views(const TraceResult& frame, std::span<const ViewBox> boxes,
+                                       const TraceOptions& options, const RunControl* control) {
   const Camera& cam = frame.camera;
   const TraceImage& im = frame.image;
   std::vector<BoxView> views(boxes.size());
-  for (std::size_t bi = 0; bi < boxes.size(); ++bi) {
+  auto answer = [&](std::size_t bi) {
     const ViewBox& b = boxes[bi];
     BoxView& view = views[bi];
     auto column = [&](int x) {
@@ -286,7 +288,8 @@ std::vector<BoxView> box_views(const TraceResult& frame, std::span<const ViewBox
     const int n = column_ranges(cam, b, ranges);
     for (int piece = 0; piece < n; ++piece)
       for (int x = ranges[piece].x0; x < ranges[piece].x1; ++x) column(x);
-  }
+  };
+  HORIZON_RETURN_IF_ERROR(parallel_for(boxes.size(), options.threads, control, answer));
   return views;
 }
 

@@ -131,7 +131,7 @@ Result<TracePlan> plan_trace(const terrain::ElevationSource& source, const Trace
   const std::uint64_t per_thread = families * detail::kBlock * cost.lines * sizeof(float) * 3;
   cost.bytes = cost.read_cells * sizeof(float) + cost.pixels * (sizeof(float) + sizeof(std::int32_t) + 1) +
                resolve_thread_count(threads) * per_thread + cost.pixels * sizeof(float) * 4 + cost.read_cells +
-               cost.edit_cells * sizeof(float);
+               2 * cost.edit_cells * sizeof(float);  // the plan's copy of the edits and the caller's
   const double levels = std::ceil(std::log2(std::max<double>(2.0, static_cast<double>(cost.lines))) / 2.0);
   cost.seconds =
       static_cast<double>(cost.crossings) * kSecondsPerCrossing +
@@ -182,9 +182,10 @@ Result<TraceRun> run_trace(const TracePlan& plan, const terrain::ElevationSource
     on_map.push_back(i);
   }
   boxes.resize(on_map.size());
-  const std::vector<BoxView> views = box_views(run.frame, boxes, plan.query.options);
+  auto views = box_views(run.frame, boxes, plan.query.options, control);
+  if (!views.ok()) return views.error();
   run.boxes.assign(plan.boxes.size(), BoxView{});
-  for (std::size_t k = 0; k < on_map.size(); ++k) run.boxes[on_map[k]] = views[k];
+  for (std::size_t k = 0; k < on_map.size(); ++k) run.boxes[on_map[k]] = (*views)[k];
   return run;
 }
 

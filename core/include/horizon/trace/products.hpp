@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "horizon/common/control.hpp"
 #include "horizon/common/error.hpp"
 #include "horizon/terrain/grid.hpp"
 #include "horizon/terrain/height_view.hpp"
@@ -65,8 +66,10 @@ struct BoxView {
 // lowered by curvature at its mid-depth) and which of them meet it before
 // their terrain hit. Cost: each box's columns times the rows its slope
 // range spans, at most boxes x pixels: box_pixel_bound() gives the bound
-// before any work.
-std::vector<BoxView> box_views(const TraceResult& frame, std::span<const ViewBox> boxes, const TraceOptions& options);
+// before any work. Boxes are answered on options.threads threads, `control`
+// (may be null) polled between boxes: kCancelled / kDeadlineExceeded.
+Result<std::vector<BoxView>> box_views(const TraceResult& frame, std::span<const ViewBox> boxes,
+                                       const TraceOptions& options, const RunControl* control = nullptr);
 
 // An upper bound on the pixel tests box_views makes for these boxes with
 // this camera (each box's column span times the frame's height), from the
