@@ -21,4 +21,4 @@ echo
 echo
 echo "Files written:"
 echo "  $PWD/out/everest_viewshed.tif  (GeoTIFF: 1 visible, 0 hidden, 255 no data; open it in QGIS)"
-echo "  $PWD/out/everest_viewshed.png  (preview: visible cells green, hidden red, observer yellow)"
+echo "  $PWD/out/everest_viewshed.png  (preview: visible blue, hidden vermillion, voids hatched; legend, scale bar, north arrow)"

@@ -1,6 +1,7 @@
 // `horizon region DEM --from-box ...`: what is always visible, always hidden
 // or undetermined from anywhere in a box of viewpoints.
 #include <chrono>
+#include <cmath>
 #include <iostream>
 
 #include "commands/command.hpp"
@@ -10,6 +11,7 @@
 #include "horizon/terrain/geotiff_writer.hpp"
 #include "horizon/terrain/height_view.hpp"
 #include "horizon/terrain/preview.hpp"
+#include "horizon/visibility/viewshed_preview.hpp"
 #include "inputs.hpp"
 #include "interrupt.hpp"
 #include "output.hpp"
@@ -27,7 +29,9 @@ constexpr FlagSpec kFlags[] = {
     {"--altitudes", "", "ZMIN,ZMAX", "Viewpoint altitudes, absolute metres (instead of --heights)"},
     {"--out", "-o", "OUT.tif",
      "Write the three-valued raster: 0 always hidden, 1 always visible, 2 undetermined, 255 none"},
-    {"--png", "", "PREVIEW.png", "Also write a hillshade preview (green visible, red hidden, amber undetermined)"},
+    {"--png", "", "PREVIEW.png",
+     "Also write a PNG preview: blue always visible, vermillion always hidden, yellow undetermined over a hillshade, "
+     "the region's box, a legend, scale bar and north arrow"},
     {"--boxes", "", "FILE.csv",
      "Classify object boxes instead: x_min,y_min,x_max,y_max,z_min,z_max a line (absolute metres)"},
     {"--max-distance", "", "M", "Answer only cells within M ground metres of the region (default: the whole DEM)"},
@@ -198,15 +202,34 @@ int run_region(const Args& args) {
   georef.transform = georef.transform.shifted(w.col0, w.row0);
   if (auto s = terrain::write_geotiff(*out, res->codes, georef, double{region::kNoAnswer}); !s.ok())
     return report_error(s.error());
+  double preview_seconds = 0.0;
   if (png) {
+    const auto drawing = std::chrono::steady_clock::now();
     const terrain::Grid<float> elevation = terrain::copy_cells(terrain::HeightView(dem->elevation).sub(w));
+    const region::RegionFrame& f = res->frame;
     terrain::PreviewOptions p;
-    p.metres_per_col = res->frame.metres_per_col;
-    p.metres_per_row = res->frame.metres_per_row;
-    p.observer_col = 0.5 * (res->frame.col_min + res->frame.col_max) - w.col0;
-    p.observer_row = 0.5 * (res->frame.row_min + res->frame.row_max) - w.row0;
+    p.metres_per_col = f.metres_per_col;
+    p.metres_per_row = f.metres_per_row;
+    p.region = terrain::PreviewRect{f.col_min - w.col0, f.row_min - w.row0, f.col_max - w.col0, f.row_max - w.row0};
+    p.classes = {.visible = "always visible (from the whole region)",
+                 .hidden = "always hidden",
+                 .undetermined = "undetermined",
+                 .beyond = "beyond reach: not computed"};
+    const bool above = spec.height_mode == geodesy::HeightMode::kAboveGround;
+    p.title = {"From-region visibility over " + visibility::dem_label(path),
+               "Viewpoints anywhere in the box " +
+                   (spec.frame == geodesy::PointFrame::kWgs84
+                        ? "lon " + fixed(spec.x_min, 5) + " to " + fixed(spec.x_max, 5) + ", lat " +
+                              fixed(spec.y_min, 5) + " to " + fixed(spec.y_max, 5)
+                        : "x " + fixed(spec.x_min, 1) + " to " + fixed(spec.x_max, 1) + ", y " + fixed(spec.y_min, 1) +
+                              " to " + fixed(spec.y_max, 1)) +
+                   "; " + fixed(spec.z_min, 1) + " to " + fixed(spec.z_max, 1) +
+                   (above ? " m above the ground" : " m altitude") + "; targets " + fixed(o.target_height, 1) +
+                   " m above the ground; reach " +
+                   (std::isfinite(o.max_distance) ? fixed(o.max_distance / 1000.0, 2) + " km" : "the whole DEM")};
     if (auto s = terrain::write_viewshed_preview(*png, elevation, res->codes, p); !s.ok())
       return report_error(s.error());
+    preview_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - drawing).count();
   }
   Json checked;
   if (check_points) {
@@ -215,13 +238,15 @@ int run_region(const Args& args) {
   }
   if (json) {
     Json j{{"dem", path}, {"output", *out}, {"window", to_json(w)}, {"stats", stats_json(res->stats)}};
+    j["preview_seconds"] = png ? Json(preview_seconds) : Json(nullptr);
     if (check_points) j["check"] = checked;
     print_json(j);
     return kExitOk;
   }
   print_summary(path, res->frame, res->stats, "cells answered: ");
   if (check_points) print_check(checked);
-  std::cout << "  wrote:          " << *out << (png ? " and " + *png : std::string()) << '\n';
+  std::cout << "  wrote:          " << *out << '\n';
+  if (png) std::cout << "  preview:        " << *png << " (" << fixed(preview_seconds, 3) << " s)\n";
   return kExitOk;
 }
 

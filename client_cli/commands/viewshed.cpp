@@ -14,6 +14,7 @@
 #include "horizon/terrain/source.hpp"
 #include "horizon/visibility/plan.hpp"
 #include "horizon/visibility/viewshed.hpp"
+#include "horizon/visibility/viewshed_preview.hpp"
 #include "inputs.hpp"
 #include "interrupt.hpp"
 #include "output.hpp"
@@ -52,7 +53,9 @@ constexpr FlagSpec kFlags[] = {
     {"--threads", "", "N", "Worker threads (default 0 = all cores)"},
     {"--output", "", "KIND", "Raster written: 'visible' (default), 'ohf' or 'min-target-height'"},
     {"--out", "-o", "OUT.tif", "GeoTIFF to write (required)"},
-    {"--png", "", "PREVIEW.png", "Also write a hillshade preview with the viewshed tinted over it"},
+    {"--png", "", "PREVIEW.png",
+     "Also write a PNG preview: the result over a hillshade (a colour ramp for ohf, min-target-height and count), "
+     "with a title, legend, scale bar and north arrow"},
     {"--band", "", "N", "DEM band to read, 1-based (required when the file has several)"},
     kValidRangeFlag,
     {"--json", "", "", "Print the summary as a JSON document"},
@@ -158,9 +161,16 @@ Status write_output(const Request& r, const terrain::Dem& dem, const visibility:
   return Status::Ok();
 }
 
-Status write_preview(const std::string& path, const visibility::ViewshedResult& result,
-                     const terrain::Grid<std::uint8_t>& mask) {
-  return terrain::write_viewshed_preview(path, result.terrain, mask, visibility::preview_options(result));
+visibility::PreviewRaster preview_raster(OutputKind kind) {
+  switch (kind) {
+    case OutputKind::kVisible:
+      return visibility::PreviewRaster::kVisibility;
+    case OutputKind::kOhf:
+      return visibility::PreviewRaster::kOhf;
+    case OutputKind::kMinTargetHeight:
+      return visibility::PreviewRaster::kMinTargetHeight;
+  }
+  return visibility::PreviewRaster::kVisibility;
 }
 
 // The request planned on the DEM's header (nothing decoded yet): with a
@@ -238,8 +248,20 @@ int run_viewshed(const Args& args) {
 
   const terrain::Grid<std::uint8_t> mask = visibility::visibility_mask(*result, r.options.target_height);
   if (auto s = write_output(r, *dem, *run, mask); !s.ok()) return report_error(s.error());
-  if (r.png_path)
-    if (auto s = write_preview(*r.png_path, *result, mask); !s.ok()) return report_error(s.error());
+  double preview_seconds = 0.0;
+  if (r.png_path) {
+    const auto drawing = std::chrono::steady_clock::now();
+    const visibility::PreviewCaption caption{.dem = visibility::dem_label(r.dem_path),
+                                             .algorithm = r.algorithm_name,
+                                             .epsg = dem->georef.epsg,
+                                             .x = observer.x,
+                                             .y = observer.y,
+                                             .ground = observer.ground};
+    if (auto s = visibility::write_viewshed_picture(*r.png_path, *result, preview_raster(r.output), mask, caption);
+        !s.ok())
+      return report_error(s.error());
+    preview_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - drawing).count();
+  }
   const double total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
 
   std::uint64_t visible = 0, hidden = 0;
@@ -279,6 +301,7 @@ int run_viewshed(const Args& args) {
     j["visible_area_km2"] = area_km2;
     j["visible_percent"] = percent;
     j["stats"] = to_json(stats);
+    j["preview_seconds"] = r.png_path ? Json(preview_seconds) : Json(nullptr);
     j["read"] = {{"window", to_json(read.window)},
                  {"block", block_kind},
                  {"block_size", {block_width, block_height}},
@@ -316,7 +339,7 @@ int run_viewshed(const Args& args) {
             << (stats.backend == "gpu" ? " on the GPU" : "") << '\n'
             << "  compute:    " << fixed(stats.seconds, 3) << " s (" << fixed(total_seconds, 3) << " s in all)\n"
             << "  wrote:      " << r.out_path << " (" << r.output_name << ")\n";
-  if (r.png_path) std::cout << "  preview:    " << *r.png_path << '\n';
+  if (r.png_path) std::cout << "  preview:    " << *r.png_path << " (" << fixed(preview_seconds, 3) << " s)\n";
   return kExitOk;
 }
 

@@ -11,9 +11,11 @@
 #include "commands/command.hpp"
 #include "horizon/imageio/imageio.hpp"
 #include "horizon/terrain/geotiff_writer.hpp"
+#include "horizon/terrain/height_view.hpp"
 #include "horizon/terrain/preview.hpp"
 #include "horizon/terrain/source.hpp"
 #include "horizon/visibility/many_observers.hpp"
+#include "horizon/visibility/viewshed_preview.hpp"
 #include "inputs.hpp"
 #include "interrupt.hpp"
 #include "observers_file.hpp"
@@ -144,6 +146,12 @@ std::vector<ObserverLine> summary_lines(const terrain::Dem& dem, const visibilit
   return lines;
 }
 
+visibility::PreviewAccumulation preview_accumulation(const std::string& accumulate) {
+  return accumulate == "any"   ? visibility::PreviewAccumulation::kAny
+         : accumulate == "all" ? visibility::PreviewAccumulation::kAll
+                               : visibility::PreviewAccumulation::kCount;
+}
+
 }  // namespace
 
 bool wants_many_observers(const Args& args) {
@@ -208,17 +216,16 @@ int run_many_observers(const Args& args) {
                                            : terrain::write_geotiff(r.out_path, r.accumulate == "all" ? all : any,
                                                                     georef, double{visibility::kNoAnswer});
   if (!written.ok()) return report_error(written.error());
+  double preview_seconds = 0.0;
   if (r.png_path) {
-    const terrain::Window& w = res->window;
-    terrain::Grid<float> crop(w.width(), w.height(), terrain::kUninitialized);
-    for (int row = 0; row < w.height(); ++row)
-      std::copy_n(dem->elevation.row(w.row0 + row) + w.col0, w.width(), crop.row(row));
-    terrain::PreviewOptions preview;
-    preview.metres_per_col = plan->frames[0].metres_per_col;
-    preview.metres_per_row = plan->frames[0].metres_per_row;
-    if (auto s = terrain::write_viewshed_preview(*r.png_path, crop, r.accumulate == "all" ? all : any, preview);
+    const auto drawing = std::chrono::steady_clock::now();
+    const terrain::Grid<float> crop = terrain::copy_cells(terrain::HeightView(dem->elevation).sub(res->window));
+    const visibility::PreviewCaption caption{.dem = visibility::dem_label(r.dem_path), .algorithm = r.algorithm_name};
+    if (auto s = visibility::write_many_observers_picture(*r.png_path, *plan, *res, crop,
+                                                          preview_accumulation(r.accumulate), caption);
         !s.ok())
       return report_error(s.error());
+    preview_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - drawing).count();
   }
   if (r.summary_path)
     if (auto s =
@@ -252,6 +259,7 @@ int run_many_observers(const Args& args) {
     j["threads"] = plan->threads;
     j["planned_bytes"] = plan->bytes;
     j["compute_seconds"] = res->seconds;
+    j["preview_seconds"] = r.png_path ? Json(preview_seconds) : Json(nullptr);
     j["total_seconds"] = total_seconds;
     print_json(j);
     return kExitOk;
@@ -266,7 +274,7 @@ int run_many_observers(const Args& args) {
             << "  algorithm:  " << r.algorithm_name << '\n'
             << "  compute:    " << fixed(res->seconds, 3) << " s (" << fixed(total_seconds, 3) << " s in all)\n"
             << "  wrote:      " << r.out_path << " (" << r.accumulate << ")\n";
-  if (r.png_path) std::cout << "  preview:    " << *r.png_path << '\n';
+  if (r.png_path) std::cout << "  preview:    " << *r.png_path << " (" << fixed(preview_seconds, 3) << " s)\n";
   if (r.summary_path) std::cout << "  summary:    " << *r.summary_path << '\n';
   return kExitOk;
 }

@@ -1,7 +1,7 @@
 // viewshed_many.hpp — `horizon viewshed` with many observers (--observers
 // FILE, or --observer given more than once): the --accumulate raster
 // (count of observers seeing each cell, or seen by any / by all), a PNG of
-// the any/all answer, and a per-observer --summary table.
+// the count as a ramp or the any/all answer, and a per-observer --summary table.
 #pragma once
 
 #include "args.hpp"

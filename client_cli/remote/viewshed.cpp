@@ -91,6 +91,7 @@ int run_viewshed(const Args& args, const ViewshedInputs& in) {
     j["visible_percent"] = percent;
     j["stats"] = to_json(stats);
     j["server"] = {{"address", client.address()}, {"backend", header.backend()}};
+    j["preview_seconds"] = in.png_path ? Json(summary.preview_seconds()) : Json(nullptr);
     j["total_seconds"] = total_seconds;
     print_json(j);
     return kExitOk;
@@ -118,7 +119,9 @@ int run_viewshed(const Args& args, const ViewshedInputs& in) {
             << "  compute:    " << fixed(stats.seconds, 3) << " s on the daemon (" << fixed(total_seconds, 3)
             << " s in all)\n"
             << "  wrote:      " << in.out_path << " (" << in.output_name << ")\n";
-  if (in.png_path) std::cout << "  preview:    " << *in.png_path << '\n';
+  if (in.png_path)
+    std::cout << "  preview:    " << *in.png_path << " (" << fixed(summary.preview_seconds(), 3)
+              << " s on the daemon)\n";
   return kExitOk;
 }
 

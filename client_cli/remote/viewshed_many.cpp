@@ -131,6 +131,7 @@ int run_viewshed_many(const Args& args, const ManyViewshedInputs& in) {
     j["max_count"] = in.accumulate == "count" ? Json(max_count) : Json(nullptr);
     j["work_cells"] = stats.cells_evaluated;
     j["compute_seconds"] = stats.seconds;
+    j["preview_seconds"] = in.png_path ? Json(summary.preview_seconds()) : Json(nullptr);
     j["total_seconds"] = total_seconds;
     j["server"] = {{"address", client.address()}, {"backend", header.backend()}};
     print_json(j);
@@ -149,7 +150,9 @@ int run_viewshed_many(const Args& args, const ManyViewshedInputs& in) {
             << "  compute:    " << fixed(stats.seconds, 3) << " s on the daemon (" << fixed(total_seconds, 3)
             << " s in all)\n"
             << "  wrote:      " << in.out_path << " (" << in.accumulate << ")\n";
-  if (in.png_path) std::cout << "  preview:    " << *in.png_path << '\n';
+  if (in.png_path)
+    std::cout << "  preview:    " << *in.png_path << " (" << fixed(summary.preview_seconds(), 3)
+              << " s on the daemon)\n";
   if (in.summary_path) std::cout << "  summary:    " << *in.summary_path << '\n';
   return kExitOk;
 }

@@ -7,7 +7,6 @@
 #include <sstream>
 
 #include "horizon/terrain/geotiff_writer.hpp"
-#include "horizon/terrain/preview.hpp"
 
 namespace horizon::server {
 namespace {
@@ -60,15 +59,8 @@ Result<std::string> geotiff_bytes(const fs::path& scratch_dir, const terrain::Gr
                 [&](const std::string& p) { return terrain::write_geotiff(p, grid, georef, nodata); });
 }
 
-Result<std::string> preview_png_bytes(const fs::path& scratch_dir, const terrain::Grid<float>& elevation,
-                                      const terrain::Grid<std::uint8_t>& mask, const terrain::PreviewOptions& preview) {
-  return encode(scratch_dir, ".png",
-                [&](const std::string& p) { return terrain::write_viewshed_preview(p, elevation, mask, preview); });
-}
-
-Result<std::string> preview_png_bytes(const fs::path& scratch_dir, const visibility::ViewshedResult& result,
-                                      const terrain::Grid<std::uint8_t>& mask) {
-  return preview_png_bytes(scratch_dir, result.terrain, mask, visibility::preview_options(result));
+Result<std::string> png_bytes(const fs::path& scratch_dir, const std::function<Status(const std::string& path)>& draw) {
+  return encode(scratch_dir, ".png", draw);
 }
 
 }  // namespace horizon::server

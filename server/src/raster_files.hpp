@@ -7,14 +7,13 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 
 #include "horizon/common/error.hpp"
 #include "horizon/terrain/georef.hpp"
 #include "horizon/terrain/grid.hpp"
-#include "horizon/terrain/preview.hpp"
-#include "horizon/visibility/viewshed.hpp"
 
 namespace horizon::server {
 
@@ -24,12 +23,9 @@ Result<std::string> geotiff_bytes(const std::filesystem::path& scratch_dir, cons
                                   const terrain::Georeference& georef, std::optional<double> nodata);
 Result<std::string> geotiff_bytes(const std::filesystem::path& scratch_dir, const terrain::Grid<std::uint32_t>& grid,
                                   const terrain::Georeference& georef, std::optional<double> nodata);
-// A hillshade of `elevation` with `mask` tinted over it (the CLI's --png).
-Result<std::string> preview_png_bytes(const std::filesystem::path& scratch_dir, const terrain::Grid<float>& elevation,
-                                      const terrain::Grid<std::uint8_t>& mask, const terrain::PreviewOptions& preview);
-// The CLI's --png preview of a viewshed (hillshade, tint, observer marked).
-Result<std::string> preview_png_bytes(const std::filesystem::path& scratch_dir,
-                                      const visibility::ViewshedResult& result,
-                                      const terrain::Grid<std::uint8_t>& mask);
+// The bytes of the PNG `draw(path)` writes (the CLI's --png preview, drawn by
+// visibility/viewshed_preview.hpp's writers).
+Result<std::string> png_bytes(const std::filesystem::path& scratch_dir,
+                              const std::function<Status(const std::string& path)>& draw);
 
 }  // namespace horizon::server

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <mutex>
@@ -12,6 +13,7 @@
 #include "horizon/geodesy/observer.hpp"
 #include "horizon/visibility/plan.hpp"
 #include "horizon/visibility/viewshed.hpp"
+#include "horizon/visibility/viewshed_preview.hpp"
 #include "raster_files.hpp"
 #include "translate.hpp"
 #include "viewshed_many_call.hpp"
@@ -164,9 +166,25 @@ grpc::Status ViewshedCall::compute() {
     geotiff_ = std::move(*bytes_or);
   }
   if (req.include_png()) {
-    auto png = preview_png_bytes(env.scratch, *result, mask);
+    // The CLI's picture, the dataset named as the client named it.
+    const auto drawing = std::chrono::steady_clock::now();
+    const geodesy::GridPoint eye = run->observer_in_source();
+    const visibility::PreviewCaption caption{.dem = req.dataset(),
+                                             .algorithm = scope_.record().algorithm,
+                                             .epsg = georef.epsg,
+                                             .x = eye.x,
+                                             .y = eye.y,
+                                             .ground = eye.ground};
+    const visibility::PreviewRaster shown = kind == v1::RASTER_KIND_OHF ? visibility::PreviewRaster::kOhf
+                                            : kind == v1::RASTER_KIND_MIN_TARGET_HEIGHT
+                                                ? visibility::PreviewRaster::kMinTargetHeight
+                                                : visibility::PreviewRaster::kVisibility;
+    auto png = png_bytes(env.scratch, [&](const std::string& p) {
+      return visibility::write_viewshed_picture(p, *result, shown, mask, caption);
+    });
     if (!png.ok()) return scope_.status_of(png.error());
     png_ = std::move(*png);
+    summary_.set_preview_seconds(std::chrono::duration<double>(std::chrono::steady_clock::now() - drawing).count());
   }
   if (auto s = check_control(scope_.control()); !s.ok()) return scope_.status_of(s.error());
 

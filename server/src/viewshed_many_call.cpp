@@ -4,13 +4,16 @@
 #include "viewshed_many_call.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cstring>
 #include <string>
 #include <vector>
 
 #include "horizon/common/parallel.hpp"
 #include "horizon/geodesy/observer.hpp"
+#include "horizon/terrain/height_view.hpp"
 #include "horizon/visibility/many_observers.hpp"
+#include "horizon/visibility/viewshed_preview.hpp"
 #include "raster_files.hpp"
 #include "translate.hpp"
 
@@ -161,15 +164,19 @@ grpc::Status compute_many_viewshed(CallScope& scope, const v1::ViewshedRequest& 
     out.geotiff = std::move(*bytes_or);
   }
   if (req.include_png()) {
-    const terrain::Window& w = res->window;
-    terrain::Grid<float> crop(w.width(), w.height(), terrain::kUninitialized);
-    for (int r = 0; r < w.height(); ++r) std::copy_n(dem->elevation.row(w.row0 + r) + w.col0, w.width(), crop.row(r));
-    terrain::PreviewOptions preview;
-    preview.metres_per_col = plan->frames[0].metres_per_col;
-    preview.metres_per_row = plan->frames[0].metres_per_row;
-    auto png = preview_png_bytes(env.scratch, crop, mask, preview);
+    const auto drawing = std::chrono::steady_clock::now();
+    const terrain::Grid<float> crop = terrain::copy_cells(terrain::HeightView(dem->elevation).sub(res->window));
+    const visibility::PreviewCaption caption{.dem = req.dataset(), .algorithm = scope.record().algorithm};
+    const visibility::PreviewAccumulation shown = count ? visibility::PreviewAccumulation::kCount
+                                                  : req.accumulate() == v1::ACCUMULATION_ALL
+                                                      ? visibility::PreviewAccumulation::kAll
+                                                      : visibility::PreviewAccumulation::kAny;
+    auto png = png_bytes(env.scratch, [&](const std::string& p) {
+      return visibility::write_many_observers_picture(p, *plan, *res, crop, shown, caption);
+    });
     if (!png.ok()) return scope.status_of(png.error());
     out.png = std::move(*png);
+    out.summary.set_preview_seconds(std::chrono::duration<double>(std::chrono::steady_clock::now() - drawing).count());
   }
   if (auto s = check_control(scope.control()); !s.ok()) return scope.status_of(s.error());
 

@@ -339,10 +339,12 @@ TEST_F(CliViewshed, WritesGeoTiffPngAndJsonSummary) {
   const Json j = parse_json(r);  // also proves stderr stayed quiet (no progress bar off a terminal)
   for (const char* key : {"dem", "output", "output_kind", "png", "algorithm", "observer", "options", "window",
                           "cell_size_m", "visible_cells", "hidden_cells", "evaluated_cells", "visible_area_km2",
-                          "visible_percent", "stats", "total_seconds"})
+                          "visible_percent", "stats", "preview_seconds", "total_seconds"})
     EXPECT_TRUE(j.contains(key)) << key;
   for (const char* key : {"dem_cells", "window_cells", "cells_evaluated", "terrain_samples", "rays", "seconds"})
     EXPECT_TRUE(j["stats"].contains(key)) << key;
+  EXPECT_GT(j["preview_seconds"].get<double>(), 0.0);
+  EXPECT_LT(j["preview_seconds"].get<double>(), j["total_seconds"].get<double>());
   EXPECT_EQ(j["algorithm"], "fast");
   EXPECT_EQ(j["stats"]["dem_cells"], 160000);
   const auto visible = j["visible_cells"].get<std::uint64_t>();

@@ -5,6 +5,7 @@
 #include <dlfcn.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <mutex>
@@ -67,8 +68,9 @@ Loaded load() {
     loaded.path = path;
     return loaded;
   }
-  loaded.error = std::string("the OpenImageIO plugin ") + kModule + " could not be loaded (tried: " +
-                 (tried.empty() ? "nothing" : tried) + "); set HORIZON_IMAGEIO_PLUGIN to its path";
+  loaded.error = std::string("the OpenImageIO plugin ") + kModule +
+                 " could not be loaded (tried: " + (tried.empty() ? "nothing" : tried) +
+                 "); set HORIZON_IMAGEIO_PLUGIN to its path";
   return loaded;
 }
 
@@ -93,7 +95,8 @@ void rgb_of(Colour c, float out[3]) {
 
 class PluginCanvas final : public Canvas {
  public:
-  PluginCanvas(const plugin::Abi* abi, void* handle) : abi_(abi), handle_(handle) {}
+  PluginCanvas(const plugin::Abi* abi, void* handle, int width, int height)
+      : abi_(abi), handle_(handle), width_(width), height_(height) {}
   ~PluginCanvas() override { abi_->canvas_destroy(handle_); }
   PluginCanvas(const PluginCanvas&) = delete;
   PluginCanvas& operator=(const PluginCanvas&) = delete;
@@ -108,14 +111,38 @@ class PluginCanvas final : public Canvas {
     rgb_of(c, rgb);
     abi_->canvas_box(handle_, x0, y0, x1, y1, rgb, fill);
   }
-  bool text(int x, int y_top, const std::string& s, int size, const std::string& font, int align,
-            Colour c) override {
+  bool text(int x, int y_top, const std::string& s, int size, const std::string& font, int align, Colour c) override {
     int width = 0, top = 0;
     if (!abi_->canvas_text_size(s, size, font, width, top)) return false;
     const int x0 = align == 0 ? x : align == 1 ? x - width / 2 : x - width;
     float rgb[3];
     rgb_of(c, rgb);
     return abi_->canvas_text(handle_, x0, y_top - top, s, size, font, rgb);  // top < 0: the ascent
+  }
+  bool text_baseline(int x, int baseline, const std::string& s, int size, const std::string& font, int align,
+                     Colour c) override {
+    int width = 0, top = 0;
+    if (!abi_->canvas_text_size(s, size, font, width, top)) return false;
+    const int x0 = align == 0 ? x : align == 1 ? x - width / 2 : x - width;
+    float rgb[3];
+    rgb_of(c, rgb);
+    return abi_->canvas_text(handle_, x0, baseline, s, size, font, rgb);
+  }
+  void paste(int x, int y, int w, int h, const std::uint8_t* rgb) override {
+    if (w <= 0 || h <= 0) return;
+    // Clip to the canvas: the plugin copies rectangles that lie on it.
+    const int x0 = std::max(x, 0), y0 = std::max(y, 0);
+    const int x1 = std::min(x + w, width_), y1 = std::min(y + h, height_);
+    if (x0 >= x1 || y0 >= y1) return;
+    if (x0 == x && y0 == y && x1 == x + w && y1 == y + h) {
+      abi_->canvas_paste(handle_, x, y, w, h, rgb);
+      return;
+    }
+    std::vector<std::uint8_t> part(static_cast<std::size_t>(x1 - x0) * (y1 - y0) * 3);
+    for (int r = y0; r < y1; ++r)
+      std::copy_n(rgb + (static_cast<std::size_t>(r - y) * w + (x0 - x)) * 3, static_cast<std::size_t>(x1 - x0) * 3,
+                  part.data() + static_cast<std::size_t>(r - y0) * (x1 - x0) * 3);
+    abi_->canvas_paste(handle_, x0, y0, x1 - x0, y1 - y0, part.data());
   }
   Status write_png(const std::string& path) override {
     const std::string why = abi_->canvas_write_png(handle_, path);
@@ -126,6 +153,7 @@ class PluginCanvas final : public Canvas {
  private:
   const plugin::Abi* abi_;
   void* handle_;
+  int width_, height_;
 };
 
 }  // namespace
@@ -157,7 +185,15 @@ Result<std::unique_ptr<Canvas>> make_canvas(int width, int height) {
   if (!a.ok()) return a.error();
   if (width <= 0 || height <= 0)
     return make_error(ErrorCode::kInvalidArgument, "canvas: size must be positive", "canvas");
-  return std::unique_ptr<Canvas>(std::make_unique<PluginCanvas>(*a, (*a)->canvas_create(width, height)));
+  return std::unique_ptr<Canvas>(std::make_unique<PluginCanvas>(*a, (*a)->canvas_create(width, height), width, height));
+}
+
+std::optional<int> text_width(const std::string& s, int size, const std::string& font) {
+  auto a = abi();
+  if (!a.ok()) return std::nullopt;
+  int width = 0, top = 0;
+  if (!(*a)->canvas_text_size(s, size, font, width, top)) return std::nullopt;
+  return width;
 }
 
 Result<std::string> plugin_path() {

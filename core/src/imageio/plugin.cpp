@@ -18,8 +18,7 @@ std::string read_image8(const std::string& path, ImageFacts& facts, std::vector<
   facts.height = spec.height;
   facts.channels = spec.nchannels;
   if (spec.format != OIIO::TypeDesc::UINT8) return std::string("channels are ") + spec.format.c_str() + ", not 8-bit";
-  if (spec.width <= 0 || spec.height <= 0 || spec.depth > 1 || spec.nchannels <= 0)
-    return "has no 2-D pixel grid";
+  if (spec.width <= 0 || spec.height <= 0 || spec.depth > 1 || spec.nchannels <= 0) return "has no 2-D pixel grid";
   pixels.resize(static_cast<std::size_t>(spec.width) * spec.height * spec.nchannels);
   if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT8, pixels.data()))
     return "cannot decode pixels (" + in->geterror() + ")";
@@ -37,7 +36,9 @@ std::string write_png(const std::string& path, int width, int height, int channe
   return {};
 }
 
-OIIO::ImageBuf& buf(void* canvas) { return *static_cast<OIIO::ImageBuf*>(canvas); }
+OIIO::ImageBuf& buf(void* canvas) {
+  return *static_cast<OIIO::ImageBuf*>(canvas);
+}
 
 void* canvas_create(int width, int height) {
   auto* b = new OIIO::ImageBuf(OIIO::ImageSpec(width, height, 3, OIIO::TypeDesc::UINT8));
@@ -45,7 +46,9 @@ void* canvas_create(int width, int height) {
   return b;
 }
 
-void canvas_destroy(void* canvas) { delete static_cast<OIIO::ImageBuf*>(canvas); }
+void canvas_destroy(void* canvas) {
+  delete static_cast<OIIO::ImageBuf*>(canvas);
+}
 
 void canvas_line(void* canvas, int x0, int y0, int x1, int y1, const float rgb[3]) {
   OIIO::ImageBufAlgo::render_line(buf(canvas), x0, y0, x1, y1, {rgb[0], rgb[1], rgb[2]});
@@ -73,8 +76,12 @@ std::string canvas_write_png(void* canvas, const std::string& path) {
   return {};
 }
 
-constexpr Abi kAbi = {kAbiVersion,     read_image8, write_png,        canvas_create, canvas_destroy,
-                      canvas_line,     canvas_box,  canvas_text_size, canvas_text,   canvas_write_png};
+void canvas_paste(void* canvas, int x, int y, int w, int h, const std::uint8_t* rgb) {
+  buf(canvas).set_pixels(OIIO::ROI(x, x + w, y, y + h, 0, 1, 0, 3), OIIO::TypeDesc::UINT8, rgb);
+}
+
+constexpr Abi kAbi = {kAbiVersion, read_image8,      write_png,   canvas_create,    canvas_destroy, canvas_line,
+                      canvas_box,  canvas_text_size, canvas_text, canvas_write_png, canvas_paste};
 
 }  // namespace
 }  // namespace horizon::imageio::plugin

@@ -11,7 +11,7 @@
 
 namespace horizon::imageio::plugin {
 
-constexpr int kAbiVersion = 1;
+constexpr int kAbiVersion = 2;
 
 struct ImageFacts {
   int width = 0, height = 0, channels = 0;
@@ -31,6 +31,8 @@ struct Abi {
   bool (*canvas_text)(void* canvas, int x, int baseline, const std::string& text, int size, const std::string& font,
                       const float rgb[3]);
   std::string (*canvas_write_png)(void* canvas, const std::string& path);
+  // Copies w x h RGB pixels (row-major, 3 bytes each) to the canvas at (x, y); the rectangle lies on it.
+  void (*canvas_paste)(void* canvas, int x, int y, int w, int h, const std::uint8_t* rgb);
 };
 
 }  // namespace horizon::imageio::plugin

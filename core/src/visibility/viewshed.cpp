@@ -179,8 +179,10 @@ terrain::PreviewOptions preview_options(const ViewshedResult& result) {
   terrain::PreviewOptions preview;
   preview.metres_per_col = f.metres_per_col;
   preview.metres_per_row = f.metres_per_row;
-  preview.observer_col = f.observer_col - f.window.col0;  // the preview covers the window only
-  preview.observer_row = f.observer_row - f.window.row0;
+  // The preview covers the window only.
+  preview.observers.push_back(
+      {f.observer_col - f.window.col0, f.observer_row - f.window.row0,
+       std::isfinite(f.max_distance) ? f.max_distance : std::numeric_limits<double>::infinity()});
   return preview;
 }
 

@@ -24,6 +24,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -63,13 +64,22 @@ class Canvas {
   // Text with its top-left corner at (x, y_top) in `font` at `size` pixels;
   // align 0 = left, 1 = centred on x, 2 = right. False when the font cannot
   // be found or drawn (nothing drawn then).
-  virtual bool text(int x, int y_top, const std::string& s, int size, const std::string& font, int align,
-                    Colour c) = 0;
+  virtual bool text(int x, int y_top, const std::string& s, int size, const std::string& font, int align, Colour c) = 0;
+  // The same with the text's baseline at y (lines of words that share a baseline).
+  virtual bool text_baseline(int x, int baseline, const std::string& s, int size, const std::string& font, int align,
+                             Colour c) = 0;
+  // Copies w x h RGB pixels (row-major, 3 bytes each) onto the canvas with
+  // their top-left at (x, y); the part off the canvas is dropped.
+  virtual void paste(int x, int y, int w, int h, const std::uint8_t* rgb) = 0;
   // Writes the canvas as a PNG at `path` (directly; see write_png).
   virtual Status write_png(const std::string& path) = 0;
 };
 
 Result<std::unique_ptr<Canvas>> make_canvas(int width, int height);
+
+// The width in pixels of `s` drawn by Canvas::text in `font` at `size`;
+// nullopt when the font (or the module) cannot be found.
+std::optional<int> text_width(const std::string& s, int size, const std::string& font);
 
 // Where the module was loaded from, or the error of loading it (for `horizon
 // --version` and diagnostics). Loads it when not yet loaded.

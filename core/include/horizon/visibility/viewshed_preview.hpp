@@ -1,0 +1,59 @@
+// horizon/visibility/viewshed_preview.hpp — the PNG of a viewshed, as the
+// CLI and the daemon draw it (terrain/preview.hpp draws; this says what).
+//
+// One observer: the visible/hidden raster over the terrain, or, for the OHF
+// and the minimum-target-height outputs, that raster as a colour ramp with
+// its legend and units; the observer and its reach ringed. Many observers:
+// the count as a ramp (or the any/all mask), every site marked. The title
+// names the DEM as the reader knows it (a file's name, a dataset's name:
+// never a path the reader did not give), the observer in WGS84 (and in the
+// DEM's CRS when projected), the eye's and the targets' heights, the reach
+// and the algorithm, so the same request draws the same picture embedded or
+// through the daemon.
+#pragma once
+
+#include <cstdint>
+#include <limits>
+#include <string>
+
+#include "horizon/common/error.hpp"
+#include "horizon/terrain/grid.hpp"
+#include "horizon/terrain/preview.hpp"
+#include "horizon/visibility/many_observers.hpp"
+#include "horizon/visibility/viewshed.hpp"
+
+namespace horizon::visibility {
+
+// The raster a viewshed writes, and so what its preview shows.
+enum class PreviewRaster { kVisibility, kOhf, kMinTargetHeight };
+
+struct PreviewCaption {
+  std::string dem;          // the DEM's name for the title (a file's stem, a dataset's name)
+  std::string algorithm;    // "fast", "exact", "conservative", "r3"
+  int epsg = 0;             // the observer's CRS (0: none known)
+  double x = 0.0, y = 0.0;  // one observer, in that CRS
+  double ground = std::numeric_limits<double>::quiet_NaN();  // metres under the eye
+};
+
+// The title lines of a one-observer preview.
+std::vector<std::string> viewshed_title(const ViewshedResult& result, PreviewRaster raster,
+                                        const PreviewCaption& caption);
+
+// Writes the preview of `result` at `path` (`mask`: visibility_mask of the
+// result, used for kVisible).
+Status write_viewshed_picture(const std::string& path, const ViewshedResult& result, PreviewRaster raster,
+                              const terrain::Grid<std::uint8_t>& mask, const PreviewCaption& caption);
+
+enum class PreviewAccumulation { kCount, kAny, kAll };
+
+// Writes the preview of a many-observer run: `elevation` is the DEM's crop
+// to result.window; caption.x/y/ground are unused (each site is marked).
+Status write_many_observers_picture(const std::string& path, const ManyObserversPlan& plan,
+                                    const ManyObserversResult& result, const terrain::Grid<float>& elevation,
+                                    PreviewAccumulation accumulation, const PreviewCaption& caption);
+
+// The stem of a DEM path for PreviewCaption::dem: "data/dem/a.tif" -> "a",
+// a folder of tiles by its own name.
+std::string dem_label(const std::string& path);
+
+}  // namespace horizon::visibility

@@ -1,0 +1,167 @@
+// viewshed_preview.cpp — what a viewshed's PNG says (viewshed_preview.hpp);
+// terrain/preview.cpp draws it.
+#include "horizon/visibility/viewshed_preview.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+
+#include "horizon/geodesy/crs.hpp"
+
+namespace horizon::visibility {
+namespace {
+
+std::string fixed(double v, int decimals) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  return buf;
+}
+
+// Metres as a person says them: "2 m", "1.5 m", "4373 m".
+std::string metres(double m) {
+  const double r = std::round(m * 10.0) / 10.0;
+  return fixed(r, r == std::round(r) ? 0 : 1) + " m";
+}
+
+std::string distance(double m) {
+  if (!std::isfinite(m)) return "the whole DEM";
+  if (m >= 1000.0) {
+    const double km = m / 1000.0;
+    return fixed(km, std::abs(km - std::round(km)) < 1e-9 ? 0 : 2) + " km";
+  }
+  return metres(m);
+}
+
+// "46.8529 N, 121.7604 W" (ASCII: OpenImageIO 2.4 draws no other glyphs), plus the CRS's own coordinates when
+// projected.
+std::string place(int epsg, double x, double y) {
+  if (epsg == 0) return "x " + fixed(x, 1) + ", y " + fixed(y, 1);
+  auto crs = geodesy::Crs::from_epsg(epsg);
+  if (!crs.ok()) return "x " + fixed(x, 1) + ", y " + fixed(y, 1) + " (EPSG:" + std::to_string(epsg) + ")";
+  auto ll = crs->to_lonlat({x, y});
+  std::string s;
+  if (ll.ok())
+    s = fixed(std::abs(ll->lat), 4) + " " + (ll->lat < 0 ? "S" : "N") + ", " + fixed(std::abs(ll->lon), 4) + " " +
+        (ll->lon < 0 ? "W" : "E");
+  if (!crs->is_geographic())
+    s += std::string(s.empty() ? "" : " = ") + "x " + fixed(x, 0) + ", y " + fixed(y, 0) +
+         " (EPSG:" + std::to_string(epsg) + ")";
+  return s;
+}
+
+std::string eye(double elevation, double ground) {
+  if (std::isnan(ground)) return "eye at " + metres(elevation) + " (ground: no data)";
+  return "eye " + metres(elevation - ground) + " above the ground (" + metres(elevation) + ")";
+}
+
+std::string heading(PreviewRaster raster) {
+  switch (raster) {
+    case PreviewRaster::kVisibility:
+      return "Viewshed";
+    case PreviewRaster::kOhf:
+      return "Occlusion height field";
+    case PreviewRaster::kMinTargetHeight:
+      return "Minimum visible target height";
+  }
+  return "Viewshed";
+}
+
+}  // namespace
+
+std::string dem_label(const std::string& path) {
+  std::filesystem::path p(path);
+  while (!p.empty() && p.filename().empty()) p = p.parent_path();  // "tiles/" names the folder
+  const std::string stem = p.stem().string();
+  return stem.empty() ? path : stem;
+}
+
+std::vector<std::string> viewshed_title(const ViewshedResult& result, PreviewRaster raster,
+                                        const PreviewCaption& caption) {
+  const ViewFrame& f = result.frame;
+  std::vector<std::string> title;
+  title.push_back(heading(raster) + " over " + caption.dem);
+  std::string details = "Observer " + place(caption.epsg, caption.x, caption.y) + "; " + eye(f.eye, caption.ground);
+  if (raster == PreviewRaster::kVisibility)
+    details += "; targets " + metres(result.target_height) + " above the ground";
+  details += "; reach " + distance(f.max_distance);
+  if (!caption.algorithm.empty()) details += "; algorithm " + caption.algorithm;
+  title.push_back(details);
+  return title;
+}
+
+Status write_viewshed_picture(const std::string& path, const ViewshedResult& result, PreviewRaster raster,
+                              const terrain::Grid<std::uint8_t>& mask, const PreviewCaption& caption) {
+  terrain::PreviewOptions o = preview_options(result);
+  o.title = viewshed_title(result, raster, caption);
+  switch (raster) {
+    case PreviewRaster::kVisibility:
+      return terrain::write_viewshed_preview(path, result.terrain, mask, o);
+    case PreviewRaster::kOhf:
+      return terrain::write_ramp_preview(path, result.terrain, ohf_raster(result),
+                                         {terrain::PreviewRamp::kElevation, "Lowest visible elevation", "metres", ""},
+                                         o);
+    case PreviewRaster::kMinTargetHeight:
+      return terrain::write_ramp_preview(path, result.terrain, min_target_height(result),
+                                         {terrain::PreviewRamp::kHeightNeeded, "Height a target needs to be seen",
+                                          "metres above the ground", "0 m: the ground is visible"},
+                                         o);
+  }
+  return Status::Ok();
+}
+
+Status write_many_observers_picture(const std::string& path, const ManyObserversPlan& plan,
+                                    const ManyObserversResult& result, const terrain::Grid<float>& elevation,
+                                    PreviewAccumulation accumulation, const PreviewCaption& caption) {
+  const terrain::Window& w = result.window;
+  terrain::PreviewOptions o;
+  o.metres_per_col = plan.frames.front().metres_per_col;
+  o.metres_per_row = plan.frames.front().metres_per_row;
+  double min_eye = std::numeric_limits<double>::infinity(), max_eye = -min_eye;
+  double min_reach = min_eye, max_reach = -min_eye;
+  for (std::size_t i = 0; i < plan.frames.size(); ++i) {
+    const ViewFrame& f = plan.frames[i];
+    o.observers.push_back({f.observer_col - w.col0, f.observer_row - w.row0,
+                           std::isfinite(f.max_distance) ? f.max_distance : std::numeric_limits<double>::infinity()});
+    const double above = plan.points[i].elevation - plan.points[i].ground;
+    if (std::isfinite(above)) {
+      min_eye = std::min(min_eye, above);
+      max_eye = std::max(max_eye, above);
+    }
+    min_reach = std::min(min_reach, f.max_distance);
+    max_reach = std::max(max_reach, f.max_distance);
+  }
+  const std::size_t n = plan.frames.size();
+  const char* what = accumulation == PreviewAccumulation::kCount ? "Cumulative viewshed"
+                     : accumulation == PreviewAccumulation::kAny ? "Seen by any observer"
+                                                                 : "Seen by every observer";
+  o.title.push_back(std::string(what) + " over " + caption.dem);
+  std::string details = std::to_string(n) + (n == 1 ? " observer" : " observers");
+  if (std::isfinite(min_eye))
+    details += "; eyes " + (min_eye == max_eye ? metres(min_eye) : metres(min_eye) + " to " + metres(max_eye)) +
+               " above the ground";
+  details += "; targets " + metres(plan.options.viewshed.target_height) + " above the ground";
+  details +=
+      "; reach " + (min_reach == max_reach ? distance(min_reach) : distance(min_reach) + " to " + distance(max_reach));
+  if (!caption.algorithm.empty()) details += "; algorithm " + caption.algorithm;
+  o.title.push_back(details);
+
+  if (accumulation == PreviewAccumulation::kCount) {
+    const terrain::Grid<std::uint32_t> counts = observer_count(result);
+    terrain::Grid<float> values(counts.width(), counts.height(), terrain::kUninitialized);
+    for (std::size_t i = 0; i < counts.size(); ++i)
+      values.values()[i] = counts.values()[i] == kNoCount ? std::numeric_limits<float>::quiet_NaN()
+                                                          : static_cast<float>(counts.values()[i]);
+    o.classes.beyond = "beyond every reach: not computed";
+    return terrain::write_ramp_preview(
+        path, elevation, values, {terrain::PreviewRamp::kCount, "Observers that see the cell", "", "0: seen by none"},
+        o);
+  }
+  const bool any = accumulation == PreviewAccumulation::kAny;
+  o.classes.visible = any ? "seen by at least one" : "seen by every observer";
+  o.classes.hidden = any ? "seen by none" : "not seen by every observer";
+  o.classes.beyond = "beyond every reach: not computed";
+  return terrain::write_viewshed_preview(path, elevation, any ? seen_from_any(result) : seen_from_all(result), o);
+}
+
+}  // namespace horizon::visibility
