@@ -11,6 +11,7 @@
 #include "horizon/terrain/geotiff_writer.hpp"
 #include "horizon/terrain/height_view.hpp"
 #include "horizon/terrain/preview.hpp"
+#include "horizon/terrain/qgis_style.hpp"
 #include "horizon/visibility/viewshed_preview.hpp"
 #include "inputs.hpp"
 #include "interrupt.hpp"
@@ -200,7 +201,11 @@ int run_region(const Args& args) {
   const terrain::Window& w = res->window;
   terrain::Georeference georef = dem->georef;
   georef.transform = georef.transform.shifted(w.col0, w.row0);
-  if (auto s = terrain::write_geotiff(*out, res->codes, georef, double{region::kNoAnswer}); !s.ok())
+  if (auto s =
+          terrain::write_geotiff(*out, res->codes, georef, double{region::kNoAnswer}, visibility::code_colour_table());
+      !s.ok())
+    return report_error(s.error());
+  if (auto s = terrain::write_text_file(terrain::qml_path_for(*out), visibility::region_style()); !s.ok())
     return report_error(s.error());
   double preview_seconds = 0.0;
   if (png) {
@@ -237,7 +242,11 @@ int run_region(const Args& args) {
     checked = check_json(evaluation::check_cells(*dem, *res, o, viewpoints, 4000, o.threads));
   }
   if (json) {
-    Json j{{"dem", path}, {"output", *out}, {"window", to_json(w)}, {"stats", stats_json(res->stats)}};
+    Json j{{"dem", path},
+           {"output", *out},
+           {"style", terrain::qml_path_for(*out)},
+           {"window", to_json(w)},
+           {"stats", stats_json(res->stats)}};
     j["preview_seconds"] = png ? Json(preview_seconds) : Json(nullptr);
     if (check_points) j["check"] = checked;
     print_json(j);
@@ -245,7 +254,7 @@ int run_region(const Args& args) {
   }
   print_summary(path, res->frame, res->stats, "cells answered: ");
   if (check_points) print_check(checked);
-  std::cout << "  wrote:          " << *out << '\n';
+  std::cout << "  wrote:          " << *out << ", its QGIS style " << terrain::qml_path_for(*out) << '\n';
   if (png) std::cout << "  preview:        " << *png << " (" << fixed(preview_seconds, 3) << " s)\n";
   return kExitOk;
 }

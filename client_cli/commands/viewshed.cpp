@@ -11,6 +11,7 @@
 #include "horizon/terrain/dem_reader.hpp"
 #include "horizon/terrain/geotiff_writer.hpp"
 #include "horizon/terrain/preview.hpp"
+#include "horizon/terrain/qgis_style.hpp"
 #include "horizon/terrain/source.hpp"
 #include "horizon/visibility/plan.hpp"
 #include "horizon/visibility/viewshed.hpp"
@@ -145,22 +146,6 @@ Request parse_request(const Args& args) {
   return r;
 }
 
-// The raster asked for, written atomically by the engine's writer.
-Status write_output(const Request& r, const terrain::Dem& dem, const visibility::ViewshedRun& run,
-                    const terrain::Grid<std::uint8_t>& mask) {
-  const visibility::ViewshedResult& result = run.result;
-  const terrain::Georeference& georef = run.georef;
-  switch (r.output) {
-    case OutputKind::kVisible:
-      return terrain::write_geotiff(r.out_path, mask, georef, double{visibility::kNoAnswer});
-    case OutputKind::kOhf:
-      return terrain::write_geotiff(r.out_path, visibility::ohf_raster(result), georef, dem.nodata);
-    case OutputKind::kMinTargetHeight:
-      return terrain::write_geotiff(r.out_path, visibility::min_target_height(result), georef, dem.nodata);
-  }
-  return Status::Ok();
-}
-
 visibility::PreviewRaster preview_raster(OutputKind kind) {
   switch (kind) {
     case OutputKind::kVisible:
@@ -171,6 +156,25 @@ visibility::PreviewRaster preview_raster(OutputKind kind) {
       return visibility::PreviewRaster::kMinTargetHeight;
   }
   return visibility::PreviewRaster::kVisibility;
+}
+
+// The raster asked for, written atomically by the engine's writer, and its
+// QGIS style beside it (OUT.qml): the mask with the previews' colour table.
+Status write_output(const Request& r, const terrain::Dem& dem, const visibility::ViewshedRun& run,
+                    const terrain::Grid<std::uint8_t>& mask) {
+  const visibility::ViewshedResult& result = run.result;
+  const terrain::Georeference& georef = run.georef;
+  const std::string style_path = terrain::qml_path_for(r.out_path);
+  if (r.output == OutputKind::kVisible) {
+    HORIZON_RETURN_IF_ERROR(terrain::write_geotiff(r.out_path, mask, georef, double{visibility::kNoAnswer},
+                                                   visibility::code_colour_table()));
+    return terrain::write_text_file(style_path,
+                                    visibility::viewshed_style(visibility::PreviewRaster::kVisibility, 0, 0));
+  }
+  const terrain::Grid<float> values =
+      r.output == OutputKind::kOhf ? visibility::ohf_raster(result) : visibility::min_target_height(result);
+  HORIZON_RETURN_IF_ERROR(terrain::write_geotiff(r.out_path, values, georef, dem.nodata));
+  return terrain::write_text_file(style_path, visibility::viewshed_style(preview_raster(r.output), values));
 }
 
 // The request planned on the DEM's header (nothing decoded yet): with a
@@ -290,6 +294,7 @@ int run_viewshed(const Args& args) {
     j["output"] = r.out_path;
     j["output_kind"] = r.output_name;
     j["png"] = r.png_path ? Json(*r.png_path) : Json(nullptr);
+    j["style"] = terrain::qml_path_for(r.out_path);
     j["algorithm"] = r.algorithm_name;
     j["observer"] = to_json(observer, observer_lonlat);
     j["options"] = viewshed_options_json(r.observer, r.options, args.text("--nodata").value_or("transparent"));
@@ -338,7 +343,8 @@ int run_viewshed(const Args& args) {
                     : std::string(""))
             << (stats.backend == "gpu" ? " on the GPU" : "") << '\n'
             << "  compute:    " << fixed(stats.seconds, 3) << " s (" << fixed(total_seconds, 3) << " s in all)\n"
-            << "  wrote:      " << r.out_path << " (" << r.output_name << ")\n";
+            << "  wrote:      " << r.out_path << " (" << r.output_name << "), its QGIS style "
+            << terrain::qml_path_for(r.out_path) << '\n';
   if (r.png_path) std::cout << "  preview:    " << *r.png_path << " (" << fixed(preview_seconds, 3) << " s)\n";
   return kExitOk;
 }

@@ -13,6 +13,7 @@
 #include "horizon/terrain/geotiff_writer.hpp"
 #include "horizon/terrain/height_view.hpp"
 #include "horizon/terrain/preview.hpp"
+#include "horizon/terrain/qgis_style.hpp"
 #include "horizon/terrain/source.hpp"
 #include "horizon/visibility/many_observers.hpp"
 #include "horizon/visibility/viewshed_preview.hpp"
@@ -211,11 +212,19 @@ int run_many_observers(const Args& args) {
   georef.transform = dem->georef.transform.shifted(res->window.col0, res->window.row0);
   const terrain::Grid<std::uint8_t> any = visibility::seen_from_any(*res);
   const terrain::Grid<std::uint8_t> all = visibility::seen_from_all(*res);
-  Status written = r.accumulate == "count" ? terrain::write_geotiff(r.out_path, visibility::observer_count(*res),
-                                                                    georef, double{visibility::kNoCount})
-                                           : terrain::write_geotiff(r.out_path, r.accumulate == "all" ? all : any,
-                                                                    georef, double{visibility::kNoAnswer});
+  std::uint32_t max_count = 0;
+  for (std::uint32_t c : res->count.values()) max_count = std::max(max_count, c);
+  Status written =
+      r.accumulate == "count"
+          ? terrain::write_geotiff(r.out_path, visibility::observer_count(*res), georef, double{visibility::kNoCount})
+          : terrain::write_geotiff(r.out_path, r.accumulate == "all" ? all : any, georef, double{visibility::kNoAnswer},
+                                   visibility::code_colour_table());
   if (!written.ok()) return report_error(written.error());
+  if (auto s =
+          terrain::write_text_file(terrain::qml_path_for(r.out_path),
+                                   visibility::many_observers_style(preview_accumulation(r.accumulate), max_count));
+      !s.ok())
+    return report_error(s.error());
   double preview_seconds = 0.0;
   if (r.png_path) {
     const auto drawing = std::chrono::steady_clock::now();
@@ -234,12 +243,11 @@ int run_many_observers(const Args& args) {
       return report_error(s.error());
   const double total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
 
-  std::uint64_t seen_any = 0, seen_all = 0, answered = 0, max_count = 0;
+  std::uint64_t seen_any = 0, seen_all = 0, answered = 0;
   for (std::size_t i = 0; i < any.size(); ++i) {
     seen_any += any.values()[i] == visibility::kVisible;
     seen_all += all.values()[i] == visibility::kVisible;
     answered += any.values()[i] != visibility::kNoAnswer;
-    max_count = std::max<std::uint64_t>(max_count, res->count.values()[i]);
   }
   if (r.json) {
     Json j;
@@ -247,6 +255,7 @@ int run_many_observers(const Args& args) {
     j["output"] = r.out_path;
     j["accumulate"] = r.accumulate;
     j["png"] = r.png_path ? Json(*r.png_path) : Json(nullptr);
+    j["style"] = terrain::qml_path_for(r.out_path);
     j["summary"] = r.summary_path ? Json(*r.summary_path) : Json(nullptr);
     j["algorithm"] = r.algorithm_name;
     j["observers"] = sites.size();
@@ -273,7 +282,8 @@ int run_many_observers(const Args& args) {
             << " threads, " << fixed(static_cast<double>(plan->bytes) / (1 << 20), 1) << " MiB planned\n"
             << "  algorithm:  " << r.algorithm_name << '\n'
             << "  compute:    " << fixed(res->seconds, 3) << " s (" << fixed(total_seconds, 3) << " s in all)\n"
-            << "  wrote:      " << r.out_path << " (" << r.accumulate << ")\n";
+            << "  wrote:      " << r.out_path << " (" << r.accumulate << "), its QGIS style "
+            << terrain::qml_path_for(r.out_path) << '\n';
   if (r.png_path) std::cout << "  preview:    " << *r.png_path << " (" << fixed(preview_seconds, 3) << " s)\n";
   if (r.summary_path) std::cout << "  summary:    " << *r.summary_path << '\n';
   return kExitOk;

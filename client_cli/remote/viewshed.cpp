@@ -2,9 +2,13 @@
 // writes its GeoTIFF (and PNG) bytes and prints embedded mode's summary.
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <iostream>
+#include <limits>
 
 #include "commands/command.hpp"
+#include "horizon/terrain/qgis_style.hpp"
+#include "horizon/visibility/viewshed_preview.hpp"
 #include "output.hpp"
 #include "remote/client.hpp"
 #include "remote/files.hpp"
@@ -33,6 +37,7 @@ int run_viewshed(const Args& args, const ViewshedInputs& in) {
                      : in.output_name == "min-target-height" ? v1::RASTER_KIND_MIN_TARGET_HEIGHT
                                                              : v1::RASTER_KIND_VISIBLE);
   request.set_include_geotiff(true);
+  request.set_include_raster(in.output_name != "visible");  // the values' range, for the QGIS style
   request.set_include_png(in.png_path.has_value());
 
   auto context = client.context();
@@ -41,9 +46,21 @@ int run_viewshed(const Args& args, const ViewshedInputs& in) {
   v1::ViewshedHeader header;
   v1::ViewshedSummary summary;
   std::string geotiff, png;
+  double low = std::numeric_limits<double>::infinity(), high = -low;
   while (reader->Read(&message)) {
     if (message.has_header()) header = message.header();
     if (message.has_summary()) summary = message.summary();
+    if (message.has_raster_chunk() && header.sample_type() == v1::SAMPLE_TYPE_FLOAT32) {
+      const std::string& d = message.raster_chunk().data();
+      for (std::size_t k = 0; k + 4 <= d.size(); k += 4) {
+        float v;
+        std::memcpy(&v, d.data() + k, 4);
+        if (std::isfinite(v)) {
+          low = std::min(low, double{v});
+          high = std::max(high, double{v});
+        }
+      }
+    }
     if (message.has_file_chunk()) {
       const v1::FileChunk& c = message.file_chunk();
       std::string& file = c.kind() == v1::FileChunk::KIND_PNG ? png : geotiff;
@@ -58,6 +75,15 @@ int run_viewshed(const Args& args, const ViewshedInputs& in) {
   if (auto s = reader->Finish(); !s.ok()) return report_status(s, client.address());
 
   if (auto s = write_file_atomic(in.out_path, geotiff); !s.ok()) return report_error(s.error());
+  const visibility::PreviewRaster shown = in.output_name == "ohf" ? visibility::PreviewRaster::kOhf
+                                          : in.output_name == "min-target-height"
+                                              ? visibility::PreviewRaster::kMinTargetHeight
+                                              : visibility::PreviewRaster::kVisibility;
+  if (!std::isfinite(low)) low = high = 0.0;
+  if (auto s =
+          terrain::write_text_file(terrain::qml_path_for(in.out_path), visibility::viewshed_style(shown, low, high));
+      !s.ok())
+    return report_error(s.error());
   if (in.png_path)
     if (auto s = write_file_atomic(*in.png_path, png); !s.ok()) return report_error(s.error());
   const double total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
@@ -79,6 +105,7 @@ int run_viewshed(const Args& args, const ViewshedInputs& in) {
     j["output"] = in.out_path;
     j["output_kind"] = in.output_name;
     j["png"] = in.png_path ? Json(*in.png_path) : Json(nullptr);
+    j["style"] = terrain::qml_path_for(in.out_path);
     j["algorithm"] = in.algorithm_name;
     j["observer"] = to_json(observer, observer_lonlat);
     j["options"] = viewshed_options_json(in.observer, in.options, args.text("--nodata").value_or("transparent"));
@@ -118,7 +145,8 @@ int run_viewshed(const Args& args, const ViewshedInputs& in) {
             << (stats.backend == "gpu" ? " on the GPU" : "") << '\n'
             << "  compute:    " << fixed(stats.seconds, 3) << " s on the daemon (" << fixed(total_seconds, 3)
             << " s in all)\n"
-            << "  wrote:      " << in.out_path << " (" << in.output_name << ")\n";
+            << "  wrote:      " << in.out_path << " (" << in.output_name << "), its QGIS style "
+            << terrain::qml_path_for(in.out_path) << '\n';
   if (in.png_path)
     std::cout << "  preview:    " << *in.png_path << " (" << fixed(summary.preview_seconds(), 3)
               << " s on the daemon)\n";

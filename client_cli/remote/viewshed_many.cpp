@@ -9,7 +9,9 @@
 #include <iostream>
 
 #include "commands/command.hpp"
+#include "horizon/terrain/qgis_style.hpp"
 #include "horizon/visibility/many_observers.hpp"
+#include "horizon/visibility/viewshed_preview.hpp"
 #include "output.hpp"
 #include "remote/client.hpp"
 #include "remote/files.hpp"
@@ -82,6 +84,14 @@ int run_viewshed_many(const Args& args, const ManyViewshedInputs& in) {
     return report_error(make_error(ErrorCode::kDataError, "the daemon's summary does not have a line per observer"));
 
   if (auto s = write_file_atomic(in.out_path, geotiff); !s.ok()) return report_error(s.error());
+  const visibility::PreviewAccumulation accumulation = in.accumulate == "any" ? visibility::PreviewAccumulation::kAny
+                                                       : in.accumulate == "all"
+                                                           ? visibility::PreviewAccumulation::kAll
+                                                           : visibility::PreviewAccumulation::kCount;
+  if (auto s = terrain::write_text_file(terrain::qml_path_for(in.out_path),
+                                        visibility::many_observers_style(accumulation, max_count));
+      !s.ok())
+    return report_error(s.error());
   if (in.png_path)
     if (auto s = write_file_atomic(*in.png_path, png); !s.ok()) return report_error(s.error());
   if (in.summary_path) {
@@ -121,6 +131,7 @@ int run_viewshed_many(const Args& args, const ManyViewshedInputs& in) {
     j["output"] = in.out_path;
     j["accumulate"] = in.accumulate;
     j["png"] = in.png_path ? Json(*in.png_path) : Json(nullptr);
+    j["style"] = terrain::qml_path_for(in.out_path);
     j["summary"] = in.summary_path ? Json(*in.summary_path) : Json(nullptr);
     j["algorithm"] = in.algorithm_name;
     j["observers"] = in.observers.size();
@@ -149,7 +160,8 @@ int run_viewshed_many(const Args& args, const ManyViewshedInputs& in) {
             << "  algorithm:  " << in.algorithm_name << '\n'
             << "  compute:    " << fixed(stats.seconds, 3) << " s on the daemon (" << fixed(total_seconds, 3)
             << " s in all)\n"
-            << "  wrote:      " << in.out_path << " (" << in.accumulate << ")\n";
+            << "  wrote:      " << in.out_path << " (" << in.accumulate << "), its QGIS style "
+            << terrain::qml_path_for(in.out_path) << '\n';
   if (in.png_path)
     std::cout << "  preview:    " << *in.png_path << " (" << fixed(summary.preview_seconds(), 3)
               << " s on the daemon)\n";

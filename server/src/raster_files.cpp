@@ -48,9 +48,12 @@ Result<std::string> geotiff_bytes(const fs::path& scratch_dir, const terrain::Gr
 }
 
 Result<std::string> geotiff_bytes(const fs::path& scratch_dir, const terrain::Grid<std::uint8_t>& grid,
-                                  const terrain::Georeference& georef, std::optional<double> nodata) {
-  return encode(scratch_dir, ".tif",
-                [&](const std::string& p) { return terrain::write_geotiff(p, grid, georef, nodata); });
+                                  const terrain::Georeference& georef, std::optional<double> nodata,
+                                  const terrain::ColourTable* colours) {
+  return encode(scratch_dir, ".tif", [&](const std::string& p) {
+    return colours ? terrain::write_geotiff(p, grid, georef, nodata, *colours)
+                   : terrain::write_geotiff(p, grid, georef, nodata);
+  });
 }
 
 Result<std::string> geotiff_bytes(const fs::path& scratch_dir, const terrain::Grid<std::uint32_t>& grid,

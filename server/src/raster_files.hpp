@@ -13,14 +13,17 @@
 
 #include "horizon/common/error.hpp"
 #include "horizon/terrain/georef.hpp"
+#include "horizon/terrain/geotiff_writer.hpp"
 #include "horizon/terrain/grid.hpp"
 
 namespace horizon::server {
 
 Result<std::string> geotiff_bytes(const std::filesystem::path& scratch_dir, const terrain::Grid<float>& grid,
                                   const terrain::Georeference& georef, std::optional<double> nodata);
+// With `colours`, the GeoTIFF carries that colour table (the visibility masks).
 Result<std::string> geotiff_bytes(const std::filesystem::path& scratch_dir, const terrain::Grid<std::uint8_t>& grid,
-                                  const terrain::Georeference& georef, std::optional<double> nodata);
+                                  const terrain::Georeference& georef, std::optional<double> nodata,
+                                  const terrain::ColourTable* colours = nullptr);
 Result<std::string> geotiff_bytes(const std::filesystem::path& scratch_dir, const terrain::Grid<std::uint32_t>& grid,
                                   const terrain::Georeference& georef, std::optional<double> nodata);
 // The bytes of the PNG `draw(path)` writes (the CLI's --png preview, drawn by

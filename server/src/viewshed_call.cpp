@@ -21,6 +21,9 @@
 namespace horizon::server {
 namespace {
 
+// The masks' GeoTIFFs carry the previews' colours, as the CLI's do.
+const terrain::ColourTable kCodeColours = visibility::code_colour_table();
+
 static_assert(std::endian::native == std::endian::little,
               "raster chunks are sent in host order, which must be little-endian");
 
@@ -160,8 +163,8 @@ grpc::Status ViewshedCall::compute() {
       std::memcpy(raster_.data(), is_mask ? static_cast<const void*>(mask.data()) : values.data(), raster_.size());
   }
   if (req.include_geotiff()) {
-    auto bytes_or =
-        is_mask ? geotiff_bytes(env.scratch, mask, georef, nodata) : geotiff_bytes(env.scratch, values, georef, nodata);
+    auto bytes_or = is_mask ? geotiff_bytes(env.scratch, mask, georef, nodata, &kCodeColours)
+                            : geotiff_bytes(env.scratch, values, georef, nodata);
     if (!bytes_or.ok()) return scope_.status_of(bytes_or.error());
     geotiff_ = std::move(*bytes_or);
   }

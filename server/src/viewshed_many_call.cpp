@@ -20,6 +20,9 @@
 namespace horizon::server {
 namespace {
 
+// The masks' GeoTIFFs carry the previews' colours, as the CLI's do.
+const terrain::ColourTable kCodeColours = visibility::code_colour_table();
+
 std::string site_name(int i) {
   return "observers[" + std::to_string(i) + "]";
 }
@@ -158,8 +161,8 @@ grpc::Status compute_many_viewshed(CallScope& scope, const v1::ViewshedRequest& 
       copy_rows(mask, out.raster);
   }
   if (req.include_geotiff()) {
-    auto bytes_or =
-        count ? geotiff_bytes(env.scratch, counts, georef, nodata) : geotiff_bytes(env.scratch, mask, georef, nodata);
+    auto bytes_or = count ? geotiff_bytes(env.scratch, counts, georef, nodata)
+                          : geotiff_bytes(env.scratch, mask, georef, nodata, &kCodeColours);
     if (!bytes_or.ok()) return scope.status_of(bytes_or.error());
     out.geotiff = std::move(*bytes_or);
   }

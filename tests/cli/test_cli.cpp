@@ -26,7 +26,6 @@ const std::string kAndes = "ecuador_andes_utm17s_10m_383x415.tif";  // EPSG:3271
 // Rainier's summit crater and a point on its western flank, both inside the crop.
 const std::vector<std::string> kSummit = {"--lat", "46.8529", "--lon", "-121.7604"};
 
-
 CommandResult horizon(const std::vector<std::string>& args) {
   std::string command = shell_quote(HORIZON_CLI_PATH);
   for (const std::string& a : args) {
@@ -188,17 +187,16 @@ INSTANTIATE_TEST_SUITE_P(
 
 INSTANTIATE_TEST_SUITE_P(
     InfoAndLos, CliRejectsUsage,
-    ::testing::Values(UsageCase{{"info"}, "DEM"}, UsageCase{{"info", "DEM", "--band", "x"}, "--band"},
-                      UsageCase{{"info", "DEM", "--observer", "1,2"}, "--observer"},
-                      UsageCase{{"los", "DEM", "--from", "1,2"}, "--to"},
-                      UsageCase{{"los", "DEM", "--to", "1,2"}, "--from"},
-                      UsageCase{{"los", "DEM", "--from", "1,2", "--to", "3"}, "--to"},
-                      UsageCase{{"los", "DEM", "--from", "1,2", "--to", "3,4", "--valid-range", "5,5"}, "--valid-range"},
-                      UsageCase{{"los", "DEM", "--from", "1,2", "--to-lat", "46"}, "--to-lon"},
-                      UsageCase{{"los", "DEM", "--from", "1,2", "--to", "3,4", "--from-height", "nan"},
-                                "--from-height"},
-                      UsageCase{{"los", "DEM", "--from", "1,2", "--to", "3,4", "--to-height", "-1"}, "--to-height"},
-                      UsageCase{{"los", "DEM", "--from", "1,2", "--to", "3,4", "--curvature", "5"}, "--curvature"}),
+    ::testing::Values(
+        UsageCase{{"info"}, "DEM"}, UsageCase{{"info", "DEM", "--band", "x"}, "--band"},
+        UsageCase{{"info", "DEM", "--observer", "1,2"}, "--observer"},
+        UsageCase{{"los", "DEM", "--from", "1,2"}, "--to"}, UsageCase{{"los", "DEM", "--to", "1,2"}, "--from"},
+        UsageCase{{"los", "DEM", "--from", "1,2", "--to", "3"}, "--to"},
+        UsageCase{{"los", "DEM", "--from", "1,2", "--to", "3,4", "--valid-range", "5,5"}, "--valid-range"},
+        UsageCase{{"los", "DEM", "--from", "1,2", "--to-lat", "46"}, "--to-lon"},
+        UsageCase{{"los", "DEM", "--from", "1,2", "--to", "3,4", "--from-height", "nan"}, "--from-height"},
+        UsageCase{{"los", "DEM", "--from", "1,2", "--to", "3,4", "--to-height", "-1"}, "--to-height"},
+        UsageCase{{"los", "DEM", "--from", "1,2", "--to", "3,4", "--curvature", "5"}, "--curvature"}),
     usage_name);
 
 TEST(CliUsage, RefusesToOverwriteTheInputDem) {
@@ -361,7 +359,41 @@ TEST_F(CliViewshed, WritesGeoTiffPngAndJsonSummary) {
   EXPECT_TRUE(fs::is_regular_file(out));
   EXPECT_TRUE(fs::is_regular_file(png));
   EXPECT_EQ(read_bytes(png).substr(1, 3), "PNG");
-  EXPECT_EQ(files_in(dir.path()).size(), 2u) << "no temporary files left behind";
+  EXPECT_TRUE(fs::is_regular_file(dir.file("view.qml")));
+  EXPECT_EQ(files_in(dir.path()).size(), 3u) << "no temporary files left behind";
+}
+
+// OUT.qml beside OUT.tif: QGIS's default style for the layer, an XML
+// document with the previews' colours; the mask also carries them as a
+// GeoTIFF colour table.
+TEST_F(CliViewshed, WritesAQgisStyleBesideTheRaster) {
+  struct Case {
+    std::string output, renderer;
+    int entries;  // palette entries or ramp items
+  };
+  for (const Case& k : {Case{"visible", "paletted", 2}, Case{"ohf", "singlebandpseudocolor", 9}}) {
+    const std::string out = dir.file(k.output + ".tif"), qml = dir.file(k.output + ".qml");
+    const auto r = horizon(
+        concat({"viewshed", bundled_dem(kRainier), "--max-distance", "3000", "--output", k.output, "-o", out, "--json"},
+               kSummit));
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_EQ(parse_json(r)["style"], qml);
+    ASSERT_TRUE(fs::is_regular_file(qml));
+    const auto xml = run_command(
+        "python3 -c 'import sys, xml.etree.ElementTree as E; r = E.parse(sys.argv[1]).getroot(); "
+        "n = r.find(\"pipe/rasterrenderer\"); "
+        "print(n.get(\"type\"), len(r.findall(\".//paletteEntry\")) + len(r.findall(\".//item\")))' " +
+        shell_quote(qml));
+    ASSERT_EQ(xml.exit_code, 0) << xml.output;
+    EXPECT_EQ(xml.output, k.renderer + " " + std::to_string(k.entries) + "\n");
+  }
+  const std::string qml = read_bytes(dir.file("visible.qml"));
+  EXPECT_NE(qml.find("value=\"1\" color=\"#0072b2\" alpha=\"255\" label=\"visible\""), std::string::npos);
+  EXPECT_NE(qml.find("value=\"0\" color=\"#d55e00\" alpha=\"255\" label=\"hidden\""), std::string::npos);
+  if (run_command("gdalinfo --version").exit_code != 0) GTEST_SKIP() << "gdalinfo not installed";
+  const auto info = run_command("gdalinfo " + shell_quote(dir.file("visible.tif")));
+  EXPECT_NE(info.output.find("ColorInterp=Palette"), std::string::npos) << info.output;
+  EXPECT_NE(info.output.find("1: 0,114,178,255"), std::string::npos) << info.output;
 }
 
 TEST_F(CliViewshed, GeoreferencingMatchesTheInput) {

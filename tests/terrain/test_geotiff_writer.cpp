@@ -221,6 +221,42 @@ TEST(GeoTiffWriter, GdalinfoSeesGeographicUInt8) {
   EXPECT_DOUBLE_EQ(info.at("bands").at(0).at("noDataValue").get<double>(), 255.0);
 }
 
+TEST(GeoTiffWriter, GdalinfoSeesTheColourTableAndThePixelsReadBack) {
+  if (testing::run_command("gdalinfo --version").exit_code != 0) GTEST_SKIP() << "gdalinfo not installed";
+  TempDir dir;
+  const std::string path = dir.file("mask.tif");
+  Grid<std::uint8_t> mask(300, 270, 0);
+  for (int r = 0; r < 270; ++r)
+    for (int c = 0; c < 300; ++c) mask.at(c, r) = static_cast<std::uint8_t>((c + r) % 3 == 0 ? 1 : c > 280 ? 255 : 0);
+  ColourTable colours{};
+  colours[0] = {213, 94, 0};
+  colours[1] = {0, 114, 178};
+  colours[255] = {222, 222, 222};
+  ASSERT_TRUE(write_geotiff(path, mask, utm_georef(), 255.0, colours).ok());
+  const auto run = testing::run_command("gdalinfo -json '" + path + "'");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const auto info = nlohmann::json::parse(run.output.substr(run.output.find('{')));
+  const auto& band = info.at("bands").at(0);
+  EXPECT_EQ(band.at("colorInterpretation").get<std::string>(), "Palette");
+  const auto& entries = band.at("colorTable").at("entries");
+  ASSERT_EQ(entries.size(), 256u);
+  EXPECT_EQ(entries.at(0), nlohmann::json::parse("[213, 94, 0, 255]"));
+  EXPECT_EQ(entries.at(1), nlohmann::json::parse("[0, 114, 178, 255]"));
+  EXPECT_EQ(entries.at(255), nlohmann::json::parse("[222, 222, 222, 0]")) << "nodata: transparent";
+  EXPECT_DOUBLE_EQ(band.at("noDataValue").get<double>(), 255.0);
+  // The codes are unchanged: our reader and GDAL's read them back.
+  auto back = read_dem(path);
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  for (auto [c, r] : {std::pair{0, 0}, {1, 0}, {2, 1}, {290, 100}, {299, 269}}) {
+    if (mask.at(c, r) == 255)
+      EXPECT_TRUE(std::isnan(back->elevation.at(c, r))) << c << "," << r;
+    else
+      EXPECT_EQ(back->elevation.at(c, r), float(mask.at(c, r))) << c << "," << r;
+  }
+  const auto value = testing::run_command("gdallocationinfo -valonly '" + path + "' 3 0");
+  EXPECT_EQ(std::stoi(value.output), 1);
+}
+
 TEST(GeoTiffWriter, ReplacesExistingFile) {
   TempDir dir;
   const std::string path = dir.file("out.tif");

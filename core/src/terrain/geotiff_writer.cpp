@@ -10,6 +10,8 @@
 //     GTModelTypeGeoKey, GTRasterTypeGeoKey = PixelIsArea, and
 //     ProjectedCSTypeGeoKey or GeographicTypeGeoKey carrying the EPSG code.
 //   * GDAL_NODATA (TIFF tag 42113, ASCII), https://gdal.org/drivers/raster/gtiff.html.
+//   * A UInt8 raster's colour table: PhotometricInterpretation = Palette (3)
+//     and ColorMap (tag 320), TIFF 6.0 section 5.
 //
 // Written with libtiff + libgeotiff (OIIO 2.4 cannot write GeoTIFF tags).
 // Tiles are predicted and deflated here, on every core (libdeflate, zlib
@@ -24,6 +26,7 @@
 #include "horizon/terrain/geotiff_writer.hpp"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <charconv>
 #include <cmath>
@@ -150,7 +153,7 @@ struct CompressorDeleter {
 // given, a plain image otherwise.
 template <class T>
 Status write_impl(const std::string& path, std::span<const Grid<T>* const> bands, const Georeference* georef,
-                  std::optional<double> nodata) {
+                  std::optional<double> nodata, const ColourTable* colours = nullptr) {
   constexpr bool kFloat = std::is_floating_point_v<T>;
   if (bands.empty() || bands[0]->empty()) return write_error(ErrorCode::kInvalidArgument, path, "grid is empty");
   const Grid<T>& first_band = *bands[0];
@@ -190,7 +193,16 @@ Status write_impl(const std::string& path, std::span<const Grid<T>* const> bands
     TIFFSetField(t, TIFFTAG_SAMPLESPERPIXEL, static_cast<int>(bands.size()));
     TIFFSetField(t, TIFFTAG_BITSPERSAMPLE, static_cast<int>(8 * sizeof(T)));
     TIFFSetField(t, TIFFTAG_SAMPLEFORMAT, kFloat ? SAMPLEFORMAT_IEEEFP : SAMPLEFORMAT_UINT);
-    TIFFSetField(t, TIFFTAG_PHOTOMETRIC, PHOTOMETRIC_MINISBLACK);
+    if (colours && sizeof(T) == 1 && bands.size() == 1) {
+      // TIFF 6.0 section 5: 16-bit components, 0..65535 (v * 257 maps 255 to 65535).
+      std::array<std::array<std::uint16_t, 256>, 3> map;
+      for (std::size_t i = 0; i < 256; ++i)
+        for (std::size_t k = 0; k < 3; ++k) map[k][i] = static_cast<std::uint16_t>((*colours)[i][k] * 257u);
+      TIFFSetField(t, TIFFTAG_PHOTOMETRIC, PHOTOMETRIC_PALETTE);
+      TIFFSetField(t, TIFFTAG_COLORMAP, map[0].data(), map[1].data(), map[2].data());
+    } else {
+      TIFFSetField(t, TIFFTAG_PHOTOMETRIC, PHOTOMETRIC_MINISBLACK);
+    }
     TIFFSetField(t, TIFFTAG_PLANARCONFIG, bands.size() > 1 ? PLANARCONFIG_SEPARATE : PLANARCONFIG_CONTIG);
     TIFFSetField(t, TIFFTAG_COMPRESSION, COMPRESSION_ADOBE_DEFLATE);
     TIFFSetField(t, TIFFTAG_PREDICTOR, kFloat ? PREDICTOR_FLOATINGPOINT : PREDICTOR_HORIZONTAL);
@@ -281,6 +293,12 @@ Status write_geotiff(const std::string& path, const Grid<std::uint8_t>& grid, co
                      std::optional<double> nodata) {
   const Grid<std::uint8_t>* band = &grid;
   return write_impl<std::uint8_t>(path, {&band, 1}, &georef, nodata);
+}
+
+Status write_geotiff(const std::string& path, const Grid<std::uint8_t>& grid, const Georeference& georef,
+                     std::optional<double> nodata, const ColourTable& colours) {
+  const Grid<std::uint8_t>* band = &grid;
+  return write_impl<std::uint8_t>(path, {&band, 1}, &georef, nodata, &colours);
 }
 
 Status write_geotiff(const std::string& path, const Grid<std::uint32_t>& grid, const Georeference& georef,

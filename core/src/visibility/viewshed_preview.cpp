@@ -8,6 +8,7 @@
 #include <filesystem>
 
 #include "horizon/geodesy/crs.hpp"
+#include "horizon/terrain/qgis_style.hpp"
 
 namespace horizon::visibility {
 namespace {
@@ -74,6 +75,98 @@ std::string dem_label(const std::string& path) {
   while (!p.empty() && p.filename().empty()) p = p.parent_path();  // "tiles/" names the folder
   const std::string stem = p.stem().string();
   return stem.empty() ? path : stem;
+}
+
+std::string viewshed_style(PreviewRaster raster, double min, double max) {
+  using terrain::StyleEntry;
+  std::vector<StyleEntry> entries;
+  switch (raster) {
+    case PreviewRaster::kVisibility:
+      return terrain::qml_paletted(std::vector<StyleEntry>{{0.0, terrain::kPreviewHidden, "hidden"},
+                                                           {1.0, terrain::kPreviewVisible, "visible"}});
+    case PreviewRaster::kOhf: {
+      if (!(max > min)) max = min + 1.0;
+      constexpr int kStops = 9;
+      for (int i = 0; i < kStops; ++i) {
+        const double t = static_cast<double>(i) / (kStops - 1);
+        const double v = min + t * (max - min);
+        entries.push_back({v, terrain::preview_ramp_colour(terrain::PreviewRamp::kElevation, t), fixed(v, 0) + " m"});
+      }
+      return terrain::qml_pseudocolor(entries, false, 0);
+    }
+    case PreviewRaster::kMinTargetHeight: {
+      // Classes 0, up to 1, 2, 5, 10, 20, 50, ... metres, to the first bound at or above max,
+      // coloured as the preview's log ramp.
+      std::vector<double> bounds;
+      for (double decade = 1.0; bounds.empty() || bounds.back() < max; decade *= 10.0)
+        for (double m : {1.0, 2.0, 5.0})
+          if (bounds.empty() || bounds.back() < max) bounds.push_back(m * decade);
+      entries.push_back({0.0, terrain::kPreviewVisible, "0 m: the ground is visible"});
+      double previous = 0.0;
+      for (double b : bounds) {
+        const double t = std::log1p(b) / std::log1p(bounds.back());
+        entries.push_back({b, terrain::preview_ramp_colour(terrain::PreviewRamp::kHeightNeeded, t),
+                           fixed(previous, 0) + " - " + fixed(b, 0) + " m"});
+        previous = b;
+      }
+      return terrain::qml_pseudocolor(entries, true, 0);
+    }
+  }
+  return {};
+}
+
+std::string viewshed_style(PreviewRaster raster, const terrain::Grid<float>& values) {
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (float v : values.values())
+    if (std::isfinite(v)) {
+      lo = std::min(lo, double{v});
+      hi = std::max(hi, double{v});
+    }
+  if (!std::isfinite(lo)) lo = hi = 0.0;
+  return viewshed_style(raster, lo, hi);
+}
+
+std::string many_observers_style(PreviewAccumulation accumulation, std::uint32_t max_count) {
+  using terrain::StyleEntry;
+  if (accumulation != PreviewAccumulation::kCount) {
+    const bool any = accumulation == PreviewAccumulation::kAny;
+    return terrain::qml_paletted(std::vector<StyleEntry>{
+        {0.0, terrain::kPreviewHidden, any ? "seen by none" : "not seen by every observer"},
+        {1.0, terrain::kPreviewVisible, any ? "seen by at least one" : "seen by every observer"}});
+  }
+  // 0, then each count up to 8, or 8 classes of counts.
+  std::vector<StyleEntry> entries{{0.0, terrain::kPreviewHidden, "0: seen by none"}};
+  const std::uint32_t top = std::max<std::uint32_t>(1, max_count);
+  const std::uint32_t classes = std::min<std::uint32_t>(top, 8);
+  std::uint32_t previous = 0;
+  for (std::uint32_t i = 1; i <= classes; ++i) {
+    const std::uint32_t bound = static_cast<std::uint32_t>(
+        std::ceil(static_cast<double>(top) * static_cast<double>(i) / static_cast<double>(classes)));
+    if (bound <= previous) continue;
+    const double t = top > 1 ? static_cast<double>(bound - 1) / static_cast<double>(top - 1) : 1.0;
+    const std::string label =
+        bound == previous + 1 ? std::to_string(bound) : std::to_string(previous + 1) + " - " + std::to_string(bound);
+    entries.push_back({static_cast<double>(bound), terrain::preview_ramp_colour(terrain::PreviewRamp::kCount, t),
+                       label + (bound == 1 && previous == 0 ? " observer" : " observers")});
+    previous = bound;
+  }
+  return terrain::qml_pseudocolor(entries, true, 0);
+}
+
+std::string region_style() {
+  using terrain::StyleEntry;
+  return terrain::qml_paletted(std::vector<StyleEntry>{{0.0, terrain::kPreviewHidden, "always hidden"},
+                                                       {1.0, terrain::kPreviewVisible, "always visible"},
+                                                       {2.0, terrain::kPreviewUndetermined, "undetermined"}});
+}
+
+terrain::ColourTable code_colour_table() {
+  terrain::ColourTable table{};  // black for codes never written
+  table[0] = terrain::kPreviewHidden;
+  table[1] = terrain::kPreviewVisible;
+  table[2] = terrain::kPreviewUndetermined;
+  table[255] = terrain::kPreviewBeyond;
+  return table;
 }
 
 std::vector<std::string> viewshed_title(const ViewshedResult& result, PreviewRaster raster,

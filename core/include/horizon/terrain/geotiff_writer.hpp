@@ -13,6 +13,7 @@
 // Output is deterministic: the same grid and georeference give the same bytes.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <span>
@@ -32,6 +33,15 @@ Status write_geotiff(const std::string& path, const Grid<float>& grid, const Geo
 // UInt8 raster (e.g. a viewshed: 1 visible, 0 hidden, 255 nodata).
 Status write_geotiff(const std::string& path, const Grid<std::uint8_t>& grid, const Georeference& georef,
                      std::optional<double> nodata);
+
+// The colour (R, G, B) of each of the 256 values of a UInt8 raster.
+using ColourTable = std::array<std::array<std::uint8_t, 3>, 256>;
+
+// A UInt8 raster with a colour table (TIFF's Palette photometric and its
+// ColorMap tag): gdalinfo lists the "Color Table", and GIS software (QGIS,
+// GDAL's tools) draws the codes in those colours without a style.
+Status write_geotiff(const std::string& path, const Grid<std::uint8_t>& grid, const Georeference& georef,
+                     std::optional<double> nodata, const ColourTable& colours);
 
 // A Float32 image with no georeference (a camera's depth image, its hits):
 // one or more bands of one size, band after band, NaN for no value, the

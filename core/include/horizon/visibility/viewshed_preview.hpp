@@ -17,6 +17,7 @@
 #include <string>
 
 #include "horizon/common/error.hpp"
+#include "horizon/terrain/geotiff_writer.hpp"
 #include "horizon/terrain/grid.hpp"
 #include "horizon/terrain/preview.hpp"
 #include "horizon/visibility/many_observers.hpp"
@@ -51,6 +52,21 @@ enum class PreviewAccumulation { kCount, kAny, kAll };
 Status write_many_observers_picture(const std::string& path, const ManyObserversPlan& plan,
                                     const ManyObserversResult& result, const terrain::Grid<float>& elevation,
                                     PreviewAccumulation accumulation, const PreviewCaption& caption);
+
+// The QGIS styles (.qml, terrain/qgis_style.hpp) of the rasters written,
+// in the previews' colours and words, for "OUT.qml" beside "OUT.tif".
+// `min`, `max`: the raster's finite values (kOhf: the ramp's ends;
+// kMinTargetHeight: its classes reach max).
+std::string viewshed_style(PreviewRaster raster, double min, double max);
+// The same with the range taken from the raster written (NaN: no answer).
+std::string viewshed_style(PreviewRaster raster, const terrain::Grid<float>& values);
+// `max_count`: the greatest count (kCount).
+std::string many_observers_style(PreviewAccumulation accumulation, std::uint32_t max_count);
+// The region raster's 0 always hidden, 1 always visible, 2 undetermined.
+std::string region_style();
+// The colour table of every UInt8 code raster (1 visible, 0 hidden, 2
+// undetermined, 255 no answer), for terrain::write_geotiff.
+terrain::ColourTable code_colour_table();
 
 // The stem of a DEM path for PreviewCaption::dem: "data/dem/a.tif" -> "a",
 // a folder of tiles by its own name.

@@ -1,0 +1,45 @@
+// horizon/terrain/qgis_style.hpp — QGIS layer styles (.qml) for the rasters
+// Horizon writes, so that a result opens in QGIS already drawn: QGIS loads
+// "OUT.qml" as the default style of a layer read from "OUT.tif".
+//
+// Two renderers of QGIS's raster style format (QGIS 3.x, the
+// <qgis><pipe><rasterrenderer> document its "Save Style..." writes):
+//   - paletted: each listed value of band 1 in its colour with its label
+//     (unique values: a visibility mask's 1/0, a region's 1/0/2); values not
+//     listed, and the band's nodata, are not drawn;
+//   - single-band pseudocolour: a colour-ramp shader, interpolated between
+//     its items, or discrete (each item colours the values up to it).
+// Nodata stays the GeoTIFF's own (GDAL_NODATA): QGIS draws it transparent.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <string>
+
+#include "horizon/common/error.hpp"
+
+namespace horizon::terrain {
+
+struct StyleEntry {
+  double value = 0.0;
+  std::array<std::uint8_t, 3> colour{};
+  std::string label;
+};
+
+// The paletted style's document.
+std::string qml_paletted(std::span<const StyleEntry> entries);
+
+// The pseudocolour style's document: `entries` in increasing value;
+// `discrete`: an entry colours the values up to and including its own
+// (above the previous one's), otherwise colours are interpolated between
+// entries and values beyond the ends take the ends' colours.
+std::string qml_pseudocolor(std::span<const StyleEntry> entries, bool discrete, int label_precision);
+
+// "dir/out.tif" -> "dir/out.qml" (the style QGIS loads with the raster).
+std::string qml_path_for(const std::string& raster_path);
+
+// Writes `text` at `path` atomically (temporary name + rename); errors name the path.
+Status write_text_file(const std::string& path, const std::string& text);
+
+}  // namespace horizon::terrain

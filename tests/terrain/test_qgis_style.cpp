@@ -1,0 +1,74 @@
+// Tests for terrain/qgis_style.cpp: the documents QGIS loads as a raster's
+// default style (entries, values, colours, labels, escaping), the style's
+// path beside its raster, and the atomic write. tests/qgis loads them in
+// QGIS itself.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "horizon/terrain/qgis_style.hpp"
+#include "test_support.hpp"
+
+namespace horizon::terrain {
+namespace {
+
+using testing::TempDir;
+
+int occurrences(const std::string& s, const std::string& what) {
+  int n = 0;
+  for (std::size_t at = s.find(what); at != std::string::npos; at = s.find(what, at + 1)) ++n;
+  return n;
+}
+
+TEST(QgisStyle, PalettedListsEachValueWithItsColourAndEscapedLabel) {
+  const std::vector<StyleEntry> entries{{0.0, {213, 94, 0}, "hidden"}, {1.0, {0, 114, 178}, "visible <& \"seen\">"}};
+  const std::string qml = qml_paletted(entries);
+  EXPECT_EQ(qml.rfind("<!DOCTYPE qgis", 0), 0u);
+  EXPECT_NE(qml.find("<rasterrenderer type=\"paletted\" band=\"1\""), std::string::npos);
+  EXPECT_NE(qml.find("<paletteEntry value=\"0\" color=\"#d55e00\" alpha=\"255\" label=\"hidden\"/>"),
+            std::string::npos);
+  EXPECT_NE(qml.find("<paletteEntry value=\"1\" color=\"#0072b2\" alpha=\"255\" "
+                     "label=\"visible &lt;&amp; &quot;seen&quot;&gt;\"/>"),
+            std::string::npos);
+  EXPECT_EQ(occurrences(qml, "<paletteEntry"), 2);
+  EXPECT_NE(qml.find("zoomedInResamplingMethod=\"nearestNeighbour\""), std::string::npos);
+  EXPECT_EQ(qml.substr(qml.size() - 8), "</qgis>\n");
+}
+
+TEST(QgisStyle, PseudocolorHasItsRangeAndRampType) {
+  const std::vector<StyleEntry> entries{
+      {714.5, {68, 1, 84}, "714 m"}, {2000.0, {33, 145, 140}, "2000 m"}, {7340.25, {253, 231, 37}, "7340 m"}};
+  const std::string interpolated = qml_pseudocolor(entries, false, 0);
+  EXPECT_NE(interpolated.find("type=\"singlebandpseudocolor\""), std::string::npos);
+  EXPECT_NE(interpolated.find("classificationMin=\"714.5\" classificationMax=\"7340.25\""), std::string::npos);
+  EXPECT_NE(interpolated.find("colorRampType=\"INTERPOLATED\""), std::string::npos);
+  EXPECT_NE(interpolated.find("<item value=\"2000\" color=\"#21918c\" alpha=\"255\" label=\"2000 m\"/>"),
+            std::string::npos);
+  EXPECT_EQ(occurrences(interpolated, "<item "), 3);
+  EXPECT_NE(qml_pseudocolor(entries, true, 0).find("colorRampType=\"DISCRETE\""), std::string::npos);
+}
+
+TEST(QgisStyle, SitsBesideItsRasterAndIsWrittenWhole) {
+  EXPECT_EQ(qml_path_for("out/rainier.tif"), "out/rainier.qml");
+  EXPECT_EQ(qml_path_for("a.b/view.tiff"), "a.b/view.qml");
+  EXPECT_EQ(qml_path_for("view"), "view.qml");
+  TempDir dir;
+  const std::string path = dir.file("v.qml");
+  ASSERT_TRUE(write_text_file(path, "first").ok());
+  ASSERT_TRUE(write_text_file(path, "second").ok());
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_EQ(text.str(), "second");
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path()), {}), 1);
+  const Status missing = write_text_file(dir.file("nowhere/v.qml"), "x");
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.error().message.find("nowhere/v.qml"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace horizon::terrain
