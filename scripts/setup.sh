@@ -38,20 +38,36 @@ for package in "${packages[@]}"; do
   [[ "$status" == "installed" ]] || missing+=("$package")
 done
 
-if ((${#missing[@]} == 0)); then
-  echo "setup: all ${#packages[@]} packages are installed"
+# buf (buf curl, the daemon's reflection client test) comes from the npm
+# registry: Debian has no package of it. npm itself from Debian when absent.
+buf_version=1.75.0
+need_buf=0
+if ! command -v buf >/dev/null 2>&1 || [[ "$(buf --version 2>/dev/null)" != "$buf_version" ]]; then
+  need_buf=1
+  command -v npm >/dev/null 2>&1 || missing+=(nodejs npm)
+fi
+
+if ((${#missing[@]} == 0 && need_buf == 0)); then
+  echo "setup: all ${#packages[@]} packages and buf $buf_version are installed"
   exit 0
 fi
 
 sudo=()
 if [[ "$(id -u)" -ne 0 ]]; then
   if ! command -v sudo >/dev/null 2>&1; then
-    echo "setup: need root or sudo to install: ${missing[*]}" >&2
+    echo "setup: need root or sudo to install: ${missing[*]} $( ((need_buf)) && echo buf)" >&2
     exit 1
   fi
   sudo=(sudo)
 fi
 
-echo "setup: installing ${missing[*]}"
-"${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get update
-"${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends "${missing[@]}"
+if ((${#missing[@]} > 0)); then
+  echo "setup: installing ${missing[*]}"
+  "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get update
+  "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends "${missing[@]}"
+fi
+
+if ((need_buf)); then
+  echo "setup: installing buf $buf_version (npm @bufbuild/buf)"
+  "${sudo[@]}" npm install --global --no-fund --no-audit "@bufbuild/buf@$buf_version"
+fi

@@ -13,6 +13,7 @@
 #include <grpcpp/server_builder.h>
 
 #include "dataset_service.hpp"
+#include "grpc/health/v1/health.pb.h"
 #include "datasets.hpp"
 #include "horizon/gpu/context_pool.hpp"
 #include "horizon/visibility/backend_policy.hpp"
@@ -189,6 +190,11 @@ Status Daemon::start() {
   d.env.backend = &d.backend;
 
   grpc::EnableDefaultHealthCheckService(true);
+  // Reflection describes the services whose files are in protobuf's
+  // generated pool; gRPC's default health service is built without
+  // protobuf, so its file is linked in from horizon_proto (the reference
+  // keeps the linker from dropping it) for clients such as buf curl.
+  (void)grpc::health::v1::HealthCheckRequest::descriptor();
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   int port = 0;
