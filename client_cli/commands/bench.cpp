@@ -241,9 +241,11 @@ const Command& bench_command() {
       "share against time, each verdict checked with R3 (--check). Writes DIR/bench_region.csv,\n"
       "DIR/bench_region.md and DIR/region_*.png; exits 1 if any verdict contradicts R3.",
       kFlags,
-      "  horizon bench data/dem/zion_canyon_srtm3_465x457.tif --observers 2 --peers none -o out/bench\n"
-      "  horizon bench a.tif b.tif --algorithms fast,r3 --repeats 5 --markdown docs/table.md\n"
-      "  horizon bench --region data/dem/ecuador_andes_utm17s_10m_383x415.tif --sizes 20,100 -o out/region\n",
+      "  horizon bench data/dem/olinda_coast_utm25s_111x111.tif --observers 2 --peers none -o out/bench\n"
+      "  horizon bench data/dem/olinda_coast_utm25s_111x111.tif data/dem/everest_summit_voids_srtm3_300x300.tif \\\n"
+      "      --algorithms fast,r3 --repeats 2 --peers none --markdown out/table.md\n"
+      "  horizon bench --region data/dem/ecuador_andes_utm17s_10m_383x415.tif --sizes 20,100 \\\n"
+      "      --face-resolutions 64,256 --check 20 -o out/region\n",
       run_bench,
   };
   return command;

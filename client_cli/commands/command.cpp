@@ -30,8 +30,9 @@ terrain::SourceOptions source_options(const Args& args) {
   terrain::SourceOptions o;
   o.band = args.positive_integer("--band").value_or(0);
   if (args.has("--server") && args.has("--valid-range"))
-    throw UsageError("--valid-range applies to a local DEM; with --server the dataset's valid_range in the "
-                     "daemon's config decides");
+    throw UsageError(
+        "--valid-range applies to a local DEM; with --server the dataset's valid_range in the "
+        "daemon's config decides");
   if (auto range = args.pair("--valid-range")) {
     if (!(range->first < range->second))
       throw UsageError("--valid-range: the minimum must be below the maximum, got " + *args.text("--valid-range"));

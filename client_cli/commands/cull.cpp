@@ -182,8 +182,12 @@ const Command& cull_command() {
       "wholly on the dataset; the other boxes are still answered).",
       kFlags,
       "  horizon cull data/dem/rainier_summit_srtm3_400x400.tif --lat 46.85 --lon -121.76 \\\n"
-      "      --boxes boxes.csv --lonlat --conservative\n"
-      "  horizon cull everest --server localhost:50051 --observer 450375,3042017 --boxes boxes.csv --json\n",
+      "      --boxes examples/rainier_boxes.csv --lonlat --conservative\n"
+      "  horizon cull data/dem/ecuador_andes_utm17s_10m_383x415.tif --observer 713900,9558950 \\\n"
+      "      --boxes examples/ecuador_boxes.csv\n"
+      "  horizon cull rainier --server localhost:50051 --lat 46.75 --lon -121.6767 --boxes examples/rainier_boxes.csv "
+      "\\\n"
+      "      --lonlat --json\n",
       run_cull,
   };
   return command;

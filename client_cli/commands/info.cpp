@@ -32,7 +32,6 @@ Extent extent_of(const terrain::Dem& dem) {
   return {std::min(x0, x1), std::max(x0, x1), std::min(y0, y1), std::max(y0, y1)};
 }
 
-
 int run_info(const Args& args) {
   const std::string& path = single_operand(args, "DEM");
   const bool json = args.has("--json");
@@ -133,7 +132,7 @@ const Command& info_command() {
       "of void cells.",
       kFlags,
       "  horizon info data/dem/rainier_summit_srtm3_400x400.tif\n"
-      "  horizon info dem.tif --band 2 --json\n",
+      "  horizon info data/dem/ecuador_andes_utm17s_10m_383x415.tif --json\n",
       run_info,
   };
   return command;

@@ -117,7 +117,7 @@ const Command& los_command() {
       kFlags,
       "  horizon los data/dem/rainier_summit_srtm3_400x400.tif --from-lat 46.8529 --from-lon -121.7604 \\\n"
       "      --to-lat 46.80 --to-lon -121.70 --to-height 10\n"
-      "  horizon los dem.tif --from 500100,5000200 --to 503000,5001000 --json\n",
+      "  horizon los data/dem/ecuador_andes_utm17s_10m_383x415.tif --from 713900,9558950 --to 714500,9559500 --json\n",
       run_los,
   };
   return command;

@@ -276,7 +276,8 @@ const Command& region_command() {
       kFlags,
       "  horizon region data/dem/ecuador_andes_utm17s_10m_383x415.tif \\\n"
       "      --from-box 713800,9558900,713950,9559000 --heights 2,30 -o region.tif --png region.png\n"
-      "  horizon region dem.tif --from-path 713700,9558800,714100,9559100 --half-size 20 --boxes boxes.csv --json\n",
+      "  horizon region data/dem/ecuador_andes_utm17s_10m_383x415.tif --from-path 713700,9558800,714100,9559100 \\\n"
+      "      --half-size 20 --boxes examples/ecuador_boxes.csv --json\n",
       run_region,
   };
   return command;

@@ -92,8 +92,9 @@ template <class T>
 void throw_if_bad_shape(const Result<T>& checked) {
   if (checked.ok() || checked.error().code != ErrorCode::kInvalidArgument) return;
   std::string message = checked.error().message;
-  for (const auto& [field, flag] : {std::pair{"clipmap.levels", "--levels"}, std::pair{"clipmap.level_size", "--level-size"},
-                                    std::pair{"clipmap.subtile", "--subtile"}, std::pair{"rays", "--rays"}})
+  for (const auto& [field, flag] :
+       {std::pair{"clipmap.levels", "--levels"}, std::pair{"clipmap.level_size", "--level-size"},
+        std::pair{"clipmap.subtile", "--subtile"}, std::pair{"rays", "--rays"}})
     if (message.rfind(field, 0) == 0) message.replace(0, std::string(field).size(), flag);
   throw UsageError(message);
 }
@@ -204,10 +205,9 @@ int run_session(const Args& args) {
   (void)source_options(args);
   if (auto id = args.text("--session-id")) {
     if (!args.has("--server")) throw UsageError("--session-id needs --server");
-    const bool valid = !id->empty() && id->size() <= 64 &&
-                       std::all_of(id->begin(), id->end(), [](char c) {
-                         return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-';
-                       });
+    const bool valid = !id->empty() && id->size() <= 64 && std::all_of(id->begin(), id->end(), [](char c) {
+      return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-';
+    });
     if (!valid) throw UsageError("--session-id: 1 to 64 characters of A-Z, a-z, 0-9, '_' and '-'");
   }
   if (args.has("--server")) return remote::run_session(args, playback, json, every_pose);
@@ -305,8 +305,8 @@ void print_session(const SessionPlayback& playback, const SessionReport& report,
               << report.subtile << "), " << mode << ", " << playback.options.rays << " rays; ";
   std::cout << fixed(static_cast<double>(report.memory_bytes) / (1 << 20), 1) << " MiB\n"
             << "  poses:      " << with_separators(playback.poses.size()) << " from " << playback.poses_path << ": "
-            << with_separators(answered) << " answered, " << with_separators(dropped) << " dropped (a newer pose came), "
-            << with_separators(rejected) << " rejected\n"
+            << with_separators(answered) << " answered, " << with_separators(dropped)
+            << " dropped (a newer pose came), " << with_separators(rejected) << " rejected\n"
             << "  boxes:      " << with_separators(playback.boxes.size()) << " from " << playback.boxes_path;
   if (last) std::cout << ": " << with_separators(last->visible) << " visible at pose " << last->seq;
   std::cout << '\n'
@@ -352,9 +352,10 @@ const Command& session_command() {
       "--server the session runs on the daemon (one bidirectional stream); with --rate\n"
       "poses are sent on a clock and the daemon answers the newest, dropping the rest.",
       kFlags,
-      "  horizon session data/dem/rainier_summit_srtm3_400x400.tif --path flight.csv --boxes boxes.csv \\\n"
-      "      --lonlat --absolute --level-size 128 --conservative\n"
-      "  horizon session everest --server localhost:50051 --path flight.csv --boxes boxes.csv --rate 60\n",
+      "  horizon session data/dem/rainier_summit_srtm3_400x400.tif --path examples/rainier_flight.csv \\\n"
+      "      --boxes examples/rainier_boxes.csv --lonlat --absolute --level-size 128 --conservative\n"
+      "  horizon session rainier --server localhost:50051 --path examples/rainier_flight.csv \\\n"
+      "      --boxes examples/rainier_boxes.csv --lonlat --absolute --rate 60\n",
       run_session,
   };
   return command;

@@ -131,7 +131,7 @@ std::string check_list() {
 const Command& stress_command() {
   static const std::string examples =
       "  horizon stress                                      # synthetic checks only\n"
-      "  horizon stress ../shared/data/dem/*.tif --markdown stress.md\n"
+      "  horizon stress data/dem/olinda_coast_utm25s_111x111.tif --markdown out/stress.md\n"
       "  horizon stress --algorithms fast --checks wall_1000m,flat_all_visible\n\n" +
       check_list();
   static const Command command{

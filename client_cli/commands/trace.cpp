@@ -541,7 +541,8 @@ const Command& trace_command() {
       "      --yaw 20 --pitch 5 --hfov 70 --size 960x540 --png view.png -o depth.tif\n"
       "  horizon trace data/dem/everest_summit_voids_srtm3_300x300.tif --lat 27.9881 --lon 86.925 --altitude 8850 \\\n"
       "      --projection cylindrical --hfov 360 --pitch -10 --size 1440x240 --png panorama.png\n"
-      "  horizon trace dem.tif --path flight.csv --size 512x512 --json\n"
+      "  horizon trace data/dem/rainier_summit_srtm3_400x400.tif --path examples/rainier_cameras.csv --lonlat \\\n"
+      "      --size 512x512 --json\n"
       "  horizon trace rainier --server localhost:50051 --lat 46.70 --lon -121.90 --height 800 --yaw 40 \\\n"
       "      -o depth.tif --png view.png     # a horizond dataset: the same files, traced by the daemon\n",
       run_trace,

@@ -371,12 +371,12 @@ const Command& viewshed_command() {
       "\"max_distance\" and \"name\" properties. --height and --max-distance fill what a\n"
       "line leaves out; --summary writes each observer's visible cells and area.",
       kFlags,
-      "  horizon viewshed data/dem/rainier_summit_srtm3_400x400.tif --lat 46.8529 --lon -121.7604 \\\n"
-      "      -o out/rainier.tif --png out/rainier.png\n"
-      "  horizon viewshed dem.tif --observer 500100,5000200 --height 30 --max-distance 20000 \\\n"
-      "      --output min-target-height -o mth.tif --json\n"
-      "  horizon viewshed dem.tif --observers towers.csv --height 30 --max-distance 10000 \\\n"
-      "      --accumulate count -o count.tif --summary towers_seen.csv\n",
+      "  horizon viewshed data/dem/rainier_summit_srtm3_400x400.tif --lat 46.75 --lon -121.6767 \\\n"
+      "      --max-distance 15000 -o out/rainier.tif --png out/rainier.png\n"
+      "  horizon viewshed data/dem/ecuador_andes_utm17s_10m_383x415.tif --observer 713900,9558950 --height 30 \\\n"
+      "      --max-distance 2000 --output min-target-height -o out/mth.tif --png out/mth.png --json\n"
+      "  horizon viewshed data/dem/rainier_summit_srtm3_400x400.tif --observers examples/rainier_towers.csv \\\n"
+      "      --accumulate count -o out/count.tif --png out/count.png --summary out/towers_seen.csv\n",
       run_viewshed,
   };
   return command;
