@@ -30,6 +30,9 @@ packages=(
   libgtest-dev libbenchmark-dev gdal-bin python3
   # horizon bench: GRASS r.viewshed (the exact peer) and the chart's font (OpenImageIO render_text, DejaVu Sans)
   grass-core fonts-dejavu-core
+  # the QGIS Processing provider (clients/qgis), tested headless in PyQGIS (QGIS 3.22, offscreen Qt);
+  # python3-qgis brings qgis-providers and the Processing framework, not the desktop application
+  python3-qgis python3-numpy
 )
 
 missing=()
