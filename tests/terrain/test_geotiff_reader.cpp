@@ -303,6 +303,25 @@ TEST(GeoTiffReader, RejectsTextFile) {
   EXPECT_NE(dem.error().message.find("text.tif"), std::string::npos);
 }
 
+// A copy cut short (a download that stopped) is said to be truncated, with
+// the file's size and where the missing bytes were, whether the cut falls in
+// the header's directory or in the tiles.
+TEST(GeoTiffReader, SaysATruncatedFileIsTruncated) {
+  TempDir dir;
+  std::ifstream in(bundled_dem("rainier_summit_srtm3_400x400.tif"), std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  for (std::size_t size : {std::size_t{12}, std::size_t{100}, std::size_t{5000}, bytes.size() / 2, bytes.size() - 1}) {
+    const std::string path = dir.file("cut_" + std::to_string(size) + ".tif");
+    std::ofstream(path, std::ios::binary) << bytes.substr(0, size);
+    auto dem = read_geotiff(path, {});
+    ASSERT_FALSE(dem.ok()) << size;
+    EXPECT_EQ(dem.error().code, ErrorCode::kDataError);
+    EXPECT_NE(dem.error().message.find("the file is truncated: it has " + std::to_string(size) + " bytes"),
+              std::string::npos)
+        << dem.error().message;
+  }
+}
+
 TEST(GeoTiffReader, RejectsDirectory) {
   TempDir dir;
   auto dem = read_geotiff(dir.path().string(), {});

@@ -53,9 +53,11 @@ constexpr KnobSetting kKnobTable[] = {
     {"fast", "spacing 0.25, min", [](ViewshedOptions& o) { spacing_blend(o, 0.25, RayBlend::kMin); }},
     // The same rays on the GL path (visibility/radial_sweep_gl.hpp), at the default spacing
     // and blend; run only when the bench has an EGL context (BenchConfig::gpu).
-    {"fast", "gpu fragment, log-step", [](ViewshedOptions& o) { gpu_knobs(o, visibility::GpuMethod::kFragment, true); }},
+    {"fast", "gpu fragment, log-step",
+     [](ViewshedOptions& o) { gpu_knobs(o, visibility::GpuMethod::kFragment, true); }},
     {"fast", "gpu compute, log-step", [](ViewshedOptions& o) { gpu_knobs(o, visibility::GpuMethod::kCompute, true); }},
-    {"fast", "gpu fragment, one-step", [](ViewshedOptions& o) { gpu_knobs(o, visibility::GpuMethod::kFragment, false); }},
+    {"fast", "gpu fragment, one-step",
+     [](ViewshedOptions& o) { gpu_knobs(o, visibility::GpuMethod::kFragment, false); }},
     {"fast", "gpu compute, one-step", [](ViewshedOptions& o) { gpu_knobs(o, visibility::GpuMethod::kCompute, false); }},
     {"exact", "default", nullptr},
     {"conservative", "default", nullptr},
@@ -329,8 +331,8 @@ Result<BenchReport> run_bench(const BenchConfig& config, const RunControl* contr
             options.gpu->method == visibility::GpuMethod::kFragment &&
             std::max(reference->frame.window.width(), reference->frame.window.height()) > config.gpu_one_step_limit) {
           report.notes.push_back(base_name(path) + ", " + pick.kind + ": " + setting.name + " skipped: one draw per " +
-                                 "step outward, over BenchConfig::gpu_one_step_limit (" +
-                                 std::to_string(config.gpu_one_step_limit) + ") steps");
+                                 "step outward, over the one-step limit of " +
+                                 std::to_string(config.gpu_one_step_limit) + " steps");
           units_done += 1;
           continue;
         }

@@ -37,6 +37,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <limits>
 #include <optional>
 #include <string>
@@ -183,14 +184,59 @@ struct TiffFacts {
 Result<int> channel_of(const ReadOptions& options, int bands, const std::string& path);
 Result<PixelType> pixel_type_of(const TiffFacts& f, const std::string& path);
 
+// A TIFF whose first directory (TIFF 6.0 section 2: its offset in bytes
+// 4-7, BigTIFF's in bytes 8-15; a count of entries, 12 bytes each, 20 in
+// BigTIFF) runs past the end of the file: a file cut short, said as such
+// rather than as libtiff's directory error.
+std::optional<std::string> truncated_header(const std::string& path) {
+  std::error_code ec;
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);
+  std::FILE* file = ec ? nullptr : std::fopen(path.c_str(), "rb");
+  if (!file) return std::nullopt;
+  auto read_at = [&](std::uint64_t at, unsigned char* out, std::size_t n) {
+    return at + n <= size && std::fseek(file, static_cast<long>(at), SEEK_SET) == 0 && std::fread(out, 1, n, file) == n;
+  };
+  unsigned char head[16] = {};
+  const bool have_head = read_at(0, head, 8) && (head[0] == 'I' || head[0] == 'M');
+  const bool little = head[0] == 'I';
+  const bool big_tiff = (little ? head[2] : head[3]) == 43;
+  const std::size_t width = big_tiff ? 8 : 4;
+  auto number = [&](const unsigned char* b, std::size_t n) {
+    std::uint64_t v = 0;
+    for (std::size_t i = 0; i < n; ++i) v |= static_cast<std::uint64_t>(b[little ? i : n - 1 - i]) << (8 * i);
+    return v;
+  };
+  std::optional<std::string> cut;
+  const auto says = [&](std::uint64_t needed, const std::string& what) {
+    return "the file is truncated: it has " + std::to_string(size) + " bytes, but " + what + " runs to byte " +
+           std::to_string(needed) + " (a copy or download that stopped early?)";
+  };
+  if (have_head && (!big_tiff || read_at(0, head, 16))) {
+    const std::uint64_t offset = number(head + (big_tiff ? 8 : 4), width);
+    unsigned char count_bytes[8] = {};
+    const std::size_t count_width = big_tiff ? 8 : 2;
+    if (offset + count_width > size) {
+      cut = says(offset + count_width, "its first directory");
+    } else if (read_at(offset, count_bytes, count_width)) {
+      const std::uint64_t entries = number(count_bytes, count_width);
+      const std::uint64_t end = offset + count_width + entries * (big_tiff ? 20 : 12) + width;
+      if (end > size) cut = says(end, "its first directory, of " + std::to_string(entries) + " entries,");
+    }
+  }
+  std::fclose(file);
+  return cut;
+}
+
 // Reads georeferencing, nodata and layout through libtiff + libgeotiff.
 Result<TiffFacts> read_tiff_facts(const std::string& path, const ReadOptions& options) {
   TiffMessages messages;
   TiffPtr tif = detail::open_tiff(path, "r", messages);
-  if (!tif)
+  if (!tif) {
+    if (auto cut = truncated_header(path)) return dem_error(ErrorCode::kDataError, path, *cut);
     return dem_error(
         ErrorCode::kDataError, path,
         "not a raster (not a readable TIFF" + (messages.errors.empty() ? std::string() : ": " + messages.errors) + ")");
+  }
 
   TiffFacts facts;
   facts.bigtiff = TIFFIsBigTIFF(tif.get()) != 0;
@@ -418,6 +464,21 @@ void convert_any(PixelType type, const unsigned char* src, std::size_t stride, i
 // sized float elevations, nodata as NaN) on the same thread, block by block.
 // Counts the blocks it decodes. libtiff undoes the compression, the
 // predictor and the byte order, exactly as for a full read.
+//
+// A block that does not decode is most often a file cut short (a copy or a
+// download that stopped): when the block's bytes, as the file's own offsets
+// and counts place them, run past the end of the file, the message says so.
+std::optional<std::string> truncation(const std::string& path, TIFF* tif, std::uint32_t index,
+                                      const std::string& block_name) {
+  std::error_code ec;
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);
+  if (ec) return std::nullopt;
+  const std::uint64_t start = TIFFGetStrileOffset(tif, index), count = TIFFGetStrileByteCount(tif, index);
+  if (start + count <= size) return std::nullopt;
+  return "the file is truncated: it has " + std::to_string(size) + " bytes, but the " + block_name + " lies at bytes " +
+         std::to_string(start) + ".." + std::to_string(start + count) + " (a copy or download that stopped early?)";
+}
+
 Status read_window_with_libtiff(const std::string& path, const TiffFacts& f, int channel, const Window& window,
                                 std::size_t bytes, unsigned threads, Grid<float>& out, ReadStats& stats) {
   const std::size_t stride = f.planar_separate ? bytes : bytes * static_cast<std::size_t>(f.samples);
@@ -450,19 +511,22 @@ Status read_window_with_libtiff(const std::string& path, const TiffFacts& f, int
     for (int by = first_row + row_lo * bh; by < first_row + row_hi * bh && by < window.row1; by += bh) {
       for (int bx = window.col0 / bw * bw; bx < window.col1; bx += bw) {
         tmsize_t got = 0;
+        std::uint32_t index = 0;
         if (f.tiled) {
-          const ttile_t index =
-              TIFFComputeTile(tif.get(), static_cast<std::uint32_t>(bx), static_cast<std::uint32_t>(by), 0, plane);
+          index = TIFFComputeTile(tif.get(), static_cast<std::uint32_t>(bx), static_cast<std::uint32_t>(by), 0, plane);
           got = TIFFReadEncodedTile(tif.get(), index, block.data(), block_bytes);
         } else {
-          const tstrip_t index = TIFFComputeStrip(tif.get(), static_cast<std::uint32_t>(by), plane);
+          index = TIFFComputeStrip(tif.get(), static_cast<std::uint32_t>(by), plane);
           got = TIFFReadEncodedStrip(tif.get(), index, block.data(), block_bytes);
         }
         if (got < 0) {
+          const std::string block_name =
+              std::string(f.tiled ? "tile" : "strip") + " at col " + std::to_string(bx) + ", row " + std::to_string(by);
           status[run] =
               dem_error(ErrorCode::kDataError, path,
-                        std::string("cannot decode ") + (f.tiled ? "tile" : "strip") + " at col " + std::to_string(bx) +
-                            ", row " + std::to_string(by) + " (" + messages.errors + ")");
+                        truncation(path, tif.get(), index, block_name)
+                            .value_or("cannot decode " + block_name +
+                                      (messages.errors.empty() ? std::string() : " (" + messages.errors + ")")));
           return;
         }
         ++blocks[run];
