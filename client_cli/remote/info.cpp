@@ -30,12 +30,13 @@ int run_info(const Args& args, const std::string& name, bool json) {
     j["cell_size_m"] = {{"x", d.cell_size_x_m()}, {"y", d.cell_size_y_m()}};
     j["extent"] = {{"x_min", e.x_min()}, {"y_min", e.y_min()}, {"x_max", e.x_max()}, {"y_max", e.y_max()}};
     j["extent_lonlat"] = d.has_extent_lonlat() ? Json{{"west", d.extent_lonlat().west()},
-                                                       {"south", d.extent_lonlat().south()},
-                                                       {"east", d.extent_lonlat().east()},
-                                                       {"north", d.extent_lonlat().north()}}
-                                                 : Json(nullptr);
+                                                      {"south", d.extent_lonlat().south()},
+                                                      {"east", d.extent_lonlat().east()},
+                                                      {"north", d.extent_lonlat().north()}}
+                                               : Json(nullptr);
     j["nodata"] = d.has_nodata() ? finite_or_null(d.nodata()) : Json(nullptr);
-    j["elevation"] = d.has_elevation_min() ? Json{{"min", d.elevation_min()}, {"max", d.elevation_max()}} : Json(nullptr);
+    j["elevation"] =
+        d.has_elevation_min() ? Json{{"min", d.elevation_min()}, {"max", d.elevation_max()}} : Json(nullptr);
     j["valid_cells"] = d.valid_cells();
     j["void_cells"] = d.void_cells();
     j["server"] = {{"address", client.address()}, {"source", d.source()}, {"resident_bytes", d.resident_bytes()}};
@@ -61,9 +62,9 @@ int run_info(const Args& args, const std::string& name, bool json) {
             << "Extent:      x " << coordinate(e.x_min(), geographic) << " .. " << coordinate(e.x_max(), geographic)
             << ", y " << coordinate(e.y_min(), geographic) << " .. " << coordinate(e.y_max(), geographic) << '\n';
   if (d.has_extent_lonlat())
-    std::cout << "Lon/lat:     lon " << fixed(d.extent_lonlat().west(), 6) << " .. " << fixed(d.extent_lonlat().east(), 6)
-              << ", lat " << fixed(d.extent_lonlat().south(), 6) << " .. " << fixed(d.extent_lonlat().north(), 6)
-              << '\n';
+    std::cout << "Lon/lat:     lon " << fixed(d.extent_lonlat().west(), 6) << " .. "
+              << fixed(d.extent_lonlat().east(), 6) << ", lat " << fixed(d.extent_lonlat().south(), 6) << " .. "
+              << fixed(d.extent_lonlat().north(), 6) << '\n';
   std::cout << "Nodata:      " << (d.has_nodata() ? fixed(d.nodata(), 6) : std::string("none")) << '\n';
   if (d.has_elevation_min())
     std::cout << "Elevation:   " << fixed(d.elevation_min(), 2) << " .. " << fixed(d.elevation_max(), 2) << " m\n";

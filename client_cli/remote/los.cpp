@@ -34,8 +34,8 @@ int run_los(const Args& args, const std::string& dataset, const geodesy::PointSp
   if (auto s = client.visibility().LineOfSight(client.context().get(), request, &response); !s.ok())
     return report_status(s, client.address());
   if (response.results_size() != 1)
-    return report_error(make_error(ErrorCode::kDataError, "the daemon answered " +
-                                                               std::to_string(response.results_size()) + " lines, not 1"));
+    return report_error(make_error(ErrorCode::kDataError,
+                                   "the daemon answered " + std::to_string(response.results_size()) + " lines, not 1"));
   const v1::LineOfSightResult& r = response.results(0);
   const geodesy::GridPoint eye = to_grid_point(r.from()), target = to_grid_point(r.to());
   std::optional<visibility::ProfileSample> block;
@@ -67,8 +67,9 @@ int run_los(const Args& args, const std::string& dataset, const geodesy::PointSp
             << "  visible:    " << (r.visible() ? "yes" : "no") << '\n'
             << "  distance:   " << fixed(r.distance(), 1) << " m\n"
             << "  clearance:  "
-            << (std::isfinite(r.clearance()) ? fixed(r.clearance(), 2) + " m (lowest gap between sight line and terrain)"
-                                             : std::string("n/a (no terrain between the points)"))
+            << (std::isfinite(r.clearance())
+                    ? fixed(r.clearance(), 2) + " m (lowest gap between sight line and terrain)"
+                    : std::string("n/a (no terrain between the points)"))
             << '\n';
   if (block)
     std::cout << "  blocked at: x " << coordinate(block->x, geographic) << ", y " << coordinate(block->y, geographic)

@@ -60,8 +60,8 @@ int run_session(const Args& args, const SessionPlayback& playback, bool json, bo
   m->mutable_clipmap()->set_level_size(static_cast<std::uint32_t>(o.shape.level_size));
   m->mutable_clipmap()->set_subtile(static_cast<std::uint32_t>(o.shape.subtile));
   m->set_mode(o.mode == clipmap::ClipMode::kConservative ? v1::SESSION_MODE_CONSERVATIVE
-              : o.mode == clipmap::ClipMode::kExact       ? v1::SESSION_MODE_EXACT
-                                                          : v1::SESSION_MODE_FAST);
+              : o.mode == clipmap::ClipMode::kExact      ? v1::SESSION_MODE_EXACT
+                                                         : v1::SESSION_MODE_FAST);
   m->set_rays(static_cast<std::uint32_t>(o.rays));
   if (o.viewshed_radius > 0.0) m->set_viewshed_radius_m(o.viewshed_radius);
   if (o.use_gpu) m->set_backend(v1::BACKEND_GPU);

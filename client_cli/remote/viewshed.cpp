@@ -10,6 +10,7 @@
 #include "horizon/terrain/qgis_style.hpp"
 #include "horizon/visibility/viewshed_preview.hpp"
 #include "output.hpp"
+#include "progress.hpp"
 #include "remote/client.hpp"
 #include "remote/files.hpp"
 #include "remote/remote.hpp"
@@ -39,6 +40,7 @@ int run_viewshed(const Args& args, const ViewshedInputs& in) {
   request.set_include_geotiff(true);
   request.set_include_raster(in.output_name != "visible");  // the values' range, for the QGIS style
   request.set_include_png(in.png_path.has_value());
+  request.set_include_progress(true);  // the daemon's progress drives the bar, as embedded mode's does
 
   auto context = client.context();
   auto reader = client.visibility().ComputeViewshed(context.get(), request);
@@ -47,8 +49,16 @@ int run_viewshed(const Args& args, const ViewshedInputs& in) {
   v1::ViewshedSummary summary;
   std::string geotiff, png;
   double low = std::numeric_limits<double>::infinity(), high = -low;
+  ProgressBar progress("horizon viewshed on " + client.address());
   while (reader->Read(&message)) {
-    if (message.has_header()) header = message.header();
+    if (message.has_progress()) {
+      progress.update(message.progress().fraction());
+      continue;
+    }
+    if (message.has_header()) {
+      progress.finish();
+      header = message.header();
+    }
     if (message.has_summary()) summary = message.summary();
     if (message.has_raster_chunk() && header.sample_type() == v1::SAMPLE_TYPE_FLOAT32) {
       const std::string& d = message.raster_chunk().data();

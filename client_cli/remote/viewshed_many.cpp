@@ -13,6 +13,7 @@
 #include "horizon/visibility/many_observers.hpp"
 #include "horizon/visibility/viewshed_preview.hpp"
 #include "output.hpp"
+#include "progress.hpp"
 #include "remote/client.hpp"
 #include "remote/files.hpp"
 #include "remote/remote.hpp"
@@ -48,6 +49,7 @@ int run_viewshed_many(const Args& args, const ManyViewshedInputs& in) {
                                                   : v1::ACCUMULATION_COUNT);
   request.set_include_geotiff(true);
   request.set_include_png(in.png_path.has_value());
+  request.set_include_progress(true);  // the daemon's progress drives the bar, as embedded mode's does
   request.set_include_raster(in.accumulate == "count");  // for the largest count
 
   auto context = client.context();
@@ -57,8 +59,16 @@ int run_viewshed_many(const Args& args, const ManyViewshedInputs& in) {
   v1::ViewshedSummary summary;
   std::string geotiff, png;
   std::uint32_t max_count = 0;
+  ProgressBar progress("horizon viewshed on " + client.address());
   while (reader->Read(&message)) {
-    if (message.has_header()) header = message.header();
+    if (message.has_progress()) {
+      progress.update(message.progress().fraction());
+      continue;
+    }
+    if (message.has_header()) {
+      progress.finish();
+      header = message.header();
+    }
     if (message.has_summary()) summary = message.summary();
     if (message.has_raster_chunk()) {
       const std::string& d = message.raster_chunk().data();

@@ -22,11 +22,11 @@
 #include <grpcpp/server_context.h>
 #include <grpcpp/support/status.h>
 
+#include "deadline_watch.hpp"
 #include "horizon/common/control.hpp"
 #include "horizon/common/error.hpp"
 #include "horizon/visibility/plan.hpp"
 #include "horizon/visibility/work_stats.hpp"
-#include "deadline_watch.hpp"
 #include "request_log.hpp"
 #include "server_env.hpp"
 
@@ -81,6 +81,8 @@ class CallScope {
   Status reserve(std::uint64_t bytes, const std::string& what);
 
   const RunControl* control() const { return &control_; }
+  // What the engine's progress reports call, from any worker thread (before the work is posted).
+  void set_progress(std::function<void(double)> progress) { control_.progress = std::move(progress); }
   // OnCancel: stops the engine (the cancel token it polls) and, when the call
   // was still waiting for a worker, gives the status to finish it with now.
   std::optional<grpc::Status> cancel();
@@ -107,8 +109,8 @@ class CallScope {
   RunControl control_;
   RequestRecord record_;
   std::shared_ptr<WatchedCall> watched_;  // under env.deadlines when the default deadline applies
-  Reservation messages_;  // admit()'s
-  Reservation memory_;    // reserve()'s
+  Reservation messages_;                  // admit()'s
+  Reservation memory_;                    // reserve()'s
   QueueTicket ticket_;
   bool admitted_ = false;
   bool finished_ = false;

@@ -34,10 +34,21 @@ class ViewshedCall final : public grpc::ServerWriteReactor<v1::ViewshedResponse>
 
   void start() {
     if (auto refused = scope_.admit(held_bytes(request_))) return finish(*refused);
+    if (request_.include_progress()) scope_.set_progress([this](double fraction) { on_progress(fraction); });
     scope_.env().pool.post([this, ticket = scope_.ticket()]() mutable {
       if (!ticket.take()) return;  // cancelled in the queue: finished, perhaps deleted
+      computing_since_ = std::chrono::steady_clock::now();
+      if (request_.include_progress()) on_progress(0.0);
       const grpc::Status status = compute();
       if (!status.ok()) return finish(status);
+      {
+        std::lock_guard lock(progress_mutex_);
+        streaming_ = true;  // no progress write starts from now on
+        if (progress_in_flight_) {
+          stream_waiting_ = true;  // OnWriteDone of that write starts the stream
+          return;
+        }
+      }
       write_next();
     });
   }
@@ -45,6 +56,14 @@ class ViewshedCall final : public grpc::ServerWriteReactor<v1::ViewshedResponse>
   void OnWriteDone(bool ok) override {
     // The client went away, or DeadlineWatch ended a stream it did not read by the deadline.
     if (!ok) return finish(scope_.status_of(make_error(ErrorCode::kCancelled, "the client went away mid-stream")));
+    {
+      std::lock_guard lock(progress_mutex_);
+      if (progress_in_flight_) {  // the write done was a progress message
+        progress_in_flight_ = false;
+        if (!stream_waiting_) return;  // still computing
+        stream_waiting_ = false;
+      }
+    }
     write_next();
   }
   void OnCancel() override {
@@ -53,6 +72,25 @@ class ViewshedCall final : public grpc::ServerWriteReactor<v1::ViewshedResponse>
   void OnDone() override { delete this; }
 
  private:
+  // From the engine's workers: one progress message in flight at most, the
+  // first at once, then every kProgressInterval; none once the stream began.
+  void on_progress(double fraction) {
+    const auto now = std::chrono::steady_clock::now();
+    {
+      std::lock_guard lock(progress_mutex_);
+      if (streaming_ || progress_in_flight_ || fraction < progress_sent_ ||
+          (progress_count_ > 0 && now - progress_at_ < kProgressInterval))
+        return;
+      progress_in_flight_ = true;
+      progress_at_ = now;
+      progress_sent_ = fraction;
+      ++progress_count_;
+      v1::ViewshedProgress* p = progress_message_.mutable_progress();
+      p->set_fraction(std::clamp(fraction, 0.0, 1.0));
+      p->set_seconds(std::chrono::duration<double>(now - computing_since_).count());
+    }
+    StartWrite(&progress_message_);
+  }
   grpc::Status compute();
   void write_next();
   void finish(const grpc::Status& status) {
@@ -69,6 +107,18 @@ class ViewshedCall final : public grpc::ServerWriteReactor<v1::ViewshedResponse>
   const v1::ViewshedRequest request_;  // a copy: the call's own lives only until Finish
   std::mutex mutex_;
   bool finished_ = false;
+
+  // Progress messages while computing (include_progress), guarded by progress_mutex_.
+  static constexpr std::chrono::milliseconds kProgressInterval{250};
+  std::mutex progress_mutex_;
+  bool progress_in_flight_ = false;
+  bool streaming_ = false;       // compute() is done: the write chain owns the stream
+  bool stream_waiting_ = false;  // ... and waits for the progress write in flight
+  int progress_count_ = 0;
+  double progress_sent_ = 0.0;
+  std::chrono::steady_clock::time_point progress_at_;
+  std::chrono::steady_clock::time_point computing_since_;
+  v1::ViewshedResponse progress_message_;
 
   // Phase 2 state, written by compute() before the first write, then only by
   // the write chain (one write in flight at a time).

@@ -160,6 +160,34 @@ TEST_F(ServerRpc, StreamedRasterEqualsTheEngineAndIsGeoreferenced) {
   EXPECT_NE(last_log_line("ComputeViewshed").find("\"status\":\"OK\""), std::string::npos);
 }
 
+// include_progress: progress messages before the header, the first at once,
+// the fractions in [0, 1] and never decreasing, then the usual stream; none
+// unless asked for.
+TEST_F(ServerRpc, ProgressMessagesPrecedeTheHeaderWhenAskedFor) {
+  v1::ViewshedRequest slow = slow_viewshed(3000);  // R3 over ~350 000 cells: well over 250 ms
+  slow.set_include_progress(true);
+  std::vector<v1::ViewshedResponse> messages;
+  ASSERT_TRUE(run_viewshed(slow, &messages).ok());
+  std::size_t header = 0;
+  while (header < messages.size() && messages[header].has_progress()) ++header;
+  ASSERT_GE(header, 2u) << "the first at once, then more while R3 runs";
+  ASSERT_LT(header, messages.size());
+  EXPECT_TRUE(messages[header].has_header());
+  EXPECT_TRUE(messages.back().has_summary());
+  double last = -1.0;
+  for (std::size_t i = 0; i < header; ++i) {
+    const v1::ViewshedProgress& p = messages[i].progress();
+    EXPECT_GE(p.fraction(), last);
+    EXPECT_LE(p.fraction(), 1.0);
+    EXPECT_GE(p.seconds(), 0.0);
+    last = p.fraction();
+  }
+  for (std::size_t i = header; i < messages.size(); ++i) EXPECT_FALSE(messages[i].has_progress()) << i;
+  messages.clear();
+  ASSERT_TRUE(run_viewshed(rainier_viewshed(3000), &messages).ok());
+  for (const auto& m : messages) EXPECT_FALSE(m.has_progress());
+}
+
 TEST_F(ServerRpc, InvalidArgumentNamesTheField) {
   struct Case {
     std::function<void(v1::ViewshedRequest&)> edit;
