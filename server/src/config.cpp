@@ -1,6 +1,8 @@
 // Configuration parsing (nlohmann-json kept to this file).
 #include "config.hpp"
 
+#include <algorithm>
+
 #include <unistd.h>
 
 #include <cctype>
@@ -303,7 +305,7 @@ Result<Config> parse_config(const std::string& text, const std::string& source, 
   if (!overrides.data_root.empty()) j["data_root"] = fs::absolute(overrides.data_root).string();
   HORIZON_RETURN_IF_ERROR(check_keys(
       j, source, "",
-      {"listen", "metrics_listen", "data_root", "datasets", "memory_budget_mb", "block_cache_mb", "io_threads",
+      {"listen", "metrics_listen", "data_root", "datasets", "memory_budget_mb", "block_cache_mb", "receive_buffer_mb", "io_threads",
        "worker_threads", "engine_threads", "limits", "gpu", "default_deadline_ms", "shutdown_grace_ms", "scratch_dir",
        "tls", "health_listen", "plaintext", "auth_tokens_file", "sessions"}));
   Config c;
@@ -339,15 +341,7 @@ Result<Config> parse_config(const std::string& text, const std::string& source, 
     auto v = get_count(j, source, "block_cache_mb", "block_cache_mb", 1, 1u << 20);
     if (!v.ok()) return v.error();
     c.block_cache_bytes = *v << 20;
-  } else {
-    // Half of what the budget leaves after the process's own overhead, at most the default.
-    c.block_cache_bytes = std::min<std::uint64_t>(256ull << 20, (c.memory_budget_bytes - MemoryBudget::kBaseBytes) / 2);
   }
-  if (c.block_cache_bytes + MemoryBudget::kBaseBytes > c.memory_budget_bytes)
-    return config_error(source, "block_cache_mb",
-                        std::to_string(c.block_cache_bytes >> 20) +
-                            " MiB does not fit in memory_budget_mb = " + std::to_string(c.memory_budget_bytes >> 20) +
-                            " (which also holds 48 MiB of process overhead and the requests' working memory)");
   if (j.contains("io_threads")) {
     auto v = get_count(j, source, "io_threads", "io_threads", 1, 64);
     if (!v.ok()) return v.error();
@@ -376,6 +370,38 @@ Result<Config> parse_config(const std::string& text, const std::string& source, 
     if (!v.ok()) return v.error();
     c.shutdown_grace = std::chrono::milliseconds(*v);
   }
+  // Requests on the wire: after the limits, which size the largest request.
+  const std::uint64_t largest_request = largest_request_bytes(c.limits);
+  const auto mib_up = [](std::uint64_t bytes) { return (bytes + (1u << 20) - 1) >> 20; };
+  if (j.contains("receive_buffer_mb")) {
+    auto v = get_count(j, source, "receive_buffer_mb", "receive_buffer_mb", 1, 1u << 20);
+    if (!v.ok()) return v.error();
+    c.receive_buffer_bytes = *v << 20;
+    if (c.receive_buffer_bytes < largest_request)
+      return config_error(source, "receive_buffer_mb",
+                          std::to_string(*v) + " MiB cannot hold the largest request the limits allow (" +
+                              std::to_string(mib_up(largest_request)) +
+                              " MiB: limits.max_boxes, max_lines or max_observers)");
+  } else {
+    c.receive_buffer_bytes = std::max<std::uint64_t>(c.memory_budget_bytes / 8, mib_up(largest_request) << 20);
+  }
+  if (!j.contains("block_cache_mb")) {
+    // Half of what the budget leaves after the process's own overhead and the
+    // receive buffers, at least 1 MiB, at most 256 MiB.
+    const std::uint64_t fixed = MemoryBudget::kBaseBytes + c.receive_buffer_bytes;
+    const std::uint64_t left = c.memory_budget_bytes > fixed ? c.memory_budget_bytes - fixed : 0;
+    c.block_cache_bytes = std::clamp<std::uint64_t>(left / 2 >> 20 << 20, 1ull << 20, 256ull << 20);
+  }
+  if (c.block_cache_bytes + c.receive_buffer_bytes + MemoryBudget::kBaseBytes > c.memory_budget_bytes) {
+    const char* key = j.contains("block_cache_mb")      ? "block_cache_mb"
+                      : j.contains("receive_buffer_mb") ? "receive_buffer_mb"
+                                                        : "memory_budget_mb";
+    return config_error(source, key,
+                        "block_cache_mb = " + std::to_string(c.block_cache_bytes >> 20) + " and receive_buffer_mb = " +
+                            std::to_string(c.receive_buffer_bytes >> 20) + " do not fit in memory_budget_mb = " +
+                            std::to_string(c.memory_budget_bytes >> 20) +
+                            " (which also holds 48 MiB of process overhead and the requests' working memory)");
+  }
   c.scratch_dir = default_scratch_dir();
   if (j.contains("scratch_dir")) {
     auto v = get_string(j, source, "scratch_dir", "scratch_dir", false);
@@ -386,6 +412,12 @@ Result<Config> parse_config(const std::string& text, const std::string& source, 
     return config_error(source, "scratch_dir", "'" + c.scratch_dir.string() + "' is not a writable directory");
   HORIZON_RETURN_IF_ERROR(parse_security(j, source, base_dir, c));
   return c;
+}
+
+std::uint64_t largest_request_bytes(const Limits& limits) {
+  const std::uint64_t need =
+      1'048'576 + 96ull * std::max<std::uint64_t>({limits.max_boxes, limits.max_lines, limits.max_observers});
+  return std::min<std::uint64_t>(need, 512ull << 20);
 }
 
 Result<Config> load_config(const std::string& path, const ConfigOverrides& overrides) {
@@ -425,6 +457,7 @@ std::vector<std::string> keys_needing_restart(const Config& a, const Config& b) 
   differ(a.metrics_listen != b.metrics_listen, "metrics_listen");
   differ(a.memory_budget_bytes != b.memory_budget_bytes, "memory_budget_mb");
   differ(a.block_cache_bytes != b.block_cache_bytes, "block_cache_mb");
+  differ(a.receive_buffer_bytes != b.receive_buffer_bytes, "receive_buffer_mb");
   differ(a.io_threads != b.io_threads, "io_threads");
   differ(a.worker_threads != b.worker_threads, "worker_threads");
   differ(a.engine_threads != b.engine_threads, "engine_threads");

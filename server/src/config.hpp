@@ -18,6 +18,12 @@
 //     "memory_budget_mb": 2048,             the block cache + the working memory of requests in flight
 //     "block_cache_mb": 256,                decoded elevation blocks shared by every request (LRU),
 //                                           reserved in memory_budget_mb at start; [1, 1048576]
+//     "receive_buffer_mb": 256,             requests still on the wire: gRPC's receive buffers (a
+//                                           quota it keeps, reserved in memory_budget_mb at start);
+//                                           when full, gRPC sheds connections (their calls end
+//                                           UNAVAILABLE, to be retried) rather than read more; at
+//                                           least the largest request the limits allow; default
+//                                           budget/8, at least that request
 //     "io_threads": 2,                      threads decoding blocks for the cache; [1, 64]
 //     "worker_threads": 2,                  computations run concurrently (Asio pool); 0 = all cores
 //     "engine_threads": 1,                  threads one computation may use; 0 = all cores
@@ -108,6 +114,11 @@ struct Limits {
   std::uint64_t max_trace_pixels = 4096ull * 4096ull;
 };
 
+// The largest request message the limits allow (gRPC's max receive size): a
+// full CullBoxes (about 70 bytes per box on the wire), LineOfSight or
+// many-observer ComputeViewshed call, with room to spare; at most 512 MiB.
+std::uint64_t largest_request_bytes(const Limits& limits);
+
 // The most limits.max_trace_pixels may be: the engine's largest frame
 // (trace::kMaxSide squared).
 inline constexpr std::uint64_t kMaxTracePixelsCeiling = 8192ull * 8192ull;
@@ -143,6 +154,7 @@ struct Config {
   std::vector<DatasetConfig> datasets;  // in name order
   std::uint64_t memory_budget_bytes = 2048ull << 20;
   std::uint64_t block_cache_bytes = 256ull << 20;
+  std::uint64_t receive_buffer_bytes = 256ull << 20;
   unsigned io_threads = 2;
   unsigned worker_threads = 2;
   unsigned engine_threads = 1;

@@ -7,6 +7,7 @@
 #include <thread>
 
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/resource_quota.h>
 #include <grpcpp/health_check_service_interface.h>
 #include <grpcpp/security/server_credentials.h>
 #include <grpcpp/server.h>
@@ -33,14 +34,6 @@ namespace {
 
 constexpr const char* kServices[] = {"", "horizon.v1.DatasetService", "horizon.v1.VisibilityService",
                                      "horizon.v1.SessionService", "horizon.v1.TraceService"};
-
-// Largest request accepted: a full CullBoxes (about 70 bytes per box on the
-// wire), LineOfSight or many-observer ComputeViewshed call, with room to spare.
-int max_receive_bytes(const Limits& limits) {
-  const std::uint64_t need =
-      1'048'576 + 96ull * std::max<std::uint64_t>({limits.max_boxes, limits.max_lines, limits.max_observers});
-  return static_cast<int>(std::min<std::uint64_t>(need, 512ull << 20));
-}
 
 // The GPU contexts config.gpu asks for (absent: one per worker thread), or
 // null: none asked for, or no EGL display (a warning; the CPU answers all).
@@ -118,6 +111,7 @@ struct Daemon::Impl {
   Metrics metrics;
   DeadlineWatch deadlines;    // outlives every call (env.deadlines)
   Reservation cache_memory;   // the block cache's whole budget, held for the daemon's life
+  Reservation receive_memory;  // gRPC's receive buffers (config receive_buffer_mb), likewise
   terrain::BlockCache cache;  // outlives the datasets whose blocks it holds
   DatasetRegistry datasets;
   std::unique_ptr<gpu::ContextPool> gpu;  // outlives the workers that borrow from it
@@ -177,6 +171,13 @@ Status Daemon::start() {
         "block_cache_mb: " + std::to_string(d.config.block_cache_bytes >> 20) +
             " MiB does not fit in memory_budget_mb = " + std::to_string(d.config.memory_budget_bytes >> 20),
         "block_cache_mb");
+  if (!d.memory.try_reserve(d.config.receive_buffer_bytes, d.receive_memory))
+    return make_error(ErrorCode::kResourceExhausted,
+                      "receive_buffer_mb: " + std::to_string(d.config.receive_buffer_bytes >> 20) +
+                          " MiB does not fit in memory_budget_mb = " +
+                          std::to_string(d.config.memory_budget_bytes >> 20) + " beside block_cache_mb",
+                      "receive_buffer_mb");
+  d.metrics.set_receive_buffer(d.config.receive_buffer_bytes);
   d.metrics.set_memory_reserved(d.memory.reserved());
 
   auto scratch = ScratchDir::create(d.config.scratch_dir);
@@ -209,7 +210,13 @@ Status Daemon::start() {
   builder.RegisterService(&d.visibility_service);
   builder.RegisterService(&d.session_service);
   builder.RegisterService(&d.trace_service);
-  builder.SetMaxReceiveMessageSize(max_receive_bytes(d.config.limits));
+  builder.SetMaxReceiveMessageSize(static_cast<int>(largest_request_bytes(d.config.limits)));
+  // Requests on the wire: gRPC reads a whole message before the daemon sees
+  // it, so its buffers get a quota of their own (reserved above). Full, gRPC
+  // sheds connections rather than reading more.
+  grpc::ResourceQuota quota("horizond");
+  quota.Resize(d.config.receive_buffer_bytes);
+  builder.SetResourceQuota(quota);
   d.server = builder.BuildAndStart();
   if (!d.server || port == 0 || (!d.config.health_listen.empty() && health_port == 0)) {
     const bool main_port = !d.server || port == 0;
@@ -233,7 +240,8 @@ Status Daemon::start() {
              {"metrics_port", std::to_string(metrics_port), true},
              {"workers", std::to_string(d.pool.threads()), true},
              {"memory_budget_mb", std::to_string(d.config.memory_budget_bytes >> 20), true},
-             {"block_cache_mb", std::to_string(d.config.block_cache_bytes >> 20), true}});
+             {"block_cache_mb", std::to_string(d.config.block_cache_bytes >> 20), true},
+             {"receive_buffer_mb", std::to_string(d.config.receive_buffer_bytes >> 20), true}});
   return Status::Ok();
 }
 

@@ -1,7 +1,9 @@
 // memory_budget.hpp — the daemon's resident-memory budget, enforced.
 //
 // Everything large the daemon holds is reserved here first: the shared block
-// cache (its whole budget, at start); each request's messages when it is
+// cache (its whole budget, at start); gRPC's receive buffers for requests
+// still on the wire (config receive_buffer_mb, at start: gRPC enforces it
+// as its resource quota); each request's messages when it is
 // admitted, before it queues for a worker (the request as gRPC handed it
 // over, arena_allocator.hpp's held_bytes, and for CullBoxes its answer,
 // kResponseBytesPerBox a box); and each request's working set before any
@@ -11,7 +13,7 @@
 // (kEncodingBytesPerCell for a raster's encodings, kMessageBytesPerBox and
 // kMessageBytesPerLine for the messages). A reservation that does not fit is
 // refused: the request gets RESOURCE_EXHAUSTED. What is left outside the
-// accounting (code, gRPC buffers, allocator slack) is the fixed kBaseBytes
+// accounting (code, libraries, allocator slack) is the fixed kBaseBytes
 // the budget sets aside at start.
 #pragma once
 
@@ -44,7 +46,7 @@ class Reservation {
 
 class MemoryBudget {
  public:
-  // Process overhead outside the accounting: code, libraries, gRPC and allocator slack.
+  // Process overhead outside the accounting: code, libraries and allocator slack.
   static constexpr std::uint64_t kBaseBytes = 48ull << 20;
   // A viewshed's encodings per output cell: the derived raster (4), the mask
   // (1), the streamed copy (4), GeoTIFF/PNG bytes (<= 7).

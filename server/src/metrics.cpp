@@ -93,9 +93,14 @@ struct Metrics::Impl {
                                     .Add({});
   prometheus::Gauge& reserved = prometheus::BuildGauge()
                                     .Name("horizon_memory_reserved_bytes")
-                                    .Help("Bytes reserved in the memory budget (datasets and requests)")
+                                    .Help("Bytes reserved in the memory budget (cache, receive buffers, requests)")
                                     .Register(*registry)
                                     .Add({});
+  prometheus::Gauge& receive_buffer = prometheus::BuildGauge()
+                                          .Name("horizon_receive_buffer_bytes")
+                                          .Help("Bytes gRPC may hold for requests still on the wire")
+                                          .Register(*registry)
+                                          .Add({});
   prometheus::Gauge& cache_budget = prometheus::BuildGauge()
                                         .Name("horizon_block_cache_budget_bytes")
                                         .Help("Bytes the block cache may keep")
@@ -208,6 +213,10 @@ void Metrics::set_block_cache(const terrain::BlockCacheStats& s) {
 
 void Metrics::set_serving(bool serving) {
   impl_->serving_now.store(serving);
+}
+
+void Metrics::set_receive_buffer(std::uint64_t bytes) {
+  impl_->receive_buffer.Set(static_cast<double>(bytes));
 }
 
 void Metrics::set_memory_reserved(std::uint64_t bytes) {

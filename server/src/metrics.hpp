@@ -16,7 +16,9 @@
 //   horizon_block_cache_evictions_total             counter
 //   horizon_block_cache_decoded_bytes_total         counter (float bytes decoded)
 //   horizon_block_cache_failures_total              counter (blocks that failed to decode)
-//   horizon_memory_reserved_bytes                   gauge (datasets + requests, as budgeted)
+//   horizon_receive_buffer_bytes                    gauge (gRPC's receive quota, receive_buffer_mb)
+//   horizon_memory_reserved_bytes                   gauge (block cache + receive buffers + requests,
+//                                                   as budgeted)
 //   horizon_process_resident_bytes                  gauge (RSS from /proc/self/statm, read at scrape)
 //   horizon_datasets                                gauge
 //   horizon_backend_requests_total{backend}         counter (viewsheds and culls by where the OHF was
@@ -55,6 +57,7 @@ class Metrics {
   // The cache's figures now (counters advance by what changed since the last call).
   void set_block_cache(const terrain::BlockCacheStats& stats);
   void set_memory_reserved(std::uint64_t bytes);
+  void set_receive_buffer(std::uint64_t bytes);
   // What the health service says (Daemon: SERVING once loaded, NOT_SERVING when draining).
   void set_serving(bool serving);
 

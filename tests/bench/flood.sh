@@ -5,6 +5,7 @@
 # peak and idle after the flood (the heap is trimmed once idle).
 #
 #   tests/bench/flood.sh DEM.tif X Y [BUDGET_MB=192] [CLIENTS=64] [BOXES=100000] [SECONDS=20] [SCENE_RADIUS=1500]
+#   RECEIVE_MB=48 tests/bench/flood.sh ...   sets receive_buffer_mb (default: the daemon's, budget/8)
 #
 # Boxes lie within SCENE_RADIUS metres of X,Y (the DEM must cover it).
 # docs/benchmarks.md quotes a run.
@@ -27,9 +28,11 @@ radius=${8:-1500}
 work=$(mktemp -d)
 pid=
 trap '[[ -n "$pid" ]] && kill "$pid" 2>/dev/null; wait 2>/dev/null; rm -rf "$work"' EXIT
+receive=
+[[ -n "${RECEIVE_MB:-}" ]] && receive=" \"receive_buffer_mb\": $RECEIVE_MB,"
 cat >"$work/flood.json" <<JSON
 {"listen": "127.0.0.1:0", "plaintext": true, "data_root": "$(dirname "$dem")",
- "datasets": {"dem": "$(basename "$dem")"}, "memory_budget_mb": $budget, "block_cache_mb": 32,
+ "datasets": {"dem": "$(basename "$dem")"}, "memory_budget_mb": $budget, "block_cache_mb": 32,$receive
  "worker_threads": 2, "engine_threads": 1, "gpu": {"contexts": 0}, "limits": {"max_pending": 64},
  "scratch_dir": "$work"}
 JSON

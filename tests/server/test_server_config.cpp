@@ -120,10 +120,27 @@ TEST(ServerConfig, TiledDatasetsAndTheBlockCache) {
   auto folder = resolve_dataset_file(*c, c->datasets[1]);
   ASSERT_TRUE(folder.ok()) << folder.error().message;  // a folder is a dataset too
   EXPECT_EQ(*folder, std::filesystem::canonical(kDataDir));
-  // Unset, the cache takes half of what the budget leaves, at most 256 MiB.
+  // Unset, the receive buffers take an eighth of the budget (256 MiB here),
+  // and the cache half of what is left after them and the process's own
+  // 48 MiB, at most 256 MiB.
   auto d = parse_config(document(""), "test.json", "/");
   ASSERT_TRUE(d.ok());
-  EXPECT_EQ(d->block_cache_bytes, (256ull - 48) << 19);
+  EXPECT_EQ(d->receive_buffer_bytes, 32ull << 20);
+  EXPECT_EQ(d->block_cache_bytes, (256ull - 48 - 32) << 19);
+}
+
+// gRPC's receive buffers hold at least the largest request the limits allow
+// (1 MiB + 96 bytes a box: 10.2 MiB for the default 100 000 boxes), and the
+// default grows with the limits.
+TEST(ServerConfig, ReceiveBuffersHoldTheLargestRequest) {
+  EXPECT_EQ(largest_request_bytes(Limits{}), 1'048'576u + 96u * 100'000u);
+  auto c = parse_config(document(R"("receive_buffer_mb": 11)"), "test.json", "/");
+  ASSERT_TRUE(c.ok()) << c.error().message;
+  EXPECT_EQ(c->receive_buffer_bytes, 11ull << 20);
+  auto big = parse_config(document(R"("limits": {"max_boxes": 1000000})"), "test.json", "/");
+  ASSERT_TRUE(big.ok()) << big.error().message;
+  EXPECT_EQ(big->receive_buffer_bytes, 93ull << 20);  // 92.5 MiB rounded up, above 256 / 8
+  EXPECT_EQ(big->block_cache_bytes, (256ull - 48 - 93) / 2 << 20);
 }
 
 struct BadCase {
@@ -226,6 +243,13 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"auth_tokens_file missing", document(R"("auth_tokens_file": "/no/such/tokens")"), "auth_tokens_file"},
         BadCase{"block_cache_mb 0", document(R"("block_cache_mb": 0)"), "block_cache_mb"},
         BadCase{"block_cache_mb over the budget", document(R"("block_cache_mb": 300)"), "block_cache_mb"},
+        BadCase{"receive_buffer_mb 0", document(R"("receive_buffer_mb": 0)"), "receive_buffer_mb"},
+        BadCase{"receive_buffer_mb below the largest request", document(R"("receive_buffer_mb": 10)"),
+                "receive_buffer_mb"},
+        BadCase{"block_cache_mb and receive_buffer_mb over the budget",
+                document(R"("block_cache_mb": 150, "receive_buffer_mb": 60)"), "block_cache_mb"},
+        BadCase{"receive_buffer_mb leaves no room for the cache", document(R"("receive_buffer_mb": 250)"),
+                "receive_buffer_mb"},
         BadCase{"io_threads 0", document(R"("io_threads": 0)"), "io_threads"}),
     [](const ::testing::TestParamInfo<BadCase>& test) {
       // "listen port too large" -> "listen_port_too_large"

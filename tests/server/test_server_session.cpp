@@ -175,6 +175,7 @@ TEST(ServerSession, AFlightsChangesNeverHideWhatExactCullingSees) {
 
 TEST(ServerSession, AnExactSessionAnswersAsExactCullingDoes) {
   DaemonOptions options;
+  options.memory_budget_mb = 320;  // the session's 64 MiB and an exact cull's working set beside it
   options.extra_json = R"("sessions": {"exact_mb": 64},)";
   DaemonProcess daemon(options);
   ASSERT_TRUE(daemon.ready()) << daemon.error();
