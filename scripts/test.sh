@@ -6,14 +6,16 @@
 # HORIZON_ASAN=0 skips it), then fuzzes every target for
 # HORIZON_FUZZ_SECONDS (default 30; 0 skips it) in a clang/libFuzzer/ASan/UBSan
 # build (scripts/fuzz.sh). Extra
-# arguments go to ctest (e.g. -R Cli, -j 2); HORIZON_BUILD_DIR picks the
+# arguments go to ctest (e.g. -R Cli, -j 1); HORIZON_BUILD_DIR picks the
 # build directory as in build.sh.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
 scripts/setup.sh
 HORIZON_WERROR=ON scripts/build.sh
-ctest --test-dir "${HORIZON_BUILD_DIR:-build}" --output-on-failure "$@"
+# Tests run on every core unless the arguments say otherwise (-j N, a later
+# one wins); the suite's servers take free ports and private directories.
+ctest --test-dir "${HORIZON_BUILD_DIR:-build}" --output-on-failure -j "$(nproc)" "$@"
 if [[ "${HORIZON_TSAN:-1}" != 0 ]]; then
   scripts/tsan.sh
 fi
