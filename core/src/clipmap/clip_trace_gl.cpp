@@ -56,6 +56,24 @@ struct ClipTraceResources final : gpu::ContextResources {
     program = cs ? gpu::link_program({cs}, log) : 0;
     if (!program) error = "gpu: the clip-map trace shader does not build: " + log;
   }
+  // The level copies, buffers and host tables.
+  std::uint64_t image_bytes() const override {
+    return cells.bytes() + resident.bytes() + rings.held() + columns.held() + horizons.held() + counts.held() +
+           staging.capacity() * sizeof(float) + staging_resident.capacity() + ring_table.capacity() * sizeof(GlRing) +
+           column_table.capacity() * sizeof(GlColumn) + count_table.capacity() * sizeof(std::uint32_t);
+  }
+  void release_images() override {
+    cells.release();
+    resident.release();
+    for (gpu::StorageBuffer* b : {&rings, &columns, &horizons, &counts}) b->release();
+    std::vector<float>().swap(staging);
+    std::vector<std::uint8_t>().swap(staging_resident);
+    std::vector<GlRing>().swap(ring_table);
+    std::vector<GlColumn>().swap(column_table);
+    std::vector<std::uint32_t>().swap(count_table);
+    map_id = 0;
+    std::fill(std::begin(versions), std::end(versions), kNone);
+  }
   ~ClipTraceResources() override { glDeleteProgram(program); }
 };
 
@@ -104,6 +122,28 @@ Status trace_gl(const TracePlan& plan, const ClipmapReader& view, const ClipEye&
   const ClipmapShape& shape = map.shape();
   const int rays = plan.rays;
   const std::size_t columns = static_cast<std::size_t>(rays);
+  {
+    // What this trace grows the context's copies and tables to, asked for before any is allocated.
+    const int n = shape.level_size, tiles = n / shape.subtile;
+    const std::size_t horizon_values = columns * plan.edges.size();
+    auto vector_after = [](const auto& v, std::size_t count) {
+      return std::max<std::uint64_t>(v.capacity(), count) * sizeof(v[0]);
+    };
+    const std::uint64_t images =
+        gl.cells.bytes_after(n, n, shape.levels) + gl.resident.bytes_after(tiles, tiles, shape.levels) +
+        gl.rings.held_after(std::max<std::size_t>(plan.rings.size(), 1) * sizeof(GlRing)) +
+        gl.columns.held_after(columns * sizeof(GlColumn)) + gl.horizons.held_after(horizon_values * sizeof(double)) +
+        gl.counts.held_after(columns * 4 * sizeof(std::uint32_t)) +
+        vector_after(gl.staging, std::size_t(n) * std::size_t(n)) +
+        vector_after(gl.staging_resident, std::size_t(tiles) * std::size_t(tiles)) +
+        vector_after(gl.ring_table, std::max<std::size_t>(plan.rings.size(), 1)) + vector_after(gl.column_table, columns) +
+        vector_after(gl.count_table, columns * 4);
+    if (const std::uint64_t held = gl.image_bytes(); images > held)
+      if (auto s = lease.hold_images(images - held, "the clip-map trace of " + std::to_string(shape.levels) +
+                                                        " levels of " + std::to_string(n) + "^2");
+          !s.ok())
+        return s;
+  }
   upload_levels(gl, view, uploaded);
   if (auto s = gpu::gl_status("the clip-map upload"); !s.ok()) return fail(s);
 

@@ -158,7 +158,44 @@ struct ContextPool::Impl {
     EGLContext context = EGL_NO_CONTEXT;
     std::vector<std::pair<std::type_index, std::unique_ptr<ContextResources>>> resources;  // one per type
     bool lent = false;
+    std::uint64_t taken = 0;  // image bytes taken from `image_memory` for this context (taken_mutex)
   };
+  ImageMemory* image_memory = nullptr;
+  mutable std::mutex taken_mutex;  // every Slot::taken
+  std::uint64_t keep_image_bytes = UINT64_MAX;
+
+  std::uint64_t image_bytes(const Slot& slot) const {
+    std::uint64_t bytes = 0;
+    for (const auto& held : slot.resources)
+      if (held.second) bytes += held.second->image_bytes();
+    return bytes;
+  }
+  // On return, the context current: frees images past keep_image_bytes, then
+  // settles the account with what the context really holds (taking more when
+  // the GL code held more than it asked for, freeing its images when even
+  // that does not fit).
+  void settle(Slot& slot) {
+    std::uint64_t held = image_bytes(slot);
+    if (held > keep_image_bytes) {
+      for (auto& r : slot.resources)
+        if (r.second) r.second->release_images();
+      held = image_bytes(slot);
+    }
+    if (image_memory == nullptr) return;
+    std::lock_guard lock(taken_mutex);
+    if (held > slot.taken && !image_memory->take(held - slot.taken)) {
+      for (auto& r : slot.resources)
+        if (r.second) r.second->release_images();
+      held = std::min(image_bytes(slot), slot.taken);  // every image freed: 0
+    }
+    if (held < slot.taken) image_memory->give(slot.taken - held);
+    slot.taken = held;
+  }
+  void forget(Slot& slot) {  // its resources destroyed
+    std::lock_guard lock(taken_mutex);
+    if (image_memory != nullptr && slot.taken > 0) image_memory->give(slot.taken);
+    slot.taken = 0;
+  }
   std::vector<Slot> slots;
   mutable std::mutex mutex;
   std::condition_variable returned;
@@ -172,6 +209,7 @@ struct ContextPool::Impl {
       slot.resources.clear();
       eglMakeCurrent(display.display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
     }
+    forget(slot);
     eglDestroyContext(display.display, slot.context);
     slot.context = EGL_NO_CONTEXT;
   }
@@ -199,6 +237,7 @@ Result<std::unique_ptr<ContextPool>> ContextPool::create(const PoolOptions& opti
   impl->display = *display;
   add_display_user(impl->display.display);
   impl->slots.resize(static_cast<std::size_t>(options.contexts));
+  impl->keep_image_bytes = options.keep_image_bytes;
   for (Impl::Slot& slot : impl->slots) {
     auto context = create_context(impl->display.display);
     if (!context.ok()) return context.error();
@@ -235,6 +274,18 @@ int ContextPool::size() const {
   return static_cast<int>(impl_->slots.size());
 }
 
+void ContextPool::set_image_memory(ImageMemory* memory) {
+  std::lock_guard lock(impl_->taken_mutex);
+  impl_->image_memory = memory;
+}
+
+std::uint64_t ContextPool::held_image_bytes() const {
+  std::lock_guard lock(impl_->taken_mutex);
+  std::uint64_t bytes = 0;
+  for (const Impl::Slot& slot : impl_->slots) bytes += slot.taken;
+  return bytes;
+}
+
 Result<Lease> ContextPool::borrow() {
   std::unique_lock lock(impl_->mutex);
   auto free_slot = [&] {
@@ -264,6 +315,9 @@ void ContextPool::give_back(int index, bool failed) {
   if (failed) {
     // Resources first, with the context still current, then the context.
     slot.resources.clear();
+    impl_->forget(slot);
+  } else {
+    impl_->settle(slot);
   }
   eglMakeCurrent(impl_->display.display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
   {
@@ -305,6 +359,20 @@ std::unique_ptr<ContextResources>& Lease::resources_of(std::type_index type) {
   for (auto& [kind, resources] : held)
     if (kind == type) return resources;
   return held.emplace_back(type, nullptr).second;
+}
+
+Status Lease::hold_images(std::uint64_t bytes, const std::string& what) {
+  ContextPool::Impl& pool = *pool_->impl_;
+  ImageMemory* memory = pool.image_memory;
+  if (memory == nullptr || bytes == 0) return Status::Ok();
+  if (!memory->take(bytes))
+    return make_error(ErrorCode::kResourceExhausted,
+                      "gpu: " + what + " needs " + std::to_string((bytes + (1 << 20) - 1) >> 20) +
+                          " MiB of GL images, more than the memory budget leaves free now",
+                      "gpu");
+  std::lock_guard lock(pool.taken_mutex);
+  pool.slots[static_cast<std::size_t>(index_)].taken += bytes;
+  return Status::Ok();
 }
 
 void Lease::fail() {

@@ -61,8 +61,42 @@ GLuint link_program(std::initializer_list<GLuint> shaders, std::string& log) {
   return checked(program, true, log);
 }
 
+std::uint64_t texel_bytes(GLenum internal_format) {
+  switch (internal_format) {
+    case GL_R8:
+    case GL_R8UI:
+      return 1;
+    case GL_R16F:
+    case GL_R16UI:
+      return 2;
+    case GL_R32F:
+    case GL_R32UI:
+    case GL_R32I:
+    case GL_RGBA8:
+      return 4;
+    case GL_RG32F:
+    case GL_RG32UI:
+    case GL_RGBA16F:
+      return 8;
+    default:
+      return 16;
+  }
+}
+
 Texture2D::~Texture2D() {
+  release();
+}
+
+void Texture2D::release() {
   if (texture != 0) glDeleteTextures(1, &texture);
+  texture = 0;
+  width = height = 0;
+}
+
+std::uint64_t Texture2D::bytes_after(int w, int h) const {
+  const int after_w = std::max(w, width), after_h = std::max(h, height);
+  if (after_w == 0 || after_h == 0) return 0;
+  return std::uint64_t(after_w) * std::uint64_t(after_h) * texel_bytes(format);
 }
 
 void Texture2D::ensure(int w, int h) {
@@ -78,7 +112,13 @@ void Texture2D::ensure(int w, int h) {
 }
 
 StorageBuffer::~StorageBuffer() {
+  release();
+}
+
+void StorageBuffer::release() {
   if (id != 0) glDeleteBuffers(1, &id);
+  id = 0;
+  capacity = 0;
 }
 
 void StorageBuffer::upload(GLuint binding, const void* data, std::size_t bytes) {
@@ -106,7 +146,21 @@ void StorageBuffer::download(void* data, std::size_t bytes) const {
 }
 
 TextureArray::~TextureArray() {
+  release();
+}
+
+void TextureArray::release() {
   if (texture != 0) glDeleteTextures(1, &texture);
+  texture = 0;
+  width = height = layers = 0;
+}
+
+std::uint64_t TextureArray::bytes() const {
+  return std::uint64_t(width) * std::uint64_t(height) * std::uint64_t(layers) * texel_bytes(format);
+}
+
+std::uint64_t TextureArray::bytes_after(int w, int h, int layer_count) const {
+  return std::uint64_t(w) * std::uint64_t(h) * std::uint64_t(layer_count) * texel_bytes(format);
 }
 
 bool TextureArray::ensure(int w, int h, int layer_count) {

@@ -9,13 +9,19 @@
 #define GL_GLEXT_PROTOTYPES 1
 #include <GL/glcorearb.h>
 
+#include <algorithm>
 #include <cstddef>
+#include <cstdint>
 #include <initializer_list>
 #include <string>
 
 #include "horizon/common/error.hpp"
 
 namespace horizon::gpu {
+
+// Bytes a texel of an internal format takes (R32F 4, RG32F 8, RGBA32F 16,
+// R8UI 1, ...); 16 for a format not listed, an upper bound.
+std::uint64_t texel_bytes(GLenum internal_format);
 
 // A compiled shader of `type`, or 0 with the compiler's log in `log`.
 GLuint compile_shader(GLenum type, const std::string& source, std::string& log);
@@ -38,6 +44,11 @@ struct Texture2D {
   ~Texture2D();
   // At least w x h texels (contents undefined after a growth).
   void ensure(int w, int h);
+  // Bytes held now, and after ensure(w, h).
+  std::uint64_t bytes() const { return bytes_after(0, 0); }
+  std::uint64_t bytes_after(int w, int h) const;
+  // Deletes the texture (the next ensure re-creates it).
+  void release();
 };
 
 // A shader storage buffer that only grows; an upload that fits reuses it.
@@ -55,6 +66,11 @@ struct StorageBuffer {
   void reserve(GLuint binding, std::size_t bytes);
   // Copies its first `bytes` out (waits for the writes before it).
   void download(void* data, std::size_t bytes) const;
+  // Bytes held now, and after an upload or reserve of `bytes`.
+  std::uint64_t held() const { return capacity; }
+  std::uint64_t held_after(std::size_t bytes) const { return bytes > capacity ? std::max(bytes, 2 * capacity) : capacity; }
+  // Deletes the buffer (the next upload or reserve re-creates it).
+  void release();
 };
 
 // A 2D texture array of one mip level, w x h x layers, re-created whenever
@@ -70,6 +86,11 @@ struct TextureArray {
   ~TextureArray();
   // Exactly w x h x layers texels; true when it was (re-)created (contents undefined).
   bool ensure(int w, int h, int layer_count);
+  // Bytes held now, and after ensure(w, h, layers).
+  std::uint64_t bytes() const;
+  std::uint64_t bytes_after(int w, int h, int layer_count) const;
+  // Deletes the texture (the next ensure re-creates it).
+  void release();
 };
 
 // Ok, or the first pending GL error (the rest are drained) or a lost context,

@@ -55,6 +55,21 @@ struct TraceGlResources final : gpu::ContextResources {
     glGenVertexArrays(1, &vao);
     glGenFramebuffers(1, &fbo);
   }
+  // Images, buffers and the host copies (staging, tables, read-back).
+  std::uint64_t image_bytes() const override {
+    std::uint64_t bytes = terrain.bytes() + map.bytes() + out.bytes() + columns.held() + map_columns.held();
+    for (const gpu::Texture2D& level : levels) bytes += level.bytes();
+    for (const std::vector<float>* v : {&staging, &column_table, &map_column_table, &readback})
+      bytes += v->capacity() * sizeof(float);
+    return bytes;
+  }
+  void release_images() override {
+    for (gpu::Texture2D* t : {&terrain, &map, &out}) t->release();
+    for (gpu::Texture2D& level : levels) level.release();
+    columns.release();
+    map_columns.release();
+    for (std::vector<float>* v : {&staging, &column_table, &map_column_table, &readback}) std::vector<float>().swap(*v);
+  }
   ~TraceGlResources() override {
     glDeleteProgram(map_program);
     glDeleteProgram(tree_program);
@@ -107,6 +122,35 @@ Status trace_gl(const terrain::HeightView& view, const Camera& camera, const Fra
   auto& gl = lease.resources<TraceGlResources>();
   if (!gl.error.empty()) return fail(make_error(ErrorCode::kInternal, gl.error, "gpu"));
 
+  // What this frame grows the context's images (and host copies) to, asked
+  // for before any is allocated: the largest run's map, levels and target.
+  const int width = camera.spec.width, height = camera.spec.height;
+  {
+    auto vector_after = [](const std::vector<float>& v, std::size_t n) {
+      return std::max<std::uint64_t>(v.capacity(), n) * sizeof(float);
+    };
+    const auto w = static_cast<std::size_t>(width);
+    std::uint64_t images = gl.terrain.bytes_after(view.width(), view.height()) +
+                           gl.map.bytes_after(widest, std::max(most_lines, 1)) + gl.out.bytes_after(widest, height) +
+                           gl.columns.held_after(2 * w * sizeof(float)) +
+                           gl.map_columns.held_after(3 * w * sizeof(float)) + vector_after(gl.staging, view.cell_count()) +
+                           vector_after(gl.column_table, 2 * w) + vector_after(gl.map_column_table, 3 * w) +
+                           vector_after(gl.readback, 2 * static_cast<std::size_t>(widest) * static_cast<std::size_t>(height));
+    int nodes[kMaxLevels] = {};  // each level's rows; 0 past the top
+    for (int below = most_lines, l = 0; below > 0 && l < kMaxLevels; ++l) {
+      nodes[l] = (below + 3) / 4;
+      if (nodes[l] == 1) break;
+      below = nodes[l];
+    }
+    for (int l = 0; l < kMaxLevels; ++l) images += gl.levels[l].bytes_after(nodes[l] ? widest : 0, nodes[l]);
+    if (const std::uint64_t held = gl.image_bytes(); images > held)
+      if (auto s = lease.hold_images(images - held, "a " + std::to_string(width) + "x" + std::to_string(height) +
+                                                        " frame over " + std::to_string(view.width()) + "x" +
+                                                        std::to_string(view.height()) + " cells");
+          !s.ok())
+        return s;
+  }
+
   // The view, voids marked (the shader fills or skips them), and the columns' constants.
   gl.terrain.ensure(view.width(), view.height());
   gl.staging.resize(view.cell_count());
@@ -118,7 +162,6 @@ Status trace_gl(const terrain::HeightView& view, const Camera& camera, const Fra
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
   glBindTexture(GL_TEXTURE_2D, gl.terrain.texture);
   glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, view.width(), view.height(), GL_RED, GL_FLOAT, gl.staging.data());
-  const int width = camera.spec.width, height = camera.spec.height;
   gl.column_table.resize(2 * static_cast<std::size_t>(width));
   for (int x = 0; x < width; ++x) {
     gl.column_table[2 * static_cast<std::size_t>(x)] = g.inv_focal_col[static_cast<std::size_t>(x)];

@@ -71,6 +71,14 @@ struct OhfResources final : gpu::ContextResources {
     glGenFramebuffers(1, &fbo);
     glGenQueries(2, timers);
   }
+  std::uint64_t image_bytes() const override {
+    return terrain.bytes() + disk[0].bytes() + disk[1].bytes() + out.bytes() + sectors.held() + table.held() +
+           doubles.held();
+  }
+  void release_images() override {
+    for (gpu::Texture2D* t : {&terrain, &disk[0], &disk[1], &out}) t->release();
+    for (gpu::StorageBuffer* b : {&sectors, &table, &doubles}) b->release();
+  }
   ~OhfResources() override {
     for (GLuint p : fragment) glDeleteProgram(p);
     for (GLuint p : compute) glDeleteProgram(p);
@@ -207,6 +215,17 @@ Status radial_ohf_gl(gpu::Lease& lease, const terrain::HeightView& z, const View
 
   const double curvature = f.curvature;
   std::vector<gl::GpuSector>& gpu_sectors = disk.gpu_sectors;
+
+  // The images this run grows the context's to, asked for before any is allocated.
+  const std::uint64_t images =
+      gl.terrain.bytes_after(w.width(), w.height()) + 2 * gl.disk[0].bytes_after(disk_width, disk_rows) +
+      gl.out.bytes_after(w.width(), w.height()) + gl.sectors.held_after(4 * sizeof(gl::GpuSector)) +
+      gl.table.held_after(disk.table.size() * sizeof(float)) + gl.doubles.held_after(disk.doubles.size() * sizeof(double));
+  if (const std::uint64_t held = gl.image_bytes(); images > held)
+    if (auto s = lease.hold_images(images - held, "the OHF sweep of a " + std::to_string(w.width()) + "x" +
+                                                      std::to_string(w.height()) + " window");
+        !s.ok())
+      return s;
 
   // Terrain: the window under the view's void policy, voids left as kVoid.
   std::vector<float> staging(w.cell_count());

@@ -21,6 +21,17 @@
 // shaders are compiled once per context and images are reallocated only when
 // a request needs more room than any before it.
 //
+// Memory: a context keeps its images (textures and buffers) between leases,
+// grown to the largest request it served, so their memory is the pool's to
+// bound. PoolOptions::keep_image_bytes caps what a context keeps: a lease
+// returned holding more has its images freed (programs stay compiled). On a
+// software rasteriser images are process memory; a caller that budgets its
+// memory installs an ImageMemory gate (set_image_memory): GL code asks its
+// lease for the images it is about to allocate (Lease::hold_images) before
+// allocating them, the gate may refuse (the GL code then fails with
+// kResourceExhausted and its caller answers on the CPU), and what a context
+// keeps stays taken from the gate until it is freed.
+//
 // Failures: a lease marked failed (a GL error, GL_OUT_OF_MEMORY, a lost
 // context) destroys that context and its resources on return and creates a
 // fresh one, so one bad request never poisons later ones. counters() tells
@@ -55,6 +66,19 @@ enum class EglPlatform {
 struct PoolOptions {
   int contexts = 1;  // contexts created up front, [1, 64]: requests that can run on the GPU at once
   EglPlatform platform = EglPlatform::kAny;
+  // Images a context keeps between leases; past it they are freed on return.
+  std::uint64_t keep_image_bytes = UINT64_MAX;
+};
+
+// Where GL images' memory is accounted (a memory budget). Called from the
+// borrowing threads, one context's lease at a time each: thread-safe.
+class ImageMemory {
+ public:
+  virtual ~ImageMemory() = default;
+  // Takes `bytes` more; false (nothing taken) when they do not fit.
+  virtual bool take(std::uint64_t bytes) = 0;
+  // Gives back bytes taken before.
+  virtual void give(std::uint64_t bytes) = 0;
 };
 
 // What the GL code keeps per context; created on first use by the code that
@@ -62,6 +86,11 @@ struct PoolOptions {
 class ContextResources {
  public:
   virtual ~ContextResources() = default;
+  // Bytes of the images (textures, buffers) held; programs and framebuffer
+  // objects are not counted.
+  virtual std::uint64_t image_bytes() const { return 0; }
+  // Frees the images, keeping the programs (the next run re-creates them).
+  virtual void release_images() {}
 };
 
 class ContextPool;
@@ -90,6 +119,11 @@ class Lease {
   std::unique_ptr<ContextResources>& resources_of(std::type_index type);
   // How many kinds of resources the context holds.
   std::size_t resource_kinds() const;
+  // Before GL code allocates images: it is about to grow this context's
+  // images by up to `bytes`. Taken from the pool's ImageMemory (if any);
+  // kResourceExhausted, naming `what` and the bytes, when it refuses. The
+  // account is settled on return against what the context really holds.
+  Status hold_images(std::uint64_t bytes, const std::string& what);
   // Marks the context unusable: it is destroyed when returned and replaced.
   void fail();
   bool failed() const { return failed_; }
@@ -114,6 +148,11 @@ class ContextPool {
 
   const DeviceInfo& device() const;
   int size() const;
+  // Accounts every context's images in `memory` from now on (null: none);
+  // set before the first borrow, outliving the pool's contexts.
+  void set_image_memory(ImageMemory* memory);
+  // Image bytes the contexts hold between leases (as last settled).
+  std::uint64_t held_image_bytes() const;
 
   // Waits for a free context and makes it current on this thread. Fails only
   // when a replacement for a failed context cannot be created.
