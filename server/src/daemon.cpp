@@ -19,6 +19,7 @@
 #include "horizon/gpu/context_pool.hpp"
 #include "horizon/visibility/backend_policy.hpp"
 #include "horizon/visibility/radial_sweep_gl.hpp"
+#include "gl_image_budget.hpp"
 #include "memory_budget.hpp"
 #include "metrics.hpp"
 #include "request_log.hpp"
@@ -43,7 +44,8 @@ constexpr const char* kServices[] = {"", "horizon.v1.DatasetService", "horizon.v
 std::unique_ptr<gpu::ContextPool> open_gpu(const Config& config, unsigned workers, visibility::BackendPolicy& policy) {
   const std::uint32_t contexts = config.gpu.contexts.value_or(std::min(workers, 64u));
   if (contexts == 0) return nullptr;
-  auto pool = gpu::ContextPool::create({.contexts = static_cast<int>(contexts)});
+  auto pool = gpu::ContextPool::create(
+      {.contexts = static_cast<int>(contexts), .keep_image_bytes = GlImageBudget::kKeepBytes});
   if (!pool.ok()) {
     log_event("warn", "gpu_unavailable",
               {{"contexts", std::to_string(contexts), true},
@@ -114,6 +116,7 @@ struct Daemon::Impl {
   Reservation receive_memory;  // gRPC's receive buffers (config receive_buffer_mb), likewise
   terrain::BlockCache cache;  // outlives the datasets whose blocks it holds
   DatasetRegistry datasets;
+  GlImageBudget gl_images{memory, metrics};  // outlives the pool that gives back to it
   std::unique_ptr<gpu::ContextPool> gpu;  // outlives the workers that borrow from it
   visibility::BackendPolicy backend;      // when requests use `gpu`; likewise
   WorkerPool pool;
@@ -187,6 +190,8 @@ Status Daemon::start() {
 
   // Before the first call can arrive: env.gpu is read without a lock.
   d.gpu = open_gpu(d.config, d.pool.threads(), d.backend);
+  // llvmpipe's images are this process's memory: inside the budget.
+  if (d.gpu && d.gpu->device().software) d.gpu->set_image_memory(&d.gl_images);
   d.env.gpu = d.gpu.get();
   d.env.backend = &d.backend;
 

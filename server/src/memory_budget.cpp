@@ -17,13 +17,17 @@ void Reservation::release() {
   budget_ = nullptr;
 }
 
-bool MemoryBudget::try_reserve(std::uint64_t bytes, Reservation& out) {
+bool MemoryBudget::try_take(std::uint64_t bytes) {
   const auto want = static_cast<std::int64_t>(bytes);
   std::int64_t available = available_.load();
   while (true) {
     if (want > available) return false;
-    if (available_.compare_exchange_weak(available, available - want)) break;
+    if (available_.compare_exchange_weak(available, available - want)) return true;
   }
+}
+
+bool MemoryBudget::try_reserve(std::uint64_t bytes, Reservation& out) {
+  if (!try_take(bytes)) return false;
   out = Reservation(this, bytes);
   return true;
 }

@@ -3,7 +3,8 @@
 // Everything large the daemon holds is reserved here first: the shared block
 // cache (its whole budget, at start); gRPC's receive buffers for requests
 // still on the wire (config receive_buffer_mb, at start: gRPC enforces it
-// as its resource quota); each request's messages when it is
+// as its resource quota); on a software rasteriser, the images the GL
+// contexts hold (gl_image_budget.hpp); each request's messages when it is
 // admitted, before it queues for a worker (the request as gRPC handed it
 // over, arena_allocator.hpp's held_bytes, and for CullBoxes its answer,
 // kResponseBytesPerBox a box); and each request's working set before any
@@ -65,6 +66,12 @@ class MemoryBudget {
 
   // A reservation of `bytes`, or an empty one (bytes() == 0 and ok == false) when it does not fit.
   bool try_reserve(std::uint64_t bytes, Reservation& out);
+
+  // Unscoped form for an account that grows and shrinks (the GL contexts'
+  // images, gl_image_budget.hpp): takes `bytes` or nothing; give() returns
+  // bytes taken so.
+  bool try_take(std::uint64_t bytes);
+  void give(std::uint64_t bytes) { give_back(bytes); }
 
   std::uint64_t total() const { return total_; }
   // Bytes reserved now (without the base).

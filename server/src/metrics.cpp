@@ -101,6 +101,11 @@ struct Metrics::Impl {
                                           .Help("Bytes gRPC may hold for requests still on the wire")
                                           .Register(*registry)
                                           .Add({});
+  prometheus::Gauge& gpu_images = prometheus::BuildGauge()
+                                      .Name("horizon_gpu_image_bytes")
+                                      .Help("GL images taken from the memory budget (software rasteriser)")
+                                      .Register(*registry)
+                                      .Add({});
   prometheus::Gauge& cache_budget = prometheus::BuildGauge()
                                         .Name("horizon_block_cache_budget_bytes")
                                         .Help("Bytes the block cache may keep")
@@ -213,6 +218,10 @@ void Metrics::set_block_cache(const terrain::BlockCacheStats& s) {
 
 void Metrics::set_serving(bool serving) {
   impl_->serving_now.store(serving);
+}
+
+void Metrics::set_gpu_images(std::uint64_t bytes) {
+  impl_->gpu_images.Set(static_cast<double>(bytes));
 }
 
 void Metrics::set_receive_buffer(std::uint64_t bytes) {

@@ -17,6 +17,8 @@
 //   horizon_block_cache_decoded_bytes_total         counter (float bytes decoded)
 //   horizon_block_cache_failures_total              counter (blocks that failed to decode)
 //   horizon_receive_buffer_bytes                    gauge (gRPC's receive quota, receive_buffer_mb)
+//   horizon_gpu_image_bytes                         gauge (GL images taken from the budget: on a software
+//                                                   rasteriser, what contexts keep and what runs hold)
 //   horizon_memory_reserved_bytes                   gauge (block cache + receive buffers + requests,
 //                                                   as budgeted)
 //   horizon_process_resident_bytes                  gauge (RSS from /proc/self/statm, read at scrape)
@@ -58,6 +60,7 @@ class Metrics {
   void set_block_cache(const terrain::BlockCacheStats& stats);
   void set_memory_reserved(std::uint64_t bytes);
   void set_receive_buffer(std::uint64_t bytes);
+  void set_gpu_images(std::uint64_t bytes);
   // What the health service says (Daemon: SERVING once loaded, NOT_SERVING when draining).
   void set_serving(bool serving);
 

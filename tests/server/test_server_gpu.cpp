@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <iostream>
 #include <map>
 #include <string>
 #include <vector>
@@ -182,6 +183,62 @@ TEST_F(ServerGpu, WithoutContextsTheCpuAnswersAndSaysWhy) {
   EXPECT_EQ(metric(after, "horizon_gpu_fallbacks_total") - metric(before, "horizon_gpu_fallbacks_total"), 1.0) << after;
   const std::string on_cpu = R"(horizon_backend_requests_total{backend="cpu"})";
   EXPECT_EQ(metric(after, on_cpu) - metric(before, on_cpu), 1.0) << after;
+}
+
+// On llvmpipe the GL images are the daemon's memory, inside memory_budget_mb:
+// a GPU viewshed whose images do not fit what the budget leaves (64 MB: the
+// 48 MiB base, 11 MiB of receive buffers and 2 MiB of cache leave 3 MiB;
+// ray disks at ray_spacing 0.02 need about 12 MiB) is answered on the CPU and says
+// why; one that fits runs on the GPU, and the images its context keeps stay
+// counted as reserved (horizon_gpu_image_bytes) until freed.
+TEST(ServerGpuMemory, GlImagesAreTakenFromTheBudget) {
+  DaemonOptions o;
+  o.datasets = {{"rainier", "rainier_summit_srtm3_400x400.tif"}};
+  o.memory_budget_mb = 64;
+  o.extra_json = R"("gpu": {"contexts": 1}, "engine_threads": 1,)";
+  DaemonProcess daemon(o);
+  ASSERT_TRUE(daemon.ready()) << daemon.error();
+  if (daemon.log().find("\"software\":true") == std::string::npos)
+    GTEST_SKIP() << "a hardware GPU's images are its own memory: no gate";
+  auto stub = v1::VisibilityService::NewStub(daemon.channel());
+  auto viewshed = [&](double max_distance, double ray_spacing, v1::ViewshedSummary& summary) {
+    v1::ViewshedRequest r;
+    r.set_dataset("rainier");
+    *r.mutable_observer() = point(kRainierLon, kRainierLat, 2.0, v1::FRAME_WGS84);
+    r.mutable_options()->set_max_distance(max_distance);
+    r.mutable_options()->set_ray_spacing(ray_spacing);
+    r.mutable_options()->set_backend(v1::BACKEND_GPU);
+    auto context = context_with_deadline();
+    auto reader = stub->ComputeViewshed(context.get(), r);
+    v1::ViewshedResponse message;
+    while (reader->Read(&message))
+      if (message.has_summary()) summary = message.summary();
+    return reader->Finish();
+  };
+  auto reserved_is_cache_receive_and_images = [&] {
+    const std::string m = daemon.metrics();
+    return metric(m, "horizon_memory_reserved_bytes") ==
+           metric(m, "horizon_block_cache_budget_bytes") + metric(m, "horizon_receive_buffer_bytes") +
+               metric(m, "horizon_gpu_image_bytes");
+  };
+
+  v1::ViewshedSummary refused;
+  ASSERT_TRUE(viewshed(3000, 0.02, refused).ok());
+  EXPECT_EQ(refused.stats().backend(), "cpu");
+  EXPECT_NE(refused.stats().gpu_fallback().find("MiB of GL images, more than the memory budget leaves"),
+            std::string::npos)
+      << refused.stats().gpu_fallback();
+  EXPECT_GT(refused.visible_cells(), 0u);
+  EXPECT_EQ(metric(daemon.metrics(), "horizon_gpu_image_bytes"), 0.0);
+  std::cout << "refused: " << refused.stats().gpu_fallback() << '\n';
+
+  v1::ViewshedSummary fits;
+  ASSERT_TRUE(viewshed(1500, 1.0, fits).ok());
+  EXPECT_EQ(fits.stats().backend(), "gpu") << fits.stats().gpu_fallback();
+  const double images = metric(daemon.metrics(), "horizon_gpu_image_bytes");
+  EXPECT_GT(images, 0.0);
+  EXPECT_LT(images, 3u << 20);
+  EXPECT_TRUE(reserved_is_cache_receive_and_images()) << daemon.metrics();
 }
 
 // `horizon viewshed --server` sends the backend flags and reports where the

@@ -113,8 +113,9 @@ class ServerTrace : public ::testing::Test {
     const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(5);
     while (std::chrono::steady_clock::now() < until) {
       const std::string text = daemon_->metrics();
-      if (metric(text, "horizon_memory_reserved_bytes") ==
-          metric(text, "horizon_block_cache_budget_bytes") + metric(text, "horizon_receive_buffer_bytes"))
+      if (metric(text, "horizon_memory_reserved_bytes") == metric(text, "horizon_block_cache_budget_bytes") +
+                                                               metric(text, "horizon_receive_buffer_bytes") +
+                                                               metric(text, "horizon_gpu_image_bytes"))
         return true;
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
