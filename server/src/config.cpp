@@ -1,10 +1,9 @@
 // Configuration parsing (nlohmann-json kept to this file).
 #include "config.hpp"
 
-#include <algorithm>
-
 #include <unistd.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cstdlib>
 #include <fstream>
@@ -305,9 +304,9 @@ Result<Config> parse_config(const std::string& text, const std::string& source, 
   if (!overrides.data_root.empty()) j["data_root"] = fs::absolute(overrides.data_root).string();
   HORIZON_RETURN_IF_ERROR(check_keys(
       j, source, "",
-      {"listen", "metrics_listen", "data_root", "datasets", "memory_budget_mb", "block_cache_mb", "receive_buffer_mb", "io_threads",
-       "worker_threads", "engine_threads", "limits", "gpu", "default_deadline_ms", "shutdown_grace_ms", "scratch_dir",
-       "tls", "health_listen", "plaintext", "auth_tokens_file", "sessions"}));
+      {"listen", "metrics_listen", "data_root", "datasets", "memory_budget_mb", "block_cache_mb",
+       "receive_buffer_mb", "io_threads", "worker_threads", "engine_threads", "limits", "gpu", "default_deadline_ms",
+       "shutdown_grace_ms", "scratch_dir", "tls", "health_listen", "plaintext", "auth_tokens_file", "sessions"}));
   Config c;
   c.source = source;
   for (const char* required : {"listen", "data_root", "datasets", "memory_budget_mb"})
