@@ -126,23 +126,18 @@ Status trace_gl(const TracePlan& plan, const ClipmapReader& view, const ClipEye&
     // What this trace grows the context's copies and tables to, asked for before any is allocated.
     const int n = shape.level_size, tiles = n / shape.subtile;
     const std::size_t horizon_values = columns * plan.edges.size();
-    auto vector_after = [](const auto& v, std::size_t count) {
-      return std::max<std::uint64_t>(v.capacity(), count) * sizeof(v[0]);
-    };
+    using gpu::vector_bytes_after;
     const std::uint64_t images =
         gl.cells.bytes_after(n, n, shape.levels) + gl.resident.bytes_after(tiles, tiles, shape.levels) +
         gl.rings.held_after(std::max<std::size_t>(plan.rings.size(), 1) * sizeof(GlRing)) +
         gl.columns.held_after(columns * sizeof(GlColumn)) + gl.horizons.held_after(horizon_values * sizeof(double)) +
         gl.counts.held_after(columns * 4 * sizeof(std::uint32_t)) +
-        vector_after(gl.staging, std::size_t(n) * std::size_t(n)) +
-        vector_after(gl.staging_resident, std::size_t(tiles) * std::size_t(tiles)) +
-        vector_after(gl.ring_table, std::max<std::size_t>(plan.rings.size(), 1)) + vector_after(gl.column_table, columns) +
-        vector_after(gl.count_table, columns * 4);
-    if (const std::uint64_t held = gl.image_bytes(); images > held)
-      if (auto s = lease.hold_images(images - held, "the clip-map trace of " + std::to_string(shape.levels) +
-                                                        " levels of " + std::to_string(n) + "^2");
-          !s.ok())
-        return s;
+        vector_bytes_after(gl.staging, std::size_t(n) * std::size_t(n)) +
+        vector_bytes_after(gl.staging_resident, std::size_t(tiles) * std::size_t(tiles)) +
+        vector_bytes_after(gl.ring_table, std::max<std::size_t>(plan.rings.size(), 1)) + vector_bytes_after(gl.column_table, columns) +
+        vector_bytes_after(gl.count_table, columns * 4);
+    HORIZON_RETURN_IF_ERROR(lease.grow_images(
+        gl, images, "the clip-map trace of " + std::to_string(shape.levels) + " levels of " + std::to_string(n) + "^2"));
   }
   upload_levels(gl, view, uploaded);
   if (auto s = gpu::gl_status("the clip-map upload"); !s.ok()) return fail(s);

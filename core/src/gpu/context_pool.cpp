@@ -175,17 +175,19 @@ struct ContextPool::Impl {
   // the GL code held more than it asked for, freeing its images when even
   // that does not fit).
   void settle(Slot& slot) {
-    std::uint64_t held = image_bytes(slot);
-    if (held > keep_image_bytes) {
+    auto release = [&slot] {
       for (auto& r : slot.resources)
         if (r.second) r.second->release_images();
+    };
+    std::uint64_t held = image_bytes(slot);
+    if (held > keep_image_bytes) {
+      release();
       held = image_bytes(slot);
     }
     if (image_memory == nullptr) return;
     std::lock_guard lock(taken_mutex);
     if (held > slot.taken && !image_memory->take(held - slot.taken)) {
-      for (auto& r : slot.resources)
-        if (r.second) r.second->release_images();
+      release();
       held = std::min(image_bytes(slot), slot.taken);  // every image freed: 0
     }
     if (held < slot.taken) image_memory->give(slot.taken - held);

@@ -23,6 +23,13 @@ namespace horizon::gpu {
 // R8UI 1, ...); 16 for a format not listed, an upper bound.
 std::uint64_t texel_bytes(GLenum internal_format);
 
+// Bytes a host vector that GL code keeps holds after growing to `count`
+// elements (it never shrinks).
+template <class V>
+std::uint64_t vector_bytes_after(const V& v, std::size_t count) {
+  return std::max<std::uint64_t>(v.capacity(), count) * sizeof(typename V::value_type);
+}
+
 // A compiled shader of `type`, or 0 with the compiler's log in `log`.
 GLuint compile_shader(GLenum type, const std::string& source, std::string& log);
 

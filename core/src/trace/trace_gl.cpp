@@ -126,16 +126,14 @@ Status trace_gl(const terrain::HeightView& view, const Camera& camera, const Fra
   // for before any is allocated: the largest run's map, levels and target.
   const int width = camera.spec.width, height = camera.spec.height;
   {
-    auto vector_after = [](const std::vector<float>& v, std::size_t n) {
-      return std::max<std::uint64_t>(v.capacity(), n) * sizeof(float);
-    };
+    using gpu::vector_bytes_after;
     const auto w = static_cast<std::size_t>(width);
     std::uint64_t images = gl.terrain.bytes_after(view.width(), view.height()) +
                            gl.map.bytes_after(widest, std::max(most_lines, 1)) + gl.out.bytes_after(widest, height) +
                            gl.columns.held_after(2 * w * sizeof(float)) +
-                           gl.map_columns.held_after(3 * w * sizeof(float)) + vector_after(gl.staging, view.cell_count()) +
-                           vector_after(gl.column_table, 2 * w) + vector_after(gl.map_column_table, 3 * w) +
-                           vector_after(gl.readback, 2 * static_cast<std::size_t>(widest) * static_cast<std::size_t>(height));
+                           gl.map_columns.held_after(3 * w * sizeof(float)) + vector_bytes_after(gl.staging, view.cell_count()) +
+                           vector_bytes_after(gl.column_table, 2 * w) + vector_bytes_after(gl.map_column_table, 3 * w) +
+                           vector_bytes_after(gl.readback, 2 * static_cast<std::size_t>(widest) * static_cast<std::size_t>(height));
     int nodes[kMaxLevels] = {};  // each level's rows; 0 past the top
     for (int below = most_lines, l = 0; below > 0 && l < kMaxLevels; ++l) {
       nodes[l] = (below + 3) / 4;
@@ -143,12 +141,10 @@ Status trace_gl(const terrain::HeightView& view, const Camera& camera, const Fra
       below = nodes[l];
     }
     for (int l = 0; l < kMaxLevels; ++l) images += gl.levels[l].bytes_after(nodes[l] ? widest : 0, nodes[l]);
-    if (const std::uint64_t held = gl.image_bytes(); images > held)
-      if (auto s = lease.hold_images(images - held, "a " + std::to_string(width) + "x" + std::to_string(height) +
-                                                        " frame over " + std::to_string(view.width()) + "x" +
-                                                        std::to_string(view.height()) + " cells");
-          !s.ok())
-        return s;
+    HORIZON_RETURN_IF_ERROR(lease.grow_images(gl, images,
+                                              "a " + std::to_string(width) + "x" + std::to_string(height) +
+                                                  " frame over " + std::to_string(view.width()) + "x" +
+                                                  std::to_string(view.height()) + " cells"));
   }
 
   // The view, voids marked (the shader fills or skips them), and the columns' constants.

@@ -221,11 +221,8 @@ Status radial_ohf_gl(gpu::Lease& lease, const terrain::HeightView& z, const View
       gl.terrain.bytes_after(w.width(), w.height()) + 2 * gl.disk[0].bytes_after(disk_width, disk_rows) +
       gl.out.bytes_after(w.width(), w.height()) + gl.sectors.held_after(4 * sizeof(gl::GpuSector)) +
       gl.table.held_after(disk.table.size() * sizeof(float)) + gl.doubles.held_after(disk.doubles.size() * sizeof(double));
-  if (const std::uint64_t held = gl.image_bytes(); images > held)
-    if (auto s = lease.hold_images(images - held, "the OHF sweep of a " + std::to_string(w.width()) + "x" +
-                                                      std::to_string(w.height()) + " window");
-        !s.ok())
-      return s;
+  HORIZON_RETURN_IF_ERROR(lease.grow_images(
+      gl, images, "the OHF sweep of a " + std::to_string(w.width()) + "x" + std::to_string(w.height()) + " window"));
 
   // Terrain: the window under the view's void policy, voids left as kVoid.
   std::vector<float> staging(w.cell_count());

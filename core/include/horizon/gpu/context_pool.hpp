@@ -124,6 +124,12 @@ class Lease {
   // kResourceExhausted, naming `what` and the bytes, when it refuses. The
   // account is settled on return against what the context really holds.
   Status hold_images(std::uint64_t bytes, const std::string& what);
+  // hold_images for `resources` about to grow to `after` bytes in all: asks
+  // for what that adds to its image_bytes() (nothing when it does not grow).
+  Status grow_images(const ContextResources& resources, std::uint64_t after, const std::string& what) {
+    const std::uint64_t held = resources.image_bytes();
+    return after > held ? hold_images(after - held, what) : Status::Ok();
+  }
   // Marks the context unusable: it is destroyed when returned and replaced.
   void fail();
   bool failed() const { return failed_; }
