@@ -7,10 +7,12 @@
 // session asked for on the GPU traces there and answers as a CPU session.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cstdint>
 #include <iostream>
 #include <map>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -215,11 +217,19 @@ TEST(ServerGpuMemory, GlImagesAreTakenFromTheBudget) {
       if (message.has_summary()) summary = message.summary();
     return reader->Finish();
   };
+  // The call's own reservation is returned just after its status reaches
+  // the client, so this waits (5 s at most) for the books to settle.
   auto reserved_is_cache_receive_and_images = [&] {
-    const std::string m = daemon.metrics();
-    return metric(m, "horizon_memory_reserved_bytes") ==
-           metric(m, "horizon_block_cache_budget_bytes") + metric(m, "horizon_receive_buffer_bytes") +
-               metric(m, "horizon_gpu_image_bytes");
+    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+    do {
+      const std::string m = daemon.metrics();
+      if (metric(m, "horizon_memory_reserved_bytes") ==
+          metric(m, "horizon_block_cache_budget_bytes") + metric(m, "horizon_receive_buffer_bytes") +
+              metric(m, "horizon_gpu_image_bytes"))
+        return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    } while (std::chrono::steady_clock::now() < until);
+    return false;
   };
 
   v1::ViewshedSummary refused;
