@@ -109,8 +109,8 @@ bool is_geographic(const terrain::Dem& dem) {
 }
 
 bool is_geographic(const terrain::Georeference& georef) {
-  if (georef.epsg == 0) return false;
-  auto crs = geodesy::Crs::from_epsg(georef.epsg);
+  if (!georef.has_crs()) return false;
+  auto crs = geodesy::Crs::of(georef);
   return crs.ok() && crs->is_geographic();
 }
 
@@ -119,8 +119,8 @@ std::optional<geodesy::LonLat> lonlat_of(const terrain::Dem& dem, double x, doub
 }
 
 std::optional<geodesy::LonLat> lonlat_of(const terrain::Georeference& georef, double x, double y) {
-  if (georef.epsg == 0) return std::nullopt;
-  auto crs = geodesy::Crs::from_epsg(georef.epsg);
+  if (!georef.has_crs()) return std::nullopt;
+  auto crs = geodesy::Crs::of(georef);
   if (!crs.ok()) return std::nullopt;
   auto ll = crs->to_lonlat({x, y});
   if (!ll.ok()) return std::nullopt;

@@ -96,4 +96,37 @@ std::string coordinate(double value, bool geographic) {
   return fixed(value, geographic ? 7 : 2);
 }
 
+std::string crs_name(const geodesy::Crs& crs) {
+  if (crs.horizontal_epsg() != 0)
+    return "EPSG:" + std::to_string(crs.horizontal_epsg()) + " (" + crs.horizontal_name() + ")";
+  const std::string& name = crs.horizontal_name();
+  return name.empty() || name == "unknown" ? std::string("user-defined") : name + " (user-defined)";
+}
+
+std::string crs_label(const geodesy::Crs& crs) {
+  return crs_name(crs) + (crs.is_geographic() ? ", geographic" : ", projected (" + crs.projection() + ")") +
+         ", units: " + crs.unit_name();
+}
+
+std::string heights_label(const geodesy::Crs& crs) {
+  if (!crs.is_compound()) return "";
+  if (crs.vertical_epsg() == 0) return crs.vertical_name();
+  return "EPSG:" + std::to_string(crs.vertical_epsg()) + " (" + crs.vertical_name() + ")";
+}
+
+Json to_json(const geodesy::Crs& crs) {
+  const auto code = [](int epsg) { return epsg != 0 ? Json(epsg) : Json(nullptr); };
+  Json j = {{"epsg", code(crs.horizontal_epsg())},
+            {"name", crs.name()},
+            {"geographic", crs.is_geographic()},
+            {"units", crs.unit_name()},
+            {"unit_size", crs.unit_size()},
+            {"projection", crs.is_geographic() ? Json(nullptr) : Json(crs.projection())},
+            {"vertical", crs.is_compound() ? Json{{"epsg", code(crs.vertical_epsg())}, {"name", crs.vertical_name()}}
+                                           : Json(nullptr)}};
+  if (crs.epsg() != 0 && crs.epsg() != crs.horizontal_epsg()) j["compound_epsg"] = crs.epsg();
+  j["wkt"] = crs.wkt();
+  return j;
+}
+
 }  // namespace horizon::cli

@@ -42,6 +42,21 @@ Json to_json(const geodesy::GridPoint& point, const std::optional<geodesy::LonLa
 Json viewshed_options_json(const geodesy::PointSpec& observer, const visibility::ViewshedOptions& options,
                            const std::string& nodata);
 
+// A CRS in one phrase: "EPSG:32633 (WGS 84 / UTM zone 33N)", or for one
+// without a code its name and "(user-defined)" ("user-defined" alone when
+// it has no name).
+std::string crs_name(const geodesy::Crs& crs);
+// The summaries' CRS line: crs_name, then "geographic" or "projected
+// (METHOD)", then the units: "..., projected (Transverse Mercator), units: metre".
+std::string crs_label(const geodesy::Crs& crs);
+// The vertical part of a compound CRS, "EPSG:5701 (ODN height)"; empty without one.
+std::string heights_label(const geodesy::Crs& crs);
+// `info --json`'s "crs": epsg (of the horizontal part; null without a code),
+// name, geographic, units, unit_size (metres or degrees per unit),
+// projection (null for geographic), vertical ({epsg, name}; null without
+// one), compound_epsg (only when the whole compound CRS has a code), wkt.
+Json to_json(const geodesy::Crs& crs);
+
 // "1234567" -> "1,234,567".
 std::string with_separators(std::uint64_t count);
 // Fixed-point with `decimals` digits; "n/a" for NaN, "inf"/"-inf" for infinities.

@@ -48,11 +48,13 @@ int run_info(const Args& args) {
   const std::uint64_t cells = dem->elevation.size();
 
   std::optional<geodesy::Crs> crs;
-  if (dem->georef.epsg != 0) {
-    auto c = geodesy::Crs::from_epsg(dem->georef.epsg);
+  if (dem->georef.has_crs()) {
+    auto c = geodesy::Crs::of(dem->georef);
     if (!c.ok()) return report_error(c.error());
     crs = *c;
   }
+  // A CRS the file names but Horizon cannot use: said, not hidden as "none".
+  const std::string& unusable = dem->georef.crs_problem;
   geodesy::GroundScale scale;  // metres per CRS unit at the centre; 1 without a CRS
   std::optional<geodesy::LonLatBounds> bounds;
   if (crs) {
@@ -70,8 +72,8 @@ int run_info(const Args& args) {
     j["width"] = dem->width();
     j["height"] = dem->height();
     j["cells"] = cells;
-    j["crs"] =
-        crs ? Json{{"epsg", crs->epsg()}, {"name", crs->name()}, {"geographic", crs->is_geographic()}} : Json(nullptr);
+    j["crs"] = crs ? to_json(*crs) : Json(nullptr);
+    j["crs_unusable"] = unusable.empty() ? Json(nullptr) : Json(unusable);
     j["geotransform"] = to_json(t);
     j["cell_size_m"] = {{"x", cell_x_m}, {"y", cell_y_m}};
     j["extent"] = {{"x_min", extent.x_min}, {"y_min", extent.y_min}, {"x_max", extent.x_max}, {"y_max", extent.y_max}};
@@ -91,11 +93,15 @@ int run_info(const Args& args) {
             << "Format:      " << dem->format << '\n'
             << "Size:        " << dem->width() << " x " << dem->height() << " cells (" << with_separators(cells)
             << ")\n";
-  if (crs)
-    std::cout << "CRS:         EPSG:" << crs->epsg() << " (" << crs->name() << ")"
-              << (geographic ? ", geographic degrees" : ", projected metres") << '\n';
-  else
+  if (crs) {
+    std::cout << "CRS:         " << crs_label(*crs) << '\n';
+    if (crs->is_compound())
+      std::cout << "Heights:     " << heights_label(*crs) << " (the vertical part of " << crs->name() << ")\n";
+  } else if (!unusable.empty()) {
+    std::cout << "CRS:         cannot be used: " << unusable << "; read as a plain grid (grid coordinates only)\n";
+  } else {
     std::cout << "CRS:         none (grid coordinates only)\n";
+  }
   std::cout << "Origin:      " << coordinate(t.origin_x, geographic) << ", " << coordinate(t.origin_y, geographic)
             << "  (outer corner of the first cell)\n"
             << "Pixel size:  " << fixed(t.pixel_width, geographic ? 10 : 4) << ", "
@@ -127,9 +133,10 @@ const Command& info_command() {
       "Describe a DEM: size, CRS, georeferencing, cell size, extent, nodata, elevations",
       "horizon info DEM [--band N] [--json]",
       "Reads DEM (GeoTIFF, SRTM .hgt or terrain-RGB PNG) and prints its size, coordinate\n"
-      "reference system, geotransform, true cell size in metres at its centre, extent in\n"
-      "its CRS and in WGS84 longitude/latitude, nodata value, elevation range and number\n"
-      "of void cells.",
+      "reference system (EPSG code or name, projection, units, heights; for a CRS it\n"
+      "cannot use, what that CRS is and what is not supported), geotransform, true cell\n"
+      "size in metres at its centre, extent in its CRS and in WGS84 longitude/latitude,\n"
+      "nodata value, elevation range and number of void cells.",
       kFlags,
       "  horizon info data/dem/rainier_summit_srtm3_400x400.tif\n"
       "  horizon info data/dem/ecuador_andes_utm17s_10m_383x415.tif --json\n",

@@ -88,8 +88,8 @@ Result<std::shared_ptr<const Dataset>> load_dataset(const Config& config, const 
   const double x0 = t.origin_x, x1 = t.origin_x + h.width * t.pixel_width;
   const double y0 = t.origin_y, y1 = t.origin_y + h.height * t.pixel_height;
   geodesy::GroundScale scale;
-  if (h.georef.epsg != 0) {
-    auto crs = geodesy::Crs::from_epsg(h.georef.epsg);
+  if (h.georef.has_crs()) {
+    auto crs = geodesy::Crs::of(h.georef);
     if (!crs.ok()) return crs.error();
     d->crs_name = crs->name();
     d->geographic = crs->is_geographic();

@@ -345,8 +345,8 @@ void fill_sample(const visibility::ProfileSample& s, v1::ProfileSample& out) {
 void fill_point(const geodesy::GridPoint& p, const terrain::Georeference& georef, v1::ResolvedPoint& out) {
   out.set_x(p.x);
   out.set_y(p.y);
-  if (georef.epsg != 0) {
-    if (auto crs = geodesy::Crs::from_epsg(georef.epsg); crs.ok()) {
+  if (georef.has_crs()) {
+    if (auto crs = geodesy::Crs::of(georef); crs.ok()) {
       if (auto ll = crs->to_lonlat({p.x, p.y}); ll.ok()) {
         out.set_lon(ll->lon);
         out.set_lat(ll->lat);

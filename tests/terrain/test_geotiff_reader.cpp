@@ -159,13 +159,14 @@ TEST(GeoTiffReader, ReadsGdalNodataOnInt16) {
 TEST(GeoTiffReader, AllowMissingCrsKeepsTransformOfUnsupportedCrs) {
   TempDir dir;
   RawTiff t = testing::utm_raw_tiff(4, 3);
-  t.geokeys = {{1024, 1}, {1025, 1}, {3072, 3035}};  // ETRS89 / LAEA Europe
-  ASSERT_TRUE(testing::write_raw_tiff(dir.file("laea.tif"), t));
+  t.geokeys = {{1024, 1}, {1025, 1}, {3072, 4978}};  // WGS 84 geocentric (X, Y, Z)
+  ASSERT_TRUE(testing::write_raw_tiff(dir.file("geocentric.tif"), t));
   ReadOptions options;
   options.allow_missing_crs = true;
-  auto dem = read_geotiff(dir.file("laea.tif"), options);
+  auto dem = read_geotiff(dir.file("geocentric.tif"), options);
   ASSERT_TRUE(dem.ok()) << dem.error().message;
   EXPECT_EQ(dem->georef.epsg, 0);
+  EXPECT_TRUE(dem->georef.crs.empty());
   EXPECT_DOUBLE_EQ(dem->georef.transform.origin_x, 500000.0);
 }
 
@@ -402,15 +403,41 @@ TEST(GeoTiffReader, RejectsTransformWithoutCrs) {
   EXPECT_NE(dem.error().message.find("no CRS"), std::string::npos) << dem.error().message;
 }
 
-TEST(GeoTiffReader, RejectsUnsupportedCrs) {
+TEST(GeoTiffReader, RejectsUnusableCrs) {
+  // EPSG:4978 exists, but is geocentric (X, Y, Z): no map grid lies in it.
   TempDir dir;
   RawTiff t = testing::utm_raw_tiff(4, 3);
-  t.geokeys = {{1024, 1}, {1025, 1}, {3072, 3035}};
-  ASSERT_TRUE(testing::write_raw_tiff(dir.file("laea.tif"), t));
-  auto dem = read_geotiff(dir.file("laea.tif"), {});
+  t.geokeys = {{1024, 1}, {1025, 1}, {3072, 4978}};
+  ASSERT_TRUE(testing::write_raw_tiff(dir.file("geocentric.tif"), t));
+  auto dem = read_geotiff(dir.file("geocentric.tif"), {});
   ASSERT_FALSE(dem.ok());
   EXPECT_EQ(dem.error().code, ErrorCode::kUnsupported);
-  EXPECT_NE(dem.error().message.find("EPSG:3035"), std::string::npos) << dem.error().message;
+  EXPECT_NE(dem.error().message.find("EPSG:4978"), std::string::npos) << dem.error().message;
+  EXPECT_NE(dem.error().message.find("geocentric"), std::string::npos) << dem.error().message;
+
+  // Read anyway as a plain grid, the georeference says what was refused.
+  ReadOptions options;
+  options.allow_missing_crs = true;
+  auto plain = read_geotiff(dir.file("geocentric.tif"), options);
+  ASSERT_TRUE(plain.ok()) << plain.error().message;
+  EXPECT_FALSE(plain->georef.has_crs());
+  EXPECT_NE(plain->georef.crs_problem.find("geocentric"), std::string::npos) << plain->georef.crs_problem;
+}
+
+TEST(GeoTiffReader, ReadsAnyEpsgCrs) {
+  // ETRS89 / LAEA Europe, and NAD83 / California zone 3 in US survey feet.
+  TempDir dir;
+  RawTiff t = testing::utm_raw_tiff(4, 3);
+  for (int code : {3035, 2227}) {
+    t.geokeys = {{1024, 1}, {1025, 1}, {3072, code}};
+    const std::string path = dir.file(std::to_string(code) + ".tif");
+    ASSERT_TRUE(testing::write_raw_tiff(path, t));
+    auto dem = read_geotiff(path, {});
+    ASSERT_TRUE(dem.ok()) << dem.error().message;
+    EXPECT_EQ(dem->georef.epsg, code);
+    EXPECT_TRUE(dem->georef.crs.empty());
+    EXPECT_TRUE(dem->georef.crs_problem.empty());
+  }
 }
 
 TEST(GeoTiffReader, RejectsUserDefinedCrs) {

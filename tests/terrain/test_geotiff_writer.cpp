@@ -330,11 +330,12 @@ TEST(GeoTiffWriter, FailureLeavesExistingFileUntouched) {
   const std::string path = dir.file("out.tif");
   std::ofstream(path) << "precious";
   Georeference bad = utm_georef();
-  bad.epsg = 3035;  // valid EPSG, not supported
+  bad.epsg = 5714;  // a valid EPSG code, but a vertical CRS (MSL height): no map
   const Status st = write_geotiff(path, float_grid(), bad, std::nullopt);
   ASSERT_FALSE(st.ok());
   EXPECT_EQ(st.error().code, ErrorCode::kUnsupported);
-  EXPECT_NE(st.error().message.find("3035"), std::string::npos);
+  EXPECT_NE(st.error().message.find("EPSG:5714"), std::string::npos) << st.error().message;
+  EXPECT_NE(st.error().message.find("vertical"), std::string::npos) << st.error().message;
   EXPECT_EQ(testing::read_bytes(path), "precious");
   EXPECT_EQ(leftover_temporaries(dir.path()), 0);
 }

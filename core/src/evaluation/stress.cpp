@@ -323,6 +323,7 @@ void geographic_latitudes(Checker& ck, const Context& ctx) {
                          : std::string());
     Dem metric = geo;
     metric.georef.epsg = 0;
+    metric.georef.crs.clear();
     metric.georef.transform = {0.0, g->frame.metres_per_col, 0.0, -g->frame.metres_per_row};
     metric.source = geo.source + " as plain metres";
     expect_same(ck, g, viewshed(ctx, metric, at_cell(metric, n / 2, n / 2, 2), o), 0.0, 1e-3, where(geo, s, o));
@@ -808,6 +809,7 @@ void dem_properties(DemChecks& out, const Context& ctx, const std::string& path,
         for (float& z : plain.elevation.values())
           if (!std::isnan(z)) z = static_cast<float>(std::round(double(z) * 256.0) / 256.0);
         plain.georef.epsg = 0;
+        plain.georef.crs.clear();
         plain.georef.transform = {0.0, frame->metres_per_col, 0.0, -frame->metres_per_row};
         Dem moved = plain;
         moved.georef.transform.origin_x += 1e6;

@@ -62,7 +62,7 @@ Result<GridPoint> locate_point(const terrain::Georeference& georef, int width, i
   point.x = spec.x;
   point.y = spec.y;
   if (wgs84) {
-    if (georef.epsg == 0)
+    if (!georef.has_crs())
       return make_error(ErrorCode::kInvalidArgument,
                         name + " is given as WGS84 lon/lat but " + dem_label +
                             " has no CRS; give it in the dataset's own coordinates",
@@ -70,7 +70,7 @@ Result<GridPoint> locate_point(const terrain::Georeference& georef, int width, i
     if (std::abs(spec.y) > 90.0)
       return make_error(ErrorCode::kInvalidArgument,
                         y_field + fmt(" = %.9g is not a latitude (lon %.9g)", spec.y, spec.x), y_field);
-    auto crs = Crs::from_epsg(georef.epsg);
+    auto crs = Crs::of(georef);
     if (!crs.ok()) return crs.error();
     auto xy = crs->from_lonlat(LonLat{spec.x, spec.y});
     if (!xy.ok())
@@ -99,10 +99,10 @@ Result<GridPoint> locate_point(const terrain::Georeference& georef, int width, i
   // Longitudes are circular: on a geographic DEM that crosses the
   // antimeridian (x beyond 180, or below -180) a point given as lon -179.95
   // is the same place as x = 180.05. Try the point one turn east and west.
-  if (!inside(point.col, point.row) && georef.epsg != 0) {
-    auto crs = Crs::from_epsg(georef.epsg);
+  if (!inside(point.col, point.row) && georef.has_crs()) {
+    auto crs = Crs::of(georef);
     if (crs.ok() && crs->is_geographic())
-      for (double turn : {360.0, -360.0}) {
+      for (double turn : {360.0 / crs->unit_size(), -360.0 / crs->unit_size()}) {
         const double col = snap(t.col_at(point.x + turn));
         if (inside(col, point.row)) {
           point.x += turn;
@@ -151,8 +151,8 @@ terrain::Window cells_within(const terrain::Georeference& georef, int width, int
                              double radius_metres, int margin) {
   if (!std::isfinite(radius_metres) || width <= 0 || height <= 0) return {0, 0, std::max(width, 0), std::max(height, 0)};
   GroundScale scale;  // metres per CRS unit; 1 without a CRS (as make_view_frame)
-  if (georef.epsg != 0)
-    if (auto crs = Crs::from_epsg(georef.epsg); crs.ok()) scale = crs->ground_scale({point.x, point.y});
+  if (georef.has_crs())
+    if (auto crs = Crs::of(georef); crs.ok()) scale = crs->ground_scale({point.x, point.y});
   const double per_col = std::abs(georef.transform.pixel_width) * scale.metres_per_x;
   const double per_row = std::abs(georef.transform.pixel_height) * scale.metres_per_y;
   if (!(per_col > 0) || !(per_row > 0)) return {0, 0, width, height};

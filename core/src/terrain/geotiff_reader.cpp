@@ -365,11 +365,14 @@ Result<TiffFacts> read_tiff_facts(const std::string& path, const ReadOptions& op
     crs_problem = "has model type " + std::to_string(model) + " (only projected and geographic are supported)";
   }
   if (epsg != 0) {
+    // Any code PROJ knows, unless it is no map's (geocentric, vertical alone...).
     auto crs = geodesy::Crs::from_epsg(epsg);
     if (!crs.ok()) {
       if (!options.allow_missing_crs)
         return dem_error(ErrorCode::kUnsupported, path,
-                         "CRS EPSG:" + std::to_string(epsg) + " is not supported (" + crs.error().message + ")");
+                         "its CRS cannot be used: " + crs.error().message +
+                             "; reproject the file into one Horizon can use (e.g. gdalwarp -t_srs EPSG:4326)");
+      crs_problem = crs.error().message;
       epsg = 0;
     }
   }
@@ -381,6 +384,8 @@ Result<TiffFacts> read_tiff_facts(const std::string& path, const ReadOptions& op
     return dem_error(ErrorCode::kUnsupported, path, crs_problem + "; set allow_missing_crs to read it as a plain grid");
   if (!has_transform) t = GeoTransform{};  // grid coordinates: x = col + 0.5, y = -(row + 0.5)
   facts.georef.epsg = epsg;
+  // A CRS named but not usable, said (the file was read without it).
+  if (has_model) facts.georef.crs_problem = crs_problem;
   return facts;
 }
 

@@ -74,9 +74,12 @@ Status check_georef(const std::string& path, const Georeference& georef) {
       !std::isfinite(t.pixel_height) || !(t.pixel_width > 0.0) || t.pixel_height == 0.0)
     return write_error(ErrorCode::kInvalidArgument, path,
                        "geotransform must be finite with pixel_width > 0 and pixel_height != 0");
-  if (georef.epsg != 0) {
-    auto crs = geodesy::Crs::from_epsg(georef.epsg);
+  if (georef.has_crs()) {
+    auto crs = geodesy::Crs::of(georef);
     if (!crs.ok()) return write_error(ErrorCode::kUnsupported, path, crs.error().message);
+    if (crs->horizontal_epsg() == 0)
+      return write_error(ErrorCode::kUnsupported, path,
+                         "CRS '" + crs->name() + "' has no EPSG code; only CRSs with one are written");
   }
   return Status::Ok();
 }
@@ -98,17 +101,25 @@ Status write_georef(const std::string& path, TIFF* tif, const Georeference& geor
   GtifPtr gtif(GTIFNew(tif));
   if (!gtif) return write_error(ErrorCode::kInternal, path, "libgeotiff could not attach to the file");
   GTIFKeySet(gtif.get(), GTRasterTypeGeoKey, TYPE_SHORT, 1, RasterPixelIsArea);
-  if (georef.epsg != 0) {
-    auto crs = geodesy::Crs::from_epsg(georef.epsg);
+  if (georef.has_crs()) {
+    auto crs = geodesy::Crs::of(georef);
     if (!crs.ok()) return write_error(ErrorCode::kUnsupported, path, crs.error().message);
+    const int code = crs->horizontal_epsg();
     if (crs->is_geographic()) {
       GTIFKeySet(gtif.get(), GTModelTypeGeoKey, TYPE_SHORT, 1, ModelTypeGeographic);
-      GTIFKeySet(gtif.get(), GeographicTypeGeoKey, TYPE_SHORT, 1, georef.epsg);
-      GTIFKeySet(gtif.get(), GeogAngularUnitsGeoKey, TYPE_SHORT, 1, Angular_Degree);
+      GTIFKeySet(gtif.get(), GeographicTypeGeoKey, TYPE_SHORT, 1, code);
+      if (crs->unit_size() == 1.0) GTIFKeySet(gtif.get(), GeogAngularUnitsGeoKey, TYPE_SHORT, 1, Angular_Degree);
     } else {
       GTIFKeySet(gtif.get(), GTModelTypeGeoKey, TYPE_SHORT, 1, ModelTypeProjected);
-      GTIFKeySet(gtif.get(), ProjectedCSTypeGeoKey, TYPE_SHORT, 1, georef.epsg);
-      GTIFKeySet(gtif.get(), ProjLinearUnitsGeoKey, TYPE_SHORT, 1, Linear_Meter);
+      GTIFKeySet(gtif.get(), ProjectedCSTypeGeoKey, TYPE_SHORT, 1, code);
+      // The code's own unit, as GDAL writes it (metre, foot, US survey foot).
+      const double u = crs->unit_size();
+      if (u == 1.0)
+        GTIFKeySet(gtif.get(), ProjLinearUnitsGeoKey, TYPE_SHORT, 1, Linear_Meter);
+      else if (u == 0.3048)
+        GTIFKeySet(gtif.get(), ProjLinearUnitsGeoKey, TYPE_SHORT, 1, Linear_Foot);
+      else if (std::abs(u - 1200.0 / 3937.0) < 1e-15)
+        GTIFKeySet(gtif.get(), ProjLinearUnitsGeoKey, TYPE_SHORT, 1, Linear_Foot_US_Survey);
     }
   }
   if (!GTIFWriteKeys(gtif.get())) return write_error(ErrorCode::kInternal, path, "libgeotiff could not write GeoKeys");

@@ -19,6 +19,7 @@
 #include <utility>
 
 #include "horizon/common/parallel.hpp"
+#include "horizon/geodesy/crs.hpp"
 
 namespace horizon::terrain {
 namespace {
@@ -146,17 +147,22 @@ Result<std::shared_ptr<const ElevationSource>> ElevationSource::open(const std::
     // One CRS, one cell size, corners on one grid.
     const DemHeader& first = source->files_.front().raster->header();
     const GeoTransform& t0 = first.georef.transform;
-    if (first.georef.epsg == 0)
+    if (!first.georef.has_crs())
       return source_error(ErrorCode::kUnsupported, first.source, "a mosaic's files need a CRS; this one has none");
+    // "EPSG:32633", or the name of a CRS without one, for messages.
+    auto crs_label = [](const Georeference& g) {
+      if (g.crs.empty()) return "EPSG:" + std::to_string(g.epsg);
+      auto crs = geodesy::Crs::of(g);
+      return crs.ok() ? "'" + crs->name() + "'" : std::string("an unreadable CRS");
+    };
     double west = t0.origin_x, north = t0.origin_y;
     for (const SourceFile& f : source->files_) {
       const DemHeader& h = f.raster->header();
       const GeoTransform& t = h.georef.transform;
-      if (h.georef.epsg != first.georef.epsg)
+      if (!h.georef.same_crs(first.georef))
         return source_error(ErrorCode::kDataError, f.path,
-                            "CRS EPSG:" + std::to_string(h.georef.epsg) +
-                                " differs from EPSG:" + std::to_string(first.georef.epsg) + " of '" + first.source +
-                                "'; a mosaic's files must share one CRS");
+                            "CRS " + crs_label(h.georef) + " differs from " + crs_label(first.georef) + " of '" +
+                                first.source + "'; a mosaic's files must share one CRS");
       if (std::abs(t.pixel_width - t0.pixel_width) > 1e-9 * std::abs(t0.pixel_width) ||
           std::abs(t.pixel_height - t0.pixel_height) > 1e-9 * std::abs(t0.pixel_height))
         return source_error(

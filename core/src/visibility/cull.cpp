@@ -104,12 +104,12 @@ Result<std::vector<BoxFootprint>> resolve_boxes(const terrain::Georeference& geo
     Rect r{b.x_min, b.y_min, b.x_max, b.y_max};
     if (b.frame == geodesy::PointFrame::kWgs84) {
       if (!crs) {
-        if (georef.epsg == 0)
+        if (!georef.has_crs())
           return make_error(
               ErrorCode::kUnsupported,
               box_field(i, "frame") + ": WGS84 boxes need a dataset with a CRS; '" + source + "' has none",
               box_field(i, "frame"));
-        auto c = geodesy::Crs::from_epsg(georef.epsg);
+        auto c = geodesy::Crs::of(georef);
         if (!c.ok()) return c.error();
         crs = *c;
       }

@@ -49,8 +49,8 @@ Result<CellSizeMetres> metric_cell_size(const terrain::Georeference& georef, dou
                                         const std::string& source) {
   const auto& t = georef.transform;
   geodesy::GroundScale scale;  // metres per CRS unit; 1 when the DEM has no CRS
-  if (georef.epsg != 0) {
-    auto crs = geodesy::Crs::from_epsg(georef.epsg);
+  if (georef.has_crs()) {
+    auto crs = geodesy::Crs::of(georef);
     if (!crs.ok()) return crs.error();
     scale = crs->ground_scale({x, y});
   }

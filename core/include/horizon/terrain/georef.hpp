@@ -7,10 +7,13 @@
 // GeoTIFF says PixelIsPoint is shifted by half a cell on read, so the transform
 // always describes cell corners ("Area").
 //
-// The horizontal CRS is an EPSG code; horizon::geodesy::Crs does its maths.
+// The CRS is an EPSG code, or a definition where a code alone does not say
+// it (a user-defined or compound CRS); horizon::geodesy::Crs::of() does its
+// maths.
 #pragma once
 
 #include <cmath>
+#include <string>
 
 namespace horizon::terrain {
 
@@ -36,7 +39,23 @@ struct GeoTransform {
 
 struct Georeference {
   GeoTransform transform;
-  int epsg = 0;  // horizontal CRS; 0 means "none": such a DEM can be read but not georeferenced
+  // EPSG code of the horizontal CRS (4326, 32633, 27700, ...); 0 when the
+  // CRS has none (one defined by its parameters) or there is no CRS.
+  int epsg = 0;
+  // The CRS's full definition when `epsg` alone does not say it: a compound
+  // CRS ("EPSG:27700+5701"), or one defined by its parameters (WKT2, as
+  // built from a GeoTIFF's user-defined keys). Empty otherwise; when set, it
+  // is what Crs::of() reads.
+  std::string crs{};
+  // Set only when a file names a CRS Horizon cannot use and was read anyway
+  // (ReadOptions::allow_missing_crs): what that CRS is and what is not
+  // supported. `epsg` and `crs` are then empty.
+  std::string crs_problem{};
+
+  // Without a CRS a DEM is a plain grid: it can be read but not georeferenced.
+  bool has_crs() const { return epsg != 0 || !crs.empty(); }
+  // Same CRS, as a file states it (code and definition text).
+  bool same_crs(const Georeference& other) const { return epsg == other.epsg && crs == other.crs; }
 };
 
 }  // namespace horizon::terrain
