@@ -84,12 +84,16 @@ Result<GridPoint> locate_point(const terrain::Georeference& georef, int width, i
 
   // 3. Inside the raster's outer extent.
   const terrain::GeoTransform& t = georef.transform;
-  // Coordinates typed or computed for a cell centre come back a few ulps off
-  // an integer; snap those so the point sits exactly on the centre (and a
-  // void next to it does not leak into the bilinear ground height).
+  // Coordinates typed or computed for a cell centre come back a little off
+  // an integer: a few ulps through the geotransform, up to a millimetre
+  // through a datum shift (PROJ's 2D transformations drop the height the
+  // shift gives a point, so WGS 84 -> CRS -> WGS 84 is not exact: 1 mm for
+  // CH1903+ and OSGB36). Snap those, within a thousandth of a cell, so the
+  // point sits exactly on the centre (and a void next to it does not leak
+  // into the bilinear ground height).
   auto snap = [](double v) {
     const double r = std::round(v);
-    return std::abs(v - r) < 1e-7 ? r : v;
+    return std::abs(v - r) < 1e-3 ? r : v;
   };
   point.col = snap(t.col_at(point.x));
   point.row = snap(t.row_at(point.y));
