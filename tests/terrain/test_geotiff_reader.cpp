@@ -440,7 +440,34 @@ TEST(GeoTiffReader, ReadsAnyEpsgCrs) {
   }
 }
 
-TEST(GeoTiffReader, RejectsUserDefinedCrs) {
+TEST(GeoTiffReader, VerticalCrsMakesACompoundCrs) {
+  // British National Grid + ODN height (VerticalCSTypeGeoKey 4096).
+  TempDir dir;
+  RawTiff t = testing::utm_raw_tiff(4, 3);
+  t.geokeys = {{1024, 1}, {1025, 1}, {3072, 27700}, {4096, 5701}};
+  ASSERT_TRUE(testing::write_raw_tiff(dir.file("bng_odn.tif"), t));
+  auto bng = read_geotiff(dir.file("bng_odn.tif"), {});
+  ASSERT_TRUE(bng.ok()) << bng.error().message;
+  EXPECT_EQ(bng->georef.epsg, 27700);
+  EXPECT_EQ(bng->georef.crs, "EPSG:27700+5701");
+
+  // Heights in feet, by a vertical CRS's unit or by VerticalUnitsGeoKey
+  // (4099) alone: refused, since elevations are metres.
+  using Keys = decltype(t.geokeys);
+  for (const auto& [keys, says] : {std::pair{Keys{{1024, 1}, {1025, 1}, {3072, 2227}, {4096, 6360}}, "US survey foot"},
+                                   std::pair{Keys{{1024, 1}, {1025, 1}, {3072, 27700}, {4099, 9002}}, "foot"}}) {
+    t.geokeys = keys;
+    ASSERT_TRUE(testing::write_raw_tiff(dir.file("feet.tif"), t));
+    auto feet = read_geotiff(dir.file("feet.tif"), {});
+    ASSERT_FALSE(feet.ok());
+    EXPECT_EQ(feet.error().code, ErrorCode::kUnsupported);
+    EXPECT_NE(feet.error().message.find(says), std::string::npos) << feet.error().message;
+    EXPECT_NE(feet.error().message.find("metres"), std::string::npos) << feet.error().message;
+  }
+}
+
+TEST(GeoTiffReader, RejectsUserDefinedCrsWithoutItsKeys) {
+  // "User-defined" (32767) and nothing else: no projection to build.
   TempDir dir;
   RawTiff t = testing::utm_raw_tiff(4, 3);
   t.geokeys = {{1024, 1}, {1025, 1}, {3072, 32767}};

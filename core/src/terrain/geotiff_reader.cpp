@@ -9,9 +9,9 @@
 //     loading it costs a process ~0.3 s of start-up; see imageio.hpp.)
 //   * OGC GeoTIFF 1.1 (OGC 19-008r4): ModelPixelScaleTag (33550) +
 //     ModelTiepointTag (33922), or ModelTransformationTag (34264); GeoKeys
-//     GTModelTypeGeoKey (1024), GTRasterTypeGeoKey (1025),
-//     GeographicTypeGeoKey (2048), ProjectedCSTypeGeoKey (3072), read with
-//     libgeotiff because OIIO exposes none of them (TOOLCHAIN.md).
+//     GTModelTypeGeoKey (1024), GTRasterTypeGeoKey (1025) and the CRS keys
+//     (geotiff_crs.hpp: EPSG codes, user-defined CRSs, vertical CRS), read
+//     with libgeotiff because OIIO exposes none of them (TOOLCHAIN.md).
 //   * GDAL_NODATA (TIFF tag 42113, ASCII, e.g. "-32768" or "nan"), GDAL's
 //     private tag, described at https://gdal.org/drivers/raster/gtiff.html.
 //
@@ -45,15 +45,17 @@
 #include <type_traits>
 #include <vector>
 
+#include "geotiff_crs.hpp"
 #include "horizon/common/parallel.hpp"
-#include "horizon/geodesy/crs.hpp"
 #include "horizon/terrain/dem_reader.hpp"
 #include "tiff_support.hpp"
 
 namespace horizon::terrain {
 namespace {
 
+using detail::CrsKeys;
 using detail::GtifPtr;
+using detail::read_crs_keys;
 using detail::TiffMessages;
 using detail::TiffPtr;
 
@@ -340,52 +342,25 @@ Result<TiffFacts> read_tiff_facts(const std::string& path, const ReadOptions& op
   // --- GeoKeys ----------------------------------------------------------
   GtifPtr gtif(GTIFNew(tif.get()));
   if (!gtif) return dem_error(ErrorCode::kDataError, path, "GeoKeyDirectory is corrupt");
-  geocode_t model = 0, raster_type = 0, code = 0;
-  const bool has_model = GTIFKeyGet(gtif.get(), GTModelTypeGeoKey, &model, 0, 1) == 1;
+  geocode_t raster_type = 0;
   if (GTIFKeyGet(gtif.get(), GTRasterTypeGeoKey, &raster_type, 0, 1) == 1 && raster_type == RasterPixelIsPoint &&
       has_transform) {
     t.origin_x -= 0.5 * t.pixel_width;
     t.origin_y -= 0.5 * t.pixel_height;
   }
-  std::string crs_problem;
-  int epsg = 0;
-  if (!has_model) {
-    crs_problem = "has no GTModelTypeGeoKey (no CRS)";
-  } else if (model == ModelTypeProjected) {
-    if (GTIFKeyGet(gtif.get(), ProjectedCSTypeGeoKey, &code, 0, 1) == 1 && code != KvUserDefined)
-      epsg = code;
-    else
-      crs_problem = "has a user-defined projected CRS without an EPSG code";
-  } else if (model == ModelTypeGeographic) {
-    if (GTIFKeyGet(gtif.get(), GeographicTypeGeoKey, &code, 0, 1) == 1 && code != KvUserDefined)
-      epsg = code;
-    else
-      crs_problem = "has a user-defined geographic CRS without an EPSG code";
-  } else {
-    crs_problem = "has model type " + std::to_string(model) + " (only projected and geographic are supported)";
-  }
-  if (epsg != 0) {
-    // Any code PROJ knows, unless it is no map's (geocentric, vertical alone...).
-    auto crs = geodesy::Crs::from_epsg(epsg);
-    if (!crs.ok()) {
-      if (!options.allow_missing_crs)
-        return dem_error(ErrorCode::kUnsupported, path,
-                         "its CRS cannot be used: " + crs.error().message +
-                             "; reproject the file into one Horizon can use (e.g. gdalwarp -t_srs EPSG:4326)");
-      crs_problem = crs.error().message;
-      epsg = 0;
-    }
-  }
+  const CrsKeys crs = read_crs_keys(gtif.get());
   if (!has_transform && !options.allow_missing_crs)
     return dem_error(ErrorCode::kDataError, path,
                      "has no georeferencing (no ModelPixelScale/ModelTiepoint or ModelTransformation tags); "
                      "set allow_missing_crs to read it as a plain grid");
-  if (epsg == 0 && !crs_problem.empty() && !options.allow_missing_crs)
-    return dem_error(ErrorCode::kUnsupported, path, crs_problem + "; set allow_missing_crs to read it as a plain grid");
+  if (crs.absent && !options.allow_missing_crs)
+    return dem_error(ErrorCode::kUnsupported, path, crs.problem + "; set allow_missing_crs to read it as a plain grid");
+  if (!crs.problem.empty() && !options.allow_missing_crs)
+    return dem_error(ErrorCode::kUnsupported, path, "its CRS cannot be used: " + crs.problem);
   if (!has_transform) t = GeoTransform{};  // grid coordinates: x = col + 0.5, y = -(row + 0.5)
-  facts.georef.epsg = epsg;
-  // A CRS named but not usable, said (the file was read without it).
-  if (has_model) facts.georef.crs_problem = crs_problem;
+  facts.georef.epsg = crs.epsg;
+  facts.georef.crs = crs.crs;
+  if (!crs.absent) facts.georef.crs_problem = crs.problem;
   return facts;
 }
 

@@ -7,8 +7,10 @@
 //     technical note 3) for Float32.
 //   * OGC GeoTIFF 1.1 (OGC 19-008r4): ModelPixelScaleTag + ModelTiepointTag
 //     for north-up rasters (ModelTransformationTag otherwise),
-//     GTModelTypeGeoKey, GTRasterTypeGeoKey = PixelIsArea, and
-//     ProjectedCSTypeGeoKey or GeographicTypeGeoKey carrying the EPSG code.
+//     GTModelTypeGeoKey, GTRasterTypeGeoKey = PixelIsArea, and the CRS keys
+//     (geotiff_crs.hpp): ProjectedCSTypeGeoKey or GeographicTypeGeoKey with
+//     the EPSG code (and VerticalCSTypeGeoKey for a compound CRS), or the
+//     user-defined keys of a CRS without a code, as GDAL writes them.
 //   * GDAL_NODATA (TIFF tag 42113, ASCII), https://gdal.org/drivers/raster/gtiff.html.
 //   * A UInt8 raster's colour table: PhotometricInterpretation = Palette (3)
 //     and ColorMap (tag 320), TIFF 6.0 section 5.
@@ -41,6 +43,7 @@
 #include <libdeflate.h>
 
 #include "atomic_file.hpp"
+#include "geotiff_crs.hpp"
 #include "horizon/common/parallel.hpp"
 #include "horizon/geodesy/crs.hpp"
 #include "tiff_support.hpp"
@@ -77,9 +80,6 @@ Status check_georef(const std::string& path, const Georeference& georef) {
   if (georef.has_crs()) {
     auto crs = geodesy::Crs::of(georef);
     if (!crs.ok()) return write_error(ErrorCode::kUnsupported, path, crs.error().message);
-    if (crs->horizontal_epsg() == 0)
-      return write_error(ErrorCode::kUnsupported, path,
-                         "CRS '" + crs->name() + "' has no EPSG code; only CRSs with one are written");
   }
   return Status::Ok();
 }
@@ -101,27 +101,8 @@ Status write_georef(const std::string& path, TIFF* tif, const Georeference& geor
   GtifPtr gtif(GTIFNew(tif));
   if (!gtif) return write_error(ErrorCode::kInternal, path, "libgeotiff could not attach to the file");
   GTIFKeySet(gtif.get(), GTRasterTypeGeoKey, TYPE_SHORT, 1, RasterPixelIsArea);
-  if (georef.has_crs()) {
-    auto crs = geodesy::Crs::of(georef);
-    if (!crs.ok()) return write_error(ErrorCode::kUnsupported, path, crs.error().message);
-    const int code = crs->horizontal_epsg();
-    if (crs->is_geographic()) {
-      GTIFKeySet(gtif.get(), GTModelTypeGeoKey, TYPE_SHORT, 1, ModelTypeGeographic);
-      GTIFKeySet(gtif.get(), GeographicTypeGeoKey, TYPE_SHORT, 1, code);
-      if (crs->unit_size() == 1.0) GTIFKeySet(gtif.get(), GeogAngularUnitsGeoKey, TYPE_SHORT, 1, Angular_Degree);
-    } else {
-      GTIFKeySet(gtif.get(), GTModelTypeGeoKey, TYPE_SHORT, 1, ModelTypeProjected);
-      GTIFKeySet(gtif.get(), ProjectedCSTypeGeoKey, TYPE_SHORT, 1, code);
-      // The code's own unit, as GDAL writes it (metre, foot, US survey foot).
-      const double u = crs->unit_size();
-      if (u == 1.0)
-        GTIFKeySet(gtif.get(), ProjLinearUnitsGeoKey, TYPE_SHORT, 1, Linear_Meter);
-      else if (u == 0.3048)
-        GTIFKeySet(gtif.get(), ProjLinearUnitsGeoKey, TYPE_SHORT, 1, Linear_Foot);
-      else if (std::abs(u - 1200.0 / 3937.0) < 1e-15)
-        GTIFKeySet(gtif.get(), ProjLinearUnitsGeoKey, TYPE_SHORT, 1, Linear_Foot_US_Survey);
-    }
-  }
+  if (Status keys = detail::write_crs_keys(gtif.get(), georef); !keys.ok())
+    return write_error(keys.error().code, path, keys.error().message);
   if (!GTIFWriteKeys(gtif.get())) return write_error(ErrorCode::kInternal, path, "libgeotiff could not write GeoKeys");
   return Status::Ok();
 }
