@@ -29,7 +29,8 @@ int run_datasets(const Args& args, bool json) {
                       {"source", d.source()},
                       {"width", d.width()},
                       {"height", d.height()},
-                      {"epsg", d.epsg()},
+                      {"epsg", d.epsg() ? Json(d.epsg()) : Json(nullptr)},
+                      {"crs_name", d.crs_name().empty() ? Json(nullptr) : Json(d.crs_name())},
                       {"cell_size_m", {{"x", d.cell_size_x_m()}, {"y", d.cell_size_y_m()}}},
                       {"elevation", d.has_elevation_min() ? Json{{"min", d.elevation_min()}, {"max", d.elevation_max()}}
                                                           : Json(nullptr)},
@@ -39,8 +40,11 @@ int run_datasets(const Args& args, bool json) {
   }
   std::cout << all.size() << " datasets on " << client.address() << '\n';
   for (const v1::Dataset& d : all)
-    std::cout << "  " << d.name() << ": " << d.width() << " x " << d.height() << " cells, EPSG:" << d.epsg() << ", "
-              << fixed(d.cell_size_x_m(), 1) << " m cells, " << with_separators(d.resident_bytes())
+    std::cout << "  " << d.name() << ": " << d.width() << " x " << d.height() << " cells, "
+              << (d.epsg()               ? "EPSG:" + std::to_string(d.epsg())
+                  : d.crs_name().empty() ? std::string("no CRS")
+                                         : "'" + d.crs_name() + "'")
+              << ", " << fixed(d.cell_size_x_m(), 1) << " m cells, " << with_separators(d.resident_bytes())
               << " bytes resident (" << d.source() << ")\n";
   return kExitOk;
 }

@@ -1,6 +1,7 @@
 // `horizon info DATASET --server HOST:PORT`: embedded mode's report, from GetDataset.
 #include <cmath>
 #include <iostream>
+#include <optional>
 
 #include "commands/command.hpp"
 #include "output.hpp"
@@ -18,6 +19,11 @@ int run_info(const Args& args, const std::string& name, bool json) {
   const auto& e = d.extent();
   const std::uint64_t cells = static_cast<std::uint64_t>(d.width()) * static_cast<std::uint64_t>(d.height());
   const bool geographic = d.geographic();
+  // The CRS as the daemon describes it (its WKT, read here through PROJ as a
+  // local file's is), so both modes name it alike.
+  std::optional<geodesy::Crs> crs;
+  if (!d.crs_wkt().empty())
+    if (auto c = geodesy::Crs::from_definition(d.crs_wkt()); c.ok()) crs = *c;
   if (json) {
     Json j;
     j["path"] = name;
@@ -25,7 +31,12 @@ int run_info(const Args& args, const std::string& name, bool json) {
     j["width"] = d.width();
     j["height"] = d.height();
     j["cells"] = cells;
-    j["crs"] = d.epsg() ? Json{{"epsg", d.epsg()}, {"name", d.crs_name()}, {"geographic", geographic}} : Json(nullptr);
+    if (crs)
+      j["crs"] = to_json(*crs);
+    else
+      j["crs"] =
+          d.epsg() ? Json{{"epsg", d.epsg()}, {"name", d.crs_name()}, {"geographic", geographic}} : Json(nullptr);
+    j["crs_unusable"] = nullptr;  // a daemon serves no dataset whose CRS it cannot use
     j["geotransform"] = to_json(terrain::GeoTransform{t.origin_x(), t.pixel_width(), t.origin_y(), t.pixel_height()});
     j["cell_size_m"] = {{"x", d.cell_size_x_m()}, {"y", d.cell_size_y_m()}};
     j["extent"] = {{"x_min", e.x_min()}, {"y_min", e.y_min()}, {"x_max", e.x_max()}, {"y_max", e.y_max()}};
@@ -48,11 +59,18 @@ int run_info(const Args& args, const std::string& name, bool json) {
             << with_separators(d.resident_bytes()) << " bytes resident)\n"
             << "Format:      " << d.format() << '\n'
             << "Size:        " << d.width() << " x " << d.height() << " cells (" << with_separators(cells) << ")\n";
-  if (d.epsg())
-    std::cout << "CRS:         EPSG:" << d.epsg() << " (" << d.crs_name() << ")"
-              << (geographic ? ", geographic degrees" : ", projected metres") << '\n';
-  else
+  if (crs) {
+    std::cout << "CRS:         " << crs_label(*crs) << '\n';
+    if (crs->is_compound())
+      std::cout << "Heights:     " << heights_label(*crs) << " (the vertical part of " << crs->name() << ")\n";
+  } else if (d.epsg() != 0 || !d.crs_name().empty()) {
+    // A daemon that sends no WKT: its code and name.
+    std::cout << "CRS:         "
+              << (d.epsg() ? "EPSG:" + std::to_string(d.epsg()) + " (" + d.crs_name() + ")" : d.crs_name())
+              << (geographic ? ", geographic" : ", projected") << '\n';
+  } else {
     std::cout << "CRS:         none (grid coordinates only)\n";
+  }
   std::cout << "Origin:      " << coordinate(t.origin_x(), geographic) << ", " << coordinate(t.origin_y(), geographic)
             << "  (outer corner of the first cell)\n"
             << "Pixel size:  " << fixed(t.pixel_width(), geographic ? 10 : 4) << ", "

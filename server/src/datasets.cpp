@@ -92,6 +92,7 @@ Result<std::shared_ptr<const Dataset>> load_dataset(const Config& config, const 
     auto crs = geodesy::Crs::of(h.georef);
     if (!crs.ok()) return crs.error();
     d->crs_name = crs->name();
+    d->crs_wkt = crs->wkt();
     d->geographic = crs->is_geographic();
     scale = crs->ground_scale({(x0 + x1) / 2, (y0 + y1) / 2});
     d->lonlat = geodesy::lonlat_bounds(*crs, std::min(x0, x1), std::min(y0, y1), std::max(x0, x1), std::max(y0, y1));

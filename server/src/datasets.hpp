@@ -41,7 +41,7 @@ struct Dataset {
   std::string signature;  // the files' names, sizes and modification times
   std::shared_ptr<const terrain::ElevationSource> source;
   terrain::ElevationStats stats;
-  std::string crs_name;
+  std::string crs_name, crs_wkt;  // empty without a CRS
   bool geographic = false;
   std::optional<geodesy::LonLatBounds> lonlat;  // when the CRS converts
   double cell_size_x_m = 0, cell_size_y_m = 0;  // at the raster's centre

@@ -368,6 +368,7 @@ void fill_dataset(const Dataset& d, const terrain::BlockCache& cache, v1::Datase
   out.set_height(dem.height);
   out.set_epsg(dem.georef.epsg);
   out.set_crs_name(d.crs_name);
+  out.set_crs_wkt(d.crs_wkt);
   out.set_geographic(d.geographic);
   const auto& t = dem.georef.transform;
   fill_transform(t, *out.mutable_transform());
