@@ -255,9 +255,10 @@ int run_viewshed(const Args& args) {
   double preview_seconds = 0.0;
   if (r.png_path) {
     const auto drawing = std::chrono::steady_clock::now();
+    const auto crs = geodesy::Crs::of(dem->georef);  // none: grid coordinates
     const visibility::PreviewCaption caption{.dem = visibility::dem_label(r.dem_path),
                                              .algorithm = r.algorithm_name,
-                                             .epsg = dem->georef.epsg,
+                                             .crs = crs.ok() ? std::optional(*crs) : std::nullopt,
                                              .x = observer.x,
                                              .y = observer.y,
                                              .ground = observer.ground};

@@ -222,9 +222,10 @@ grpc::Status ViewshedCall::compute() {
     // The CLI's picture, the dataset named as the client named it.
     const auto drawing = std::chrono::steady_clock::now();
     const geodesy::GridPoint eye = run->observer_in_source();
+    const auto crs = geodesy::Crs::of(georef);  // none: grid coordinates
     const visibility::PreviewCaption caption{.dem = req.dataset(),
                                              .algorithm = scope_.record().algorithm,
-                                             .epsg = georef.epsg,
+                                             .crs = crs.ok() ? std::optional(*crs) : std::nullopt,
                                              .x = eye.x,
                                              .y = eye.y,
                                              .ground = eye.ground};

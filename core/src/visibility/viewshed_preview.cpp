@@ -34,20 +34,28 @@ std::string distance(double m) {
   return metres(m);
 }
 
+// A CRS in the title: "EPSG:27700", or its name when it has no code, in
+// ASCII ("user-defined" when PROJ names it "unknown").
+std::string crs_tag(const geodesy::Crs& crs) {
+  if (crs.horizontal_epsg() != 0) return "EPSG:" + std::to_string(crs.horizontal_epsg());
+  std::string name = crs.horizontal_name();
+  if (name.empty() || name == "unknown") return "user-defined";
+  for (char& c : name)
+    if (static_cast<unsigned char>(c) >= 0x80) c = '?';
+  return name;
+}
+
 // "46.8529 N, 121.7604 W" (ASCII: OpenImageIO 2.4 draws no other glyphs), plus the CRS's own coordinates when
 // projected.
-std::string place(int epsg, double x, double y) {
-  if (epsg == 0) return "x " + fixed(x, 1) + ", y " + fixed(y, 1);
-  auto crs = geodesy::Crs::from_epsg(epsg);
-  if (!crs.ok()) return "x " + fixed(x, 1) + ", y " + fixed(y, 1) + " (EPSG:" + std::to_string(epsg) + ")";
+std::string place(const std::optional<geodesy::Crs>& crs, double x, double y) {
+  if (!crs) return "x " + fixed(x, 1) + ", y " + fixed(y, 1);
   auto ll = crs->to_lonlat({x, y});
   std::string s;
   if (ll.ok())
     s = fixed(std::abs(ll->lat), 4) + " " + (ll->lat < 0 ? "S" : "N") + ", " + fixed(std::abs(ll->lon), 4) + " " +
         (ll->lon < 0 ? "W" : "E");
   if (!crs->is_geographic())
-    s += std::string(s.empty() ? "" : " = ") + "x " + fixed(x, 0) + ", y " + fixed(y, 0) +
-         " (EPSG:" + std::to_string(epsg) + ")";
+    s += std::string(s.empty() ? "" : " = ") + "x " + fixed(x, 0) + ", y " + fixed(y, 0) + " (" + crs_tag(*crs) + ")";
   return s;
 }
 
@@ -174,7 +182,7 @@ std::vector<std::string> viewshed_title(const ViewshedResult& result, PreviewRas
   const ViewFrame& f = result.frame;
   std::vector<std::string> title;
   title.push_back(heading(raster) + " over " + caption.dem);
-  std::string details = "Observer " + place(caption.epsg, caption.x, caption.y) + "; " + eye(f.eye, caption.ground);
+  std::string details = "Observer " + place(caption.crs, caption.x, caption.y) + "; " + eye(f.eye, caption.ground);
   if (raster == PreviewRaster::kVisibility)
     details += "; targets " + metres(result.target_height) + " above the ground";
   details += "; reach " + distance(f.max_distance);

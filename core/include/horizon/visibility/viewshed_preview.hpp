@@ -7,16 +7,19 @@
 // the count as a ramp (or the any/all mask), every site marked. The title
 // names the DEM as the reader knows it (a file's name, a dataset's name:
 // never a path the reader did not give), the observer in WGS84 (and in the
-// DEM's CRS when projected), the eye's and the targets' heights, the reach
+// DEM's CRS when projected, named by its EPSG code, or by its name when it
+// has none), the eye's and the targets' heights, the reach
 // and the algorithm, so the same request draws the same picture embedded or
 // through the daemon.
 #pragma once
 
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <string>
 
 #include "horizon/common/error.hpp"
+#include "horizon/geodesy/crs.hpp"
 #include "horizon/terrain/geotiff_writer.hpp"
 #include "horizon/terrain/grid.hpp"
 #include "horizon/terrain/preview.hpp"
@@ -31,8 +34,8 @@ enum class PreviewRaster { kVisibility, kOhf, kMinTargetHeight };
 struct PreviewCaption {
   std::string dem;          // the DEM's name for the title (a file's stem, a dataset's name)
   std::string algorithm;    // "fast", "exact", "conservative", "r3"
-  int epsg = 0;             // the observer's CRS (0: none known)
-  double x = 0.0, y = 0.0;  // one observer, in that CRS
+  std::optional<geodesy::Crs> crs{};                         // the observer's CRS (none: grid coordinates)
+  double x = 0.0, y = 0.0;                                   // one observer, in that CRS
   double ground = std::numeric_limits<double>::quiet_NaN();  // metres under the eye
 };
 
