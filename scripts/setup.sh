@@ -27,7 +27,8 @@ packages=(
   clang-14 libclang-rt-14-dev
   # replicas behind a real gRPC load balancer (tests/bench/scale_out.sh), the certificates of the TLS tests
   haproxy curl openssl
-  # tests and benchmarks; gdal-bin gives gdalinfo (georeferencing checks) and gdal_viewshed (the speed peer)
+  # tests and benchmarks; gdal-bin gives gdalinfo (georeferencing checks), gdal_translate, gdalwarp and
+  # gdaltransform (the CRS tests' files and reference coordinates) and gdal_viewshed (the speed peer)
   libgtest-dev libbenchmark-dev gdal-bin python3
   # horizon bench: GRASS r.viewshed (the exact peer) and the chart's font (OpenImageIO render_text, DejaVu Sans)
   grass-core fonts-dejavu-core
