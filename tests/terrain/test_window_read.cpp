@@ -147,6 +147,38 @@ TEST(WindowRead, StripedWindowReadsOnlyItsStrips) {
   EXPECT_EQ(part->elevation.at(0, 0), 10 * 100 + 5);
 }
 
+// A compressed file of one tall strip (some tools write them): a window
+// near the top decodes the strip down to its own last row and no further; a
+// window at the bottom needs the whole strip. Both equal the full read.
+TEST(WindowRead, OneCompressedStripIsDecodedOnlyDownToTheWindow) {
+  TempDir dir;
+  testing::RawTiff spec = testing::utm_raw_tiff(200, 3000);
+  spec.int16 = true;
+  spec.rows_per_strip = 3000;
+  spec.deflate = true;
+  for (int r = 0; r < spec.height; ++r)
+    for (int c = 0; c < spec.width; ++c) spec.values[static_cast<std::size_t>(r * spec.width + c)] = c * 7 + r % 500;
+  const std::string path = dir.file("one_strip.tif");
+  ASSERT_TRUE(testing::write_raw_tiff(path, spec));
+  auto full = read_dem(path);
+  ASSERT_TRUE(full.ok()) << full.error().message;
+  const struct {
+    Window window;
+    std::uint64_t cells_decoded;
+  } cases[] = {{{10, 5, 60, 40}, 200u * 40}, {{0, 2990, 200, 3000}, 200u * 3000}};
+  for (const auto& c : cases) {
+    ReadOptions options;
+    options.window = c.window;
+    ReadStats stats;
+    auto part = read_dem(path, options, &stats);
+    ASSERT_TRUE(part.ok()) << part.error().message;
+    EXPECT_TRUE(same_cells(part->elevation, crop(full->elevation, c.window))) << c.window.row0;
+    EXPECT_EQ(stats.blocks_total, 1u);
+    EXPECT_EQ(stats.blocks_read, 1u);
+    EXPECT_EQ(stats.cells_decoded, c.cells_decoded) << c.window.row0;
+  }
+}
+
 TEST(WindowRead, BundledDeflateTilesMatchFullRead) {
   // Real files: Int16 with voids (Everest) and Float32 with NaN (Andes), both tiled deflate.
   for (const char* name : {"everest_summit_voids_srtm3_300x300.tif", "ecuador_andes_utm17s_10m_383x415.tif"}) {

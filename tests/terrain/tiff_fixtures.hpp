@@ -24,9 +24,11 @@ struct RawTiff {
   std::vector<double> matrix;                                    // ModelTransformationTag (34264)
   std::vector<std::pair<std::uint16_t, std::uint16_t>> geokeys;  // (key id, SHORT value), ascending ids
   std::optional<std::string> nodata;                             // GDAL_NODATA (42113)
+  std::uint32_t rows_per_strip = 1;                              // the height for one strip
+  bool deflate = false;                                          // else uncompressed
 };
 
-// Writes `spec` as a striped, uncompressed TIFF. Returns false on failure.
+// Writes `spec` as a striped TIFF. Returns false on failure.
 inline bool write_raw_tiff(const std::string& path, const RawTiff& spec) {
   static const TIFFFieldInfo kFields[] = {
       {33550, -1, -1, TIFF_DOUBLE, FIELD_CUSTOM, 1, 1, const_cast<char*>("ModelPixelScale")},
@@ -45,7 +47,8 @@ inline bool write_raw_tiff(const std::string& path, const RawTiff& spec) {
   TIFFSetField(tif, TIFFTAG_SAMPLEFORMAT, spec.int16 ? SAMPLEFORMAT_INT : SAMPLEFORMAT_IEEEFP);
   TIFFSetField(tif, TIFFTAG_PHOTOMETRIC, PHOTOMETRIC_MINISBLACK);
   TIFFSetField(tif, TIFFTAG_PLANARCONFIG, PLANARCONFIG_CONTIG);
-  TIFFSetField(tif, TIFFTAG_ROWSPERSTRIP, 1u);
+  TIFFSetField(tif, TIFFTAG_ROWSPERSTRIP, spec.rows_per_strip);
+  if (spec.deflate) TIFFSetField(tif, TIFFTAG_COMPRESSION, COMPRESSION_ADOBE_DEFLATE);
   if (!spec.pixel_scale.empty())
     TIFFSetField(tif, 33550, static_cast<int>(spec.pixel_scale.size()), spec.pixel_scale.data());
   if (!spec.tiepoints.empty()) TIFFSetField(tif, 33922, static_cast<int>(spec.tiepoints.size()), spec.tiepoints.data());

@@ -39,6 +39,7 @@
 #include <cstring>
 #include <filesystem>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 #include <thread>
@@ -472,7 +473,7 @@ Status read_window_with_libtiff(const std::string& path, const TiffFacts& f, int
   const unsigned hw = threads ? threads : std::max(1u, std::thread::hardware_concurrency());
   const int runs = std::max(1, std::min(block_rows, static_cast<int>(hw)));
   std::vector<Status> status(static_cast<std::size_t>(runs), Status::Ok());
-  std::vector<std::uint64_t> blocks(static_cast<std::size_t>(runs), 0);
+  std::vector<std::uint64_t> blocks(static_cast<std::size_t>(runs), 0), cells(static_cast<std::size_t>(runs), 0);
   parallel_for(static_cast<std::size_t>(runs), static_cast<unsigned>(runs), [&](std::size_t run) {
     TiffMessages messages;
     TiffPtr tif = detail::open_tiff(path, "r", messages);
@@ -485,19 +486,37 @@ Status read_window_with_libtiff(const std::string& path, const TiffFacts& f, int
       status[run] = dem_error(ErrorCode::kDataError, path, "inconsistent block layout");
       return;
     }
-    std::vector<unsigned char> block(static_cast<std::size_t>(block_bytes));
+    // libtiff writes every byte it reports, so the buffer is left
+    // uninitialised, and grown only as far as the blocks read need: a strip
+    // is decoded down to the window's last row in it and no further (a
+    // 256-row window at the top of a one-strip file of 65 000 rows decodes
+    // 256 rows, and touches no more memory).
+    std::unique_ptr<unsigned char[]> block;
+    tmsize_t capacity = 0;
     const int row_lo = static_cast<int>(run * block_rows / runs),
               row_hi = static_cast<int>((run + 1) * block_rows / runs);
     for (int by = first_row + row_lo * bh; by < first_row + row_hi * bh && by < window.row1; by += bh) {
       for (int bx = window.col0 / bw * bw; bx < window.col1; bx += bw) {
+        // The rows and columns of this block inside the window; a strip's rows
+        // are the image width long, a tile's the tile width.
+        const int r0 = std::max(by, window.row0), r1 = std::min({by + bh, window.row1, f.height});
+        const int c0 = std::max(bx, window.col0), c1 = std::min({bx + bw, window.col1, f.width});
+        const std::size_t row_pitch = static_cast<std::size_t>(bw) * stride;
+        const tmsize_t wanted =
+            f.tiled ? block_bytes
+                    : std::min(block_bytes, static_cast<tmsize_t>(static_cast<std::size_t>(r1 - by) * row_pitch));
+        if (wanted > capacity) {
+          block.reset(new unsigned char[static_cast<std::size_t>(wanted)]);
+          capacity = wanted;
+        }
         tmsize_t got = 0;
         std::uint32_t index = 0;
         if (f.tiled) {
           index = TIFFComputeTile(tif.get(), static_cast<std::uint32_t>(bx), static_cast<std::uint32_t>(by), 0, plane);
-          got = TIFFReadEncodedTile(tif.get(), index, block.data(), block_bytes);
+          got = TIFFReadEncodedTile(tif.get(), index, block.get(), wanted);
         } else {
           index = TIFFComputeStrip(tif.get(), static_cast<std::uint32_t>(by), plane);
-          got = TIFFReadEncodedStrip(tif.get(), index, block.data(), block_bytes);
+          got = TIFFReadEncodedStrip(tif.get(), index, block.get(), wanted);
         }
         if (got < 0) {
           const std::string block_name =
@@ -510,18 +529,14 @@ Status read_window_with_libtiff(const std::string& path, const TiffFacts& f, int
           return;
         }
         ++blocks[run];
-        // The rows and columns of this block inside the window; a strip's rows
-        // are the image width long, a tile's the tile width.
-        const int r0 = std::max(by, window.row0), r1 = std::min({by + bh, window.row1, f.height});
-        const int c0 = std::max(bx, window.col0), c1 = std::min({bx + bw, window.col1, f.width});
-        const std::size_t row_pitch = static_cast<std::size_t>(bw) * stride;
+        cells[run] += static_cast<std::uint64_t>(bw) * static_cast<std::uint64_t>(f.tiled ? bh : r1 - by);
         if (static_cast<std::size_t>(got) <
             static_cast<std::size_t>(r1 - by - 1) * row_pitch + static_cast<std::size_t>(c1 - bx) * stride) {
           status[run] = dem_error(ErrorCode::kDataError, path, "a block decodes shorter than its layout says");
           return;
         }
         for (int r = r0; r < r1; ++r) {
-          const unsigned char* src = block.data() + static_cast<std::size_t>(r - by) * row_pitch + offset +
+          const unsigned char* src = block.get() + static_cast<std::size_t>(r - by) * row_pitch + offset +
                                      static_cast<std::size_t>(c0 - bx) * stride;
           float* dst = out.row(r - window.row0) + (c0 - window.col0);
           convert_any(f.type, src, stride, c1 - c0, dst, f.nodata);
@@ -532,8 +547,8 @@ Status read_window_with_libtiff(const std::string& path, const TiffFacts& f, int
   for (std::size_t run = 0; run < status.size(); ++run) {
     HORIZON_RETURN_IF_ERROR(status[run]);
     stats.blocks_read += blocks[run];
+    stats.cells_decoded += cells[run];
   }
-  stats.cells_decoded = stats.blocks_read * static_cast<std::uint64_t>(bw) * static_cast<std::uint64_t>(bh);
   return Status::Ok();
 }
 

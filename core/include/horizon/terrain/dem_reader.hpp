@@ -71,7 +71,7 @@ struct ReadStats {
   int block_width = 0, block_height = 0;  // cells per block (a strip: the width x rows per strip)
   std::uint64_t blocks_total = 0;         // blocks of the band read
   std::uint64_t blocks_read = 0;          // blocks decoded (0 for a header read)
-  std::uint64_t cells_decoded = 0;        // cells in the blocks decoded (whole blocks count)
+  std::uint64_t cells_decoded = 0;        // cells decoded: whole tiles, a strip down to the last row wanted
   double seconds = 0.0;                   // wall time of the read
 };
 
