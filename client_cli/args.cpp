@@ -34,14 +34,47 @@ std::string_view trim(std::string_view s) {
   return s;
 }
 
-[[noreturn]] void bad_value(std::string_view flag, std::string_view expected, std::string_view got) {
-  throw UsageError(std::string(flag) + ": expected " + std::string(expected) + ", got '" + std::string(got) + "'");
+[[noreturn]] void bad_value(const std::string& flag, std::string_view expected, std::string_view got) {
+  throw UsageError(flag + ": expected " + std::string(expected) + ", got '" + std::string(got) + "'");
+}
+
+// The space-separated short forms of a spec ("-f -of" -> "-f", "-of").
+std::vector<std::string_view> aliases_of(const FlagSpec& spec) {
+  std::vector<std::string_view> out;
+  std::string_view rest = spec.alias;
+  while (!rest.empty()) {
+    const auto space = rest.find(' ');
+    const std::string_view one = rest.substr(0, space);
+    if (!one.empty()) out.push_back(one);
+    if (space == std::string_view::npos) break;
+    rest.remove_prefix(space + 1);
+  }
+  return out;
 }
 
 const FlagSpec* find_spec(std::span<const FlagSpec> specs, std::string_view token) {
-  for (const FlagSpec& s : specs)
-    if (s.name == token || (!s.alias.empty() && s.alias == token)) return &s;
+  for (const FlagSpec& s : specs) {
+    if (s.name == token) return &s;
+    for (std::string_view a : aliases_of(s))
+      if (a == token) return &s;
+  }
   return nullptr;
+}
+
+// Levenshtein distance, case-sensitive (flags are lower case).
+std::size_t edit_distance(std::string_view a, std::string_view b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
 }
 
 }  // namespace
@@ -80,22 +113,29 @@ Args Args::parse(std::span<const std::string> argv, std::span<const FlagSpec> sp
       }
     }
     const FlagSpec* spec = find_spec(specs, name);
-    if (!spec) throw UsageError("unknown flag '" + std::string(name) + "'");
-    const bool repeated = std::any_of(args.values_.begin(), args.values_.end(),
-                                      [&](const auto& entry) { return entry.first == spec->name; });
-    if (repeated && !spec->repeatable) throw UsageError(std::string(spec->name) + ": given more than once");
+    if (!spec) {
+      const std::string near = nearest_flag(name, specs);
+      throw UsageError("unknown flag '" + std::string(name) + "'" +
+                       (near.empty() ? std::string() : "; did you mean '" + near + "'?"));
+    }
+    const std::string typed(name);
+    const auto earlier = std::find_if(args.values_.begin(), args.values_.end(),
+                                      [&](const Given& given) { return given.name == spec->name; });
+    if (earlier != args.values_.end() && !spec->repeatable)
+      throw UsageError(typed + ": given more than once" +
+                       (earlier->typed == typed ? std::string() : " (also as " + earlier->typed + ")"));
 
     if (spec->value.empty()) {
-      if (inline_value) throw UsageError(std::string(spec->name) + ": takes no value, got '" + *inline_value + "'");
-      args.values_.emplace_back(spec->name, std::string());
+      if (inline_value) throw UsageError(typed + ": takes no value, got '" + *inline_value + "'");
+      args.values_.push_back({spec->name, std::string(), typed});
       continue;
     }
     if (!inline_value) {
       if (i + 1 >= argv.size())
-        throw UsageError(std::string(spec->name) + ": missing value (expected " + std::string(spec->value) + ")");
+        throw UsageError(typed + ": missing value (expected " + std::string(spec->value) + ")");
       inline_value = argv[++i];
     }
-    args.values_.emplace_back(spec->name, std::move(*inline_value));
+    args.values_.push_back({spec->name, std::move(*inline_value), typed});
   }
   return args;
 }
@@ -112,17 +152,25 @@ bool Args::has(std::string_view flag) const {
 
 std::optional<std::string> Args::text(std::string_view flag) const {
   const std::string_view name = spec(flag).name;
-  for (const auto& [key, value] : values_)
-    if (key == name) return value;
+  for (const Given& given : values_)
+    if (given.name == name) return given.value;
   return std::nullopt;
 }
 
 std::vector<std::string> Args::all(std::string_view flag) const {
   const std::string_view name = spec(flag).name;
   std::vector<std::string> out;
-  for (const auto& [key, value] : values_)
-    if (key == name) out.push_back(value);
+  for (const Given& given : values_)
+    if (given.name == name) out.push_back(given.value);
   return out;
+}
+
+std::string Args::typed(std::string_view flag) const {
+  const FlagSpec* s = find_spec(specs_, flag);
+  if (!s) return std::string(flag);
+  for (const Given& given : values_)
+    if (given.name == s->name) return given.typed;
+  return std::string(s->name);
 }
 
 std::size_t Args::count(std::string_view flag) const {
@@ -133,8 +181,8 @@ std::optional<double> Args::number(std::string_view flag) const {
   auto raw = text(flag);
   if (!raw) return std::nullopt;
   auto v = parse_double(*raw);
-  if (!v) bad_value(flag, "a number", *raw);
-  if (!std::isfinite(*v)) bad_value(flag, "a finite number", *raw);
+  if (!v) bad_value(typed(flag), "a number", *raw);
+  if (!std::isfinite(*v)) bad_value(typed(flag), "a finite number", *raw);
   return v;
 }
 
@@ -142,7 +190,7 @@ std::optional<double> Args::non_negative(std::string_view flag) const {
   auto raw = text(flag);
   if (!raw) return std::nullopt;
   auto v = parse_double(*raw);
-  if (!v || !std::isfinite(*v) || *v < 0) bad_value(flag, "a non-negative number", *raw);
+  if (!v || !std::isfinite(*v) || *v < 0) bad_value(typed(flag), "a non-negative number", *raw);
   return v;
 }
 
@@ -150,7 +198,7 @@ std::optional<int> Args::positive_integer(std::string_view flag) const {
   auto raw = text(flag);
   if (!raw) return std::nullopt;
   auto v = parse_integer(*raw);
-  if (!v || *v < 1 || *v > std::numeric_limits<int>::max()) bad_value(flag, "a positive integer", *raw);
+  if (!v || *v < 1 || *v > std::numeric_limits<int>::max()) bad_value(typed(flag), "a positive integer", *raw);
   return static_cast<int>(*v);
 }
 
@@ -158,7 +206,7 @@ std::optional<unsigned> Args::non_negative_integer(std::string_view flag) const 
   auto raw = text(flag);
   if (!raw) return std::nullopt;
   auto v = parse_integer(*raw);
-  if (!v || *v < 0 || *v > std::numeric_limits<int>::max()) bad_value(flag, "a non-negative integer", *raw);
+  if (!v || *v < 0 || *v > std::numeric_limits<int>::max()) bad_value(typed(flag), "a non-negative integer", *raw);
   return static_cast<unsigned>(*v);
 }
 
@@ -168,11 +216,11 @@ std::optional<std::pair<double, double>> Args::pair(std::string_view flag) const
   const std::string_view s = *raw;
   const auto comma = s.find(',');
   if (comma == std::string_view::npos || s.find(',', comma + 1) != std::string_view::npos)
-    bad_value(flag, "X,Y (two numbers separated by a comma)", s);
+    bad_value(typed(flag), "X,Y (two numbers separated by a comma)", s);
   auto a = parse_double(trim(s.substr(0, comma)));
   auto b = parse_double(trim(s.substr(comma + 1)));
-  if (!a || !b) bad_value(flag, "X,Y (two numbers separated by a comma)", s);
-  if (!std::isfinite(*a) || !std::isfinite(*b)) bad_value(flag, "two finite numbers X,Y", s);
+  if (!a || !b) bad_value(typed(flag), "X,Y (two numbers separated by a comma)", s);
+  if (!std::isfinite(*a) || !std::isfinite(*b)) bad_value(typed(flag), "two finite numbers X,Y", s);
   return std::pair{*a, *b};
 }
 
@@ -185,7 +233,7 @@ std::optional<std::string> Args::choice(std::string_view flag, std::span<const s
     if (!options.empty()) options += ", ";
     options += a;
   }
-  bad_value(flag, "one of " + options, *raw);
+  bad_value(typed(flag), "one of " + options, *raw);
 }
 
 std::string format_flag_table(std::span<const FlagSpec> specs) {
@@ -193,8 +241,8 @@ std::string format_flag_table(std::span<const FlagSpec> specs) {
   std::size_t width = 0;
   for (const FlagSpec& s : specs) {
     std::string head = "  ";
-    if (!s.alias.empty()) {
-      head += s.alias;
+    for (std::string_view a : aliases_of(s)) {
+      head += a;
       head += ", ";
     }
     head += s.name;
@@ -213,6 +261,27 @@ std::string format_flag_table(std::span<const FlagSpec> specs) {
     out += '\n';
   }
   return out;
+}
+
+std::string nearest_flag(std::string_view token, std::span<const FlagSpec> specs) {
+  std::string_view best;
+  std::size_t best_distance = std::numeric_limits<std::size_t>::max();
+  auto consider = [&](std::string_view candidate) {
+    const std::size_t d = edit_distance(token, candidate);
+    if (d < best_distance) {
+      best_distance = d;
+      best = candidate;
+    }
+  };
+  for (const FlagSpec& s : specs) {
+    consider(s.name);
+    for (std::string_view a : aliases_of(s)) consider(a);
+  }
+  // A typo is a few edits: two at most, and fewer than a third of the
+  // longer word's letters past the dashes (so "-q" suggests nothing).
+  const std::size_t letters = std::max(token.size(), best.size()) - std::min<std::size_t>(2, token.size());
+  if (best.empty() || best_distance > 2 || 3 * best_distance > letters + 1) return {};
+  return std::string(best);
 }
 
 }  // namespace horizon::cli

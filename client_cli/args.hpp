@@ -3,14 +3,17 @@
 // Grammar, per command: positional operands and flags in any order.
 //   --name VALUE | --name=VALUE   a flag with a value (the value may start with '-')
 //   --name                        a switch
-//   -o VALUE                      a short alias
+//   -o VALUE                      a short alias (a flag may have several:
+//                                 "-f -of", gdal_viewshed's spellings)
 //   --                            everything after it is positional
 //   --help | -h                   stops parsing; the command prints its help
-// Unknown flags, a missing value, a value given to a switch and a repeated flag
-// (unless declared repeatable) are usage errors. The typed getters check a value's syntax and basic range
-// and throw UsageError with a message that names the flag and quotes the value
-// ("--max-distance: expected a non-negative number, got 'abc'"). Range checks
-// that belong to the engine (visibility::validate_options) stay there.
+// Unknown flags (with the nearest declared spelling suggested), a missing
+// value, a value given to a switch and a repeated flag (unless declared
+// repeatable) are usage errors. The typed getters check a value's syntax and
+// basic range and throw UsageError with a message that names the flag as the
+// user typed it and quotes the value ("-md: expected a non-negative number,
+// got 'abc'"). Range checks that belong to the engine
+// (visibility::validate_options) stay there.
 #pragma once
 
 #include <optional>
@@ -31,7 +34,7 @@ class UsageError : public std::runtime_error {
 
 struct FlagSpec {
   std::string_view name;    // long form, "--max-distance"
-  std::string_view alias;   // short form ("-o") or empty
+  std::string_view alias;   // short forms separated by spaces ("-o", "-f -of") or empty
   std::string_view value;   // metavariable shown in help ("M", "X,Y"); empty for a switch
   std::string_view help;    // one line; defaults and units included
   bool repeatable = false;  // may be given several times (read with Args::all)
@@ -54,6 +57,9 @@ class Args {
   std::vector<std::string> all(std::string_view flag) const;
   // How many times the flag was given.
   std::size_t count(std::string_view flag) const;
+  // The flag as the user spelled it ("-md" for --max-distance), for
+  // messages; its long name when it was not given (or is not declared).
+  std::string typed(std::string_view flag) const;
 
   // Typed getters: nullopt when absent, UsageError when malformed.
   std::optional<double> number(std::string_view flag) const;        // finite
@@ -69,7 +75,12 @@ class Args {
   const FlagSpec& spec(std::string_view flag) const;  // asserts the flag is declared
 
   std::span<const FlagSpec> specs_;
-  std::vector<std::pair<std::string_view, std::string>> values_;  // flag name -> value ("" for switches)
+  struct Given {
+    std::string_view name;  // the flag's long name
+    std::string value;      // "" for switches
+    std::string typed;      // as on the command line: the long name or an alias
+  };
+  std::vector<Given> values_;
   std::vector<std::string> positionals_;
   bool help_ = false;
 };
@@ -80,5 +91,10 @@ std::optional<double> parse_finite(std::string_view text);
 
 // Help lines for a flag table, aligned: "  --height M        Observer height ...".
 std::string format_flag_table(std::span<const FlagSpec> specs);
+
+// The declared spelling (a long name or an alias) nearest to `token` by
+// edit distance, when one is near enough to be a likely typo ("--max-distnace"
+// -> "--max-distance"); empty otherwise.
+std::string nearest_flag(std::string_view token, std::span<const FlagSpec> specs);
 
 }  // namespace horizon::cli

@@ -94,14 +94,15 @@ std::string flag_for_field(std::string_view field) {
   return flag;
 }
 
-void throw_if_invalid_option(const Status& status) {
+void throw_if_invalid_option(const Status& status, const Args* args) {
   if (status.ok()) return;
   const Error& error = status.error();
   if (error.field.empty()) throw UsageError(error.message);
   std::string message = error.message;
   // Engine messages read "<field>: <what>"; say the flag instead.
   if (const std::string prefix = error.field + ": "; message.starts_with(prefix)) message.erase(0, prefix.size());
-  throw UsageError(flag_for_field(error.field) + ": " + message);
+  const std::string flag = flag_for_field(error.field);
+  throw UsageError((args ? args->typed(flag) : flag) + ": " + message);
 }
 
 bool is_geographic(const terrain::Dem& dem) {

@@ -43,8 +43,9 @@ bool same_file(const std::string& a, const std::string& b);
 // Used to turn validate_options() errors into usage errors.
 std::string flag_for_field(std::string_view field);
 // Throws UsageError for an invalid-argument Status from option validation,
-// naming the flag; does nothing for an ok Status.
-void throw_if_invalid_option(const Status& status);
+// naming the flag (as the user typed it, when `args` is given: "-md" for
+// --max-distance); does nothing for an ok Status.
+void throw_if_invalid_option(const Status& status, const Args* args = nullptr);
 
 // True when the DEM's CRS is geographic (coordinates in degrees).
 bool is_geographic(const terrain::Dem& dem);
