@@ -82,8 +82,8 @@ Result<Dem> read_terrain_rgb(const std::string& path, const ReadOptions& options
   if (!tile)
     return make_error(ErrorCode::kInvalidArgument,
                       "dem '" + path +
-                          "': terrain-RGB tile needs its z/x/y position: set ReadOptions::tile (CLI: --tile z/x/y) "
-                          "or store it as .../z/x/y.png",
+                          "': a terrain-RGB tile is placed by its zoom and column/row in the path; keep it "
+                          "at a path ending in z/x/y.png (e.g. tiles/12/3641/1613.png)",
                       "tile");
   if (tile->z < 0 || tile->z > kMaxZoom || tile->x < 0 || tile->y < 0 || tile->x >= (1LL << tile->z) ||
       tile->y >= (1LL << tile->z))
