@@ -49,6 +49,54 @@ TEST(ResolvePoint, BetweenCentresIsBilinear) {
   EXPECT_DOUBLE_EQ(p->ground, 150.0);
 }
 
+TEST(ResolvePoint, CellGroundIsTheValueOfTheCellThePointIsIn) {
+  // (col 2.4, row 1.3) lies in cell (2, 1): its value is 120, where the
+  // bilinear surface has 10 * 2.4 + 100 * 1.3 = 154.
+  PointSpec s = at(500029.0, 4999982.0, 2.0);
+  s.ground = GroundSample::kCell;
+  auto p = resolve_point(plane(), s, "observer");
+  ASSERT_TRUE(p.ok()) << p.error().message;
+  EXPECT_DOUBLE_EQ(p->col, 2.4);
+  EXPECT_DOUBLE_EQ(p->row, 1.3);
+  EXPECT_DOUBLE_EQ(p->ground, 120.0);
+  EXPECT_DOUBLE_EQ(p->elevation, 122.0);
+  s.ground = GroundSample::kBilinear;
+  EXPECT_NEAR(resolve_point(plane(), s, "observer")->ground, 154.0, 1e-9);
+}
+
+TEST(ResolvePoint, CellGroundOnEdgesTakesTheEdgeCell) {
+  // A cell owns its west and north edges; the raster's outer edges belong to its edge cells.
+  PointSpec s = at(500030.0, 4999985.0, 0.0);  // (col 2.5, row 1.0): the edge between cells 2 and 3
+  s.ground = GroundSample::kCell;
+  EXPECT_DOUBLE_EQ(resolve_point(plane(), s, "observer")->ground, 130.0);
+  s.x = 500060.0;  // col 5.5, the east edge
+  s.y = 4999950.0;  // row 4.5, the south edge
+  EXPECT_DOUBLE_EQ(resolve_point(plane(), s, "observer")->ground, 450.0);
+  s.x = 500000.0;  // col -0.5, row -0.5: the north-west corner
+  s.y = 5000000.0;
+  EXPECT_DOUBLE_EQ(resolve_point(plane(), s, "observer")->ground, 0.0);
+}
+
+TEST(ResolvePoint, CellGroundReadsOnlyItsOwnCell) {
+  // A void diagonal to the point's cell spoils the bilinear ground, not the cell's.
+  terrain::Dem dem = plane();
+  dem.elevation.at(3, 2) = std::numeric_limits<float>::quiet_NaN();
+  PointSpec s = at(500029.0, 4999982.0, 2.0);  // (col 2.4, row 1.3), in cell (2, 1)
+  auto bilinear = resolve_point(dem, s, "observer");
+  ASSERT_FALSE(bilinear.ok());
+  EXPECT_EQ(bilinear.error().code, ErrorCode::kDataError);
+  s.ground = GroundSample::kCell;
+  auto cell = resolve_point(dem, s, "observer");
+  ASSERT_TRUE(cell.ok()) << cell.error().message;
+  EXPECT_DOUBLE_EQ(cell->ground, 120.0);
+  // Its own cell void: refused as any void under an eye.
+  dem.elevation.at(2, 1) = std::numeric_limits<float>::quiet_NaN();
+  auto on_void = resolve_point(dem, s, "observer");
+  ASSERT_FALSE(on_void.ok());
+  EXPECT_EQ(on_void.error().code, ErrorCode::kDataError);
+  EXPECT_EQ(on_void.error().field, "observer");
+}
+
 TEST(ResolvePoint, AbsoluteHeight) {
   auto p = resolve_point(plane(), at(500025.0, 4999965.0, 1000.0, HeightMode::kAbsolute), "target");
   ASSERT_TRUE(p.ok());

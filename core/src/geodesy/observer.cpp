@@ -33,6 +33,13 @@ std::string dem_name(const terrain::Dem& dem) {
   return "dem '" + dem.source + "'";
 }
 
+// The value of the cell holding grid point (col, row): cell c spans
+// [c - 0.5, c + 0.5), the outer edges belonging to the edge cells.
+double cell_value(const terrain::Grid<float>& elevation, double col, double row) {
+  const auto cell = [](double v, int n) { return std::clamp(static_cast<int>(std::floor(v + 0.5)), 0, n - 1); };
+  return elevation.at(cell(col, elevation.width()), cell(row, elevation.height()));
+}
+
 }  // namespace
 
 Result<GridPoint> resolve_point(const terrain::Dem& dem, const PointSpec& spec, const char* what) {
@@ -137,7 +144,8 @@ Result<GridPoint> place_on_ground(const terrain::Dem& dem, GridPoint point, cons
                                   int col_offset, int row_offset) {
   const std::string name = what ? what : "point";
   // 4. The ground under the point.
-  point.ground = terrain::sample_bilinear(dem.elevation, point.col, point.row);
+  point.ground = spec.ground == GroundSample::kCell ? cell_value(dem.elevation, point.col, point.row)
+                                                    : terrain::sample_bilinear(dem.elevation, point.col, point.row);
   if (spec.height_mode == HeightMode::kAboveGround) {
     if (std::isnan(point.ground))
       return make_error(ErrorCode::kDataError,

@@ -6,6 +6,8 @@
 // field that is wrong: finite numbers (x/y, lon/lat, height), the DEM has a CRS
 // (for lon/lat), the point lies inside the raster's outer extent (kOutOfRange),
 // and the terrain under it is not a void (kDataError, for height above ground).
+// The ground under a point is bilinear between cell centres unless the spec
+// asks for its cell's value (GroundSample).
 #pragma once
 
 #include <string>
@@ -19,18 +21,32 @@ namespace horizon::geodesy {
 enum class PointFrame { kDatasetCrs, kWgs84 };
 enum class HeightMode { kAboveGround, kAbsolute };
 
+// How the ground under a point is read from the elevations.
+enum class GroundSample {
+  // The surface between the four nearest cell centres, bilinear: the
+  // terrain every sight line is tested against, so a point is never put
+  // inside it. On a coarse DEM on a slope this can lie far from the value
+  // of the cell the point falls in.
+  kBilinear,
+  // The value of the cell the point falls in, whatever its place in it:
+  // gdal_viewshed's and GRASS r.viewshed's convention (they put the eye on
+  // its cell's centre and that cell's value).
+  kCell,
+};
+
 struct PointSpec {
   PointFrame frame = PointFrame::kDatasetCrs;
   double x = 0.0;  // dataset CRS x, or longitude in degrees for kWgs84
   double y = 0.0;  // dataset CRS y, or latitude in degrees for kWgs84
   double height = 0.0;  // metres: above ground, or absolute altitude
   HeightMode height_mode = HeightMode::kAboveGround;
+  GroundSample ground = GroundSample::kBilinear;  // the ground a height above ground stands on
 };
 
 struct GridPoint {
   double col = 0.0, row = 0.0;   // continuous grid coordinates, cell centres at integers
   double x = 0.0, y = 0.0;       // dataset CRS coordinates
-  double ground = 0.0;           // bilinear terrain height under the point, metres (NaN if on a void and absolute)
+  double ground = 0.0;           // terrain height under the point as PointSpec::ground reads it, metres (NaN on a void)
   double elevation = 0.0;        // absolute elevation of the point itself, metres
 };
 
