@@ -23,6 +23,10 @@ Status validate_options(const ViewshedOptions& o) {
     return bad_option("curvature_coefficient",
                       "must be a finite number in [0, 2] (0.85714 = standard refraction, 0 = flat earth), got " +
                           number_text(o.curvature_coefficient));
+  HORIZON_RETURN_IF_ERROR(validate_field_of_view(o.field_of_view));
+  if (o.field_of_view.min_distance > 0 && !(o.field_of_view.min_distance < o.max_distance))
+    return bad_option("min_distance", "must be below max_distance (" + number_text(o.max_distance) +
+                                          " metres), got " + number_text(o.field_of_view.min_distance));
   if (!std::isfinite(o.nodata_fill_height))
     return bad_option("nodata_fill_height", "must be a finite number of metres, got " + number_text(o.nodata_fill_height));
   if (!std::isfinite(o.radial.ray_spacing) || o.radial.ray_spacing <= 0 || o.radial.ray_spacing > 4)

@@ -79,6 +79,7 @@ Result<ViewshedResult> compute(const terrain::Dem& dem, terrain::Grid<float>* sp
   if (storage.ohf) result.ohf = std::move(*storage.ohf);  // reset_output keeps its pages
   result.frame = *frame;
   result.target_height = options.target_height;
+  result.field_of_view = options.field_of_view;
   result.stats.dem_cells = dem.elevation.size();
   result.stats.window_cells = frame->window.cell_count();
 
@@ -115,6 +116,8 @@ Result<ViewshedResult> compute(const terrain::Dem& dem, terrain::Grid<float>* sp
     if (storage.terrain) result.terrain = std::move(*storage.terrain);
     terrain::copy_cells(elevation.sub(w), result.terrain);
   }
+  // The field of view masks the answer, whichever algorithm and backend gave it.
+  mask_field_of_view(options.field_of_view, *frame, result.terrain, result.ohf, options.threads);
   return result;
 }
 

@@ -11,6 +11,7 @@
 #include <string_view>
 
 #include "horizon/common/error.hpp"
+#include "horizon/visibility/field_of_view.hpp"
 
 namespace horizon::visibility {
 
@@ -80,8 +81,13 @@ struct ViewshedOptions {
   double max_distance = std::numeric_limits<double>::infinity();
   // GDAL's curvature/refraction coefficient: a point at ground distance d
   // appears lowered by coefficient * d^2 / (2 R). 1 - k with k the refraction
-  // coefficient; 0.85714 (k = 1/7) by default, 0 disables, 1 = no refraction.
+  // coefficient (GRASS's refraction_coeff, 0.14286: see
+  // curvature_from_refraction); 0.85714 (k = 1/7) by default, 0 disables
+  // (a flat earth), 1 = curvature without refraction. [0, 2].
   double curvature_coefficient = 0.85714;
+  // What the observer looks at: cells outside it get no answer, as those
+  // beyond max_distance (field_of_view.hpp). Default: everything in reach.
+  FieldOfView field_of_view;
   NodataPolicy nodata = NodataPolicy::kTransparent;
   double nodata_fill_height = 0.0;  // metres, for NodataPolicy::kFill
   Algorithm algorithm = Algorithm::kRadial;
@@ -110,8 +116,18 @@ std::optional<Backend> parse_backend(std::string_view name);
 std::string_view gpu_method_name(GpuMethod method);
 std::optional<GpuMethod> parse_gpu_method(std::string_view name);
 
-// Checks every field: finite, non-negative distances/heights, knob ranges.
-// The error's field names the option ("max_distance").
+// Checks every field: finite, non-negative distances/heights, knob ranges,
+// the field of view (and its min_distance below max_distance). The error's
+// field names the option ("max_distance", "pitch_min").
 Status validate_options(const ViewshedOptions& options);
+
+// GDAL's curvature coefficient from GRASS's refraction coefficient k
+// (r.viewshed -c -r refraction_coeff=k): 1 - k. Standard refraction is
+// k = 1/7 = 0.14286 (coefficient 0.85714); k = 0 is curvature without
+// refraction, k = 1 a flat earth. No range check: validate_options checks the
+// coefficient it gives ([0, 2], so k in [-1, 1]).
+inline double curvature_from_refraction(double refraction_coefficient) {
+  return 1.0 - refraction_coefficient;
+}
 
 }  // namespace horizon::visibility

@@ -38,6 +38,7 @@ struct ViewshedResult {
   terrain::Grid<float> ohf;      // absolute metres, window-sized; NaN = not computed; -inf = nothing can block
   terrain::Grid<float> terrain;  // window crop of the elevations used (voids filled per NodataPolicy)
   double target_height = 0.0;    // from the options, used by visibility_mask() by default
+  FieldOfView field_of_view;     // from the options: the cells outside it have no answer
   WorkStats stats;
 };
 
