@@ -10,6 +10,7 @@
 #include "horizon/visibility/r3.hpp"
 #include "horizon/visibility/radial_sweep.hpp"
 #include "horizon/visibility/radial_sweep_gl.hpp"
+#include "horizon/visibility/viewshed_outputs.hpp"
 
 namespace horizon::visibility {
 namespace {
@@ -148,23 +149,7 @@ terrain::Grid<float> min_target_height(const ViewshedResult& result) {
 
 terrain::Grid<std::uint8_t> visibility_mask(const ViewshedResult& result, double target_height) {
   // The rule of min_target_height(), cell by cell, so the two rasters can never disagree.
-  terrain::Grid<std::uint8_t> out(result.ohf.width(), result.ohf.height(),
-                                  terrain::kUninitialized);  // all written below
-  const float th = static_cast<float>(target_height);
-  const auto ohf = result.ohf.values();
-  const auto z = result.terrain.values();
-  auto dst = out.values();
-  // Branch-free (both answers computed, one kept) so that it vectorises.
-  const std::size_t n = ohf.size();
-  const float* __restrict o = ohf.data();
-  const float* __restrict g = z.data();
-  std::uint8_t* __restrict d = dst.data();
-  for (std::size_t i = 0; i < n; ++i) {
-    const bool answered = !std::isnan(o[i]) & !std::isnan(g[i]);
-    const std::uint8_t seen = th >= min_target_height_at(o[i], g[i]) ? kVisible : kHidden;
-    d[i] = answered ? seen : kNoAnswer;
-  }
-  return out;
+  return visibility_codes(result, target_height, ValueCodes{});
 }
 
 terrain::Grid<float> ohf_raster(const ViewshedResult& result) {
