@@ -47,6 +47,8 @@
 #include "horizon/common/parallel.hpp"
 #include "horizon/geodesy/crs.hpp"
 #include "tiff_support.hpp"
+#include "cog_layout.hpp"
+#include "overviews.hpp"
 
 namespace horizon::terrain {
 namespace {
@@ -107,32 +109,33 @@ Status write_georef(const std::string& path, TIFF* tif, const Georeference& geor
   return Status::Ok();
 }
 
-// TIFF predictors, applied in place to one tile (kTileSize rows of kTileSize
-// samples), exactly as libtiff's encoder applies them (tif_predict.c):
+// TIFF predictors, applied in place to one block of `width` x `rows`
+// samples, exactly as libtiff's encoder applies them (tif_predict.c):
 // horizontal (2) differences each row's samples (modulo their width);
 // floating point (3) first splits each row into byte planes, most
 // significant first, then differences the row's bytes.
 template <class T>
-void predict_horizontal(T* tile) {
-  for (std::uint32_t r = 0; r < kTileSize; ++r) {
-    T* row = tile + static_cast<std::size_t>(r) * kTileSize;
-    for (std::uint32_t i = kTileSize - 1; i > 0; --i) row[i] = static_cast<T>(row[i] - row[i - 1]);
+void predict_horizontal(T* block, std::size_t width, std::size_t rows) {
+  for (std::size_t r = 0; r < rows; ++r) {
+    T* row = block + r * width;
+    for (std::size_t i = width - 1; i > 0; --i) row[i] = static_cast<T>(row[i] - row[i - 1]);
   }
 }
 
-void predict_floating_point(float* tile, std::vector<std::uint8_t>& scratch) {
+void predict_floating_point(float* block, std::size_t width, std::size_t rows, std::vector<std::uint8_t>& scratch) {
   static_assert(std::endian::native == std::endian::little, "the byte planes below are laid out for little-endian");
-  constexpr std::size_t kBytes = sizeof(float), kRowBytes = kTileSize * kBytes;
-  scratch.resize(kRowBytes);
-  for (std::uint32_t r = 0; r < kTileSize; ++r) {
-    auto* row = reinterpret_cast<std::uint8_t*>(tile + static_cast<std::size_t>(r) * kTileSize);
-    std::copy_n(row, kRowBytes, scratch.data());
-    for (std::size_t i = 0; i < kTileSize; ++i)
+  constexpr std::size_t kBytes = sizeof(float);
+  const std::size_t row_bytes = width * kBytes;
+  scratch.resize(row_bytes);
+  for (std::size_t r = 0; r < rows; ++r) {
+    auto* row = reinterpret_cast<std::uint8_t*>(block + r * width);
+    std::copy_n(row, row_bytes, scratch.data());
+    for (std::size_t i = 0; i < width; ++i)
       for (std::size_t b = 0; b < kBytes; ++b) {
         // Little-endian host: byte b of a sample goes to plane kBytes - 1 - b.
-        row[(kBytes - 1 - b) * kTileSize + i] = scratch[kBytes * i + b];
+        row[(kBytes - 1 - b) * width + i] = scratch[kBytes * i + b];
       }
-    for (std::size_t i = kRowBytes - 1; i > 0; --i) row[i] = static_cast<std::uint8_t>(row[i] - row[i - 1]);
+    for (std::size_t i = row_bytes - 1; i > 0; --i) row[i] = static_cast<std::uint8_t>(row[i] - row[i - 1]);
   }
 }
 
@@ -140,12 +143,217 @@ struct CompressorDeleter {
   void operator()(libdeflate_compressor* c) const { libdeflate_free_compressor(c); }
 };
 
+// How the options lay a raster of T out: blocks, codec, predictor, BigTIFF.
+struct Layout {
+  bool tiled = true;
+  std::uint32_t block_width = kTileSize, block_height = kTileSize;  // strips: the image width, rows per strip
+  std::uint16_t compression = COMPRESSION_ADOBE_DEFLATE;
+  std::uint16_t predictor = PREDICTOR_NONE;
+  std::optional<int> level;
+  bool bigtiff = false;
+  bool overviews = false;
+  OverviewResampling resampling = OverviewResampling::kAverage;
+};
+
+template <class T>
+Result<Layout> layout_for(const std::string& path, const GeoTiffOptions& o, int width, std::uint64_t bytes) {
+  constexpr bool kFloat = std::is_floating_point_v<T>;
+  const char* type = kFloat ? "Float32" : sizeof(T) == 1 ? "UInt8" : "UInt32";
+  Layout l;
+  l.tiled = o.tiled || o.format == TiffFormat::kCog;
+  if (l.tiled) {
+    l.block_width = static_cast<std::uint32_t>(o.block_width);
+    l.block_height = static_cast<std::uint32_t>(o.block_height ? o.block_height : o.block_width);
+  } else {
+    l.block_width = static_cast<std::uint32_t>(width);
+    const std::uint64_t row_bytes = static_cast<std::uint64_t>(width) * sizeof(T);
+    l.block_height = o.block_height ? static_cast<std::uint32_t>(o.block_height)
+                                    : static_cast<std::uint32_t>(std::max<std::uint64_t>(1, 65536 / row_bytes));
+  }
+  switch (o.compression) {
+    case TiffCompression::kDeflate: l.compression = COMPRESSION_ADOBE_DEFLATE; break;
+    case TiffCompression::kLzw: l.compression = COMPRESSION_LZW; break;
+    case TiffCompression::kZstd: l.compression = COMPRESSION_ZSTD; break;
+    case TiffCompression::kLzma: l.compression = COMPRESSION_LZMA; break;
+    case TiffCompression::kPackBits: l.compression = COMPRESSION_PACKBITS; break;
+    case TiffCompression::kNone: l.compression = COMPRESSION_NONE; break;
+  }
+  const bool codes_only = o.compression == TiffCompression::kNone || o.compression == TiffCompression::kPackBits;
+  switch (o.predictor) {
+    case TiffPredictor::kDefault:
+      l.predictor = codes_only ? PREDICTOR_NONE : kFloat ? PREDICTOR_FLOATINGPOINT : PREDICTOR_HORIZONTAL;
+      break;
+    case TiffPredictor::kNone: l.predictor = PREDICTOR_NONE; break;
+    case TiffPredictor::kHorizontal: l.predictor = PREDICTOR_HORIZONTAL; break;
+    case TiffPredictor::kFloatingPoint:
+      if (!kFloat)
+        return make_error(ErrorCode::kInvalidArgument,
+                          "PREDICTOR=3: the floating-point predictor is for float rasters; this one is " +
+                              std::string(type) + " (use PREDICTOR=2)",
+                          "creation_options");
+      l.predictor = PREDICTOR_FLOATINGPOINT;
+      break;
+  }
+  if (l.predictor != PREDICTOR_NONE && codes_only)
+    return make_error(ErrorCode::kInvalidArgument,
+                      "PREDICTOR: a predictor helps a compressing codec only; COMPRESS is " +
+                          std::string(o.compression == TiffCompression::kNone ? "NONE" : "PACKBITS"),
+                      "creation_options");
+  l.level = o.level;
+  l.overviews = o.format == TiffFormat::kCog && o.overviews;
+  l.resampling = o.resampling != OverviewResampling::kDefault ? o.resampling
+                 : sizeof(T) == 1                             ? OverviewResampling::kMode  // codes
+                                                              : OverviewResampling::kAverage;
+  // Overviews add a third at most.
+  const std::uint64_t total = l.overviews ? bytes + bytes / 3 : bytes;
+  switch (o.bigtiff) {
+    case BigTiff::kYes: l.bigtiff = true; break;
+    case BigTiff::kNo: l.bigtiff = false; break;
+    case BigTiff::kIfNeeded: l.bigtiff = total > kClassicTiffLimitBytes; break;
+    case BigTiff::kIfSafer: l.bigtiff = total > kClassicTiffLimitBytes / 2; break;
+  }
+  (void)path;
+  return l;
+}
+
+// One image's tags: size, sample layout, colours, codec, blocks, nodata.
+template <class T>
+void set_image_tags(TIFF* t, int width, int height, int bands, const Layout& l, std::optional<double> nodata,
+                    const ColourTable* colours, bool reduced) {
+  constexpr bool kFloat = std::is_floating_point_v<T>;
+  if (reduced) TIFFSetField(t, TIFFTAG_SUBFILETYPE, FILETYPE_REDUCEDIMAGE);
+  TIFFSetField(t, TIFFTAG_IMAGEWIDTH, static_cast<std::uint32_t>(width));
+  TIFFSetField(t, TIFFTAG_IMAGELENGTH, static_cast<std::uint32_t>(height));
+  TIFFSetField(t, TIFFTAG_SAMPLESPERPIXEL, bands);
+  TIFFSetField(t, TIFFTAG_BITSPERSAMPLE, static_cast<int>(8 * sizeof(T)));
+  TIFFSetField(t, TIFFTAG_SAMPLEFORMAT, kFloat ? SAMPLEFORMAT_IEEEFP : SAMPLEFORMAT_UINT);
+  if (colours && sizeof(T) == 1 && bands == 1) {
+    // TIFF 6.0 section 5: 16-bit components, 0..65535 (v * 257 maps 255 to 65535).
+    std::array<std::array<std::uint16_t, 256>, 3> map;
+    for (std::size_t i = 0; i < 256; ++i)
+      for (std::size_t k = 0; k < 3; ++k) map[k][i] = static_cast<std::uint16_t>((*colours)[i][k] * 257u);
+    TIFFSetField(t, TIFFTAG_PHOTOMETRIC, PHOTOMETRIC_PALETTE);
+    TIFFSetField(t, TIFFTAG_COLORMAP, map[0].data(), map[1].data(), map[2].data());
+  } else {
+    TIFFSetField(t, TIFFTAG_PHOTOMETRIC, PHOTOMETRIC_MINISBLACK);
+  }
+  TIFFSetField(t, TIFFTAG_PLANARCONFIG, bands > 1 ? PLANARCONFIG_SEPARATE : PLANARCONFIG_CONTIG);
+  TIFFSetField(t, TIFFTAG_COMPRESSION, l.compression);
+  if (l.predictor != PREDICTOR_NONE) TIFFSetField(t, TIFFTAG_PREDICTOR, l.predictor);
+  if (l.level && l.compression == COMPRESSION_ZSTD) TIFFSetField(t, TIFFTAG_ZSTD_LEVEL, *l.level);
+  if (l.level && l.compression == COMPRESSION_LZMA) TIFFSetField(t, TIFFTAG_LZMAPRESET, *l.level);
+  if (l.tiled) {
+    TIFFSetField(t, TIFFTAG_TILEWIDTH, l.block_width);
+    TIFFSetField(t, TIFFTAG_TILELENGTH, l.block_height);
+  } else {
+    TIFFSetField(t, TIFFTAG_ROWSPERSTRIP, l.block_height);
+  }
+  if (kFloat || nodata) {
+    const std::string text = nodata ? nodata_text(*nodata) : std::string("nan");
+    TIFFSetField(t, detail::kTagGdalNodata, text.c_str());
+  }
+}
+
+// Writes one band of the current image, block by block in TIFF's order.
+// Deflate is encoded here, on every core (libdeflate, zlib format), and the
+// blocks handed to libtiff raw; the other codecs are libtiff's own, on one
+// thread. Tiles are padded with `fill`; strips are cut to the image.
+template <class T>
+Status write_band(TIFF* t, const std::string& path, const Grid<T>& grid, int band_index, const Layout& l, T fill,
+                  bool nan_to_fill, TiffMessages& messages) {
+  constexpr bool kFloat = std::is_floating_point_v<T>;
+  const std::uint32_t bw = l.block_width, bh = l.block_height;
+  const int blocks_x = l.tiled ? static_cast<int>((grid.width() + bw - 1) / bw) : 1;
+  const int blocks_y = static_cast<int>((grid.height() + bh - 1) / bh);
+  // The block at (bx, by), predicted when this writer encodes it.
+  const auto fill_block = [&](int bx, int by, std::vector<T>& block, std::size_t& rows_out) {
+    const int x0 = bx * static_cast<int>(bw), y0 = by * static_cast<int>(bh);
+    const int rows = std::min<int>(static_cast<int>(bh), grid.height() - y0);
+    const int cols = std::min<int>(static_cast<int>(bw), grid.width() - x0);
+    rows_out = l.tiled ? bh : static_cast<std::size_t>(rows);
+    block.assign(static_cast<std::size_t>(bw) * rows_out, fill);
+    for (int r = 0; r < rows; ++r) {
+      const T* src = grid.row(y0 + r) + x0;
+      T* dst = block.data() + static_cast<std::size_t>(r) * bw;
+      for (int c = 0; c < cols; ++c) {
+        if constexpr (kFloat)
+          dst[c] = (nan_to_fill && std::isnan(src[c])) ? fill : src[c];
+        else
+          dst[c] = src[c];
+      }
+    }
+  };
+  const auto block_index = [&](int bx, int by) -> std::uint32_t {
+    if (l.tiled)
+      return TIFFComputeTile(t, static_cast<std::uint32_t>(bx) * bw, static_cast<std::uint32_t>(by) * bh, 0,
+                             static_cast<std::uint16_t>(band_index));
+    return TIFFComputeStrip(t, static_cast<std::uint32_t>(by) * bh, static_cast<std::uint16_t>(band_index));
+  };
+
+  if (l.compression != COMPRESSION_ADOBE_DEFLATE) {
+    std::vector<T> block;
+    for (int by = 0; by < blocks_y; ++by)
+      for (int bx = 0; bx < blocks_x; ++bx) {
+        std::size_t rows = 0;
+        fill_block(bx, by, block, rows);
+        const tmsize_t size = static_cast<tmsize_t>(block.size() * sizeof(T));
+        const tmsize_t done = l.tiled ? TIFFWriteEncodedTile(t, block_index(bx, by), block.data(), size)
+                                      : TIFFWriteEncodedStrip(t, block_index(bx, by), block.data(), size);
+        if (done < 0) return write_error(ErrorCode::kIoError, path, "cannot write a block (" + messages.errors + ")");
+      }
+    return Status::Ok();
+  }
+
+  // Deflate: every block row encoded in parallel, then written in order.
+  const int level = l.level.value_or(sizeof(T) == 1 ? 1 : 6);
+  std::vector<std::vector<std::uint8_t>> encoded(static_cast<std::size_t>(blocks_x) * blocks_y);
+  std::vector<char> failed(encoded.size(), 0);
+  parallel_for(static_cast<std::size_t>(blocks_y), 0, [&](std::size_t by) {
+    std::unique_ptr<libdeflate_compressor, CompressorDeleter> compressor(libdeflate_alloc_compressor(level));
+    std::vector<T> block;
+    std::vector<std::uint8_t> scratch;
+    const std::size_t first = by * static_cast<std::size_t>(blocks_x);
+    if (!compressor) {
+      std::fill_n(failed.begin() + static_cast<std::ptrdiff_t>(first), blocks_x, 1);
+      return;
+    }
+    for (int bx = 0; bx < blocks_x; ++bx) {
+      const std::size_t index = first + static_cast<std::size_t>(bx);
+      std::size_t rows = 0;
+      fill_block(bx, static_cast<int>(by), block, rows);
+      if constexpr (kFloat) {
+        if (l.predictor == PREDICTOR_FLOATINGPOINT) predict_floating_point(block.data(), bw, rows, scratch);
+      }
+      if (l.predictor == PREDICTOR_HORIZONTAL) predict_horizontal(block.data(), bw, rows);
+      const std::size_t bytes = block.size() * sizeof(T);
+      std::vector<std::uint8_t>& out = encoded[index];
+      out.resize(libdeflate_zlib_compress_bound(compressor.get(), bytes));
+      const std::size_t size = libdeflate_zlib_compress(compressor.get(), block.data(), bytes, out.data(), out.size());
+      if (size == 0) failed[index] = 1;
+      out.resize(size);
+    }
+  });
+  for (int by = 0; by < blocks_y; ++by)
+    for (int bx = 0; bx < blocks_x; ++bx) {
+      const std::size_t index = static_cast<std::size_t>(by) * blocks_x + static_cast<std::size_t>(bx);
+      if (failed[index]) return write_error(ErrorCode::kInternal, path, "cannot deflate a block (libdeflate)");
+      const tmsize_t size = static_cast<tmsize_t>(encoded[index].size());
+      const tmsize_t done = l.tiled ? TIFFWriteRawTile(t, block_index(bx, by), encoded[index].data(), size)
+                                    : TIFFWriteRawStrip(t, block_index(bx, by), encoded[index].data(), size);
+      if (done < 0) return write_error(ErrorCode::kIoError, path, "cannot write a block (" + messages.errors + ")");
+      std::vector<std::uint8_t>().swap(encoded[index]);
+    }
+  return Status::Ok();
+}
+
 // Writes `bands` (one or more grids of one size) as one file, band after
 // band (planar configuration "separate"); georeferenced when `georef` is
-// given, a plain image otherwise.
+// given, a plain image otherwise. A COG is written with its overviews first
+// to a scratch file beside `path`, then laid out (cog_layout.hpp).
 template <class T>
 Status write_impl(const std::string& path, std::span<const Grid<T>* const> bands, const Georeference* georef,
-                  std::optional<double> nodata, const ColourTable* colours = nullptr) {
+                  std::optional<double> nodata, const ColourTable* colours = nullptr,
+                  const GeoTiffOptions& options = {}) {
   constexpr bool kFloat = std::is_floating_point_v<T>;
   if (bands.empty() || bands[0]->empty()) return write_error(ErrorCode::kInvalidArgument, path, "grid is empty");
   const Grid<T>& first_band = *bands[0];
@@ -166,103 +374,46 @@ Status write_impl(const std::string& path, std::span<const Grid<T>* const> bands
                                " value (0.." + nodata_text(kMax) + ")");
     }
   }
+  if (options.format == TiffFormat::kCog && bands.size() > 1)
+    return write_error(ErrorCode::kInvalidArgument, path, "a COG is written for one band");
   // What NaN cells become, and what pads the edge tiles.
   const T fill = nodata ? static_cast<T>(*nodata) : T{};
   const std::uint64_t bytes = static_cast<std::uint64_t>(first_band.size()) * sizeof(T) * bands.size();
+  auto layout = layout_for<T>(path, options, first_band.width(), bytes);
+  if (!layout.ok()) return layout.error();
+  const Layout& l = *layout;
+  std::vector<Grid<T>> overviews;
+  if (l.overviews)
+    overviews = detail::build_overviews(first_band, static_cast<int>(std::max(l.block_width, l.block_height)),
+                                        l.resampling, nodata);
 
   detail::AtomicFile file(path);
   HORIZON_RETURN_IF_ERROR(file.create("geotiff"));
+  // A COG's images go to a scratch file first, then laid out into the temporary.
+  std::optional<detail::AtomicFile> scratch;
+  if (options.format == TiffFormat::kCog) {
+    scratch.emplace(path + ".unordered");
+    HORIZON_RETURN_IF_ERROR(scratch->create("geotiff"));
+  }
+  const std::string& written = scratch ? scratch->temp_path() : file.temp_path();
   {
     TiffMessages messages;
-    TiffPtr tif = detail::open_tiff(file.temp_path(), bytes > kClassicTiffLimitBytes ? "w8" : "w", messages);
+    TiffPtr tif = detail::open_tiff(written, l.bigtiff ? "w8" : "w", messages);
     if (!tif)
-      return write_error(ErrorCode::kIoError, path,
-                         "cannot create '" + file.temp_path() + "' (" + messages.errors + ")");
+      return write_error(ErrorCode::kIoError, path, "cannot create '" + written + "' (" + messages.errors + ")");
 
     TIFF* t = tif.get();
-    TIFFSetField(t, TIFFTAG_IMAGEWIDTH, static_cast<std::uint32_t>(first_band.width()));
-    TIFFSetField(t, TIFFTAG_IMAGELENGTH, static_cast<std::uint32_t>(first_band.height()));
-    TIFFSetField(t, TIFFTAG_SAMPLESPERPIXEL, static_cast<int>(bands.size()));
-    TIFFSetField(t, TIFFTAG_BITSPERSAMPLE, static_cast<int>(8 * sizeof(T)));
-    TIFFSetField(t, TIFFTAG_SAMPLEFORMAT, kFloat ? SAMPLEFORMAT_IEEEFP : SAMPLEFORMAT_UINT);
-    if (colours && sizeof(T) == 1 && bands.size() == 1) {
-      // TIFF 6.0 section 5: 16-bit components, 0..65535 (v * 257 maps 255 to 65535).
-      std::array<std::array<std::uint16_t, 256>, 3> map;
-      for (std::size_t i = 0; i < 256; ++i)
-        for (std::size_t k = 0; k < 3; ++k) map[k][i] = static_cast<std::uint16_t>((*colours)[i][k] * 257u);
-      TIFFSetField(t, TIFFTAG_PHOTOMETRIC, PHOTOMETRIC_PALETTE);
-      TIFFSetField(t, TIFFTAG_COLORMAP, map[0].data(), map[1].data(), map[2].data());
-    } else {
-      TIFFSetField(t, TIFFTAG_PHOTOMETRIC, PHOTOMETRIC_MINISBLACK);
-    }
-    TIFFSetField(t, TIFFTAG_PLANARCONFIG, bands.size() > 1 ? PLANARCONFIG_SEPARATE : PLANARCONFIG_CONTIG);
-    TIFFSetField(t, TIFFTAG_COMPRESSION, COMPRESSION_ADOBE_DEFLATE);
-    TIFFSetField(t, TIFFTAG_PREDICTOR, kFloat ? PREDICTOR_FLOATINGPOINT : PREDICTOR_HORIZONTAL);
-    TIFFSetField(t, TIFFTAG_TILEWIDTH, kTileSize);
-    TIFFSetField(t, TIFFTAG_TILELENGTH, kTileSize);
-    if (kFloat || nodata) {
-      const std::string text = nodata ? nodata_text(*nodata) : std::string("nan");
-      TIFFSetField(t, detail::kTagGdalNodata, text.c_str());
-    }
+    set_image_tags<T>(t, first_band.width(), first_band.height(), static_cast<int>(bands.size()), l, nodata, colours,
+                      false);
     if (georef) HORIZON_RETURN_IF_ERROR(write_georef(path, t, *georef));
-
-    for (std::size_t band_index = 0; band_index < bands.size(); ++band_index) {
-      const Grid<T>& grid = *bands[band_index];
-      // Encode every tile in parallel, then write them in order.
-      const int tiles_x = static_cast<int>((grid.width() + kTileSize - 1) / kTileSize);
-      const int tiles_y = static_cast<int>((grid.height() + kTileSize - 1) / kTileSize);
-      std::vector<std::vector<std::uint8_t>> encoded(static_cast<std::size_t>(tiles_x) * tiles_y);
-      std::vector<char> failed(encoded.size(), 0);
-      const std::size_t tile_bytes = static_cast<std::size_t>(kTileSize) * kTileSize * sizeof(T);
-      parallel_for(static_cast<std::size_t>(tiles_y), 0, [&](std::size_t band) {
-        std::unique_ptr<libdeflate_compressor, CompressorDeleter> compressor(
-            libdeflate_alloc_compressor(sizeof(T) == 1 ? 1 : 6));
-        std::vector<T> tile(static_cast<std::size_t>(kTileSize) * kTileSize);
-        std::vector<std::uint8_t> scratch;
-        const int ty = static_cast<int>(band * kTileSize);
-        const std::size_t first = band * static_cast<std::size_t>(tiles_x);
-        if (!compressor) {
-          std::fill_n(failed.begin() + static_cast<std::ptrdiff_t>(first), tiles_x, 1);
-          return;
-        }
-        for (int ti = 0; ti < tiles_x; ++ti) {
-          const std::size_t index = first + static_cast<std::size_t>(ti);
-          const int tx = ti * static_cast<int>(kTileSize);
-          std::fill(tile.begin(), tile.end(), fill);
-          const int rows = std::min<int>(kTileSize, grid.height() - ty);
-          const int cols = std::min<int>(kTileSize, grid.width() - tx);
-          for (int r = 0; r < rows; ++r) {
-            const T* src = grid.row(ty + r) + tx;
-            T* dst = tile.data() + static_cast<std::size_t>(r) * kTileSize;
-            for (int c = 0; c < cols; ++c) {
-              if constexpr (kFloat)
-                dst[c] = (nodata && std::isnan(src[c])) ? fill : src[c];
-              else
-                dst[c] = src[c];
-            }
-          }
-          if constexpr (kFloat)
-            predict_floating_point(tile.data(), scratch);
-          else
-            predict_horizontal(tile.data());
-          std::vector<std::uint8_t>& out = encoded[index];
-          out.resize(libdeflate_zlib_compress_bound(compressor.get(), tile_bytes));
-          const std::size_t size =
-              libdeflate_zlib_compress(compressor.get(), tile.data(), tile_bytes, out.data(), out.size());
-          if (size == 0) failed[index] = 1;
-          out.resize(size);
-        }
-      });
-      for (int ty = 0; ty < tiles_y; ++ty)
-        for (int ti = 0; ti < tiles_x; ++ti) {
-          const std::size_t index = static_cast<std::size_t>(ty) * tiles_x + static_cast<std::size_t>(ti);
-          if (failed[index]) return write_error(ErrorCode::kInternal, path, "cannot deflate a tile (libdeflate)");
-          const ttile_t tile_index =
-              TIFFComputeTile(t, static_cast<std::uint32_t>(ti) * kTileSize, static_cast<std::uint32_t>(ty) * kTileSize,
-                              0, static_cast<std::uint16_t>(band_index));
-          if (TIFFWriteRawTile(t, tile_index, encoded[index].data(), static_cast<tmsize_t>(encoded[index].size())) < 0)
-            return write_error(ErrorCode::kIoError, path, "cannot write tile (" + messages.errors + ")");
-        }
+    for (std::size_t band_index = 0; band_index < bands.size(); ++band_index)
+      HORIZON_RETURN_IF_ERROR(
+          write_band(t, path, *bands[band_index], static_cast<int>(band_index), l, fill, nodata.has_value(), messages));
+    for (const Grid<T>& level : overviews) {
+      if (!TIFFWriteDirectory(t))
+        return write_error(ErrorCode::kIoError, path, "cannot finish an image (" + messages.errors + ")");
+      set_image_tags<T>(t, level.width(), level.height(), 1, l, nodata, colours, true);
+      HORIZON_RETURN_IF_ERROR(write_band(t, path, level, 0, l, fill, nodata.has_value(), messages));
     }
     if (TIFFFlush(t) != 1 || !messages.errors.empty())
       return write_error(ErrorCode::kIoError, path, "cannot finish the file (" + messages.errors + ")");
@@ -270,33 +421,34 @@ Status write_impl(const std::string& path, std::span<const Grid<T>* const> bands
     if (!messages.errors.empty())
       return write_error(ErrorCode::kIoError, path, "cannot close the file (" + messages.errors + ")");
   }
+  if (scratch) HORIZON_RETURN_IF_ERROR(detail::write_cog_layout(scratch->temp_path(), file.temp_path(), path));
   return file.commit("geotiff");
 }
 
 }  // namespace
 
 Status write_geotiff(const std::string& path, const Grid<float>& grid, const Georeference& georef,
-                     std::optional<double> nodata) {
+                     std::optional<double> nodata, const GeoTiffOptions& options) {
   const Grid<float>* band = &grid;
-  return write_impl<float>(path, {&band, 1}, &georef, nodata);
+  return write_impl<float>(path, {&band, 1}, &georef, nodata, nullptr, options);
 }
 
 Status write_geotiff(const std::string& path, const Grid<std::uint8_t>& grid, const Georeference& georef,
-                     std::optional<double> nodata) {
+                     std::optional<double> nodata, const GeoTiffOptions& options) {
   const Grid<std::uint8_t>* band = &grid;
-  return write_impl<std::uint8_t>(path, {&band, 1}, &georef, nodata);
+  return write_impl<std::uint8_t>(path, {&band, 1}, &georef, nodata, nullptr, options);
 }
 
 Status write_geotiff(const std::string& path, const Grid<std::uint8_t>& grid, const Georeference& georef,
-                     std::optional<double> nodata, const ColourTable& colours) {
+                     std::optional<double> nodata, const ColourTable& colours, const GeoTiffOptions& options) {
   const Grid<std::uint8_t>* band = &grid;
-  return write_impl<std::uint8_t>(path, {&band, 1}, &georef, nodata, &colours);
+  return write_impl<std::uint8_t>(path, {&band, 1}, &georef, nodata, &colours, options);
 }
 
 Status write_geotiff(const std::string& path, const Grid<std::uint32_t>& grid, const Georeference& georef,
-                     std::optional<double> nodata) {
+                     std::optional<double> nodata, const GeoTiffOptions& options) {
   const Grid<std::uint32_t>* band = &grid;
-  return write_impl<std::uint32_t>(path, {&band, 1}, &georef, nodata);
+  return write_impl<std::uint32_t>(path, {&band, 1}, &georef, nodata, nullptr, options);
 }
 
 Status write_tiff_image(const std::string& path, std::span<const Grid<float>* const> bands) {
