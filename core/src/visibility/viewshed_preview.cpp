@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <vector>
 
 #include "horizon/geodesy/crs.hpp"
 #include "horizon/terrain/qgis_style.hpp"
@@ -59,6 +60,30 @@ std::string place(const std::optional<geodesy::Crs>& crs, double x, double y) {
   return s;
 }
 
+// Degrees as the title says them: "300", "12.5".
+std::string degrees(double d) {
+  const double r = std::round(d * 10.0) / 10.0;
+  return fixed(r, r == std::round(r) ? 0 : 1);
+}
+
+// "; view azimuth 300 to 60 deg, from 400 m, pitch -10 to 2 deg", or nothing
+// when the observer looks all round.
+std::string view(const FieldOfView& v) {
+  std::vector<std::string> parts;
+  if (v.limits_azimuth())
+    parts.push_back("azimuth " + degrees(v.azimuth_start) + " to " + degrees(v.azimuth_end) + " deg");
+  if (v.min_distance > 0) parts.push_back("from " + distance(v.min_distance));
+  if (v.limits_pitch()) parts.push_back("pitch " + degrees(v.pitch_min) + " to " + degrees(v.pitch_max) + " deg");
+  std::string s;
+  for (const std::string& p : parts) s += (s.empty() ? "; view " : ", ") + p;
+  return s;
+}
+
+// The legend's no-answer class: beyond the reach, or outside the view too.
+std::string beyond(const FieldOfView& v) {
+  return v.limits() ? "out of range: beyond reach or outside the view" : terrain::PreviewClasses{}.beyond;
+}
+
 std::string eye(double elevation, double ground) {
   if (std::isnan(ground)) return "eye at " + metres(elevation) + " (ground: no data)";
   return "eye " + metres(elevation - ground) + " above the ground (" + metres(elevation) + ")";
@@ -72,8 +97,26 @@ std::string heading(PreviewRaster raster) {
       return "Occlusion height field";
     case PreviewRaster::kMinTargetHeight:
       return "Minimum visible target height";
+    case PreviewRaster::kVerticalAngle:
+      return "Vertical angle of the visible cells";
+    case PreviewRaster::kElevationDifference:
+      return "Elevation of the visible cells from the eye";
   }
   return "Viewshed";
+}
+
+// A ramp of kStops interpolated stops over [min, max], labelled in `unit`.
+std::string ramp_style(double min, double max, int decimals, const std::string& unit) {
+  if (!(max > min)) max = min + 1.0;
+  constexpr int kStops = 9;
+  std::vector<terrain::StyleEntry> entries;
+  for (int i = 0; i < kStops; ++i) {
+    const double t = static_cast<double>(i) / (kStops - 1);
+    const double v = min + t * (max - min);
+    entries.push_back(
+        {v, terrain::preview_ramp_colour(terrain::PreviewRamp::kElevation, t), fixed(v, decimals) + " " + unit});
+  }
+  return terrain::qml_pseudocolor(entries, false, decimals);
 }
 
 }  // namespace
@@ -92,16 +135,12 @@ std::string viewshed_style(PreviewRaster raster, double min, double max) {
     case PreviewRaster::kVisibility:
       return terrain::qml_paletted(std::vector<StyleEntry>{{0.0, terrain::kPreviewHidden, "hidden"},
                                                            {1.0, terrain::kPreviewVisible, "visible"}});
-    case PreviewRaster::kOhf: {
-      if (!(max > min)) max = min + 1.0;
-      constexpr int kStops = 9;
-      for (int i = 0; i < kStops; ++i) {
-        const double t = static_cast<double>(i) / (kStops - 1);
-        const double v = min + t * (max - min);
-        entries.push_back({v, terrain::preview_ramp_colour(terrain::PreviewRamp::kElevation, t), fixed(v, 0) + " m"});
-      }
-      return terrain::qml_pseudocolor(entries, false, 0);
-    }
+    case PreviewRaster::kOhf:
+      return ramp_style(min, max, 0, "m");
+    case PreviewRaster::kVerticalAngle:
+      return ramp_style(min, max, 1, "deg");
+    case PreviewRaster::kElevationDifference:
+      return ramp_style(min, max, 0, "m");
     case PreviewRaster::kMinTargetHeight: {
       // Classes 0, up to 1, 2, 5, 10, 20, 50, ... metres, to the first bound at or above max,
       // coloured as the preview's log ramp.
@@ -121,6 +160,20 @@ std::string viewshed_style(PreviewRaster raster, double min, double max) {
     }
   }
   return {};
+}
+
+std::string visibility_style(const ValueCodes& codes) {
+  using terrain::StyleEntry;
+  const bool out_of_range_drawn = codes.out_of_range != codes.nodata && codes.out_of_range != codes.hidden;
+  const std::string hidden =
+      codes.out_of_range == codes.hidden && codes.out_of_range != codes.nodata ? "not visible" : "hidden";
+  std::vector<StyleEntry> entries{{static_cast<double>(codes.hidden), terrain::kPreviewHidden, hidden},
+                                  {static_cast<double>(codes.visible), terrain::kPreviewVisible, "visible"}};
+  if (codes.hidden == codes.nodata) entries.erase(entries.begin());  // hidden left transparent, as r.viewshed does
+  if (out_of_range_drawn)
+    entries.push_back({static_cast<double>(codes.out_of_range), terrain::kPreviewBeyond, "out of range"});
+  std::sort(entries.begin(), entries.end(), [](const StyleEntry& a, const StyleEntry& b) { return a.value < b.value; });
+  return terrain::qml_paletted(entries);
 }
 
 std::string viewshed_style(PreviewRaster raster, const terrain::Grid<float>& values) {
@@ -177,15 +230,41 @@ terrain::ColourTable code_colour_table() {
   return table;
 }
 
+terrain::ColourTable code_colour_table(const ValueCodes& codes) {
+  terrain::ColourTable table = code_colour_table();  // the default codes' colours where no other code falls
+  table[codes.nodata] = terrain::kPreviewBeyond;
+  table[codes.out_of_range] = terrain::kPreviewBeyond;
+  table[codes.hidden] = terrain::kPreviewHidden;
+  table[codes.visible] = terrain::kPreviewVisible;
+  return table;
+}
+
+PreviewRaster preview_raster(ViewshedOutput output) {
+  switch (output) {
+    case ViewshedOutput::kVisibility:
+    case ViewshedOutput::kBoolean:
+      return PreviewRaster::kVisibility;
+    case ViewshedOutput::kOhf:
+      return PreviewRaster::kOhf;
+    case ViewshedOutput::kMinTargetHeight:
+      return PreviewRaster::kMinTargetHeight;
+    case ViewshedOutput::kVerticalAngle:
+      return PreviewRaster::kVerticalAngle;
+    case ViewshedOutput::kElevationDifference:
+      return PreviewRaster::kElevationDifference;
+  }
+  return PreviewRaster::kVisibility;
+}
+
 std::vector<std::string> viewshed_title(const ViewshedResult& result, PreviewRaster raster,
                                         const PreviewCaption& caption) {
   const ViewFrame& f = result.frame;
   std::vector<std::string> title;
   title.push_back(heading(raster) + " over " + caption.dem);
   std::string details = "Observer " + place(caption.crs, caption.x, caption.y) + "; " + eye(f.eye, caption.ground);
-  if (raster == PreviewRaster::kVisibility)
+  if (raster != PreviewRaster::kOhf && raster != PreviewRaster::kMinTargetHeight)
     details += "; targets " + metres(result.target_height) + " above the ground";
-  details += "; reach " + distance(f.max_distance);
+  details += "; reach " + distance(f.max_distance) + view(result.field_of_view);
   if (!caption.algorithm.empty()) details += "; algorithm " + caption.algorithm;
   title.push_back(details);
   return title;
@@ -195,6 +274,7 @@ Status write_viewshed_picture(const std::string& path, const ViewshedResult& res
                               const terrain::Grid<std::uint8_t>& mask, const PreviewCaption& caption) {
   terrain::PreviewOptions o = preview_options(result);
   o.title = viewshed_title(result, raster, caption);
+  o.classes.beyond = beyond(result.field_of_view);
   switch (raster) {
     case PreviewRaster::kVisibility:
       return terrain::write_viewshed_preview(path, result.terrain, mask, o);
@@ -206,6 +286,19 @@ Status write_viewshed_picture(const std::string& path, const ViewshedResult& res
       return terrain::write_ramp_preview(path, result.terrain, min_target_height(result),
                                          {terrain::PreviewRamp::kHeightNeeded, "Height a target needs to be seen",
                                           "metres above the ground", "0 m: the ground is visible"},
+                                         o);
+    case PreviewRaster::kVerticalAngle:
+      o.classes.beyond = "not visible, or out of range";
+      return terrain::write_ramp_preview(path, result.terrain, vertical_angle_raster(result, result.target_height),
+                                         {terrain::PreviewRamp::kElevation, "Vertical angle from the eye",
+                                          "degrees from straight down (90: level)", ""},
+                                         o);
+    case PreviewRaster::kElevationDifference:
+      o.classes.beyond = "not visible, or out of range";
+      return terrain::write_ramp_preview(path, result.terrain,
+                                         elevation_difference_raster(result, result.target_height),
+                                         {terrain::PreviewRamp::kElevation, "Ground elevation from the eye's",
+                                          "metres", ""},
                                          o);
   }
   return Status::Ok();
@@ -242,18 +335,21 @@ Status write_many_observers_picture(const std::string& path, const ManyObservers
     details += "; eyes " + (min_eye == max_eye ? metres(min_eye) : metres(min_eye) + " to " + metres(max_eye)) +
                " above the ground";
   details += "; targets " + metres(plan.options.viewshed.target_height) + " above the ground";
-  details +=
-      "; reach " + (min_reach == max_reach ? distance(min_reach) : distance(min_reach) + " to " + distance(max_reach));
+  const FieldOfView& field_of_view = plan.options.viewshed.field_of_view;
+  details += "; reach " +
+             (min_reach == max_reach ? distance(min_reach) : distance(min_reach) + " to " + distance(max_reach)) +
+             view(field_of_view);
   if (!caption.algorithm.empty()) details += "; algorithm " + caption.algorithm;
   o.title.push_back(details);
 
+  o.classes.beyond = field_of_view.limits() ? "out of every range: beyond reach or outside the view"
+                                            : "beyond every reach: not computed";
   if (accumulation == PreviewAccumulation::kCount) {
     const terrain::Grid<std::uint32_t> counts = observer_count(result);
     terrain::Grid<float> values(counts.width(), counts.height(), terrain::kUninitialized);
     for (std::size_t i = 0; i < counts.size(); ++i)
       values.values()[i] = counts.values()[i] == kNoCount ? std::numeric_limits<float>::quiet_NaN()
                                                           : static_cast<float>(counts.values()[i]);
-    o.classes.beyond = "beyond every reach: not computed";
     return terrain::write_ramp_preview(
         path, elevation, values, {terrain::PreviewRamp::kCount, "Observers that see the cell", "", "0: seen by none"},
         o);
@@ -261,7 +357,6 @@ Status write_many_observers_picture(const std::string& path, const ManyObservers
   const bool any = accumulation == PreviewAccumulation::kAny;
   o.classes.visible = any ? "seen by at least one" : "seen by every observer";
   o.classes.hidden = any ? "seen by none" : "not seen by every observer";
-  o.classes.beyond = "beyond every reach: not computed";
   return terrain::write_viewshed_preview(path, elevation, any ? seen_from_any(result) : seen_from_all(result), o);
 }
 

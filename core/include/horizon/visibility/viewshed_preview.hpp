@@ -8,7 +8,8 @@
 // names the DEM as the reader knows it (a file's name, a dataset's name:
 // never a path the reader did not give), the observer in WGS84 (and in the
 // DEM's CRS when projected, named by its EPSG code, or by its name when it
-// has none), the eye's and the targets' heights, the reach
+// has none), the eye's and the targets' heights, the reach, the field of
+// view when it limits what is seen (the legend then says "out of range"),
 // and the algorithm, so the same request draws the same picture embedded or
 // through the daemon.
 #pragma once
@@ -25,11 +26,16 @@
 #include "horizon/terrain/preview.hpp"
 #include "horizon/visibility/many_observers.hpp"
 #include "horizon/visibility/viewshed.hpp"
+#include "horizon/visibility/viewshed_outputs.hpp"
 
 namespace horizon::visibility {
 
-// The raster a viewshed writes, and so what its preview shows.
-enum class PreviewRaster { kVisibility, kOhf, kMinTargetHeight };
+// The raster a viewshed writes, and so what its preview shows (the boolean
+// raster's preview is kVisibility's: its picture tells out of range apart).
+enum class PreviewRaster { kVisibility, kOhf, kMinTargetHeight, kVerticalAngle, kElevationDifference };
+
+// The preview of a viewshed output (viewshed_outputs.hpp).
+PreviewRaster preview_raster(ViewshedOutput output);
 
 struct PreviewCaption {
   std::string dem;          // the DEM's name for the title (a file's stem, a dataset's name)
@@ -58,9 +64,14 @@ Status write_many_observers_picture(const std::string& path, const ManyObservers
 
 // The QGIS styles (.qml, terrain/qgis_style.hpp) of the rasters written,
 // in the previews' colours and words, for "OUT.qml" beside "OUT.tif".
-// `min`, `max`: the raster's finite values (kOhf: the ramp's ends;
-// kMinTargetHeight: its classes reach max).
+// `min`, `max`: the raster's finite values (kOhf, kVerticalAngle,
+// kElevationDifference: the ramp's ends; kMinTargetHeight: its classes
+// reach max). kVisibility is the default codes' (visibility_style).
 std::string viewshed_style(PreviewRaster raster, double min, double max);
+// The visible raster's style in `codes`: visible and hidden, and out of
+// range where it has a code of its own (not the nodata, which QGIS leaves
+// transparent); with r.viewshed's boolean codes hidden reads "not visible".
+std::string visibility_style(const ValueCodes& codes);
 // The same with the range taken from the raster written (NaN: no answer).
 std::string viewshed_style(PreviewRaster raster, const terrain::Grid<float>& values);
 // `max_count`: the greatest count (kCount).
@@ -70,6 +81,10 @@ std::string region_style();
 // The colour table of every UInt8 code raster (1 visible, 0 hidden, 2
 // undetermined, 255 no answer), for terrain::write_geotiff.
 terrain::ColourTable code_colour_table();
+// The visible raster's in `codes`: where two codes share a value the more
+// telling wins (visible over hidden over out of range over no data); the
+// default codes give code_colour_table() itself.
+terrain::ColourTable code_colour_table(const ValueCodes& codes);
 
 // The stem of a DEM path for PreviewCaption::dem: "data/dem/a.tif" -> "a",
 // a folder of tiles by its own name.
