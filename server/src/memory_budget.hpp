@@ -52,6 +52,10 @@ class MemoryBudget {
   // A viewshed's encodings per output cell: the derived raster (4), the mask
   // (1), the streamed copy (4), GeoTIFF/PNG bytes (<= 7).
   static constexpr std::uint64_t kEncodingBytesPerCell = 16;
+  // More per output cell when the GeoTIFF is a COG (its overviews, a third
+  // of the raster, built before it is written, and the file laid out anew)
+  // or left uncompressed (up to 4 bytes a cell more than deflate's).
+  static constexpr std::uint64_t kLayoutBytesPerCell = 4;
   // A session's box per pose: the request and response messages.
   static constexpr std::uint64_t kMessageBytesPerBox = 160;
   // A CullBoxes answer per box, on the call's arena (tested against the real message).

@@ -42,24 +42,26 @@ Result<std::string> encode(const fs::path& dir, const char* extension, Write&& w
 }  // namespace
 
 Result<std::string> geotiff_bytes(const fs::path& scratch_dir, const terrain::Grid<float>& grid,
-                                  const terrain::Georeference& georef, std::optional<double> nodata) {
+                                  const terrain::Georeference& georef, std::optional<double> nodata,
+                                  const terrain::GeoTiffOptions& options) {
   return encode(scratch_dir, ".tif",
-                [&](const std::string& p) { return terrain::write_geotiff(p, grid, georef, nodata); });
+                [&](const std::string& p) { return terrain::write_geotiff(p, grid, georef, nodata, options); });
 }
 
 Result<std::string> geotiff_bytes(const fs::path& scratch_dir, const terrain::Grid<std::uint8_t>& grid,
                                   const terrain::Georeference& georef, std::optional<double> nodata,
-                                  const terrain::ColourTable* colours) {
+                                  const terrain::ColourTable* colours, const terrain::GeoTiffOptions& options) {
   return encode(scratch_dir, ".tif", [&](const std::string& p) {
-    return colours ? terrain::write_geotiff(p, grid, georef, nodata, *colours)
-                   : terrain::write_geotiff(p, grid, georef, nodata);
+    return colours ? terrain::write_geotiff(p, grid, georef, nodata, *colours, options)
+                   : terrain::write_geotiff(p, grid, georef, nodata, options);
   });
 }
 
 Result<std::string> geotiff_bytes(const fs::path& scratch_dir, const terrain::Grid<std::uint32_t>& grid,
-                                  const terrain::Georeference& georef, std::optional<double> nodata) {
+                                  const terrain::Georeference& georef, std::optional<double> nodata,
+                                  const terrain::GeoTiffOptions& options) {
   return encode(scratch_dir, ".tif",
-                [&](const std::string& p) { return terrain::write_geotiff(p, grid, georef, nodata); });
+                [&](const std::string& p) { return terrain::write_geotiff(p, grid, georef, nodata, options); });
 }
 
 Result<std::string> png_bytes(const fs::path& scratch_dir, const std::function<Status(const std::string& path)>& draw) {

@@ -18,14 +18,18 @@
 
 namespace horizon::server {
 
+// `options`: the request's format and creation options (the writer's defaults when absent).
 Result<std::string> geotiff_bytes(const std::filesystem::path& scratch_dir, const terrain::Grid<float>& grid,
-                                  const terrain::Georeference& georef, std::optional<double> nodata);
+                                  const terrain::Georeference& georef, std::optional<double> nodata,
+                                  const terrain::GeoTiffOptions& options = {});
 // With `colours`, the GeoTIFF carries that colour table (the visibility masks).
 Result<std::string> geotiff_bytes(const std::filesystem::path& scratch_dir, const terrain::Grid<std::uint8_t>& grid,
                                   const terrain::Georeference& georef, std::optional<double> nodata,
-                                  const terrain::ColourTable* colours = nullptr);
+                                  const terrain::ColourTable* colours = nullptr,
+                                  const terrain::GeoTiffOptions& options = {});
 Result<std::string> geotiff_bytes(const std::filesystem::path& scratch_dir, const terrain::Grid<std::uint32_t>& grid,
-                                  const terrain::Georeference& georef, std::optional<double> nodata);
+                                  const terrain::Georeference& georef, std::optional<double> nodata,
+                                  const terrain::GeoTiffOptions& options = {});
 // The bytes of the PNG `draw(path)` writes (the CLI's --png preview, drawn by
 // visibility/viewshed_preview.hpp's writers).
 Result<std::string> png_bytes(const std::filesystem::path& scratch_dir,

@@ -47,6 +47,17 @@ Result<geodesy::PointSpec> to_point_spec(const v1::Point& point, const std::stri
     default:
       return invalid(field + ".height_mode", "unknown value " + std::to_string(static_cast<int>(point.height_mode())));
   }
+  switch (point.ground()) {
+    case v1::GROUND_SAMPLE_UNSPECIFIED:
+    case v1::GROUND_SAMPLE_BILINEAR:
+      spec.ground = geodesy::GroundSample::kBilinear;
+      break;
+    case v1::GROUND_SAMPLE_CELL:
+      spec.ground = geodesy::GroundSample::kCell;
+      break;
+    default:
+      return invalid(field + ".ground", "unknown value " + std::to_string(static_cast<int>(point.ground())));
+  }
   return spec;
 }
 
@@ -126,7 +137,8 @@ Error rename_field(Error error, std::string_view options_prefix, std::string_vie
   if (f == "curvature_coefficient") {
     f = std::string(options_prefix) + "curvature";
   } else if (f == "target_height" || f == "max_distance" || f == "nodata_fill_height" || f == "ray_spacing" ||
-             f == "algorithm" || f == "backend" || f == "gpu_method") {
+             f == "algorithm" || f == "backend" || f == "gpu_method" || f == "azimuth_start" || f == "azimuth_end" ||
+             f == "min_distance" || f == "pitch_min" || f == "pitch_max") {
     f = std::string(options_prefix) + f;
   } else if (f.starts_with("observer") || f.starts_with("from") || f.starts_with("to")) {
     // WGS84 points are x = longitude, y = latitude in the API.
@@ -152,8 +164,23 @@ Result<visibility::NodataPolicy> to_nodata_policy(v1::NodataPolicy policy, const
 Result<visibility::ViewshedOptions> to_viewshed_options(const v1::ViewshedOptions& in, unsigned threads) {
   visibility::ViewshedOptions o;
   o.target_height = in.target_height();
-  if (in.has_max_distance()) o.max_distance = in.max_distance();
+  // 0 is no limit, as gdal_viewshed's -md 0.
+  if (in.has_max_distance() && in.max_distance() != 0.0) o.max_distance = in.max_distance();
   if (in.has_curvature()) o.curvature_coefficient = in.curvature();
+  if (in.has_refraction()) {
+    if (in.has_curvature())
+      return invalid("options.refraction", "give refraction (GRASS's coefficient) or curvature (GDAL's), not both");
+    if (!std::isfinite(in.refraction()) || in.refraction() < -1.0 || in.refraction() > 1.0)
+      return invalid("options.refraction", "must be in [-1, 1] (0.14286 = standard refraction, 1 = flat earth), got " +
+                                               number_text(in.refraction()));
+    o.curvature_coefficient = visibility::curvature_from_refraction(in.refraction());
+  }
+  visibility::FieldOfView& view = o.field_of_view;
+  view.azimuth_start = in.azimuth_start();
+  view.azimuth_end = in.azimuth_end();
+  view.min_distance = in.min_distance();
+  if (in.has_pitch_min()) view.pitch_min = in.pitch_min();
+  if (in.has_pitch_max()) view.pitch_max = in.pitch_max();
   auto nodata = to_nodata_policy(in.nodata(), "options.nodata");
   if (!nodata.ok()) return nodata.error();
   o.nodata = *nodata;

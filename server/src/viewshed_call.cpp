@@ -16,13 +16,11 @@
 #include "horizon/visibility/viewshed_preview.hpp"
 #include "raster_files.hpp"
 #include "translate.hpp"
+#include "viewshed_output.hpp"
 #include "viewshed_many_call.hpp"
 
 namespace horizon::server {
 namespace {
-
-// The masks' GeoTIFFs carry the previews' colours, as the CLI's do.
-const terrain::ColourTable kCodeColours = visibility::code_colour_table();
 
 static_assert(std::endian::native == std::endian::little,
               "raster chunks are sent in host order, which must be little-endian");
@@ -164,11 +162,12 @@ grpc::Status ViewshedCall::compute() {
   auto options = to_viewshed_options(req.options(), env.config.engine_threads);
   if (!options.ok()) return scope_.status_of(options.error());
   scope_.record().algorithm = std::string(visibility::algorithm_name(options->algorithm));
-  v1::RasterKind kind = req.raster() == v1::RASTER_KIND_UNSPECIFIED ? v1::RASTER_KIND_VISIBLE : req.raster();
-  if (!v1::RasterKind_IsValid(kind))
-    return scope_.status_of(make_error(ErrorCode::kInvalidArgument, "raster: unknown value", "raster"));
-  // Only the visible/hidden raster goes back: exact may skip finding R3's OHF.
-  options->visibility_only = kind == v1::RASTER_KIND_VISIBLE;
+  auto spec_or = to_output_spec(req);
+  if (!spec_or.ok()) return scope_.status_of(spec_or.error());
+  const ViewshedOutputSpec& out = *spec_or;
+  const v1::RasterKind kind = out.kind;
+  // Only visibility at the target height goes back: exact may skip finding R3's OHF.
+  options->visibility_only = !visibility::needs_heights(out.output);
 
   // The plan: options and observer checked, the cells and blocks to read and the cost known.
   auto plan = visibility::plan_viewshed(*d.source, {*spec, *options});
@@ -181,7 +180,11 @@ grpc::Status ViewshedCall::compute() {
                        " cells, more than limits.max_cells = " + std::to_string(env.config.limits.max_cells) +
                        "; give a smaller max_distance",
                    "options.max_distance"));
-  if (auto s = scope_.reserve(plan->cost.bytes + cells * MemoryBudget::kEncodingBytesPerCell,
+  const bool laid_out = out.geotiff.format == terrain::TiffFormat::kCog ||
+                        out.geotiff.compression == terrain::TiffCompression::kNone;
+  const std::uint64_t per_cell =
+      MemoryBudget::kEncodingBytesPerCell + (laid_out ? MemoryBudget::kLayoutBytesPerCell : 0);
+  if (auto s = scope_.reserve(plan->cost.bytes + cells * per_cell,
                               planned_work("this viewshed", plan->cost, options->radial.ray_spacing));
       !s.ok())
     return scope_.status_of(s.error());
@@ -193,28 +196,32 @@ grpc::Status ViewshedCall::compute() {
   const visibility::WorkStats& stats = result->stats;
   scope_.ohf_computed(stats);
 
-  // The raster asked for, derived from the one OHF (as the CLI does).
+  // The raster asked for, derived from the one OHF (as the CLI does); the
+  // default-coded mask for the counts and the picture.
   const auto mask = visibility::visibility_mask(*result, options->target_height);
   const terrain::Georeference& georef = run->georef;
+  const bool is_mask = visibility::is_code_raster(out.output);
   std::optional<double> nodata;
   terrain::Grid<float> values;
-  if (kind == v1::RASTER_KIND_VISIBLE) {
-    nodata = double{visibility::kNoAnswer};
+  terrain::Grid<std::uint8_t> codes;
+  if (is_mask) {
+    codes = visibility::visibility_codes(*result, options->target_height, out.codes);
+    nodata = static_cast<double>(out.codes.nodata);
   } else {
-    values = kind == v1::RASTER_KIND_OHF ? visibility::ohf_raster(*result) : visibility::min_target_height(*result);
-    nodata = d.header().nodata;
+    values = visibility::float_raster(*result, out.output, options->target_height);
+    nodata = out.float_nodata ? out.float_nodata : d.header().nodata;
   }
-  const bool is_mask = kind == v1::RASTER_KIND_VISIBLE;
   const int width = result->ohf.width(), height = result->ohf.height();
   row_bytes_ = static_cast<std::size_t>(width) * (is_mask ? 1 : sizeof(float));
   if (req.include_raster()) {
     raster_.resize(row_bytes_ * static_cast<std::size_t>(height));
     if (!raster_.empty())
-      std::memcpy(raster_.data(), is_mask ? static_cast<const void*>(mask.data()) : values.data(), raster_.size());
+      std::memcpy(raster_.data(), is_mask ? static_cast<const void*>(codes.data()) : values.data(), raster_.size());
   }
   if (req.include_geotiff()) {
-    auto bytes_or = is_mask ? geotiff_bytes(env.scratch, mask, georef, nodata, &kCodeColours)
-                            : geotiff_bytes(env.scratch, values, georef, nodata);
+    const terrain::ColourTable colours = visibility::code_colour_table(out.codes);
+    auto bytes_or = is_mask ? geotiff_bytes(env.scratch, codes, georef, nodata, &colours, out.geotiff)
+                            : geotiff_bytes(env.scratch, values, georef, nodata, out.geotiff);
     if (!bytes_or.ok()) return scope_.status_of(bytes_or.error());
     geotiff_ = std::move(*bytes_or);
   }
@@ -229,10 +236,7 @@ grpc::Status ViewshedCall::compute() {
                                              .x = eye.x,
                                              .y = eye.y,
                                              .ground = eye.ground};
-    const visibility::PreviewRaster shown = kind == v1::RASTER_KIND_OHF ? visibility::PreviewRaster::kOhf
-                                            : kind == v1::RASTER_KIND_MIN_TARGET_HEIGHT
-                                                ? visibility::PreviewRaster::kMinTargetHeight
-                                                : visibility::PreviewRaster::kVisibility;
+    const visibility::PreviewRaster shown = visibility::preview_raster(out.output);
     auto png = png_bytes(env.scratch, [&](const std::string& p) {
       return visibility::write_viewshed_picture(p, *result, shown, mask, caption);
     });

@@ -16,6 +16,7 @@
 #include "horizon/visibility/viewshed_preview.hpp"
 #include "raster_files.hpp"
 #include "translate.hpp"
+#include "viewshed_output.hpp"
 
 namespace horizon::server {
 namespace {
@@ -70,6 +71,8 @@ grpc::Status compute_many_viewshed(CallScope& scope, const v1::ViewshedRequest& 
                                       "raster"));
   if (!v1::Accumulation_IsValid(req.accumulate()))
     return scope.status_of(make_error(ErrorCode::kInvalidArgument, "accumulate: unknown value", "accumulate"));
+  auto geotiff_options = to_many_geotiff_options(req);
+  if (!geotiff_options.ok()) return scope.status_of(geotiff_options.error());
   auto shared = to_viewshed_options(req.options(), 1);
   if (!shared.ok()) return scope.status_of(shared.error());
   scope.record().algorithm = std::string(visibility::algorithm_name(shared->algorithm));
@@ -118,7 +121,11 @@ grpc::Status compute_many_viewshed(CallScope& scope, const v1::ViewshedRequest& 
   // rasters (5), the encodings; per thread one viewshed's buffers (9).
   const unsigned threads =
       std::min<unsigned>(resolve_thread_count(env.config.engine_threads), static_cast<unsigned>(std::max(n, 1)));
-  const std::uint64_t bytes = cells * (4 + 5 + MemoryBudget::kEncodingBytesPerCell) + threads * largest * 9;
+  const bool laid_out = geotiff_options->format == terrain::TiffFormat::kCog ||
+                        geotiff_options->compression == terrain::TiffCompression::kNone;
+  const std::uint64_t per_cell =
+      4 + 5 + MemoryBudget::kEncodingBytesPerCell + (laid_out ? MemoryBudget::kLayoutBytesPerCell : 0);
+  const std::uint64_t bytes = cells * per_cell + threads * largest * 9;
   if (auto s = scope.reserve(
           bytes, "this viewshed of " + std::to_string(n) + " observers (" + std::to_string(work) + " cells of work)");
       !s.ok())
@@ -161,8 +168,8 @@ grpc::Status compute_many_viewshed(CallScope& scope, const v1::ViewshedRequest& 
       copy_rows(mask, out.raster);
   }
   if (req.include_geotiff()) {
-    auto bytes_or = count ? geotiff_bytes(env.scratch, counts, georef, nodata)
-                          : geotiff_bytes(env.scratch, mask, georef, nodata, &kCodeColours);
+    auto bytes_or = count ? geotiff_bytes(env.scratch, counts, georef, nodata, *geotiff_options)
+                          : geotiff_bytes(env.scratch, mask, georef, nodata, &kCodeColours, *geotiff_options);
     if (!bytes_or.ok()) return scope.status_of(bytes_or.error());
     out.geotiff = std::move(*bytes_or);
   }
