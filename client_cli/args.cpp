@@ -214,13 +214,15 @@ std::optional<std::pair<double, double>> Args::pair(std::string_view flag) const
   auto raw = text(flag);
   if (!raw) return std::nullopt;
   const std::string_view s = *raw;
+  // Said in the help's own shape: "X,Y", "START,END", "MIN,MAX".
+  const std::string shape(spec(flag).value);
   const auto comma = s.find(',');
   if (comma == std::string_view::npos || s.find(',', comma + 1) != std::string_view::npos)
-    bad_value(typed(flag), "X,Y (two numbers separated by a comma)", s);
+    bad_value(typed(flag), shape + " (two numbers separated by a comma)", s);
   auto a = parse_double(trim(s.substr(0, comma)));
   auto b = parse_double(trim(s.substr(comma + 1)));
-  if (!a || !b) bad_value(typed(flag), "X,Y (two numbers separated by a comma)", s);
-  if (!std::isfinite(*a) || !std::isfinite(*b)) bad_value(typed(flag), "two finite numbers X,Y", s);
+  if (!a || !b) bad_value(typed(flag), shape + " (two numbers separated by a comma)", s);
+  if (!std::isfinite(*a) || !std::isfinite(*b)) bad_value(typed(flag), "two finite numbers " + shape, s);
   return std::pair{*a, *b};
 }
 

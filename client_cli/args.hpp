@@ -66,7 +66,8 @@ class Args {
   std::optional<double> non_negative(std::string_view flag) const;  // finite, >= 0
   std::optional<int> positive_integer(std::string_view flag) const;
   std::optional<unsigned> non_negative_integer(std::string_view flag) const;
-  // "X,Y": two finite numbers separated by one comma.
+  // Two finite numbers separated by one comma, in the shape the flag
+  // declares ("X,Y", "MIN,MAX"), which messages repeat.
   std::optional<std::pair<double, double>> pair(std::string_view flag) const;
   // One of `allowed`, spelled exactly.
   std::optional<std::string> choice(std::string_view flag, std::span<const std::string_view> allowed) const;

@@ -89,6 +89,8 @@ std::string flag_for_field(std::string_view field) {
   if (field == "nodata_fill_height") return "--nodata";
   if (field == "visible_test_budget") return "--visible-budget";  // horizon region
   if (field == "footprint_splits") return "--splits";
+  if (field == "azimuth_start" || field == "azimuth_end") return "--azimuth";  // horizon viewshed
+  if (field == "pitch_min" || field == "pitch_max") return "--pitch";
   std::string flag = "--" + std::string(field);
   std::replace(flag.begin(), flag.end(), '_', '-');
   return flag;

@@ -16,11 +16,17 @@ Json finite_or_null(double value) {
 
 Json viewshed_options_json(const geodesy::PointSpec& observer, const visibility::ViewshedOptions& options,
                            const std::string& nodata) {
+  const visibility::FieldOfView& view = options.field_of_view;
   return {{"height", observer.height},
           {"height_mode", observer.height_mode == geodesy::HeightMode::kAbsolute ? "absolute" : "above_ground"},
+          {"observer_ground", observer.ground == geodesy::GroundSample::kCell ? "cell" : "bilinear"},
           {"target_height", options.target_height},
           {"max_distance", finite_or_null(options.max_distance)},
           {"curvature", options.curvature_coefficient},
+          {"field_of_view",
+           {{"azimuth", {view.azimuth_start, view.azimuth_end}},
+            {"min_distance", view.min_distance},
+            {"pitch", {view.pitch_min, view.pitch_max}}}},
           {"nodata", nodata},
           {"ray_spacing", options.radial.ray_spacing},
           {"threads", options.threads},

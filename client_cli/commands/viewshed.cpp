@@ -5,6 +5,7 @@
 #include <string_view>
 
 #include "commands/command.hpp"
+#include "commands/viewshed_flags.hpp"
 #include "commands/viewshed_many.hpp"
 #include "horizon/gpu/context_pool.hpp"
 #include "horizon/imageio/imageio.hpp"
@@ -28,6 +29,8 @@ namespace {
 constexpr FlagSpec kFlags[] = {
     {"--observer", "", "X,Y", "Observer in the DEM's CRS (metres or degrees, as the DEM); repeat for many observers",
      true},
+    {"--observer-x", "-ox", "X", "Observer x in the DEM's CRS (with --observer-y): gdal_viewshed's spelling"},
+    {"--observer-y", "-oy", "Y", "Observer y in the DEM's CRS (with --observer-x)"},
     {"--observers", "", "FILE",
      "Many observers: CSV x,y[,height[,max_distance]] (a 'lon,lat' header for WGS84) or GeoJSON points"},
     {"--accumulate", "", "KIND",
@@ -35,11 +38,26 @@ constexpr FlagSpec kFlags[] = {
     {"--summary", "", "FILE.csv", "Many observers: a table of each observer's visible cells, area and time"},
     {"--lat", "", "LAT", "Observer latitude, WGS84 degrees (with --lon)"},
     {"--lon", "", "LON", "Observer longitude, WGS84 degrees (with --lat)"},
-    {"--height", "", "M", "Observer eye height above the ground, metres (default 2)"},
+    {"--height", "-oz", "M", "Observer eye height above the ground, metres (default 2)"},
     {"--altitude", "", "M", "Observer eye altitude, absolute metres (instead of --height)"},
-    {"--target-height", "", "M", "Height above ground of the points looked at, metres (default 0)"},
-    {"--max-distance", "", "M", "Ground distance limit, metres (default: the whole DEM)"},
-    {"--curvature", "", "C", "Curvature/refraction coefficient as GDAL's (default 0.85714; 0 disables)"},
+    {"--observer-ground", "", "HOW",
+     "The ground --height stands on: 'bilinear' (default: between the four nearest cell centres, the surface "
+     "sight lines are tested against) or 'cell' (the value of the observer's cell, as gdal_viewshed and "
+     "r.viewshed take it)"},
+    {"--target-height", "-tz", "M", "Height above ground of the points looked at, metres (default 0)"},
+    {"--max-distance", "-md", "M", "Ground distance limit, metres; 0 or 'none': no limit (default: the whole DEM)"},
+    {"--curvature", "-cc", "C",
+     "GDAL's curvature coefficient: 1 - refraction (default 0.85714; 0: a flat earth, 1: no refraction)"},
+    {"--refraction", "", "K",
+     "GRASS r.viewshed's refraction coefficient instead of --curvature, in [-1, 1] (0.14286 = --curvature "
+     "0.85714)"},
+    {"--azimuth", "", "START,END",
+     "Field of view: degrees clockwise from grid north, START clockwise to END (300,60 wraps through north; "
+     "default: all round)"},
+    {"--min-distance", "", "M", "Field of view: cells nearer than M ground metres are out of range (default 0)"},
+    {"--pitch", "", "MIN,MAX",
+     "Field of view: the ground's angle above the horizontal as the eye sees it, degrees in [-90, 90]; cells "
+     "outside are out of range (default -90,90)"},
     {"--nodata", "", "POLICY", "Voids: 'transparent' (default, never block) or 'fill:H' (terrain at H metres)"},
     {"--algorithm", "", "ALG",
      "'fast' (radial occlusion height field, default), 'exact' (R3's answers, faster), 'conservative' (never hides "
@@ -54,10 +72,16 @@ constexpr FlagSpec kFlags[] = {
     {"--threads", "", "N", "Worker threads (default 0 = all cores)"},
     {"--output", "", "KIND", "Raster written: 'visible' (default), 'ohf' or 'min-target-height'"},
     {"--out", "-o", "OUT.tif", "GeoTIFF to write (required)"},
+    {"--format", "-f -of", "FORMAT",
+     "The GeoTIFF's layout: 'GTiff' (default) or 'COG' (Cloud-Optimised, with overviews), as GDAL names them"},
+    {"--co", "-co", "NAME=VALUE",
+     "A creation option as GDAL's GTiff and COG drivers spell it (COMPRESS=ZSTD, PREDICTOR=2, TILED=NO, "
+     "BLOCKSIZE=256, BIGTIFF=YES, ...); repeatable",
+     true},
     {"--png", "", "PREVIEW.png",
      "Also write a PNG preview: the result over a hillshade (a colour ramp for ohf, min-target-height and count), "
      "with a title, legend, scale bar and north arrow"},
-    {"--band", "", "N", "DEM band to read, 1-based (required when the file has several)"},
+    {"--band", "-b", "N", "DEM band to read, 1-based (required when the file has several)"},
     kValidRangeFlag,
     {"--json", "", "", "Print the summary as a JSON document"},
     remote::kServerFlag,
@@ -83,6 +107,7 @@ struct Request {
   std::optional<std::string> png_path;
   geodesy::PointSpec observer;
   visibility::ViewshedOptions options;
+  GeoTiffFlags geotiff;
   OutputKind output = OutputKind::kVisible;
   std::string algorithm_name = "fast";
   std::string output_name = "visible";
@@ -97,9 +122,9 @@ Request parse_request(const Args& args) {
   r.json = args.has("--json");
   r.full_read = args.has("--full-read");
 
-  r.observer = point_from_flags(args, {"--observer", "--lat", "--lon"});
+  r.observer = observer_point(args);
   if (args.has("--height") && args.has("--altitude"))
-    throw UsageError("--height and --altitude both set the eye; give one of them");
+    throw UsageError(args.typed("--height") + " and --altitude both set the eye; give one of them");
   if (auto altitude = args.number("--altitude")) {
     r.observer.height = *altitude;
     r.observer.height_mode = geodesy::HeightMode::kAbsolute;
@@ -107,15 +132,12 @@ Request parse_request(const Args& args) {
     r.observer.height = args.non_negative("--height").value_or(2.0);
     r.observer.height_mode = geodesy::HeightMode::kAboveGround;
   }
+  r.observer.ground = observer_ground(args);
 
+  r.options = shared_viewshed_options(args);
   visibility::ViewshedOptions& o = r.options;
-  o.target_height = args.non_negative("--target-height").value_or(0.0);
-  if (auto d = args.non_negative("--max-distance")) o.max_distance = *d;
-  o.curvature_coefficient = args.non_negative("--curvature").value_or(o.curvature_coefficient);
-  if (auto policy = args.text("--nodata")) o.nodata = parse_nodata(*policy, o.nodata_fill_height);
   if (auto algorithm = args.choice("--algorithm", kAlgorithms)) r.algorithm_name = *algorithm;
   o.algorithm = *visibility::parse_algorithm(r.algorithm_name);
-  if (auto spacing = args.non_negative("--ray-spacing")) o.radial.ray_spacing = *spacing;
   if (auto backend = args.choice("--backend", kBackends)) o.backend = *visibility::parse_backend(*backend);
   // Either flag names the variant (the other at its default); neither: the device's measured fastest.
   const auto method = args.choice("--gpu-method", kGpuMethods);
@@ -125,7 +147,6 @@ Request parse_request(const Args& args) {
     if (method) o.gpu->method = *visibility::parse_gpu_method(*method);
     if (propagation) o.gpu->log_step = *propagation == "log-step";
   }
-  o.threads = args.non_negative_integer("--threads").value_or(0);
   if (auto output = args.choice("--output", kOutputs)) r.output_name = *output;
   r.output = r.output_name == "ohf"                 ? OutputKind::kOhf
              : r.output_name == "min-target-height" ? OutputKind::kMinTargetHeight
@@ -135,7 +156,8 @@ Request parse_request(const Args& args) {
   (void)source_options(args);  // a malformed --band or --valid-range is a usage error before any reading
   // The engine owns the ranges (max distance > 0, curvature in [0, 2], ...);
   // asking it now makes a bad value a usage error that names the flag.
-  throw_if_invalid_option(visibility::validate_options(o));
+  throw_if_invalid_option(visibility::validate_options(o), &args);
+  r.geotiff = geotiff_flags(args);
 
   auto out = args.text("--out");
   if (!out) throw UsageError("missing -o OUT.tif (the GeoTIFF to write)");
@@ -167,13 +189,13 @@ Status write_output(const Request& r, const terrain::Dem& dem, const visibility:
   const std::string style_path = terrain::qml_path_for(r.out_path);
   if (r.output == OutputKind::kVisible) {
     HORIZON_RETURN_IF_ERROR(terrain::write_geotiff(r.out_path, mask, georef, double{visibility::kNoAnswer},
-                                                   visibility::code_colour_table()));
+                                                   visibility::code_colour_table(), r.geotiff.options));
     return terrain::write_text_file(style_path,
                                     visibility::viewshed_style(visibility::PreviewRaster::kVisibility, 0, 0));
   }
   const terrain::Grid<float> values =
       r.output == OutputKind::kOhf ? visibility::ohf_raster(result) : visibility::min_target_height(result);
-  HORIZON_RETURN_IF_ERROR(terrain::write_geotiff(r.out_path, values, georef, dem.nodata));
+  HORIZON_RETURN_IF_ERROR(terrain::write_geotiff(r.out_path, values, georef, dem.nodata, r.geotiff.options));
   return terrain::write_text_file(style_path, visibility::viewshed_style(preview_raster(r.output), values));
 }
 
@@ -223,8 +245,16 @@ int run_viewshed(const Args& args) {
     if (auto plugin = imageio::plugin_path(); !plugin.ok()) return report_error(plugin.error());
   }
   if (args.has("--server"))  // DEM is a dataset name; the daemon computes
-    return remote::run_viewshed(
-        args, {r.dem_path, r.out_path, r.png_path, r.observer, r.options, r.output_name, r.algorithm_name, r.json});
+    return remote::run_viewshed(args, {.dataset = r.dem_path,
+                                       .out_path = r.out_path,
+                                       .png_path = r.png_path,
+                                       .observer = r.observer,
+                                       .options = r.options,
+                                       .format = r.geotiff.options.format,
+                                       .creation_options = r.geotiff.creation_options,
+                                       .output_name = r.output_name,
+                                       .algorithm_name = r.algorithm_name,
+                                       .json = r.json});
 
   const auto started = std::chrono::steady_clock::now();
   auto source = terrain::ElevationSource::open(r.dem_path, source_options(args));
@@ -356,14 +386,20 @@ const Command& viewshed_command() {
   static const Command command{
       "viewshed",
       "Compute what an observer can see and write it as a GeoTIFF (and a PNG preview)",
-      "horizon viewshed DEM (--observer X,Y... | --lat LAT --lon LON | --observers FILE) -o OUT.tif [options]",
+      "horizon viewshed DEM (--observer X,Y... | -ox X -oy Y | --lat LAT --lon LON | --observers FILE) -o OUT.tif "
+      "[options]",
       "Computes the viewshed of one observer over DEM and writes a georeferenced raster\n"
       "covering the cells within --max-distance:\n"
       "  visible            uint8: 1 visible, 0 hidden, 255 not computed (nodata 255)\n"
       "  ohf                float32: lowest visible elevation above each cell, metres\n"
       "  min-target-height  float32: lowest visible height above the ground, metres\n"
-      "Float rasters use the DEM's nodata value (NaN when it has none). Outputs are\n"
-      "written to a temporary name and renamed, so a failed run leaves nothing behind.\n\n"
+      "Float rasters use the DEM's nodata value (NaN when it has none). Cells outside the\n"
+      "field of view (--azimuth, --min-distance, --pitch) have no answer, as those beyond\n"
+      "--max-distance; nearer terrain outside it still hides. gdal_viewshed's flags are\n"
+      "accepted as spelled (-ox -oy -oz -tz -md -cc -b -f -co), and --refraction takes\n"
+      "r.viewshed's coefficient. --format COG writes a Cloud-Optimised GeoTIFF with\n"
+      "overviews; --co sets GDAL's creation options. Outputs are written to a temporary\n"
+      "name and renamed, so a failed run leaves nothing behind.\n\n"
       "Many observers (--observers FILE, or --observer more than once) run in parallel on\n"
       "the CPU, each with its own height and reach, and write one --accumulate raster:\n"
       "  count              uint32: how many observers see each cell (nodata 4294967295)\n"
@@ -376,6 +412,8 @@ const Command& viewshed_command() {
       "      --max-distance 15000 -o out/rainier.tif --png out/rainier.png\n"
       "  horizon viewshed data/dem/ecuador_andes_utm17s_10m_383x415.tif --observer 713900,9558950 --height 30 \\\n"
       "      --max-distance 2000 --output min-target-height -o out/mth.tif --png out/mth.png --json\n"
+      "  horizon viewshed data/dem/ecuador_andes_utm17s_10m_383x415.tif -ox 713900 -oy 9558950 -oz 30 -md 0 \\\n"
+      "      --observer-ground cell --azimuth 300,60 -f COG -co COMPRESS=ZSTD -o out/north.tif --png out/north.png\n"
       "  horizon viewshed data/dem/rainier_summit_srtm3_400x400.tif --observers examples/rainier_towers.csv \\\n"
       "      --accumulate count -o out/count.tif --png out/count.png --summary out/towers_seen.csv\n",
       run_viewshed,

@@ -9,6 +9,7 @@
 #include <iostream>
 
 #include "commands/command.hpp"
+#include "commands/viewshed_flags.hpp"
 #include "horizon/imageio/imageio.hpp"
 #include "horizon/terrain/geotiff_writer.hpp"
 #include "horizon/terrain/height_view.hpp"
@@ -35,6 +36,7 @@ struct ManyRequest {
   std::optional<std::string> png_path, summary_path;
   std::vector<NamedObserver> observers;
   visibility::ManyObserversOptions options;
+  GeoTiffFlags geotiff;
   std::string algorithm_name = "fast";
   bool json = false;
 };
@@ -57,6 +59,11 @@ ManyRequest parse_many(const Args& args) {
       throw UsageError(std::string(flag) +
                        ": places one observer; with many, put WGS84 points in --observers FILE (a 'lon,lat' header "
                        "or GeoJSON)");
+  for (std::string_view flag : {"--observer-x", "--observer-y"})
+    if (args.has(flag))
+      throw UsageError(args.typed(flag) +
+                       ": places one observer; with many, repeat --observer X,Y or give "
+                       "--observers FILE");
   for (std::string_view flag : {"--output", "--backend", "--gpu-method", "--gpu-propagation", "--full-read"})
     if (args.has(flag))
       throw UsageError(std::string(flag) +
@@ -66,24 +73,24 @@ ManyRequest parse_many(const Args& args) {
   r.dem_path = single_operand(args, "DEM");
   r.json = args.has("--json");
   if (args.has("--height") && args.has("--altitude"))
-    throw UsageError("--height and --altitude both set the eyes; give one of them");
+    throw UsageError(args.typed("--height") + " and --altitude both set the eyes; give one of them");
   const geodesy::HeightMode mode =
       args.has("--altitude") ? geodesy::HeightMode::kAbsolute : geodesy::HeightMode::kAboveGround;
   const double height =
       args.has("--altitude") ? *args.number("--altitude") : args.non_negative("--height").value_or(2.0);
 
+  const geodesy::GroundSample ground = observer_ground(args);
+
   visibility::ViewshedOptions& o = r.options.viewshed;
-  o.target_height = args.non_negative("--target-height").value_or(0.0);
-  if (auto d = args.non_negative("--max-distance")) o.max_distance = *d;
-  o.curvature_coefficient = args.non_negative("--curvature").value_or(o.curvature_coefficient);
-  if (auto policy = args.text("--nodata")) o.nodata = parse_nodata(*policy, o.nodata_fill_height);
+  o = shared_viewshed_options(args);
   if (auto algorithm = args.choice("--algorithm", kManyAlgorithms)) r.algorithm_name = *algorithm;
   o.algorithm = *visibility::parse_algorithm(r.algorithm_name);
-  if (auto spacing = args.non_negative("--ray-spacing")) o.radial.ray_spacing = *spacing;
-  r.options.threads = args.non_negative_integer("--threads").value_or(0);
-  throw_if_invalid_option(visibility::validate_options(o));
+  // --threads is how many observers run at once; each viewshed runs on one.
+  r.options.threads = o.threads;
+  throw_if_invalid_option(visibility::validate_options(o), &args);
   if (auto a = args.choice("--accumulate", kAccumulations)) r.accumulate = *a;
   (void)source_options(args);
+  r.geotiff = geotiff_flags(args);
 
   const std::vector<std::string> points = args.all("--observer");
   for (std::size_t i = 0; i < points.size(); ++i) {
@@ -91,11 +98,13 @@ ManyRequest parse_many(const Args& args) {
     n.site.point = point_of(points[i], i);
     n.site.point.height = height;
     n.site.point.height_mode = mode;
+    n.site.point.ground = ground;
     n.name = "--observer " + points[i];
     r.observers.push_back(std::move(n));
   }
   if (auto file = args.text("--observers")) {
     auto more = read_observers_file(*file, height, mode, 0.0);
+    for (NamedObserver& n : more) n.site.point.ground = ground;
     r.observers.insert(r.observers.end(), std::make_move_iterator(more.begin()), std::make_move_iterator(more.end()));
   }
 
@@ -185,6 +194,8 @@ int run_many_observers(const Args& args) {
                                             .summary_path = r.summary_path,
                                             .observers = r.observers,
                                             .options = r.options.viewshed,
+                                            .format = r.geotiff.options.format,
+                                            .creation_options = r.geotiff.creation_options,
                                             .algorithm_name = r.algorithm_name,
                                             .json = r.json});
 
@@ -214,11 +225,12 @@ int run_many_observers(const Args& args) {
   const terrain::Grid<std::uint8_t> all = visibility::seen_from_all(*res);
   std::uint32_t max_count = 0;
   for (std::uint32_t c : res->count.values()) max_count = std::max(max_count, c);
-  Status written =
-      r.accumulate == "count"
-          ? terrain::write_geotiff(r.out_path, visibility::observer_count(*res), georef, double{visibility::kNoCount})
-          : terrain::write_geotiff(r.out_path, r.accumulate == "all" ? all : any, georef, double{visibility::kNoAnswer},
-                                   visibility::code_colour_table());
+  const terrain::GeoTiffOptions& layout = r.geotiff.options;
+  Status written = r.accumulate == "count"
+                       ? terrain::write_geotiff(r.out_path, visibility::observer_count(*res), georef,
+                                                double{visibility::kNoCount}, layout)
+                       : terrain::write_geotiff(r.out_path, r.accumulate == "all" ? all : any, georef,
+                                                double{visibility::kNoAnswer}, visibility::code_colour_table(), layout);
   if (!written.ok()) return report_error(written.error());
   if (auto s =
           terrain::write_text_file(terrain::qml_path_for(r.out_path),

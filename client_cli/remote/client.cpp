@@ -159,6 +159,7 @@ v1::Point to_proto_point(const geodesy::PointSpec& spec) {
   p.set_height(spec.height);
   p.set_height_mode(spec.height_mode == geodesy::HeightMode::kAbsolute ? v1::HEIGHT_MODE_ABSOLUTE
                                                                        : v1::HEIGHT_MODE_ABOVE_GROUND);
+  if (spec.ground == geodesy::GroundSample::kCell) p.set_ground(v1::GROUND_SAMPLE_CELL);
   return p;
 }
 
@@ -207,6 +208,18 @@ void fill_options(const visibility::ViewshedOptions& options, v1::ViewshedOption
   o.set_nodata_fill_height(options.nodata_fill_height);
   o.set_algorithm(to_proto_algorithm(options.algorithm));
   o.set_ray_spacing(options.radial.ray_spacing);
+  const visibility::FieldOfView& view = options.field_of_view;
+  o.set_azimuth_start(view.azimuth_start);
+  o.set_azimuth_end(view.azimuth_end);
+  o.set_min_distance(view.min_distance);
+  if (view.limits_pitch()) {
+    o.set_pitch_min(view.pitch_min);
+    o.set_pitch_max(view.pitch_max);
+  }
+}
+
+v1::GeotiffFormat to_proto_format(terrain::TiffFormat format) {
+  return format == terrain::TiffFormat::kCog ? v1::GEOTIFF_FORMAT_COG : v1::GEOTIFF_FORMAT_GTIFF;
 }
 
 }  // namespace horizon::cli::remote

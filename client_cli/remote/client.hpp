@@ -13,6 +13,7 @@
 #include "args.hpp"
 #include "horizon/geodesy/crs.hpp"
 #include "horizon/geodesy/observer.hpp"
+#include "horizon/terrain/geotiff_options.hpp"
 #include "horizon/v1/datasets.grpc.pb.h"
 #include "horizon/v1/session.grpc.pb.h"
 #include "horizon/v1/trace.grpc.pb.h"
@@ -67,7 +68,9 @@ v1::Algorithm to_proto_algorithm(visibility::Algorithm algorithm);
 v1::Backend to_proto_backend(visibility::Backend backend);
 v1::GpuMethod to_proto_gpu_method(visibility::GpuMethod method);
 // The options every viewshed request shares (target height, reach,
-// curvature, nodata, algorithm, ray spacing); backend and GPU are the caller's.
+// curvature, nodata, algorithm, ray spacing, field of view); backend and GPU
+// are the caller's.
 void fill_options(const visibility::ViewshedOptions& options, v1::ViewshedOptions& out);
+v1::GeotiffFormat to_proto_format(terrain::TiffFormat format);
 
 }  // namespace horizon::cli::remote

@@ -13,6 +13,7 @@
 
 #include "args.hpp"
 #include "horizon/geodesy/observer.hpp"
+#include "horizon/terrain/geotiff_options.hpp"
 #include "horizon/terrain/height_edit.hpp"
 #include "horizon/trace/camera.hpp"
 #include "horizon/trace/trace.hpp"
@@ -45,6 +46,8 @@ struct ViewshedInputs {
   std::optional<std::string> png_path;
   geodesy::PointSpec observer;
   visibility::ViewshedOptions options;
+  terrain::TiffFormat format = terrain::TiffFormat::kGTiff;
+  std::vector<std::string> creation_options;  // as typed; the daemon parses them as the CLI did
   std::string output_name;     // "visible", "ohf", "min-target-height"
   std::string algorithm_name;  // as given
   bool json = false;
@@ -57,6 +60,8 @@ struct ManyViewshedInputs {
   std::optional<std::string> png_path, summary_path;
   std::vector<NamedObserver> observers;
   visibility::ViewshedOptions options;
+  terrain::TiffFormat format = terrain::TiffFormat::kGTiff;
+  std::vector<std::string> creation_options;
   std::string algorithm_name;
   bool json = false;
 };

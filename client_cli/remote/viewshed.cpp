@@ -37,6 +37,8 @@ int run_viewshed(const Args& args, const ViewshedInputs& in) {
   request.set_raster(in.output_name == "ohf"                 ? v1::RASTER_KIND_OHF
                      : in.output_name == "min-target-height" ? v1::RASTER_KIND_MIN_TARGET_HEIGHT
                                                              : v1::RASTER_KIND_VISIBLE);
+  request.set_geotiff_format(to_proto_format(in.format));
+  for (const std::string& item : in.creation_options) request.add_creation_options(item);
   request.set_include_geotiff(true);
   request.set_include_raster(in.output_name != "visible");  // the values' range, for the QGIS style
   request.set_include_png(in.png_path.has_value());

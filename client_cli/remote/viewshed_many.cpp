@@ -47,6 +47,8 @@ int run_viewshed_many(const Args& args, const ManyViewshedInputs& in) {
   request.set_accumulate(in.accumulate == "any"   ? v1::ACCUMULATION_ANY
                          : in.accumulate == "all" ? v1::ACCUMULATION_ALL
                                                   : v1::ACCUMULATION_COUNT);
+  request.set_geotiff_format(to_proto_format(in.format));
+  for (const std::string& item : in.creation_options) request.add_creation_options(item);
   request.set_include_geotiff(true);
   request.set_include_png(in.png_path.has_value());
   request.set_include_progress(true);  // the daemon's progress drives the bar, as embedded mode's does

@@ -127,6 +127,15 @@ TEST_P(CliCrs, ViewshedRunsAndItsOutputCarriesTheSameCrs) {
   EXPECT_EQ(output.name(), input.name());
   EXPECT_EQ(output.epsg(), input.epsg());
   EXPECT_EQ(output.vertical_epsg(), input.vertical_epsg());
+  // A Cloud-Optimised GeoTIFF (its layout moves every tag) carries it too.
+  const std::string cog = dir_.file("view_cog.tif");
+  const auto c = horizon({"viewshed", path_, "--observer", observer, "--height", "2", "--max-distance", "2000",
+                          "--format", "COG", "-o", cog});
+  ASSERT_EQ(c.exit_code, 0) << c.output;
+  const geodesy::Crs laid_out = gdal_crs(cog);
+  EXPECT_TRUE(laid_out.equivalent_to(input)) << laid_out.wkt() << "\n  vs\n" << input.wkt();
+  EXPECT_EQ(laid_out.name(), input.name());
+  EXPECT_EQ(laid_out.vertical_epsg(), input.vertical_epsg());
 
   // The same observer given in WGS 84, as gdaltransform places the cell's
   // centre (pixel/line col + 0.5, row + 0.5 of the file), lands on the same

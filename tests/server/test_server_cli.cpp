@@ -61,7 +61,10 @@ TEST_F(ServerCli, ViewshedGeoTiffAndPngAreByteIdenticalToEmbedded) {
   const std::string dem = rainier_named_as_the_dataset(dir_);
   for (const char* flags : {" --max-distance 8000", " --max-distance 6000 --output ohf --target-height 3",
                             " --max-distance 2500 --algorithm r3 --output min-target-height",
-                            " --algorithm exact --max-distance 3000 --curvature 0"}) {
+                            " --algorithm exact --max-distance 3000 --curvature 0",
+                            // gdal_viewshed's and r.viewshed's options reach the daemon as given
+                            " -md 4000 --azimuth 300,60 --min-distance 500 --pitch -30,5 --observer-ground cell"
+                            " --refraction 0.2 -f COG -co COMPRESS=LZW -co BLOCKSIZE=64"}) {
     const std::string full = dir_.file("full.tif"), remote = dir_.file("remote.tif");
     const auto a = horizon("viewshed " + dem + kRainierEye + flags + " --full-read -o " + full + " --png " +
                            dir_.file("local.png") + " --json");
@@ -196,8 +199,20 @@ TEST_F(ServerCli, ManyObserversEqualEmbeddedByteForByte) {
     std::ofstream f(towers);
     f << "lon,lat,height,max_distance\n-121.7604,46.8529,10,3000\n-121.7400,46.8600,5\n-121.7800,46.8550,20,2000\n";
   }
-  const std::string flags = " --observers " + towers + " --max-distance 2500 --target-height 1.5";
   const std::string dem = rainier_named_as_the_dataset(dir_);
+  // The shared viewshed flags reach the daemon for every site, as embedded mode applies them.
+  for (const char* shared : {" --azimuth 200,20 --min-distance 300 --observer-ground cell --refraction 0.2",
+                             " -f COG -co BLOCKSIZE=64 -co COMPRESS=ZSTD"}) {
+    const std::string flags = " --observers " + towers + " --max-distance 2500 --target-height 1.5" + shared;
+    const auto a = horizon("viewshed " + dem + flags + " -o " + dir_.file("local.tif"));
+    ASSERT_EQ(a.exit_code, 0) << a.output;
+    const auto b = horizon("viewshed rainier" + server() + flags + " -o " + dir_.file("remote.tif"));
+    ASSERT_EQ(b.exit_code, 0) << b.output;
+    const std::string tif = read_bytes(dir_.file("local.tif"));
+    ASSERT_GT(tif.size(), 1000u);
+    EXPECT_TRUE(tif == read_bytes(dir_.file("remote.tif"))) << "count GeoTIFFs differ with" << shared;
+  }
+  const std::string flags = " --observers " + towers + " --max-distance 2500 --target-height 1.5";
   const auto a = horizon("viewshed " + dem + flags + " -o " + dir_.file("local.tif") + " --png " +
                          dir_.file("local.png") + " --summary " + dir_.file("local.csv") + " --json");
   ASSERT_EQ(a.exit_code, 0) << a.output;

@@ -1,0 +1,383 @@
+// `horizon viewshed` with the options a GIS analyst brings from gdal_viewshed
+// and r.viewshed (viewshed_flags.hpp): gdal_viewshed's spellings, no limit as
+// -md 0, GRASS's refraction coefficient, the field of view, the observer on
+// its cell's value, and the GeoTIFF's format and creation options. Each is
+// checked on the raster written, cell by cell, against what it must be.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "horizon/terrain/dem_reader.hpp"
+#include "horizon/visibility/many_observers.hpp"
+#include "test_support.hpp"
+
+namespace horizon::testing {
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+constexpr const char* kAndes = "ecuador_andes_utm17s_10m_383x415.tif";  // EPSG:32717, 10 m cells
+constexpr double kX = 713900.0, kY = 9558950.0;                         // on a slope, off its cell's centre
+
+CommandResult horizon(const std::vector<std::string>& args) {
+  std::string command = shell_quote(HORIZON_CLI_PATH);
+  for (const std::string& a : args) command += ' ' + shell_quote(a);
+  return run_command(command);
+}
+
+std::vector<std::string> concat(std::vector<std::string> a, const std::vector<std::string>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
+// `horizon viewshed` on the Andes crop with `flags`, writing `out`; the JSON summary.
+Json viewshed(const std::vector<std::string>& flags, const std::string& out) {
+  const auto r = horizon(concat(concat({"viewshed", bundled_dem(kAndes)}, flags), {"-o", out, "--json"}));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  Json j = Json::parse(r.output, nullptr, false);
+  EXPECT_FALSE(j.is_discarded()) << r.output;
+  return j;
+}
+
+terrain::Dem read(const std::string& path) {
+  auto dem = terrain::read_dem(path);
+  EXPECT_TRUE(dem.ok()) << path << ": " << dem.error().message;
+  return dem.ok() ? std::move(*dem) : terrain::Dem{};
+}
+
+// Same size, same georeference, the same value (NaN: no answer) in every cell.
+void expect_same_cells(const terrain::Dem& a, const terrain::Dem& b, const std::string& what) {
+  ASSERT_EQ(a.width(), b.width()) << what;
+  ASSERT_EQ(a.height(), b.height()) << what;
+  EXPECT_EQ(a.georef.transform.origin_x, b.georef.transform.origin_x) << what;
+  EXPECT_EQ(a.georef.transform.origin_y, b.georef.transform.origin_y) << what;
+  for (int r = 0; r < a.height(); ++r)
+    for (int c = 0; c < a.width(); ++c) {
+      const float va = a.elevation.at(c, r), vb = b.elevation.at(c, r);
+      if (std::isnan(va) || std::isnan(vb)) {
+        ASSERT_EQ(std::isnan(va), std::isnan(vb)) << what << " at " << c << "," << r;
+      } else {
+        ASSERT_EQ(va, vb) << what << " at " << c << "," << r;
+      }
+    }
+}
+
+// A cell centre of a written raster, relative to the observer: ground metres east and north.
+struct Offset {
+  double east, north;
+  double distance() const { return std::hypot(east, north); }
+  double azimuth() const {  // degrees clockwise from north, [0, 360)
+    const double a = std::atan2(east, north) * 180.0 / M_PI;
+    return a < 0 ? a + 360.0 : a;
+  }
+};
+Offset offset(const terrain::Dem& raster, int c, int r) {
+  const terrain::GeoTransform& t = raster.georef.transform;
+  return {t.origin_x + (c + 0.5) * t.pixel_width - kX, t.origin_y + (r + 0.5) * t.pixel_height - kY};
+}
+
+std::uint64_t answered(const terrain::Dem& raster) {
+  std::uint64_t n = 0;
+  for (float v : raster.elevation.values()) n += !std::isnan(v);
+  return n;
+}
+
+const std::vector<std::string> kEye = {"--observer", "713900,9558950"};
+
+TEST(CliViewshedOptions, GdalViewshedsSpellingsAreTheLongFlags) {
+  TempDir dir;
+  const Json gdal = viewshed({"-ox", "713900", "-oy", "9558950", "-oz", "30", "-tz", "1.5", "-md", "1500", "-cc", "0.9",
+                              "-b", "1", "-f", "GTiff", "-co", "COMPRESS=LZW"},
+                             dir.file("gdal.tif"));
+  const Json ours =
+      viewshed({"--observer", "713900,9558950", "--height", "30", "--target-height", "1.5", "--max-distance", "1500",
+                "--curvature", "0.9", "--band", "1", "--format", "GTiff", "--co", "COMPRESS=LZW"},
+               dir.file("ours.tif"));
+  EXPECT_EQ(gdal["options"], ours["options"]);
+  EXPECT_EQ(gdal["options"]["height"], 30.0);
+  EXPECT_EQ(gdal["options"]["max_distance"], 1500.0);
+  EXPECT_EQ(gdal["visible_cells"], ours["visible_cells"]);
+  const std::string bytes = read_bytes(dir.file("gdal.tif"));
+  ASSERT_GT(bytes.size(), 1000u);
+  EXPECT_TRUE(bytes == read_bytes(dir.file("ours.tif")));
+  EXPECT_EQ(read(dir.file("gdal.tif")).format, "GeoTIFF UInt8 (LZW, tiled 256x256)");
+
+  // A mistake is named as it was typed.
+  const auto bad = horizon(
+      {"viewshed", bundled_dem(kAndes), "-ox", "713900", "-oy", "9558950", "-md", "-5", "-o", dir.file("bad.tif")});
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.output.find("-md: expected metres >= 0, or 0 or 'none' for no limit, got '-5'"), std::string::npos)
+      << bad.output;
+  const auto half = horizon({"viewshed", bundled_dem(kAndes), "-ox", "713900", "-o", dir.file("half.tif")});
+  EXPECT_EQ(half.exit_code, 2);
+  EXPECT_NE(half.output.find("--observer-y: required with -ox"), std::string::npos) << half.output;
+  EXPECT_FALSE(fs::exists(dir.file("bad.tif")) || fs::exists(dir.file("half.tif")));
+}
+
+// gdal_viewshed's -md 0 is no limit; so is "none"; both equal leaving it out.
+TEST(CliViewshedOptions, MaxDistanceZeroOrNoneIsNoLimit) {
+  TempDir dir;
+  const Json all = viewshed(kEye, dir.file("all.tif"));
+  EXPECT_TRUE(all["options"]["max_distance"].is_null());
+  EXPECT_EQ(all["window"]["width"], 383);
+  for (const char* none : {"0", "none"}) {
+    const std::string out = dir.file(std::string(none) + ".tif");
+    const Json j = viewshed(concat(kEye, {"--max-distance", none}), out);
+    EXPECT_TRUE(j["options"]["max_distance"].is_null()) << none;
+    EXPECT_EQ(j["visible_cells"], all["visible_cells"]) << none;
+    EXPECT_TRUE(read_bytes(out) == read_bytes(dir.file("all.tif"))) << none;
+  }
+}
+
+// GRASS's refraction coefficient k is GDAL's curvature 1 - k; one of the two.
+TEST(CliViewshedOptions, RefractionIsOneMinusCurvature) {
+  TempDir dir;
+  const Json grass = viewshed(concat(kEye, {"--refraction", "0.25", "--max-distance", "3000"}), dir.file("k.tif"));
+  const Json gdal = viewshed(concat(kEye, {"--curvature", "0.75", "--max-distance", "3000"}), dir.file("c.tif"));
+  EXPECT_EQ(grass["options"]["curvature"], 0.75);
+  EXPECT_TRUE(read_bytes(dir.file("k.tif")) == read_bytes(dir.file("c.tif")));
+  // A flat earth (refraction 1) sees at least what a curved one does, and more here.
+  const Json flat = viewshed(concat(kEye, {"--refraction", "1", "--max-distance", "3000"}), dir.file("flat.tif"));
+  EXPECT_EQ(flat["options"]["curvature"], 0.0);
+  EXPECT_GE(flat["visible_cells"].get<int>(), gdal["visible_cells"].get<int>());
+
+  const auto both = horizon(concat(concat({"viewshed", bundled_dem(kAndes)}, kEye),
+                                   {"-cc", "0.8", "--refraction", "0.2", "-o", dir.file("both.tif")}));
+  EXPECT_EQ(both.exit_code, 2);
+  EXPECT_NE(both.output.find("-cc and --refraction both set the bending of sight lines"), std::string::npos)
+      << both.output;
+  const auto range = horizon(
+      concat(concat({"viewshed", bundled_dem(kAndes)}, kEye), {"--refraction", "1.5", "-o", dir.file("r.tif")}));
+  EXPECT_EQ(range.exit_code, 2);
+  EXPECT_NE(range.output.find("--refraction: expected GRASS's refraction coefficient in [-1, 1]"), std::string::npos)
+      << range.output;
+}
+
+// Cells outside the wedge, nearer than --min-distance or outside the pitches
+// have no answer; every other cell has the answer it has without them (the
+// view masks answers, not sight lines).
+TEST(CliViewshedOptions, TheFieldOfViewAnswersOnlyItsCellsAndThoseAsWithoutIt) {
+  TempDir dir;
+  const Json all = viewshed(kEye, dir.file("all.tif"));
+  const terrain::Dem full = read(dir.file("all.tif"));
+  const Json j = viewshed(concat(kEye, {"--azimuth", "300,60", "--min-distance", "400"}), dir.file("view.tif"));
+  EXPECT_EQ(j["options"]["field_of_view"]["azimuth"], Json::array({300.0, 60.0}));
+  EXPECT_EQ(j["options"]["field_of_view"]["min_distance"], 400.0);
+  const terrain::Dem view = read(dir.file("view.tif"));
+  ASSERT_EQ(view.width(), full.width());
+  ASSERT_EQ(view.height(), full.height());
+  // The ground cell sizes may differ from the grid's by the projection's
+  // scale (1e-3 at most in UTM): a margin of 2 m and half a degree.
+  std::uint64_t inside = 0;
+  for (int r = 0; r < view.height(); ++r)
+    for (int c = 0; c < view.width(); ++c) {
+      const Offset o = offset(view, c, r);
+      const double az = o.azimuth();
+      const bool in_wedge = az >= 300.5 || az <= 59.5, out_wedge = az <= 299.5 && az >= 60.5;
+      const bool far = o.distance() >= 402.0, near = o.distance() <= 398.0;
+      const float got = view.elevation.at(c, r), want = full.elevation.at(c, r);
+      if (out_wedge || near) {
+        ASSERT_TRUE(std::isnan(got)) << c << "," << r << " az " << az << " d " << o.distance();
+      } else if (in_wedge && far) {
+        if (std::isnan(want)) {
+          ASSERT_TRUE(std::isnan(got)) << c << "," << r;
+        } else {
+          ASSERT_EQ(got, want) << c << "," << r;
+          ++inside;
+        }
+      }
+    }
+  EXPECT_GT(inside, 10000u);
+  EXPECT_LT(j["visible_cells"].get<int>(), all["visible_cells"].get<int>());
+  EXPECT_GT(j["visible_cells"].get<int>(), 0);
+
+  // Pitches: the ground's angle from the eye, curvature included (as GDAL's limits).
+  const Json p = viewshed(concat(kEye, {"--pitch", "-10,2"}), dir.file("pitch.tif"));
+  EXPECT_EQ(p["options"]["field_of_view"]["pitch"], Json::array({-10.0, 2.0}));
+  const terrain::Dem pitch = read(dir.file("pitch.tif"));
+  const terrain::Dem dem = read(bundled_dem(kAndes));
+  const double eye = p["observer"]["elevation"].get<double>();
+  const double col0 = std::round((pitch.georef.transform.origin_x - dem.georef.transform.origin_x) / 10.0);
+  const double row0 = std::round((pitch.georef.transform.origin_y - dem.georef.transform.origin_y) / -10.0);
+  std::uint64_t kept = 0, cut = 0;
+  for (int r = 0; r < pitch.height(); ++r)
+    for (int c = 0; c < pitch.width(); ++c) {
+      const Offset o = offset(pitch, c, r);
+      const double z = dem.elevation.at(c + static_cast<int>(col0), r + static_cast<int>(row0));
+      if (std::isnan(z) || o.distance() < 30.0) continue;
+      const double d = o.distance();
+      const double angle = std::atan2(z - 0.85714 * d * d / (2 * 6371000.0) - eye, d) * 180.0 / M_PI;
+      const float got = pitch.elevation.at(c, r), want = full.elevation.at(c, r);
+      if (angle < -10.5 || angle > 2.5) {
+        ASSERT_TRUE(std::isnan(got)) << c << "," << r << " pitch " << angle;
+        ++cut;
+      } else if (angle > -9.5 && angle < 1.5) {
+        ASSERT_EQ(got, want) << c << "," << r << " pitch " << angle;
+        ++kept;
+      }
+    }
+  EXPECT_GT(kept, 1000u);
+  EXPECT_GT(cut, 1000u);
+  EXPECT_LT(answered(pitch), answered(full));
+}
+
+TEST(CliViewshedOptions, FieldOfViewMistakesAreNamed) {
+  TempDir dir;
+  struct Case {
+    std::vector<std::string> flags;
+    std::string message;
+  };
+  for (const Case& k : {Case{{"--azimuth", "10"}, "--azimuth: expected START,END (two numbers separated by a comma)"},
+                        Case{{"--azimuth", "10,400"}, "--azimuth: must be degrees in [0, 360]"},
+                        Case{{"--pitch", "5,-5"}, "--pitch: expected MIN,MAX with MIN <= MAX, got '5,-5'"},
+                        Case{{"--pitch", "-95,0"}, "--pitch: must be degrees in [-90, 90]"},
+                        Case{{"--min-distance", "-1"}, "--min-distance: expected a non-negative number"},
+                        Case{{"-md", "300", "--min-distance", "300"}, "--min-distance: must be below -md (300 m)"}}) {
+    const auto r =
+        horizon(concat(concat(concat({"viewshed", bundled_dem(kAndes)}, kEye), k.flags), {"-o", dir.file("out.tif")}));
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find(k.message), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(dir.file("out.tif")));
+  }
+}
+
+// gdal_viewshed and r.viewshed stand the eye on its cell's value; by default
+// Horizon's ground is bilinear between cell centres.
+TEST(CliViewshedOptions, ObserverGroundCellIsTheCellsValue) {
+  TempDir dir;
+  const terrain::Dem dem = read(bundled_dem(kAndes));
+  const terrain::GeoTransform& t = dem.georef.transform;
+  const int col = static_cast<int>(std::floor((kX - t.origin_x) / t.pixel_width));
+  const int row = static_cast<int>(std::floor((kY - t.origin_y) / t.pixel_height));
+  const double cell = dem.elevation.at(col, row);
+  const Json bilinear = viewshed(concat(kEye, {"-oz", "5", "-md", "2000"}), dir.file("b.tif"));
+  const Json own = viewshed(concat(kEye, {"-oz", "5", "-md", "2000", "--observer-ground", "cell"}), dir.file("c.tif"));
+  EXPECT_EQ(own["options"]["observer_ground"], "cell");
+  EXPECT_EQ(bilinear["options"]["observer_ground"], "bilinear");
+  EXPECT_DOUBLE_EQ(own["observer"]["ground"].get<double>(), cell);
+  EXPECT_DOUBLE_EQ(own["observer"]["elevation"].get<double>(), cell + 5.0);
+  // On this slope the two grounds are metres apart, and so are the answers.
+  EXPECT_GT(std::abs(bilinear["observer"]["ground"].get<double>() - cell), 1.0);
+  EXPECT_NE(own["visible_cells"], bilinear["visible_cells"]);
+}
+
+// --format COG and -co: GDAL's spellings, the same cells in another layout.
+TEST(CliViewshedOptions, CogAndCreationOptionsLayOutTheSameCells) {
+  TempDir dir;
+  viewshed(kEye, dir.file("plain.tif"));
+  const terrain::Dem plain = read(dir.file("plain.tif"));
+  EXPECT_EQ(plain.format, "GeoTIFF UInt8 (deflate, tiled 256x256)");
+  viewshed(concat(kEye, {"--format", "COG", "--co", "COMPRESS=LZW", "--co", "BLOCKSIZE=128"}), dir.file("cog.tif"));
+  const terrain::Dem cog = read(dir.file("cog.tif"));
+  EXPECT_EQ(cog.format, "GeoTIFF UInt8 (LZW, tiled 128x128)");
+  expect_same_cells(plain, cog, "COG");
+  viewshed(concat(kEye, {"-co", "TILED=NO", "-co", "COMPRESS=NONE", "--output", "ohf"}), dir.file("strips.tif"));
+  viewshed(concat(kEye, {"--output", "ohf"}), dir.file("ohf.tif"));
+  const terrain::Dem strips = read(dir.file("strips.tif"));
+  EXPECT_EQ(strips.format, "GeoTIFF Float32 (uncompressed, striped)");
+  expect_same_cells(read(dir.file("ohf.tif")), strips, "strips");
+
+  if (run_command("command -v gdalinfo").exit_code == 0) {
+    const auto info = run_command("gdalinfo " + shell_quote(dir.file("cog.tif")));
+    EXPECT_NE(info.output.find("LAYOUT=COG"), std::string::npos) << info.output;
+    EXPECT_NE(info.output.find("Overviews: 192x208, 96x104"), std::string::npos) << info.output;
+  }
+
+  struct Case {
+    std::vector<std::string> flags;
+    std::string message;
+  };
+  for (const Case& k :
+       {Case{{"-co", "COMPRESS=JPEG"}, "-co COMPRESS=JPEG: not a lossless codec"},
+        Case{{"-f", "COG", "-co", "TILED=NO"}, "-co TILED=NO: an option of the GTiff format, not of COG"},
+        Case{{"--co", "ZLEVEL"}, "--co 'ZLEVEL': expected NAME=VALUE"},
+        Case{{"-of", "PNG"}, "-of: expected GTiff or COG, got 'PNG'"}}) {
+    const auto r =
+        horizon(concat(concat(concat({"viewshed", bundled_dem(kAndes)}, kEye), k.flags), {"-o", dir.file("bad.tif")}));
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find(k.message), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(dir.file("bad.tif")));
+  }
+}
+
+// Many observers take the same flags: each site on its cell's value, each
+// viewshed in the field of view, the count in a COG; the engine's answer.
+TEST(CliViewshedOptions, ManyObserversTakeTheSharedFlags) {
+  TempDir dir;
+  const auto r = horizon({"viewshed",
+                          bundled_dem(kAndes),
+                          "--observer",
+                          "713900,9558950",
+                          "--observer",
+                          "713200,9559800",
+                          "-oz",
+                          "10",
+                          "-md",
+                          "1500",
+                          "--azimuth",
+                          "90,270",
+                          "--observer-ground",
+                          "cell",
+                          "--refraction",
+                          "0.2",
+                          "-f",
+                          "COG",
+                          "-o",
+                          dir.file("count.tif"),
+                          "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+
+  const terrain::Dem dem = read(bundled_dem(kAndes));
+  visibility::ManyObserversOptions options;
+  options.viewshed.max_distance = 1500;
+  options.viewshed.curvature_coefficient = 0.8;
+  options.viewshed.field_of_view.azimuth_start = 90;
+  options.viewshed.field_of_view.azimuth_end = 270;
+  std::vector<visibility::ObserverSite> sites(2);
+  sites[0].point.x = 713900;
+  sites[0].point.y = 9558950;
+  sites[1].point.x = 713200;
+  sites[1].point.y = 9559800;
+  for (visibility::ObserverSite& s : sites) {
+    s.point.height = 10;
+    s.point.ground = geodesy::GroundSample::kCell;
+  }
+  auto plan = visibility::plan_many_observers(dem, sites, options);
+  ASSERT_TRUE(plan.ok()) << plan.error().message;
+  auto want = visibility::compute_many_observers(dem, *plan);
+  ASSERT_TRUE(want.ok()) << want.error().message;
+
+  const terrain::Dem count = read(dir.file("count.tif"));
+  EXPECT_EQ(count.format, "GeoTIFF UInt32 (deflate, tiled 512x512)");
+  ASSERT_EQ(count.width(), want->window.width());
+  ASSERT_EQ(count.height(), want->window.height());
+  std::uint64_t seen = 0;
+  for (int row = 0; row < count.height(); ++row)
+    for (int c = 0; c < count.width(); ++c) {
+      const float got = count.elevation.at(c, row);
+      if (!want->answered.at(c, row)) {
+        ASSERT_TRUE(std::isnan(got)) << c << "," << row;
+      } else {
+        ASSERT_EQ(got, static_cast<float>(want->count.at(c, row))) << c << "," << row;
+        seen += want->count.at(c, row) > 0;
+      }
+    }
+  EXPECT_GT(seen, 1000u);
+  // Nothing north of both observers is answered: the view looks south.
+  EXPECT_TRUE(std::isnan(count.elevation.at(count.width() / 2, 0)));
+
+  const auto one = horizon({"viewshed", bundled_dem(kAndes), "--observer", "713900,9558950", "--observer",
+                            "713200,9559800", "-ox", "713900", "-oy", "9558950", "-o", dir.file("x.tif")});
+  EXPECT_EQ(one.exit_code, 2);
+  EXPECT_NE(one.output.find("-ox: places one observer"), std::string::npos) << one.output;
+}
+
+}  // namespace
+}  // namespace horizon::testing
