@@ -91,6 +91,7 @@ std::string flag_for_field(std::string_view field) {
   if (field == "footprint_splits") return "--splits";
   if (field == "azimuth_start" || field == "azimuth_end") return "--azimuth";  // horizon viewshed
   if (field == "pitch_min" || field == "pitch_max") return "--pitch";
+  if (field == "visible_value") return "--visible-value";
   std::string flag = "--" + std::string(field);
   std::replace(flag.begin(), flag.end(), '_', '-');
   return flag;

@@ -45,6 +45,13 @@ Json to_json(const terrain::Window& w) {
               {"row1", w.row1}, {"width", w.width()}, {"height", w.height()}};
 }
 
+Json to_json(const visibility::ValueCodes& codes) {
+  return Json{{"visible", codes.visible},
+              {"hidden", codes.hidden},
+              {"out_of_range", codes.out_of_range},
+              {"nodata", codes.nodata}};
+}
+
 Json to_json(const visibility::WorkStats& s) {
   return Json{{"dem_cells", s.dem_cells},
               {"window_cells", s.window_cells},

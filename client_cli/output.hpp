@@ -18,6 +18,7 @@
 #include "horizon/terrain/grid.hpp"
 #include "horizon/visibility/line_of_sight.hpp"
 #include "horizon/visibility/options.hpp"
+#include "horizon/visibility/viewshed_outputs.hpp"
 #include "horizon/visibility/work_stats.hpp"
 
 namespace horizon::cli {
@@ -34,6 +35,8 @@ Json to_json(const terrain::GeoTransform& transform);  // GDAL order [x0, dx, 0,
 Json to_json(const terrain::Window& window);
 // Includes "backend" ("cpu"/"gpu") and "gpu_fallback" (why the GPU asked for did not answer; null when it did).
 Json to_json(const visibility::WorkStats& stats);
+// A uint8 raster's codes: {"visible", "hidden", "out_of_range", "nodata"}.
+Json to_json(const visibility::ValueCodes& codes);
 Json to_json(const visibility::ProfileSample& sample);
 // A resolved point: CRS x/y, lon/lat (when known), grid col/row, ground and point elevation.
 Json to_json(const geodesy::GridPoint& point, const std::optional<geodesy::LonLat>& lonlat);

@@ -7,6 +7,7 @@
 #include "commands/command.hpp"
 #include "commands/viewshed_flags.hpp"
 #include "commands/viewshed_many.hpp"
+#include "commands/viewshed_raster.hpp"
 #include "horizon/gpu/context_pool.hpp"
 #include "horizon/imageio/imageio.hpp"
 #include "horizon/terrain/dem_reader.hpp"
@@ -70,7 +71,16 @@ constexpr FlagSpec kFlags[] = {
     {"--gpu-propagation", "", "P",
      "On the GPU: 'log-step' (shift doubling, log2 N passes, default) or 'one-step' (N one-cell passes); same result"},
     {"--threads", "", "N", "Worker threads (default 0 = all cores)"},
-    {"--output", "", "KIND", "Raster written: 'visible' (default), 'ohf' or 'min-target-height'"},
+    {"--output", "-om", "KIND",
+     "Raster written: 'visible' (default), 'boolean', 'ohf', 'min-target-height', 'vertical-angle' or "
+     "'elevation-difference' (gdal_viewshed's NORMAL, DEM, GROUND: visible, ohf, min-target-height)"},
+    {"--visible-value", "-vv", "N", "visible: the code of visible cells, 0-255 (default 1)"},
+    {"--hidden-value", "-iv", "N", "visible: the code of hidden cells (default 0)"},
+    {"--out-of-range-value", "-ov", "N",
+     "visible: the code of cells beyond --max-distance or outside the field of view (default 255)"},
+    {"--output-nodata", "-a_nodata", "V",
+     "The value of cells without an answer (voids; in float rasters every one) and the file's nodata: a code for "
+     "visible and boolean (default 255), a number or 'nan' for the others (default: the DEM's nodata, else NaN)"},
     {"--out", "-o", "OUT.tif", "GeoTIFF to write (required)"},
     {"--format", "-f -of", "FORMAT",
      "The GeoTIFF's layout: 'GTiff' (default) or 'COG' (Cloud-Optimised, with overviews), as GDAL names them"},
@@ -94,12 +104,9 @@ constexpr FlagSpec kFlags[] = {
 };
 
 constexpr std::string_view kAlgorithms[] = {"fast", "exact", "conservative", "r3"};
-constexpr std::string_view kOutputs[] = {"visible", "ohf", "min-target-height"};
 constexpr std::string_view kBackends[] = {"auto", "cpu", "gpu"};
 constexpr std::string_view kGpuMethods[] = {"fragment", "compute"};
 constexpr std::string_view kGpuPropagations[] = {"log-step", "one-step"};
-
-enum class OutputKind { kVisible, kOhf, kMinTargetHeight };
 
 struct Request {
   std::string dem_path;
@@ -108,9 +115,8 @@ struct Request {
   geodesy::PointSpec observer;
   visibility::ViewshedOptions options;
   GeoTiffFlags geotiff;
-  OutputKind output = OutputKind::kVisible;
+  RasterFlags raster;
   std::string algorithm_name = "fast";
-  std::string output_name = "visible";
   bool json = false;
   bool full_read = false;
 };
@@ -147,12 +153,9 @@ Request parse_request(const Args& args) {
     if (method) o.gpu->method = *visibility::parse_gpu_method(*method);
     if (propagation) o.gpu->log_step = *propagation == "log-step";
   }
-  if (auto output = args.choice("--output", kOutputs)) r.output_name = *output;
-  r.output = r.output_name == "ohf"                 ? OutputKind::kOhf
-             : r.output_name == "min-target-height" ? OutputKind::kMinTargetHeight
-                                                    : OutputKind::kVisible;
+  r.raster = raster_flags(args);
   // Only the visible/hidden raster is written: exact may skip finding R3's OHF.
-  o.visibility_only = r.output == OutputKind::kVisible;
+  o.visibility_only = !visibility::needs_heights(r.raster.output);
   (void)source_options(args);  // a malformed --band or --valid-range is a usage error before any reading
   // The engine owns the ranges (max distance > 0, curvature in [0, 2], ...);
   // asking it now makes a bad value a usage error that names the flag.
@@ -168,35 +171,26 @@ Request parse_request(const Args& args) {
   return r;
 }
 
-visibility::PreviewRaster preview_raster(OutputKind kind) {
-  switch (kind) {
-    case OutputKind::kVisible:
-      return visibility::PreviewRaster::kVisibility;
-    case OutputKind::kOhf:
-      return visibility::PreviewRaster::kOhf;
-    case OutputKind::kMinTargetHeight:
-      return visibility::PreviewRaster::kMinTargetHeight;
-  }
-  return visibility::PreviewRaster::kVisibility;
-}
-
 // The raster asked for, written atomically by the engine's writer, and its
-// QGIS style beside it (OUT.qml): the mask with the previews' colour table.
-Status write_output(const Request& r, const terrain::Dem& dem, const visibility::ViewshedRun& run,
-                    const terrain::Grid<std::uint8_t>& mask) {
+// QGIS style beside it (OUT.qml): codes with the previews' colour table in
+// the file, or a ramp over the values written.
+Status write_output(const Request& r, const terrain::Dem& dem, const visibility::ViewshedRun& run) {
   const visibility::ViewshedResult& result = run.result;
   const terrain::Georeference& georef = run.georef;
   const std::string style_path = terrain::qml_path_for(r.out_path);
-  if (r.output == OutputKind::kVisible) {
-    HORIZON_RETURN_IF_ERROR(terrain::write_geotiff(r.out_path, mask, georef, double{visibility::kNoAnswer},
-                                                   visibility::code_colour_table(), r.geotiff.options));
-    return terrain::write_text_file(style_path,
-                                    visibility::viewshed_style(visibility::PreviewRaster::kVisibility, 0, 0));
+  const RasterFlags& raster = r.raster;
+  if (visibility::is_code_raster(raster.output)) {
+    const visibility::ValueCodes& codes = raster.codes;
+    HORIZON_RETURN_IF_ERROR(terrain::write_geotiff(
+        r.out_path, visibility::visibility_codes(result, r.options.target_height, codes), georef,
+        static_cast<double>(codes.nodata), visibility::code_colour_table(codes), r.geotiff.options));
+    return terrain::write_text_file(style_path, visibility::visibility_style(codes));
   }
-  const terrain::Grid<float> values =
-      r.output == OutputKind::kOhf ? visibility::ohf_raster(result) : visibility::min_target_height(result);
-  HORIZON_RETURN_IF_ERROR(terrain::write_geotiff(r.out_path, values, georef, dem.nodata, r.geotiff.options));
-  return terrain::write_text_file(style_path, visibility::viewshed_style(preview_raster(r.output), values));
+  const terrain::Grid<float> values = visibility::float_raster(result, raster.output, r.options.target_height);
+  const std::optional<double> nodata = raster.output_nodata ? raster.output_nodata : dem.nodata;
+  HORIZON_RETURN_IF_ERROR(terrain::write_geotiff(r.out_path, values, georef, nodata, r.geotiff.options));
+  return terrain::write_text_file(style_path,
+                                  visibility::viewshed_style(visibility::preview_raster(raster.output), values));
 }
 
 // The request planned on the DEM's header (nothing decoded yet): with a
@@ -252,7 +246,7 @@ int run_viewshed(const Args& args) {
                                        .options = r.options,
                                        .format = r.geotiff.options.format,
                                        .creation_options = r.geotiff.creation_options,
-                                       .output_name = r.output_name,
+                                       .raster = r.raster,
                                        .algorithm_name = r.algorithm_name,
                                        .json = r.json});
 
@@ -280,8 +274,9 @@ int run_viewshed(const Args& args) {
   if (!gpu.unavailable.empty()) result->stats.gpu_fallback = gpu.unavailable;
   warn_gpu_fallback(result->stats);
 
+  if (auto s = write_output(r, *dem, *run); !s.ok()) return report_error(s.error());
+  // The default codes, for the counts and the picture (whatever codes the file has).
   const terrain::Grid<std::uint8_t> mask = visibility::visibility_mask(*result, r.options.target_height);
-  if (auto s = write_output(r, *dem, *run, mask); !s.ok()) return report_error(s.error());
   double preview_seconds = 0.0;
   if (r.png_path) {
     const auto drawing = std::chrono::steady_clock::now();
@@ -292,7 +287,8 @@ int run_viewshed(const Args& args) {
                                              .x = observer.x,
                                              .y = observer.y,
                                              .ground = observer.ground};
-    if (auto s = visibility::write_viewshed_picture(*r.png_path, *result, preview_raster(r.output), mask, caption);
+    if (auto s = visibility::write_viewshed_picture(*r.png_path, *result, visibility::preview_raster(r.raster.output),
+                                                    mask, caption);
         !s.ok())
       return report_error(s.error());
     preview_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - drawing).count();
@@ -323,7 +319,8 @@ int run_viewshed(const Args& args) {
     Json j;
     j["dem"] = r.dem_path;
     j["output"] = r.out_path;
-    j["output_kind"] = r.output_name;
+    j["output_kind"] = r.raster.name;
+    j["codes"] = visibility::is_code_raster(r.raster.output) ? to_json(r.raster.codes) : Json(nullptr);
     j["png"] = r.png_path ? Json(*r.png_path) : Json(nullptr);
     j["style"] = terrain::qml_path_for(r.out_path);
     j["algorithm"] = r.algorithm_name;
@@ -374,7 +371,7 @@ int run_viewshed(const Args& args) {
                     : std::string(""))
             << (stats.backend == "gpu" ? " on the GPU" : "") << '\n'
             << "  compute:    " << fixed(stats.seconds, 3) << " s (" << fixed(total_seconds, 3) << " s in all)\n"
-            << "  wrote:      " << r.out_path << " (" << r.output_name << "), its QGIS style "
+            << "  wrote:      " << r.out_path << " (" << r.raster.name << "), its QGIS style "
             << terrain::qml_path_for(r.out_path) << '\n';
   if (r.png_path) std::cout << "  preview:    " << *r.png_path << " (" << fixed(preview_seconds, 3) << " s)\n";
   return kExitOk;
@@ -390,16 +387,21 @@ const Command& viewshed_command() {
       "[options]",
       "Computes the viewshed of one observer over DEM and writes a georeferenced raster\n"
       "covering the cells within --max-distance:\n"
-      "  visible            uint8: 1 visible, 0 hidden, 255 not computed (nodata 255)\n"
+      "  visible            uint8: 1 visible, 0 hidden, 255 out of range or void (nodata 255);\n"
+      "                     -vv -iv -ov -a_nodata set the four codes, as gdal_viewshed's\n"
+      "  boolean            uint8, r.viewshed -b: 1 visible, 0 hidden or out of range, 255 void\n"
       "  ohf                float32: lowest visible elevation above each cell, metres\n"
       "  min-target-height  float32: lowest visible height above the ground, metres\n"
-      "Float rasters use the DEM's nodata value (NaN when it has none). Cells outside the\n"
-      "field of view (--azimuth, --min-distance, --pitch) have no answer, as those beyond\n"
-      "--max-distance; nearer terrain outside it still hides. gdal_viewshed's flags are\n"
-      "accepted as spelled (-ox -oy -oz -tz -md -cc -b -f -co), and --refraction takes\n"
-      "r.viewshed's coefficient. --format COG writes a Cloud-Optimised GeoTIFF with\n"
-      "overviews; --co sets GDAL's creation options. Outputs are written to a temporary\n"
-      "name and renamed, so a failed run leaves nothing behind.\n\n"
+      "  vertical-angle     float32, r.viewshed's: degrees from straight down to each visible\n"
+      "                     target (90 level)\n"
+      "  elevation-difference  float32, r.viewshed -e: each visible cell's ground minus the eye\n"
+      "Float rasters use -a_nodata, else the DEM's nodata value (NaN when it has none).\n"
+      "Cells outside the field of view (--azimuth, --min-distance, --pitch) have no answer,\n"
+      "as those beyond --max-distance; nearer terrain outside it still hides. gdal_viewshed's\n"
+      "flags are accepted as spelled (-ox -oy -oz -tz -md -cc -om -vv -iv -ov -a_nodata -b\n"
+      "-f -co), and --refraction takes r.viewshed's coefficient. --format COG writes a\n"
+      "Cloud-Optimised GeoTIFF with overviews; --co sets GDAL's creation options. Outputs\n"
+      "are written to a temporary name and renamed, so a failed run leaves nothing behind.\n\n"
       "Many observers (--observers FILE, or --observer more than once) run in parallel on\n"
       "the CPU, each with its own height and reach, and write one --accumulate raster:\n"
       "  count              uint32: how many observers see each cell (nodata 4294967295)\n"
@@ -412,6 +414,8 @@ const Command& viewshed_command() {
       "      --max-distance 15000 -o out/rainier.tif --png out/rainier.png\n"
       "  horizon viewshed data/dem/ecuador_andes_utm17s_10m_383x415.tif --observer 713900,9558950 --height 30 \\\n"
       "      --max-distance 2000 --output min-target-height -o out/mth.tif --png out/mth.png --json\n"
+      "  horizon viewshed data/dem/everest_summit_voids_srtm3_300x300.tif --lat 27.9881 --lon 86.925 \\\n"
+      "      --altitude 8850 -md 8000 -vv 255 -iv 0 -ov 128 -a_nodata 64 -o out/codes.tif --png out/codes.png\n"
       "  horizon viewshed data/dem/ecuador_andes_utm17s_10m_383x415.tif -ox 713900 -oy 9558950 -oz 30 -md 0 \\\n"
       "      --observer-ground cell --azimuth 300,60 -f COG -co COMPRESS=ZSTD -o out/north.tif --png out/north.png\n"
       "  horizon viewshed data/dem/rainier_summit_srtm3_400x400.tif --observers examples/rainier_towers.csv \\\n"

@@ -64,9 +64,10 @@ ManyRequest parse_many(const Args& args) {
       throw UsageError(args.typed(flag) +
                        ": places one observer; with many, repeat --observer X,Y or give "
                        "--observers FILE");
-  for (std::string_view flag : {"--output", "--backend", "--gpu-method", "--gpu-propagation", "--full-read"})
+  for (std::string_view flag : {"--output", "--visible-value", "--hidden-value", "--out-of-range-value",
+                                "--output-nodata", "--backend", "--gpu-method", "--gpu-propagation", "--full-read"})
     if (args.has(flag))
-      throw UsageError(std::string(flag) +
+      throw UsageError(args.typed(flag) +
                        ": not with many observers (they run on the CPU and write the --accumulate raster)");
 
   ManyRequest r;

@@ -218,6 +218,24 @@ void fill_options(const visibility::ViewshedOptions& options, v1::ViewshedOption
   }
 }
 
+v1::RasterKind to_proto_raster(visibility::ViewshedOutput output) {
+  switch (output) {
+    case visibility::ViewshedOutput::kVisibility:
+      return v1::RASTER_KIND_VISIBLE;
+    case visibility::ViewshedOutput::kBoolean:
+      return v1::RASTER_KIND_BOOLEAN;
+    case visibility::ViewshedOutput::kOhf:
+      return v1::RASTER_KIND_OHF;
+    case visibility::ViewshedOutput::kMinTargetHeight:
+      return v1::RASTER_KIND_MIN_TARGET_HEIGHT;
+    case visibility::ViewshedOutput::kVerticalAngle:
+      return v1::RASTER_KIND_VERTICAL_ANGLE;
+    case visibility::ViewshedOutput::kElevationDifference:
+      return v1::RASTER_KIND_ELEVATION_DIFFERENCE;
+  }
+  return v1::RASTER_KIND_UNSPECIFIED;
+}
+
 v1::GeotiffFormat to_proto_format(terrain::TiffFormat format) {
   return format == terrain::TiffFormat::kCog ? v1::GEOTIFF_FORMAT_COG : v1::GEOTIFF_FORMAT_GTIFF;
 }

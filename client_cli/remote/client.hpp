@@ -20,6 +20,7 @@
 #include "horizon/v1/visibility.grpc.pb.h"
 #include "horizon/visibility/cull.hpp"
 #include "horizon/visibility/options.hpp"
+#include "horizon/visibility/viewshed_outputs.hpp"
 #include "horizon/visibility/work_stats.hpp"
 
 namespace horizon::cli::remote {
@@ -71,6 +72,7 @@ v1::GpuMethod to_proto_gpu_method(visibility::GpuMethod method);
 // curvature, nodata, algorithm, ray spacing, field of view); backend and GPU
 // are the caller's.
 void fill_options(const visibility::ViewshedOptions& options, v1::ViewshedOptions& out);
+v1::RasterKind to_proto_raster(visibility::ViewshedOutput output);
 v1::GeotiffFormat to_proto_format(terrain::TiffFormat format);
 
 }  // namespace horizon::cli::remote

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "args.hpp"
+#include "commands/viewshed_raster.hpp"
 #include "horizon/geodesy/observer.hpp"
 #include "horizon/terrain/geotiff_options.hpp"
 #include "horizon/terrain/height_edit.hpp"
@@ -48,7 +49,7 @@ struct ViewshedInputs {
   visibility::ViewshedOptions options;
   terrain::TiffFormat format = terrain::TiffFormat::kGTiff;
   std::vector<std::string> creation_options;  // as typed; the daemon parses them as the CLI did
-  std::string output_name;     // "visible", "ohf", "min-target-height"
+  RasterFlags raster;                         // the raster, its codes and -a_nodata
   std::string algorithm_name;  // as given
   bool json = false;
 };

@@ -34,13 +34,19 @@ int run_viewshed(const Args& args, const ViewshedInputs& in) {
     o.set_gpu_method(to_proto_gpu_method(in.options.gpu->method));
     o.set_gpu_log_step(in.options.gpu->log_step);
   }
-  request.set_raster(in.output_name == "ohf"                 ? v1::RASTER_KIND_OHF
-                     : in.output_name == "min-target-height" ? v1::RASTER_KIND_MIN_TARGET_HEIGHT
-                                                             : v1::RASTER_KIND_VISIBLE);
+  const RasterFlags& raster = in.raster;
+  request.set_raster(to_proto_raster(raster.output));
+  if (raster.output == visibility::ViewshedOutput::kVisibility) {
+    v1::ValueCodes& codes = *request.mutable_codes();
+    codes.set_visible(raster.codes.visible);
+    codes.set_hidden(raster.codes.hidden);
+    codes.set_out_of_range(raster.codes.out_of_range);
+  }
+  if (raster.output_nodata) request.set_output_nodata(*raster.output_nodata);
   request.set_geotiff_format(to_proto_format(in.format));
   for (const std::string& item : in.creation_options) request.add_creation_options(item);
   request.set_include_geotiff(true);
-  request.set_include_raster(in.output_name != "visible");  // the values' range, for the QGIS style
+  request.set_include_raster(!visibility::is_code_raster(raster.output));  // the values' range, for the QGIS style
   request.set_include_png(in.png_path.has_value());
   request.set_include_progress(true);  // the daemon's progress drives the bar, as embedded mode's does
 
@@ -87,14 +93,11 @@ int run_viewshed(const Args& args, const ViewshedInputs& in) {
   if (auto s = reader->Finish(); !s.ok()) return report_status(s, client.address());
 
   if (auto s = write_file_atomic(in.out_path, geotiff); !s.ok()) return report_error(s.error());
-  const visibility::PreviewRaster shown = in.output_name == "ohf" ? visibility::PreviewRaster::kOhf
-                                          : in.output_name == "min-target-height"
-                                              ? visibility::PreviewRaster::kMinTargetHeight
-                                              : visibility::PreviewRaster::kVisibility;
   if (!std::isfinite(low)) low = high = 0.0;
-  if (auto s =
-          terrain::write_text_file(terrain::qml_path_for(in.out_path), visibility::viewshed_style(shown, low, high));
-      !s.ok())
+  const std::string style = visibility::is_code_raster(raster.output)
+                                ? visibility::visibility_style(raster.codes)
+                                : visibility::viewshed_style(visibility::preview_raster(raster.output), low, high);
+  if (auto s = terrain::write_text_file(terrain::qml_path_for(in.out_path), style); !s.ok())
     return report_error(s.error());
   if (in.png_path)
     if (auto s = write_file_atomic(*in.png_path, png); !s.ok()) return report_error(s.error());
@@ -115,7 +118,8 @@ int run_viewshed(const Args& args, const ViewshedInputs& in) {
     Json j;
     j["dem"] = in.dataset;
     j["output"] = in.out_path;
-    j["output_kind"] = in.output_name;
+    j["output_kind"] = raster.name;
+    j["codes"] = visibility::is_code_raster(raster.output) ? to_json(raster.codes) : Json(nullptr);
     j["png"] = in.png_path ? Json(*in.png_path) : Json(nullptr);
     j["style"] = terrain::qml_path_for(in.out_path);
     j["algorithm"] = in.algorithm_name;
@@ -157,7 +161,7 @@ int run_viewshed(const Args& args, const ViewshedInputs& in) {
             << (stats.backend == "gpu" ? " on the GPU" : "") << '\n'
             << "  compute:    " << fixed(stats.seconds, 3) << " s on the daemon (" << fixed(total_seconds, 3)
             << " s in all)\n"
-            << "  wrote:      " << in.out_path << " (" << in.output_name << "), its QGIS style "
+            << "  wrote:      " << in.out_path << " (" << raster.name << "), its QGIS style "
             << terrain::qml_path_for(in.out_path) << '\n';
   if (in.png_path)
     std::cout << "  preview:    " << *in.png_path << " (" << fixed(summary.preview_seconds(), 3)

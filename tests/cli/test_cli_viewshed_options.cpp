@@ -307,6 +307,178 @@ TEST(CliViewshedOptions, CogAndCreationOptionsLayOutTheSameCells) {
   }
 }
 
+// gdal_viewshed's four codes: -vv visible, -iv hidden, -ov out of range,
+// -a_nodata the voids (and the file's nodata); the same cells as the default
+// 1 / 0 / 255, voids told apart from out of range.
+TEST(CliViewshedOptions, ValueCodesAreGdalViewshedsFour) {
+  TempDir dir;
+  const std::string everest = bundled_dem("everest_summit_voids_srtm3_300x300.tif");
+  const std::vector<std::string> eye = {"viewshed", everest,      "--lat", "27.9881", "--lon",
+                                        "86.925",   "--altitude", "8850",  "-md",     "8000"};
+  ASSERT_EQ(horizon(concat(eye, {"-o", dir.file("default.tif")})).exit_code, 0);
+  const auto r = horizon(
+      concat(eye, {"-vv", "255", "-iv", "0", "-ov", "128", "-a_nodata", "64", "-o", dir.file("codes.tif"), "--json"}));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json j = Json::parse(r.output);
+  EXPECT_EQ(j["codes"], Json({{"visible", 255}, {"hidden", 0}, {"out_of_range", 128}, {"nodata", 64}}));
+
+  const terrain::Dem plain = read(dir.file("default.tif")), coded = read(dir.file("codes.tif"));
+  const terrain::Dem dem = read(everest);
+  EXPECT_EQ(coded.nodata, 64.0);
+  ASSERT_EQ(coded.width(), plain.width());
+  ASSERT_EQ(coded.height(), plain.height());
+  const terrain::GeoTransform &t = coded.georef.transform, &d = dem.georef.transform;
+  const int col0 = static_cast<int>(std::lround((t.origin_x - d.origin_x) / d.pixel_width));
+  const int row0 = static_cast<int>(std::lround((t.origin_y - d.origin_y) / d.pixel_height));
+  std::uint64_t voids = 0, out_of_range = 0, visible = 0, hidden = 0;
+  for (int row = 0; row < coded.height(); ++row)
+    for (int c = 0; c < coded.width(); ++c) {
+      const float got = coded.elevation.at(c, row), was = plain.elevation.at(c, row);
+      if (std::isnan(dem.elevation.at(c + col0, row + row0))) {
+        ASSERT_TRUE(std::isnan(got)) << c << "," << row;  // 64, the nodata
+        ++voids;
+      } else if (std::isnan(was)) {
+        ASSERT_EQ(got, 128.0f) << c << "," << row;
+        ++out_of_range;
+      } else {
+        ASSERT_EQ(got, was == 1.0f ? 255.0f : 0.0f) << c << "," << row;
+        ++(was == 1.0f ? visible : hidden);
+      }
+    }
+  EXPECT_GT(voids, 1000u);
+  EXPECT_GT(out_of_range, 1000u);
+  EXPECT_EQ(visible, j["visible_cells"].get<std::uint64_t>());
+  EXPECT_EQ(hidden, j["hidden_cells"].get<std::uint64_t>());
+  // QGIS draws each code in its class's colour, the voids left transparent.
+  const std::string qml = read_bytes(dir.file("codes.qml"));
+  EXPECT_NE(qml.find("value=\"255\" color=\"#0072b2\" alpha=\"255\" label=\"visible\""), std::string::npos) << qml;
+  EXPECT_NE(qml.find("value=\"0\" color=\"#d55e00\" alpha=\"255\" label=\"hidden\""), std::string::npos) << qml;
+  EXPECT_NE(qml.find("value=\"128\""), std::string::npos) << qml;
+  EXPECT_EQ(qml.find("value=\"64\""), std::string::npos) << qml;
+
+  // r.viewshed -b: 1 visible, 0 hidden or out of range, voids no data.
+  ASSERT_EQ(horizon(concat(eye, {"--output", "boolean", "-o", dir.file("boolean.tif")})).exit_code, 0);
+  const terrain::Dem boolean = read(dir.file("boolean.tif"));
+  for (int row = 0; row < boolean.height(); ++row)
+    for (int c = 0; c < boolean.width(); ++c) {
+      const float got = boolean.elevation.at(c, row), was = plain.elevation.at(c, row);
+      if (std::isnan(dem.elevation.at(c + col0, row + row0)))
+        ASSERT_TRUE(std::isnan(got)) << c << "," << row;
+      else
+        ASSERT_EQ(got, was == 1.0f ? 1.0f : 0.0f) << c << "," << row;
+    }
+
+  struct Case {
+    std::vector<std::string> flags;
+    std::string message;
+  };
+  for (const Case& k : {Case{{"-vv", "256"}, "-vv: expected a code, a whole number in [0, 255], got '256'"},
+                        Case{{"-iv", "1.5"}, "-iv: expected a code"},
+                        Case{{"-vv", "7", "-a_nodata", "7"}, "-vv: 7 is also the nodata value"},
+                        Case{{"-vv", "0"}, "-vv: 0 is also the hidden value"},
+                        Case{{"--output", "boolean", "-ov", "3"}, "-ov: codes only the visible raster"},
+                        Case{{"-om", "GROUND", "-a_nodata", "low"}, "-a_nodata: expected a float32 value or 'nan'"},
+                        Case{{"-om", "FAST"}, "-om: expected one of visible, boolean"}}) {
+    const auto bad = horizon(concat(concat(eye, k.flags), {"-o", dir.file("bad.tif")}));
+    EXPECT_EQ(bad.exit_code, 2) << bad.output;
+    EXPECT_NE(bad.output.find(k.message), std::string::npos) << bad.output;
+    EXPECT_FALSE(fs::exists(dir.file("bad.tif")));
+  }
+}
+
+// r.viewshed's rasters, by their definitions: the elevation difference is
+// each visible cell's ground minus the eye, the vertical angle
+// 90 + atan2(ground + target - curvature drop - eye, distance); NaN (or
+// -a_nodata) elsewhere. gdal_viewshed's -om DEM and GROUND are the OHF and
+// the minimum target height.
+TEST(CliViewshedOptions, RViewshedsRastersByTheirDefinitions) {
+  TempDir dir;
+  const std::vector<std::string> flags = concat(kEye, {"-oz", "10", "-tz", "2", "-md", "2000"});
+  const Json j = viewshed(concat(flags, {"--output", "elevation-difference"}), dir.file("e.tif"));
+  EXPECT_EQ(j["output_kind"], "elevation-difference");
+  EXPECT_TRUE(j["codes"].is_null());
+  viewshed(concat(flags, {"--output", "vertical-angle", "-a_nodata", "-9999"}), dir.file("a.tif"));
+  viewshed(flags, dir.file("v.tif"));
+  const terrain::Dem difference = read(dir.file("e.tif")), angle = read(dir.file("a.tif")),
+                     seen = read(dir.file("v.tif"));
+  const terrain::Dem dem = read(bundled_dem(kAndes));
+  EXPECT_EQ(angle.nodata, -9999.0);
+  const double eye = j["observer"]["elevation"].get<double>();
+  const terrain::GeoTransform &t = seen.georef.transform, &d = dem.georef.transform;
+  const int col0 = static_cast<int>(std::lround((t.origin_x - d.origin_x) / d.pixel_width));
+  const int row0 = static_cast<int>(std::lround((t.origin_y - d.origin_y) / d.pixel_height));
+  std::uint64_t visible = 0;
+  for (int row = 0; row < seen.height(); ++row)
+    for (int c = 0; c < seen.width(); ++c) {
+      const float e = difference.elevation.at(c, row), a = angle.elevation.at(c, row);
+      if (seen.elevation.at(c, row) != 1.0f) {
+        ASSERT_TRUE(std::isnan(e) && std::isnan(a)) << c << "," << row;
+        continue;
+      }
+      ++visible;
+      const double z = dem.elevation.at(c + col0, row + row0);
+      ASSERT_NEAR(e, z - eye, 1e-3) << c << "," << row;
+      const Offset o = offset(seen, c, row);
+      const double dist = o.distance();
+      if (dist < 15.0) continue;  // the eye's own cell: 180 by r.viewshed's rule
+      const double drop = 0.85714 * dist * dist / (2 * 6371000.0);
+      ASSERT_NEAR(a, 90.0 + std::atan2(z + 2.0 - drop - eye, dist) * 180.0 / M_PI, 0.1) << c << "," << row;
+    }
+  EXPECT_EQ(visible, j["visible_cells"].get<std::uint64_t>());
+  EXPECT_GT(visible, 1000u);
+
+  // -om NORMAL, DEM and GROUND: gdal_viewshed's names for three of ours.
+  for (const auto& [gdal, ours] : {std::pair{"NORMAL", "visible"}, {"DEM", "ohf"}, {"GROUND", "min-target-height"}}) {
+    const Json g = viewshed(concat(flags, {"-om", gdal}), dir.file("g.tif"));
+    const Json o = viewshed(concat(flags, {"--output", ours}), dir.file("o.tif"));
+    EXPECT_EQ(g["output_kind"], ours);
+    EXPECT_TRUE(read_bytes(dir.file("g.tif")) == read_bytes(dir.file("o.tif"))) << gdal;
+  }
+}
+
+// The peer, given the same command line: gdal_viewshed's codes and cells.
+// Both stand the eye on its cell's value; the answers are the same where
+// both answer but for a few cells along sight lines that graze the terrain.
+TEST(CliViewshedOptions, AgreesWithGdalViewshedOnTheSameCommandLine) {
+  if (run_command("command -v gdal_viewshed").exit_code != 0) GTEST_SKIP() << "gdal_viewshed not installed";
+  TempDir dir;
+  const std::vector<std::string> flags = {"-ox", "713900", "-oy",  "9558950", "-oz",       "10",  "-tz",
+                                          "1.5", "-md",    "2000", "-cc",     "0.85714",   "-vv", "255",
+                                          "-iv", "0",      "-ov",  "128",     "-a_nodata", "64"};
+  std::string command = "gdal_viewshed -q";
+  for (const std::string& f : concat(flags, {bundled_dem(kAndes), dir.file("g.tif")})) {
+    command += ' ';  // (one += at a time: GCC 12 sees a false overlap in " " + std::string)
+    command += shell_quote(f);
+  }
+  const auto peer = run_command(command);
+  ASSERT_EQ(peer.exit_code, 0) << peer.output;
+  viewshed(concat(flags, {"--observer-ground", "cell", "--algorithm", "exact"}), dir.file("h.tif"));
+  const terrain::Dem g = read(dir.file("g.tif")), h = read(dir.file("h.tif"));
+  EXPECT_EQ(g.nodata, 64.0);
+  EXPECT_EQ(h.nodata, 64.0);
+  const terrain::GeoTransform &tg = g.georef.transform, &th = h.georef.transform;
+  const int dc = static_cast<int>(std::lround((th.origin_x - tg.origin_x) / tg.pixel_width));
+  const int dr = static_cast<int>(std::lround((th.origin_y - tg.origin_y) / tg.pixel_height));
+  std::uint64_t both = 0, agree = 0, compared = 0, range_differs = 0;
+  for (int row = 0; row < h.height(); ++row)
+    for (int c = 0; c < h.width(); ++c) {
+      if (c + dc < 0 || c + dc >= g.width() || row + dr < 0 || row + dr >= g.height()) continue;
+      const float a = h.elevation.at(c, row), b = g.elevation.at(c + dc, row + dr);
+      ++compared;
+      for (float v : {a, b}) ASSERT_TRUE(std::isnan(v) || v == 255.0f || v == 0.0f || v == 128.0f) << v;
+      if ((a == 128.0f) != (b == 128.0f) && !std::isnan(a)) ++range_differs;
+      if ((a == 255.0f || a == 0.0f) && (b == 255.0f || b == 0.0f)) {
+        ++both;
+        agree += a == b;
+      }
+    }
+  EXPECT_GT(compared, 150000u);
+  EXPECT_GT(both, 100000u);
+  EXPECT_GE(static_cast<double>(agree), 0.99 * static_cast<double>(both)) << agree << " of " << both;
+  // The reach's edge: GDAL measures it to the cell's centre as we do, in the grid's metres.
+  EXPECT_LE(static_cast<double>(range_differs), 0.005 * static_cast<double>(compared)) << range_differs;
+}
+
 // Many observers take the same flags: each site on its cell's value, each
 // viewshed in the field of view, the count in a COG; the engine's answer.
 TEST(CliViewshedOptions, ManyObserversTakeTheSharedFlags) {

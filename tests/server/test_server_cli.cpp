@@ -59,12 +59,15 @@ std::string rainier_named_as_the_dataset(const TempDir& dir) {
 // output georeference is the source's transform shifted once to the window.
 TEST_F(ServerCli, ViewshedGeoTiffAndPngAreByteIdenticalToEmbedded) {
   const std::string dem = rainier_named_as_the_dataset(dir_);
-  for (const char* flags : {" --max-distance 8000", " --max-distance 6000 --output ohf --target-height 3",
-                            " --max-distance 2500 --algorithm r3 --output min-target-height",
-                            " --algorithm exact --max-distance 3000 --curvature 0",
-                            // gdal_viewshed's and r.viewshed's options reach the daemon as given
-                            " -md 4000 --azimuth 300,60 --min-distance 500 --pitch -30,5 --observer-ground cell"
-                            " --refraction 0.2 -f COG -co COMPRESS=LZW -co BLOCKSIZE=64"}) {
+  for (const char* flags :
+       {" --max-distance 8000", " --max-distance 6000 --output ohf --target-height 3",
+        " --max-distance 2500 --algorithm r3 --output min-target-height",
+        " --algorithm exact --max-distance 3000 --curvature 0",
+        // gdal_viewshed's and r.viewshed's options reach the daemon as given
+        " -md 4000 --azimuth 300,60 --min-distance 500 --pitch -30,5 --observer-ground cell"
+        " --refraction 0.2 -f COG -co COMPRESS=LZW -co BLOCKSIZE=64",
+        " -md 5000 -vv 255 -iv 0 -ov 128 -a_nodata 64", " -md 3000 --output boolean",
+        " -md 3000 --output vertical-angle -a_nodata -9999", " -md 3000 -om elevation-difference --target-height 2"}) {
     const std::string full = dir_.file("full.tif"), remote = dir_.file("remote.tif");
     const auto a = horizon("viewshed " + dem + kRainierEye + flags + " --full-read -o " + full + " --png " +
                            dir_.file("local.png") + " --json");
@@ -75,10 +78,12 @@ TEST_F(ServerCli, ViewshedGeoTiffAndPngAreByteIdenticalToEmbedded) {
     const std::string tif = read_bytes(full);
     ASSERT_GT(tif.size(), 1000u);
     EXPECT_TRUE(tif == read_bytes(remote)) << "GeoTIFFs differ for" << flags;
+    EXPECT_EQ(read_bytes(dir_.file("full.qml")), read_bytes(dir_.file("remote.qml"))) << "styles differ for" << flags;
     EXPECT_TRUE(read_bytes(dir_.file("local.png")) == read_bytes(dir_.file("remote.png")))
         << "PNGs differ for" << flags;
     const Json ja = json_of(a), jb = json_of(b);
-    for (const char* key : {"visible_cells", "hidden_cells", "evaluated_cells", "window", "algorithm", "output_kind"})
+    for (const char* key :
+         {"visible_cells", "hidden_cells", "evaluated_cells", "window", "algorithm", "output_kind", "codes"})
       EXPECT_EQ(ja[key], jb[key]) << key << flags;
     EXPECT_EQ(ja["stats"]["cells_evaluated"], jb["stats"]["cells_evaluated"]);
     EXPECT_NEAR(ja["observer"]["elevation"].get<double>(), jb["observer"]["elevation"].get<double>(), 1e-9);
