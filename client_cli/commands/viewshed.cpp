@@ -54,7 +54,8 @@ constexpr FlagSpec kFlags[] = {
      "0.85714)"},
     {"--azimuth", "", "START,END",
      "Field of view: degrees clockwise from grid north, START clockwise to END (300,60 wraps through north; "
-     "default: all round)"},
+     "default: all round). r.viewshed's direction_range A,B counts counter-clockwise from east: it is 90-B,90-A "
+     "here"},
     {"--min-distance", "", "M", "Field of view: cells nearer than M ground metres are out of range (default 0)"},
     {"--pitch", "", "MIN,MAX",
      "Field of view: the ground's angle above the horizontal as the eye sees it, degrees in [-90, 90]; cells "
