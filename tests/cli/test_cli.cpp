@@ -13,6 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cli_run.hpp"
 #include "test_support.hpp"
 
 namespace horizon::testing {
@@ -25,15 +26,6 @@ const std::string kRainier = "rainier_summit_srtm3_400x400.tif";    // EPSG:4326
 const std::string kAndes = "ecuador_andes_utm17s_10m_383x415.tif";  // EPSG:32717, nodata NaN
 // Rainier's summit crater and a point on its western flank, both inside the crop.
 const std::vector<std::string> kSummit = {"--lat", "46.8529", "--lon", "-121.7604"};
-
-CommandResult horizon(const std::vector<std::string>& args) {
-  std::string command = shell_quote(HORIZON_CLI_PATH);
-  for (const std::string& a : args) {
-    command += ' ';
-    command += shell_quote(a);
-  }
-  return run_command(command);
-}
 
 std::vector<std::string> concat(std::vector<std::string> a, const std::vector<std::string>& b) {
   a.insert(a.end(), b.begin(), b.end());

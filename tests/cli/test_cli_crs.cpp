@@ -16,21 +16,13 @@
 #include "gdal_crs_cases.hpp"
 #include "horizon/geodesy/crs.hpp"
 #include "horizon/terrain/dem_reader.hpp"
+#include "cli_run.hpp"
 #include "test_support.hpp"
 
 namespace horizon::testing {
 namespace {
 
 using Json = nlohmann::json;
-
-CommandResult horizon(const std::vector<std::string>& args) {
-  std::string command = shell_quote(HORIZON_CLI_PATH);
-  for (const std::string& a : args) {
-    command += ' ';
-    command += shell_quote(a);
-  }
-  return run_command(command);
-}
 
 Json parse(const CommandResult& r) {
   Json j = Json::parse(r.output, nullptr, /*allow_exceptions=*/false);

@@ -5,16 +5,11 @@
 #include <string>
 #include <vector>
 
+#include "cli_run.hpp"
 #include "test_support.hpp"
 
 namespace horizon::testing {
 namespace {
-
-CommandResult horizon(const std::vector<std::string>& args) {
-  std::string command = shell_quote(HORIZON_CLI_PATH);
-  for (const std::string& a : args) command += ' ' + shell_quote(a);
-  return run_command(command);
-}
 
 const std::string kDem = bundled_dem("olinda_coast_utm25s_111x111.tif");
 

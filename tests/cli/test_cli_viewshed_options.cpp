@@ -16,6 +16,7 @@
 
 #include "horizon/terrain/dem_reader.hpp"
 #include "horizon/visibility/many_observers.hpp"
+#include "cli_run.hpp"
 #include "test_support.hpp"
 
 namespace horizon::testing {
@@ -26,12 +27,6 @@ using Json = nlohmann::json;
 
 constexpr const char* kAndes = "ecuador_andes_utm17s_10m_383x415.tif";  // EPSG:32717, 10 m cells
 constexpr double kX = 713900.0, kY = 9558950.0;                         // on a slope, off its cell's centre
-
-CommandResult horizon(const std::vector<std::string>& args) {
-  std::string command = shell_quote(HORIZON_CLI_PATH);
-  for (const std::string& a : args) command += ' ' + shell_quote(a);
-  return run_command(command);
-}
 
 std::vector<std::string> concat(std::vector<std::string> a, const std::vector<std::string>& b) {
   a.insert(a.end(), b.begin(), b.end());
