@@ -2,6 +2,7 @@
 #include "commands/viewshed_raster.hpp"
 
 #include <cmath>
+#include <string>
 #include <string_view>
 
 #include "inputs.hpp"
@@ -59,6 +60,10 @@ RasterFlags raster_flags(const Args& args) {
       r.output_nodata = *v;
     }
   }
+  // gdal_viewshed's own -vv is 255, our nodata unless -a_nodata moves it: say so.
+  if (r.codes.visible == r.codes.nodata && !r.output_nodata && args.has("--visible-value"))
+    throw UsageError(args.typed("--visible-value") + ": " + std::to_string(r.codes.visible) +
+                     " is also the nodata code (255 by default); give --output-nodata (-a_nodata) another one");
   throw_if_invalid_option(visibility::validate_value_codes(r.codes), &args);
   return r;
 }

@@ -371,6 +371,9 @@ TEST(CliViewshedOptions, ValueCodesAreGdalViewshedsFour) {
   for (const Case& k : {Case{{"-vv", "256"}, "-vv: expected a code, a whole number in [0, 255], got '256'"},
                         Case{{"-iv", "1.5"}, "-iv: expected a code"},
                         Case{{"-vv", "7", "-a_nodata", "7"}, "-vv: 7 is also the nodata value"},
+                        Case{{"-vv", "255"},
+                             "-vv: 255 is also the nodata code (255 by default); give "
+                             "--output-nodata (-a_nodata) another one"},
                         Case{{"-vv", "0"}, "-vv: 0 is also the hidden value"},
                         Case{{"--output", "boolean", "-ov", "3"}, "-ov: codes only the visible raster"},
                         Case{{"-om", "GROUND", "-a_nodata", "low"}, "-a_nodata: expected a float32 value or 'nan'"},
