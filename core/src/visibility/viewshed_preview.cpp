@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <vector>
 
 #include "horizon/geodesy/crs.hpp"
@@ -287,12 +288,20 @@ Status write_viewshed_picture(const std::string& path, const ViewshedResult& res
                                          {terrain::PreviewRamp::kHeightNeeded, "Height a target needs to be seen",
                                           "metres above the ground", "0 m: the ground is visible"},
                                          o);
-    case PreviewRaster::kVerticalAngle:
+    case PreviewRaster::kVerticalAngle: {
       o.classes.beyond = "not visible, or out of range";
-      return terrain::write_ramp_preview(path, result.terrain, vertical_angle_raster(result, result.target_height),
+      // The eye's own cell is 180 by r.viewshed's rule, and no other cell
+      // reaches it (a target d > 0 away is below straight up): drawn, it
+      // would stretch the ramp over angles no cell has. The observer's
+      // marker stands there instead; the GeoTIFF keeps the 180.
+      terrain::Grid<float> angles = vertical_angle_raster(result, result.target_height);
+      for (std::size_t i = 0; i < angles.size(); ++i)
+        if (angles.data()[i] == 180.0f) angles.data()[i] = std::numeric_limits<float>::quiet_NaN();
+      return terrain::write_ramp_preview(path, result.terrain, angles,
                                          {terrain::PreviewRamp::kElevation, "Vertical angle from the eye",
                                           "degrees from straight down (90: level)", ""},
                                          o);
+    }
     case PreviewRaster::kElevationDifference:
       o.classes.beyond = "not visible, or out of range";
       return terrain::write_ramp_preview(path, result.terrain,
