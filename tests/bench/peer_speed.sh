@@ -28,8 +28,8 @@ observers=3
 dems=()
 while (($#)); do
   case "$1" in
-    --repeats) repeats=$2; shift 2 ;;
-    --observers) observers=$2; shift 2 ;;
+    --repeats) repeats=${2:-}; shift $(($# > 1 ? 2 : 1)) ;;
+    --observers) observers=${2:-}; shift $(($# > 1 ? 2 : 1)) ;;
     --short) repeats=3; observers=1; dems+=(data/dem/*.tif); shift ;;
     -h | --help) sed -n '2,22p' "$0"; exit 0 ;;
     -*) echo "peer_speed: unknown flag '$1' (see --help)" >&2; exit 2 ;;
