@@ -9,6 +9,7 @@
 
 #include "call_scope.hpp"
 #include "grpc_status.hpp"
+#include "handoff.hpp"
 #include "horizon/clipmap/clipmap_updater.hpp"
 #include "horizon/clipmap/session.hpp"
 #include "request_log.hpp"
@@ -81,11 +82,14 @@ class SessionCall final : public grpc::ServerBidiReactor<v1::SessionRequest, v1:
           "sessions.max")));
     entered_ = true;
     context_->AddInitialMetadata(std::string(kSessionIdKey), id_);
-    StartSendInitialMetadata();
-    StartRead(&in_);
+    handoff_.to_grpc([&] {
+      StartSendInitialMetadata();
+      StartRead(&in_);
+    });
   }
 
   void OnReadDone(bool ok) override {
+    handoff_.from_grpc();
     std::unique_lock lock(mutex_);
     last_activity_ = Clock::now();
     if (!ok) {
@@ -116,10 +120,13 @@ class SessionCall final : public grpc::ServerBidiReactor<v1::SessionRequest, v1:
     }
     const bool more = ok && !ending_;
     pump(lock);
-    if (more) StartRead(&in_);
+    if (more) {
+      handoff_.to_grpc([&] { StartRead(&in_); });
+    }
   }
 
   void OnWriteDone(bool ok) override {
+    handoff_.from_grpc();
     std::unique_lock lock(mutex_);
     writing_ = false;
     if (!ok) end_locked(grpc::Status(grpc::StatusCode::CANCELLED, "the client went away mid-stream"));
@@ -127,6 +134,7 @@ class SessionCall final : public grpc::ServerBidiReactor<v1::SessionRequest, v1:
   }
 
   void OnCancel() override {
+    handoff_.from_grpc();
     const auto dropped = scope_.cancel();
     std::unique_lock lock(mutex_);
     end_locked(dropped ? *dropped
@@ -135,6 +143,7 @@ class SessionCall final : public grpc::ServerBidiReactor<v1::SessionRequest, v1:
   }
 
   void OnDone() override {
+    handoff_.from_grpc();
     if (entered_) registry_.leave(this);
     delete this;
   }
@@ -181,7 +190,9 @@ class SessionCall final : public grpc::ServerBidiReactor<v1::SessionRequest, v1:
     }
     if (finish) finished_ = true;
     lock.unlock();
-    if (write) StartWrite(&out_);
+    if (write) {
+      handoff_.to_grpc([&] { StartWrite(&out_); });
+    }
     if (work) env_.pool.post([this] { run(); });
     if (finish) {
       // The place is free before the client hears the status: a client that
@@ -190,7 +201,7 @@ class SessionCall final : public grpc::ServerBidiReactor<v1::SessionRequest, v1:
       entered_ = false;
       scope_.record().boxes = boxes_;
       scope_.finish(*finish);
-      Finish(*finish);
+      handoff_.to_grpc([&] { Finish(*finish); });
     }
   }
 
@@ -200,7 +211,7 @@ class SessionCall final : public grpc::ServerBidiReactor<v1::SessionRequest, v1:
       finished_ = true;
     }
     scope_.finish(status);
-    Finish(status);
+    handoff_.to_grpc([&] { Finish(status); });
   }
 
   // On a worker: the box deltas and open in order, then the newest pose.
@@ -354,6 +365,7 @@ class SessionCall final : public grpc::ServerBidiReactor<v1::SessionRequest, v1:
   ServerEnv& env_;
   SessionRegistry& registry_;
   grpc::CallbackServerContext* context_;
+  Handoff handoff_;
   CallScope scope_;
   const std::string id_;
   bool entered_ = false;

@@ -12,6 +12,7 @@
 
 #include "arena_allocator.hpp"
 #include "call_scope.hpp"
+#include "handoff.hpp"
 #include "horizon/trace/products.hpp"
 #include "horizon/trace/trace_plan.hpp"
 #include "raster_files.hpp"
@@ -99,6 +100,7 @@ class TraceCall final : public grpc::ServerWriteReactor<v1::TraceResponse> {
 
   void start() {
     if (auto refused = scope_.admit(held_bytes(request_))) return finish(*refused);
+    handoff_.publish();  // gRPC may run OnCancel from now on
     scope_.env().pool.post([this, ticket = scope_.ticket()]() mutable {
       if (!ticket.take()) return;  // cancelled in the queue: finished, perhaps deleted
       const grpc::Status status = compute();
@@ -108,18 +110,26 @@ class TraceCall final : public grpc::ServerWriteReactor<v1::TraceResponse> {
   }
 
   void OnWriteDone(bool ok) override {
+    handoff_.from_grpc();
     // The client went away, or DeadlineWatch ended a stream it did not read by the deadline.
     if (!ok) return finish(scope_.status_of(make_error(ErrorCode::kCancelled, "the client went away mid-stream")));
     write_next();
   }
   void OnCancel() override {
+    handoff_.from_grpc();
     if (auto dropped = scope_.cancel()) finish(*dropped);
   }
-  void OnDone() override { delete this; }
+  void OnDone() override {
+    handoff_.from_grpc();
+    delete this;
+  }
 
  private:
   grpc::Status compute();
   void write_next();
+  void write(const v1::TraceResponse* message) {
+    handoff_.to_grpc([&] { StartWrite(message); });
+  }
   void finish(const grpc::Status& status) {
     {
       std::lock_guard lock(mutex_);
@@ -127,9 +137,10 @@ class TraceCall final : public grpc::ServerWriteReactor<v1::TraceResponse> {
       finished_ = true;
     }
     scope_.finish(status);
-    Finish(status);  // after this, `this` may be deleted at any time
+    handoff_.to_grpc([&] { Finish(status); });  // after this, `this` may be deleted at any time
   }
 
+  Handoff handoff_;
   CallScope scope_;
   const v1::TraceRequest request_;  // a copy: the call's own lives only until Finish
   std::mutex mutex_;
@@ -281,7 +292,7 @@ void TraceCall::write_next() {
         stage_ = Stage::kChannels;
         channel_ = 0;
         cursor_ = 0;
-        return StartWrite(&message_);
+        return write(&message_);
       case Stage::kChannels: {
         if (channel_ >= channels_.size()) {
           stage_ = Stage::kFootprint;
@@ -309,7 +320,7 @@ void TraceCall::write_next() {
         chunk->set_data(data.data() + static_cast<std::size_t>(row0) * row_bytes,
                         static_cast<std::size_t>(rows) * row_bytes);
         cursor_ += static_cast<std::size_t>(rows);
-        return StartWrite(&message_);
+        return write(&message_);
       }
       case Stage::kFootprint: {
         if (cursor_ >= footprint_.size()) {
@@ -325,7 +336,7 @@ void TraceCall::write_next() {
         chunk->set_total_size(footprint_.size());
         chunk->set_data(footprint_.data() + cursor_, n);
         cursor_ += n;
-        return StartWrite(&message_);
+        return write(&message_);
       }
       case Stage::kDone:
         return finish(grpc::Status::OK);

@@ -19,6 +19,7 @@
 #include <grpcpp/support/server_callback.h>
 
 #include "call_scope.hpp"
+#include "handoff.hpp"
 
 namespace horizon::server {
 
@@ -34,6 +35,7 @@ class UnaryCall final : public grpc::ServerUnaryReactor {
       call->finish(*refused);
       return call;
     }
+    call->handoff_.publish();  // gRPC may run OnCancel from now on
     env.pool.post([call, ticket = call->scope_.ticket(), work = std::move(work)]() mutable {
       if (ticket.take()) call->finish(work(call->scope_));  // else finished by OnCancel, perhaps deleted
     });
@@ -41,9 +43,13 @@ class UnaryCall final : public grpc::ServerUnaryReactor {
   }
 
   void OnCancel() override {
+    handoff_.from_grpc();
     if (auto dropped = scope_.cancel()) finish(*dropped);
   }
-  void OnDone() override { delete this; }
+  void OnDone() override {
+    handoff_.from_grpc();
+    delete this;
+  }
 
  private:
   UnaryCall(ServerEnv& env, grpc::CallbackServerContext* context, std::string_view method)
@@ -51,9 +57,10 @@ class UnaryCall final : public grpc::ServerUnaryReactor {
 
   void finish(const grpc::Status& status) {
     scope_.finish(status);
-    Finish(status);  // after this, `this` may be deleted at any time
+    handoff_.to_grpc([&] { Finish(status); });  // after this, `this` may be deleted at any time
   }
 
+  Handoff handoff_;
   CallScope scope_;
 };
 

@@ -10,6 +10,7 @@
 
 #include "arena_allocator.hpp"
 #include "call_scope.hpp"
+#include "handoff.hpp"
 #include "horizon/geodesy/observer.hpp"
 #include "horizon/visibility/plan.hpp"
 #include "horizon/visibility/viewshed.hpp"
@@ -33,6 +34,7 @@ class ViewshedCall final : public grpc::ServerWriteReactor<v1::ViewshedResponse>
   void start() {
     if (auto refused = scope_.admit(held_bytes(request_))) return finish(*refused);
     if (request_.include_progress()) scope_.set_progress([this](double fraction) { on_progress(fraction); });
+    handoff_.publish();  // gRPC may run OnCancel from now on
     scope_.env().pool.post([this, ticket = scope_.ticket()]() mutable {
       if (!ticket.take()) return;  // cancelled in the queue: finished, perhaps deleted
       computing_since_ = std::chrono::steady_clock::now();
@@ -52,6 +54,7 @@ class ViewshedCall final : public grpc::ServerWriteReactor<v1::ViewshedResponse>
   }
 
   void OnWriteDone(bool ok) override {
+    handoff_.from_grpc();
     // The client went away, or DeadlineWatch ended a stream it did not read by the deadline.
     if (!ok) return finish(scope_.status_of(make_error(ErrorCode::kCancelled, "the client went away mid-stream")));
     {
@@ -65,9 +68,13 @@ class ViewshedCall final : public grpc::ServerWriteReactor<v1::ViewshedResponse>
     write_next();
   }
   void OnCancel() override {
+    handoff_.from_grpc();
     if (auto dropped = scope_.cancel()) finish(*dropped);
   }
-  void OnDone() override { delete this; }
+  void OnDone() override {
+    handoff_.from_grpc();
+    delete this;
+  }
 
  private:
   // From the engine's workers: one progress message in flight at most, the
@@ -87,10 +94,13 @@ class ViewshedCall final : public grpc::ServerWriteReactor<v1::ViewshedResponse>
       p->set_fraction(std::clamp(fraction, 0.0, 1.0));
       p->set_seconds(std::chrono::duration<double>(now - computing_since_).count());
     }
-    StartWrite(&progress_message_);
+    write(&progress_message_);
   }
   grpc::Status compute();
   void write_next();
+  void write(const v1::ViewshedResponse* message) {
+    handoff_.to_grpc([&] { StartWrite(message); });
+  }
   void finish(const grpc::Status& status) {
     {
       std::lock_guard lock(mutex_);
@@ -98,9 +108,10 @@ class ViewshedCall final : public grpc::ServerWriteReactor<v1::ViewshedResponse>
       finished_ = true;
     }
     scope_.finish(status);
-    Finish(status);  // after this, `this` may be deleted at any time
+    handoff_.to_grpc([&] { Finish(status); });  // after this, `this` may be deleted at any time
   }
 
+  Handoff handoff_;
   CallScope scope_;
   const v1::ViewshedRequest request_;  // a copy: the call's own lives only until Finish
   std::mutex mutex_;
@@ -285,7 +296,7 @@ void ViewshedCall::write_next() {
         *message_.mutable_header() = header_;
         stage_ = Stage::kRaster;
         cursor_ = 0;
-        return StartWrite(&message_);
+        return write(&message_);
       case Stage::kRaster: {
         const int height = header_.height();
         if (raster_.empty() || static_cast<int>(cursor_) >= height) {
@@ -303,7 +314,7 @@ void ViewshedCall::write_next() {
         chunk->set_data(raster_.data() + static_cast<std::size_t>(row0) * row_bytes_,
                         static_cast<std::size_t>(rows) * row_bytes_);
         cursor_ += static_cast<std::size_t>(rows);
-        return StartWrite(&message_);
+        return write(&message_);
       }
       case Stage::kGeotiff:
       case Stage::kPng: {
@@ -322,12 +333,12 @@ void ViewshedCall::write_next() {
         chunk->set_total_size(file.size());
         chunk->set_data(file.data() + cursor_, n);
         cursor_ += n;
-        return StartWrite(&message_);
+        return write(&message_);
       }
       case Stage::kSummary:
         *message_.mutable_summary() = summary_;
         stage_ = Stage::kDone;
-        return StartWrite(&message_);
+        return write(&message_);
       case Stage::kDone:
         return finish(grpc::Status::OK);
     }
