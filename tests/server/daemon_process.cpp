@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <cstdint>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <thread>
@@ -52,12 +53,16 @@ DaemonProcess::DaemonProcess(const DaemonOptions& o) {
          << ", \"worker_threads\": " << o.worker_threads << ", \"scratch_dir\": \"" << dir_.path().string() << "\"}\n";
   write_file(config_path_, config.str());
 
+  // HORIZON_TEST_HORIZOND runs the tests against another build of the daemon
+  // (scripts/tsan.sh: a ThreadSanitizer one).
+  const char* daemon = std::getenv("HORIZON_TEST_HORIZOND");
+  if (daemon == nullptr || *daemon == '\0') daemon = HORIZOND_PATH;
   pid_ = ::fork();
   if (pid_ == 0) {
     const int fd = ::open(log_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     ::dup2(fd, 2);
     ::close(fd);
-    ::execl(HORIZOND_PATH, "horizond", "--config", config_path_.c_str(), static_cast<char*>(nullptr));
+    ::execl(daemon, "horizond", "--config", config_path_.c_str(), static_cast<char*>(nullptr));
     ::_exit(127);
   }
   if (!wait_for_log("\"event\":\"datasets_loaded\"", std::chrono::seconds(30))) {
