@@ -172,26 +172,52 @@ Request parse_request(const Args& args) {
   return r;
 }
 
+// Where a run's wall time went, in seconds, from the process's first look
+// at the DEM to its summary (--json "phases"; the text summary's last line).
+// What the process spends starting and exiting lies outside: a whole-process
+// timing minus total_seconds (tests/bench/peer_speed.sh).
+struct Phases {
+  double open = 0.0;     // the DEM's header opened and the request planned on it
+  double read = 0.0;     // the planned blocks decoded (the engine's SourceReadStats)
+  double compute = 0.0;  // the algorithm (WorkStats::seconds)
+  double mask = 0.0;     // the output raster's values made from the result
+  double encode = 0.0;   // the GeoTIFF (and COG overviews) encoded and written, its style beside it
+  double preview = 0.0;  // the PNG, when asked for
+};
+
+double seconds_since(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
 // The raster asked for, written atomically by the engine's writer, and its
 // QGIS style beside it (OUT.qml): codes with the previews' colour table in
 // the file, or a ramp over the values written.
-Status write_output(const Request& r, const terrain::Dem& dem, const visibility::ViewshedRun& run) {
+Status write_output(const Request& r, const terrain::Dem& dem, const visibility::ViewshedRun& run, Phases& phases) {
   const visibility::ViewshedResult& result = run.result;
   const terrain::Georeference& georef = run.georef;
   const std::string style_path = terrain::qml_path_for(r.out_path);
   const RasterFlags& raster = r.raster;
+  auto at = std::chrono::steady_clock::now();
   if (visibility::is_code_raster(raster.output)) {
     const visibility::ValueCodes& codes = raster.codes;
-    HORIZON_RETURN_IF_ERROR(terrain::write_geotiff(
-        r.out_path, visibility::visibility_codes(result, r.options.target_height, codes), georef,
-        static_cast<double>(codes.nodata), visibility::code_colour_table(codes), r.geotiff.options));
-    return terrain::write_text_file(style_path, visibility::visibility_style(codes));
+    const terrain::Grid<std::uint8_t> values = visibility::visibility_codes(result, r.options.target_height, codes);
+    phases.mask = seconds_since(at);
+    at = std::chrono::steady_clock::now();
+    HORIZON_RETURN_IF_ERROR(terrain::write_geotiff(r.out_path, values, georef, static_cast<double>(codes.nodata),
+                                                   visibility::code_colour_table(codes), r.geotiff.options));
+    HORIZON_RETURN_IF_ERROR(terrain::write_text_file(style_path, visibility::visibility_style(codes)));
+    phases.encode = seconds_since(at);
+    return Status::Ok();
   }
   const terrain::Grid<float> values = visibility::float_raster(result, raster.output, r.options.target_height);
+  phases.mask = seconds_since(at);
+  at = std::chrono::steady_clock::now();
   const std::optional<double> nodata = raster.output_nodata ? raster.output_nodata : dem.nodata;
   HORIZON_RETURN_IF_ERROR(terrain::write_geotiff(r.out_path, values, georef, nodata, r.geotiff.options));
-  return terrain::write_text_file(style_path,
-                                  visibility::viewshed_style(visibility::preview_raster(raster.output), values));
+  HORIZON_RETURN_IF_ERROR(terrain::write_text_file(
+      style_path, visibility::viewshed_style(visibility::preview_raster(raster.output), values)));
+  phases.encode = seconds_since(at);
+  return Status::Ok();
 }
 
 // The request planned on the DEM's header (nothing decoded yet): with a
@@ -256,6 +282,8 @@ int run_viewshed(const Args& args) {
   if (!source.ok()) return report_error(source.error());
   auto plan = plan_for(r, **source);
   if (!plan.ok()) return report_error(plan.error());
+  Phases phases;
+  phases.open = seconds_since(started);
 
   const Gpu gpu = open_gpu(r.options);
   InterruptScope interrupt;  // Ctrl-C cancels the computation; nothing is written
@@ -275,10 +303,11 @@ int run_viewshed(const Args& args) {
   if (!gpu.unavailable.empty()) result->stats.gpu_fallback = gpu.unavailable;
   warn_gpu_fallback(result->stats);
 
-  if (auto s = write_output(r, *dem, *run); !s.ok()) return report_error(s.error());
+  phases.read = read.seconds;
+  phases.compute = result->stats.seconds;
+  if (auto s = write_output(r, *dem, *run, phases); !s.ok()) return report_error(s.error());
   // The default codes, for the counts and the picture (whatever codes the file has).
   const terrain::Grid<std::uint8_t> mask = visibility::visibility_mask(*result, r.options.target_height);
-  double preview_seconds = 0.0;
   if (r.png_path) {
     const auto drawing = std::chrono::steady_clock::now();
     const auto crs = geodesy::Crs::of(dem->georef);  // none: grid coordinates
@@ -292,9 +321,9 @@ int run_viewshed(const Args& args) {
                                                     mask, caption);
         !s.ok())
       return report_error(s.error());
-    preview_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - drawing).count();
+    phases.preview = seconds_since(drawing);
   }
-  const double total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  const double total_seconds = seconds_since(started);
 
   std::uint64_t visible = 0, hidden = 0;
   for (std::uint8_t v : mask.values()) {
@@ -335,7 +364,7 @@ int run_viewshed(const Args& args) {
     j["visible_area_km2"] = area_km2;
     j["visible_percent"] = percent;
     j["stats"] = to_json(stats);
-    j["preview_seconds"] = r.png_path ? Json(preview_seconds) : Json(nullptr);
+    j["preview_seconds"] = r.png_path ? Json(phases.preview) : Json(nullptr);
     j["read"] = {{"window", to_json(read.window)},
                  {"block", block_kind},
                  {"block_size", {block_width, block_height}},
@@ -345,6 +374,14 @@ int run_viewshed(const Args& args) {
                  {"cells_decoded", read.cells_decoded},
                  {"seconds", read.seconds}};
     j["total_seconds"] = total_seconds;
+    j["phases"] = {{"open", phases.open},
+                   {"read", phases.read},
+                   {"compute", phases.compute},
+                   {"mask", phases.mask},
+                   {"encode", phases.encode},
+                   {"preview", r.png_path ? Json(phases.preview) : Json(nullptr)},
+                   {"other", total_seconds - phases.open - phases.read - phases.compute - phases.mask -
+                                 phases.encode - phases.preview}};
     print_json(j);
     return kExitOk;
   }
@@ -374,7 +411,10 @@ int run_viewshed(const Args& args) {
             << "  compute:    " << fixed(stats.seconds, 3) << " s (" << fixed(total_seconds, 3) << " s in all)\n"
             << "  wrote:      " << r.out_path << " (" << r.raster.name << "), its QGIS style "
             << terrain::qml_path_for(r.out_path) << '\n';
-  if (r.png_path) std::cout << "  preview:    " << *r.png_path << " (" << fixed(preview_seconds, 3) << " s)\n";
+  if (r.png_path) std::cout << "  preview:    " << *r.png_path << " (" << fixed(phases.preview, 3) << " s)\n";
+  std::cout << "  phases:     open " << fixed(phases.open, 3) << ", read " << fixed(phases.read, 3) << ", compute "
+            << fixed(phases.compute, 3) << ", mask " << fixed(phases.mask, 3) << ", encode " << fixed(phases.encode, 3)
+            << (r.png_path ? ", preview " + fixed(phases.preview, 3) : std::string()) << " s\n";
   return kExitOk;
 }
 

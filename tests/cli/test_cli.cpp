@@ -345,6 +345,20 @@ TEST_F(CliViewshed, WritesGeoTiffPngAndJsonSummary) {
     EXPECT_TRUE(j["stats"].contains(key)) << key;
   EXPECT_GT(j["preview_seconds"].get<double>(), 0.0);
   EXPECT_LT(j["preview_seconds"].get<double>(), j["total_seconds"].get<double>());
+  // The phases are the run's own clocks and add up to no more than its total.
+  const Json& phases = j["phases"];
+  double phase_sum = 0.0;
+  for (const char* key : {"open", "read", "compute", "mask", "encode", "preview"}) {
+    ASSERT_TRUE(phases.contains(key)) << key;
+    EXPECT_GE(phases[key].get<double>(), 0.0) << key;
+    phase_sum += phases[key].get<double>();
+  }
+  EXPECT_GT(phases["encode"].get<double>(), 0.0);
+  EXPECT_EQ(phases["compute"], j["stats"]["seconds"]);
+  EXPECT_EQ(phases["read"], j["read"]["seconds"]);
+  EXPECT_EQ(phases["preview"], j["preview_seconds"]);
+  EXPECT_LE(phase_sum, j["total_seconds"].get<double>());
+  EXPECT_NEAR(phase_sum + phases["other"].get<double>(), j["total_seconds"].get<double>(), 1e-9);
   EXPECT_EQ(j["algorithm"], "fast");
   EXPECT_EQ(j["stats"]["dem_cells"], 160000);
   const auto visible = j["visible_cells"].get<std::uint64_t>();
