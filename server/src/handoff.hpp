@@ -12,12 +12,16 @@
 // Each reactor holds a Handoff. It wraps each hand-off in to_grpc(), calls
 // publish() before gRPC may call it back once its method handler returns,
 // and calls from_grpc() first in each callback. In a TSan build these are
-// __tsan_release and __tsan_acquire: on the Handoff itself for what came
-// before a hand-off, and on a token shared with the handing thread for what
-// gRPC did inside it (StartWrite serialises the message there), since the
-// reactor may already be deleted when that call returns. In any other build
-// Handoff is empty and they compile to nothing. They claim no more order
-// than gRPC gives: a callback acquires only what was released before it ran.
+// __tsan_release and __tsan_acquire on the Handoff, and from_grpc() also
+// waits until no other thread is still inside a hand-off: gRPC may run
+// OnWriteDone or OnDone before the StartWrite or Finish that caused it has
+// returned on the thread that called it, and what gRPC did inside that call
+// (filling its call ops, reading the response) must be ordered before the
+// next write reuses them or the reactor and gRPC's call state go away. That wait is real
+// synchronisation, so TSan sees it; it never blocks long, since gRPC's
+// Finish and StartWrite only queue work. In any other build Handoff is
+// empty and all of this compiles to nothing. It claims no more order than
+// gRPC gives: a callback acquires only what was released before it ran.
 #pragma once
 
 #if defined(__SANITIZE_THREAD__)
@@ -29,7 +33,8 @@
 #endif
 
 #ifdef HORIZON_TSAN_HANDOFF
-#include <memory>
+#include <atomic>
+#include <thread>
 
 #include <sanitizer/tsan_interface.h>
 #endif
@@ -40,38 +45,43 @@ class Handoff {
  public:
   // Runs `start`, which hands the reactor to gRPC: what this thread did
   // before it and in it (serialising a message, filling gRPC's call ops)
-  // happens before the callback gRPC runs for it. `start` may end in the
-  // reactor's deletion (Finish); nothing of the reactor is touched after it.
+  // happens before the callback gRPC runs for it.
   template <class Start>
   void to_grpc(Start&& start) {
 #ifdef HORIZON_TSAN_HANDOFF
-    const std::shared_ptr<char> token = token_;
+    in_flight_.fetch_add(1, std::memory_order_relaxed);
+    ++handing_off_on_this_thread;
     __tsan_release(this);
     start();
-    __tsan_release(token.get());
+    __tsan_release(this);
+    --handing_off_on_this_thread;
+    in_flight_.fetch_sub(1, std::memory_order_release);
 #else
     start();
 #endif
   }
 
   // What this thread did so far happens before the reactor's next callback.
-  void publish() const {
+  void publish() {
 #ifdef HORIZON_TSAN_HANDOFF
-    __tsan_release(const_cast<Handoff*>(this));
+    __tsan_release(this);
 #endif
   }
 
-  // First in each callback gRPC runs for the reactor.
-  void from_grpc() const {
+  // First in each callback gRPC runs for the reactor, OnDone included.
+  void from_grpc() {
 #ifdef HORIZON_TSAN_HANDOFF
-    __tsan_acquire(const_cast<Handoff*>(this));  // orders the read of token_ too
-    __tsan_acquire(token_.get());
+    // Not when gRPC runs the callback inside this thread's own hand-off.
+    if (handing_off_on_this_thread == 0)
+      while (in_flight_.load(std::memory_order_acquire) != 0) std::this_thread::yield();
+    __tsan_acquire(this);
 #endif
   }
 
  private:
 #ifdef HORIZON_TSAN_HANDOFF
-  std::shared_ptr<char> token_ = std::make_shared<char>();
+  std::atomic<int> in_flight_{0};
+  static inline thread_local int handing_off_on_this_thread = 0;
 #endif
 };
 
