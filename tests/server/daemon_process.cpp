@@ -33,6 +33,11 @@ int number_after(const std::string& text, const std::string& key) {
 
 }  // namespace
 
+bool another_daemon_build() {
+  const char* daemon = std::getenv("HORIZON_TEST_HORIZOND");
+  return daemon != nullptr && *daemon != '\0';
+}
+
 void write_file(const std::string& path, const std::string& text) {
   std::ofstream out(path + ".new", std::ios::binary);
   out << text;

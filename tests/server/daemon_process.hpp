@@ -78,6 +78,11 @@ class DaemonProcess {
 // (name and labels), or -1 when there is none.
 double metric(const std::string& text, const std::string& series);
 
+// True when the tests run against another build of horizond than their own
+// (HORIZON_TEST_HORIZOND, set by scripts/tsan.sh for a ThreadSanitizer one):
+// its memory and speed are the sanitizer's, not the daemon's.
+bool another_daemon_build();
+
 // Writes `config_json` into the daemon's config file (for reload tests).
 void write_file(const std::string& path, const std::string& text);
 

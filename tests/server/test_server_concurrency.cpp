@@ -20,7 +20,8 @@ namespace horizon::testing {
 namespace {
 
 constexpr int kClients = 32;
-constexpr int kRequestsPerClient = 200;
+// A tenth under ThreadSanitizer (scripts/tsan.sh), whose daemon runs 5-15x slower.
+int requests_per_client() { return another_daemon_build() ? 20 : 200; }
 constexpr int kVariants = 8;
 
 struct Expected {
@@ -109,7 +110,7 @@ TEST(ServerConcurrency, ThirtyTwoClientsGetTheEngineAnswers) {
     clients.emplace_back([&, c] {
       auto channel = daemon.channel();  // one connection per client
       auto stub = v1::VisibilityService::NewStub(channel);
-      for (int i = 0; i < kRequestsPerClient; ++i) {
+      for (int i = 0; i < requests_per_client(); ++i) {
         const int v = (c * 7 + i) % kVariants;
         auto note = [&](const std::string& what) {
           if (first_problem[c].empty()) first_problem[c] = what;
@@ -174,7 +175,7 @@ TEST(ServerConcurrency, ThirtyTwoClientsGetTheEngineAnswers) {
   EXPECT_EQ(mismatches.load(), 0) << problems;
 
   const auto lines_logged = daemon.request_lines();
-  EXPECT_EQ(lines_logged.size(), static_cast<std::size_t>(kClients * kRequestsPerClient));
+  EXPECT_EQ(lines_logged.size(), static_cast<std::size_t>(kClients * requests_per_client()));
   for (const std::string& line : lines_logged) ASSERT_NE(line.find("\"status\":\"OK\""), std::string::npos) << line;
   EXPECT_EQ(daemon.log().find("\"level\":\"error\""), std::string::npos);
   const std::uint64_t peak = daemon.peak_rss_bytes();
@@ -185,7 +186,10 @@ TEST(ServerConcurrency, ThirtyTwoClientsGetTheEngineAnswers) {
   // budget is checked by the plain build.
   std::cout << "peak RSS under AddressSanitizer: " << (peak >> 20) << " MiB (not compared with the budget)\n";
 #else
-  EXPECT_LE(peak, static_cast<std::uint64_t>(options.memory_budget_mb) << 20) << "peak RSS " << (peak >> 20) << " MiB";
+  // So does ThreadSanitizer's in a TSan daemon (580 MiB for 160 MiB).
+  if (!another_daemon_build()) {
+    EXPECT_LE(peak, static_cast<std::uint64_t>(options.memory_budget_mb) << 20) << "peak RSS " << (peak >> 20) << " MiB";
+  }
 #endif
 }
 
