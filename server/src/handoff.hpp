@@ -17,9 +17,11 @@
 // OnWriteDone or OnDone before the StartWrite or Finish that caused it has
 // returned on the thread that called it, and what gRPC did inside that call
 // (filling its call ops, reading the response) must be ordered before the
-// next write reuses them or the reactor and gRPC's call state go away. That wait is real
-// synchronisation, so TSan sees it; it never blocks long, since gRPC's
-// Finish and StartWrite only queue work. In any other build Handoff is
+// next write reuses them or the reactor and gRPC's call state go away. That
+// wait is real synchronisation, so TSan sees it; it never blocks long, since
+// gRPC's Finish and StartWrite only queue work, and it relies on gRPC never
+// running a reactor's OnDone inside that reactor's own Finish (it schedules
+// OnDone for reactors it does not inline). In any other build Handoff is
 // empty and all of this compiles to nothing. It claims no more order than
 // gRPC gives: a callback acquires only what was released before it ran.
 #pragma once
