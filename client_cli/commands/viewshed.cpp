@@ -2,6 +2,7 @@
 #include <cmath>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <string_view>
 
 #include "commands/command.hpp"
@@ -180,7 +181,7 @@ struct Phases {
   double open = 0.0;     // the DEM's header opened and the request planned on it
   double read = 0.0;     // the planned blocks decoded (the engine's SourceReadStats)
   double compute = 0.0;  // the algorithm (WorkStats::seconds)
-  double mask = 0.0;     // the output raster's values made from the result
+  double mask = 0.0;     // the output raster's values (and the counts' codes) made from the result
   double encode = 0.0;   // the GeoTIFF (and COG overviews) encoded and written, its style beside it
   double preview = 0.0;  // the PNG, when asked for
 };
@@ -191,8 +192,11 @@ double seconds_since(std::chrono::steady_clock::time_point since) {
 
 // The raster asked for, written atomically by the engine's writer, and its
 // QGIS style beside it (OUT.qml): codes with the previews' colour table in
-// the file, or a ramp over the values written.
-Status write_output(const Request& r, const terrain::Dem& dem, const visibility::ViewshedRun& run, Phases& phases) {
+// the file, or a ramp over the values written. `mask` is the result in the
+// default codes (visibility_mask), written as it is when those are the
+// codes asked for.
+Status write_output(const Request& r, const terrain::Dem& dem, const visibility::ViewshedRun& run,
+                    const terrain::Grid<std::uint8_t>& mask, Phases& phases) {
   const visibility::ViewshedResult& result = run.result;
   const terrain::Georeference& georef = run.georef;
   const std::string style_path = terrain::qml_path_for(r.out_path);
@@ -200,8 +204,10 @@ Status write_output(const Request& r, const terrain::Dem& dem, const visibility:
   auto at = std::chrono::steady_clock::now();
   if (visibility::is_code_raster(raster.output)) {
     const visibility::ValueCodes& codes = raster.codes;
-    const terrain::Grid<std::uint8_t> values = visibility::visibility_codes(result, r.options.target_height, codes);
-    phases.mask = seconds_since(at);
+    std::optional<terrain::Grid<std::uint8_t>> recoded;
+    if (codes != visibility::ValueCodes{}) recoded = visibility::visibility_codes(result, r.options.target_height, codes);
+    const terrain::Grid<std::uint8_t>& values = recoded ? *recoded : mask;
+    phases.mask += seconds_since(at);
     at = std::chrono::steady_clock::now();
     HORIZON_RETURN_IF_ERROR(terrain::write_geotiff(r.out_path, values, georef, static_cast<double>(codes.nodata),
                                                    visibility::code_colour_table(codes), r.geotiff.options));
@@ -210,7 +216,7 @@ Status write_output(const Request& r, const terrain::Dem& dem, const visibility:
     return Status::Ok();
   }
   const terrain::Grid<float> values = visibility::float_raster(result, raster.output, r.options.target_height);
-  phases.mask = seconds_since(at);
+  phases.mask += seconds_since(at);
   at = std::chrono::steady_clock::now();
   const std::optional<double> nodata = raster.output_nodata ? raster.output_nodata : dem.nodata;
   HORIZON_RETURN_IF_ERROR(terrain::write_geotiff(r.out_path, values, georef, nodata, r.geotiff.options));
@@ -305,9 +311,11 @@ int run_viewshed(const Args& args) {
 
   phases.read = read.seconds;
   phases.compute = result->stats.seconds;
-  if (auto s = write_output(r, *dem, *run, phases); !s.ok()) return report_error(s.error());
   // The default codes, for the counts and the picture (whatever codes the file has).
+  const auto masking = std::chrono::steady_clock::now();
   const terrain::Grid<std::uint8_t> mask = visibility::visibility_mask(*result, r.options.target_height);
+  phases.mask = seconds_since(masking);
+  if (auto s = write_output(r, *dem, *run, mask, phases); !s.ok()) return report_error(s.error());
   if (r.png_path) {
     const auto drawing = std::chrono::steady_clock::now();
     const auto crs = geodesy::Crs::of(dem->georef);  // none: grid coordinates

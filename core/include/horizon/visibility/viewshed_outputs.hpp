@@ -46,6 +46,7 @@ struct ValueCodes {
   std::uint8_t hidden = kHidden;
   std::uint8_t out_of_range = kNoAnswer;
   std::uint8_t nodata = kNoAnswer;
+  bool operator==(const ValueCodes&) const = default;
 };
 
 // r.viewshed -b's: out of range reads as hidden (0), voids stay no data.
