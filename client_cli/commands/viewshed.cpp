@@ -176,7 +176,8 @@ Request parse_request(const Args& args) {
 // Where a run's wall time went, in seconds, from the process's first look
 // at the DEM to its summary (--json "phases"; the text summary's last line).
 // What the process spends starting and exiting lies outside: a whole-process
-// timing minus total_seconds (tests/bench/peer_speed.sh).
+// timing minus total_seconds gives it (docs/benchmarks.md, "Where the whole
+// process goes").
 struct Phases {
   double open = 0.0;     // the DEM's header opened and the request planned on it
   double read = 0.0;     // the planned blocks decoded (the engine's SourceReadStats)
