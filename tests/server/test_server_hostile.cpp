@@ -373,14 +373,18 @@ TEST(ServerHostile, ReadersThatNeverDrainAStreamHoldNothingPastTheDeadline) {
   EXPECT_EQ(metric(daemon.metrics(), "horizon_requests_in_flight"), kSlow) << "the slow readers' calls ended early";
 
   // The default deadline ends the stuck calls: no slot and no memory held.
-  double in_flight = -1;
+  // A call leaves the in-flight gauge a moment before its reactor (and its
+  // reservation) goes, so both are waited for.
+  double in_flight = -1, reserved = -1;
   while (std::chrono::steady_clock::now() < stuck_at + std::chrono::seconds(10)) {
-    in_flight = metric(daemon.metrics(), "horizon_requests_in_flight");
-    if (in_flight == 0) break;
+    const std::string m = daemon.metrics();
+    in_flight = metric(m, "horizon_requests_in_flight");
+    reserved = metric(m, "horizon_memory_reserved_bytes");
+    if (in_flight == 0 && reserved == reserved_idle) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   EXPECT_EQ(in_flight, 0);
-  EXPECT_EQ(metric(daemon.metrics(), "horizon_memory_reserved_bytes"), reserved_idle);
+  EXPECT_EQ(reserved, reserved_idle);
   int ended = 0;
   for (const std::string& line : daemon.request_lines())
     if (line.find("ComputeViewshed") != std::string::npos &&
