@@ -25,6 +25,13 @@
 namespace horizon::testing {
 namespace {
 
+// HORIZON_TEST_HORIZOND: another build of the daemon to run the tests against
+// (scripts/tsan.sh: a ThreadSanitizer one), or null.
+const char* other_horizond() {
+  const char* daemon = std::getenv("HORIZON_TEST_HORIZOND");
+  return daemon != nullptr && *daemon != '\0' ? daemon : nullptr;
+}
+
 int number_after(const std::string& text, const std::string& key) {
   const auto at = text.find("\"" + key + "\":");
   if (at == std::string::npos) return 0;
@@ -33,10 +40,7 @@ int number_after(const std::string& text, const std::string& key) {
 
 }  // namespace
 
-bool another_daemon_build() {
-  const char* daemon = std::getenv("HORIZON_TEST_HORIZOND");
-  return daemon != nullptr && *daemon != '\0';
-}
+bool another_daemon_build() { return other_horizond() != nullptr; }
 
 void write_file(const std::string& path, const std::string& text) {
   std::ofstream out(path + ".new", std::ios::binary);
@@ -58,10 +62,7 @@ DaemonProcess::DaemonProcess(const DaemonOptions& o) {
          << ", \"worker_threads\": " << o.worker_threads << ", \"scratch_dir\": \"" << dir_.path().string() << "\"}\n";
   write_file(config_path_, config.str());
 
-  // HORIZON_TEST_HORIZOND runs the tests against another build of the daemon
-  // (scripts/tsan.sh: a ThreadSanitizer one).
-  const char* daemon = std::getenv("HORIZON_TEST_HORIZOND");
-  if (daemon == nullptr || *daemon == '\0') daemon = HORIZOND_PATH;
+  const char* daemon = another_daemon_build() ? other_horizond() : HORIZOND_PATH;
   pid_ = ::fork();
   if (pid_ == 0) {
     const int fd = ::open(log_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
@@ -127,12 +128,28 @@ std::string DaemonProcess::metrics_page(const std::string& path) const {
 }
 
 bool DaemonProcess::wait_for_in_flight(int calls, std::chrono::milliseconds timeout) const {
+  return wait_for_metrics([&](const std::string& m) { return metric(m, "horizon_requests_in_flight") >= calls; },
+                          timeout);
+}
+
+bool DaemonProcess::wait_for_metrics(const std::function<bool(const std::string& metrics)>& settled,
+                                     std::chrono::milliseconds timeout) const {
   const auto until = std::chrono::steady_clock::now() + timeout;
-  while (std::chrono::steady_clock::now() < until) {
-    if (metric(metrics(), "horizon_requests_in_flight") >= calls) return true;
+  do {
+    if (settled(metrics())) return true;
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
+  } while (std::chrono::steady_clock::now() < until);
   return false;
+}
+
+bool DaemonProcess::memory_returned() const {
+  return wait_for_metrics(
+      [](const std::string& m) {
+        return metric(m, "horizon_memory_reserved_bytes") == metric(m, "horizon_block_cache_budget_bytes") +
+                                                                 metric(m, "horizon_receive_buffer_bytes") +
+                                                                 metric(m, "horizon_gpu_image_bytes");
+      },
+      std::chrono::seconds(5));
 }
 
 double metric(const std::string& text, const std::string& series) {

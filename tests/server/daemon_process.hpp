@@ -6,6 +6,7 @@
 #include <sys/types.h>
 
 #include <chrono>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -61,6 +62,13 @@ class DaemonProcess {
   // Waits until at least `calls` requests are in flight (horizon_requests_in_flight): the
   // moment to cancel, reload or stop under a call, on a machine of any speed.
   bool wait_for_in_flight(int calls, std::chrono::milliseconds timeout = std::chrono::seconds(10)) const;
+  // Waits until `settled` holds for the metrics text (true) or `timeout` passes (false).
+  bool wait_for_metrics(const std::function<bool(const std::string& metrics)>& settled,
+                        std::chrono::milliseconds timeout) const;
+  // Waits (5 s at most) until no call holds memory: the budget's reservations
+  // are the block cache's, the receive buffers' and the kept GL images'. A
+  // call leaves the in-flight gauge before its reactor returns its reservation.
+  bool memory_returned() const;
   // Peak resident set size (VmHWM) in bytes, while running.
   std::uint64_t peak_rss_bytes() const;
   // Resident set size now (VmRSS) in bytes, while running.

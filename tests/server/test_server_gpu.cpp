@@ -12,7 +12,6 @@
 #include <iostream>
 #include <map>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -217,20 +216,6 @@ TEST(ServerGpuMemory, GlImagesAreTakenFromTheBudget) {
       if (message.has_summary()) summary = message.summary();
     return reader->Finish();
   };
-  // The call's own reservation is returned just after its status reaches
-  // the client, so this waits (5 s at most) for the books to settle.
-  auto reserved_is_cache_receive_and_images = [&] {
-    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-    do {
-      const std::string m = daemon.metrics();
-      if (metric(m, "horizon_memory_reserved_bytes") ==
-          metric(m, "horizon_block_cache_budget_bytes") + metric(m, "horizon_receive_buffer_bytes") +
-              metric(m, "horizon_gpu_image_bytes"))
-        return true;
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    } while (std::chrono::steady_clock::now() < until);
-    return false;
-  };
 
   v1::ViewshedSummary refused;
   ASSERT_TRUE(viewshed(3000, 0.02, refused).ok());
@@ -248,7 +233,7 @@ TEST(ServerGpuMemory, GlImagesAreTakenFromTheBudget) {
   const double images = metric(daemon.metrics(), "horizon_gpu_image_bytes");
   EXPECT_GT(images, 0.0);
   EXPECT_LT(images, 3u << 20);
-  EXPECT_TRUE(reserved_is_cache_receive_and_images()) << daemon.metrics();
+  EXPECT_TRUE(daemon.memory_returned()) << daemon.metrics();
 }
 
 // `horizon viewshed --server` sends the backend flags and reports where the

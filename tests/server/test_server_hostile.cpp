@@ -375,16 +375,16 @@ TEST(ServerHostile, ReadersThatNeverDrainAStreamHoldNothingPastTheDeadline) {
   // The default deadline ends the stuck calls: no slot and no memory held.
   // A call leaves the in-flight gauge a moment before its reactor (and its
   // reservation) goes, so both are waited for.
-  double in_flight = -1, reserved = -1;
-  while (std::chrono::steady_clock::now() < stuck_at + std::chrono::seconds(10)) {
-    const std::string m = daemon.metrics();
-    in_flight = metric(m, "horizon_requests_in_flight");
-    reserved = metric(m, "horizon_memory_reserved_bytes");
-    if (in_flight == 0 && reserved == reserved_idle) break;
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
-  EXPECT_EQ(in_flight, 0);
-  EXPECT_EQ(reserved, reserved_idle);
+  daemon.wait_for_metrics(
+      [&](const std::string& m) {
+        return metric(m, "horizon_requests_in_flight") == 0 &&
+               metric(m, "horizon_memory_reserved_bytes") == reserved_idle;
+      },
+      std::chrono::duration_cast<std::chrono::milliseconds>(stuck_at + std::chrono::seconds(10) -
+                                                            std::chrono::steady_clock::now()));
+  const std::string settled = daemon.metrics();
+  EXPECT_EQ(metric(settled, "horizon_requests_in_flight"), 0);
+  EXPECT_EQ(metric(settled, "horizon_memory_reserved_bytes"), reserved_idle);
   int ended = 0;
   for (const std::string& line : daemon.request_lines())
     if (line.find("ComputeViewshed") != std::string::npos &&

@@ -10,7 +10,6 @@
 #include <functional>
 #include <map>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "daemon_process.hpp"
@@ -107,19 +106,6 @@ class ServerTrace : public ::testing::Test {
     for (auto it = lines.rbegin(); it != lines.rend(); ++it)
       if (it->find("\"method\":\"TraceCamera\"") != std::string::npos) return *it;
     return "";
-  }
-  // Waits until no call holds memory (the budget's reservations are the block cache's alone).
-  bool memory_returned() const {
-    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-    while (std::chrono::steady_clock::now() < until) {
-      const std::string text = daemon_->metrics();
-      if (metric(text, "horizon_memory_reserved_bytes") == metric(text, "horizon_block_cache_budget_bytes") +
-                                                               metric(text, "horizon_receive_buffer_bytes") +
-                                                               metric(text, "horizon_gpu_image_bytes"))
-        return true;
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    return false;
   }
   // Blocks the daemon's cache has been asked for, by any request.
   double blocks_asked() const {
@@ -534,7 +520,7 @@ TEST_F(ServerTrace, PastALimitIsRefusedBeforeAnyWork) {
   }
   EXPECT_EQ(blocks_asked(), asked) << "a refused request read blocks";
   // Nothing is left reserved, and the daemon answers as before.
-  EXPECT_TRUE(memory_returned()) << daemon_->metrics();
+  EXPECT_TRUE(daemon_->memory_returned()) << daemon_->metrics();
   EXPECT_TRUE(run(rainier_frame()).ok());
 }
 
@@ -602,7 +588,7 @@ TEST_F(ServerTrace, DeadlinesAndCancelsEndTheCall) {
   EXPECT_NE(last_log_line().find("CANCELLED"), std::string::npos) << last_log_line();
 
   // Nothing is held afterwards, and the daemon answers as before.
-  EXPECT_TRUE(memory_returned()) << daemon_->metrics();
+  EXPECT_TRUE(daemon_->memory_returned()) << daemon_->metrics();
   EXPECT_TRUE(run(rainier_frame()).ok());
 }
 
