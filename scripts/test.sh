@@ -6,7 +6,8 @@
 # concurrency tests, the daemon's unit tests and a daemon under
 # ThreadSanitizer (scripts/tsan.sh; HORIZON_TSAN=0 skips it), then the
 # engine's and the daemon's unit tests under AddressSanitizer and UBSan
-# (scripts/asan.sh; HORIZON_ASAN=0 skips it), then fuzzes every target for HORIZON_FUZZ_SECONDS (default 30; 0 skips it) in a
+# (scripts/asan.sh; HORIZON_ASAN=0 skips it), then fuzzes every target for
+# HORIZON_FUZZ_SECONDS (default 30; 0 skips it) in a
 # clang/libFuzzer/ASan/UBSan build (scripts/fuzz.sh). Extra arguments go to
 # ctest (e.g. -R Cli, -j 1); HORIZON_BUILD_DIR picks the build directory as
 # in build.sh.
