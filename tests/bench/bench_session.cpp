@@ -18,9 +18,11 @@
 // (session baselines only). --accuracy N compares every Nth pose's answer
 // with exact culling (R3's OHF, bit for bit) of the same boxes: false hidden
 // (R3 sees it, reported hidden) and false visible. Prints one line per
-// baseline: per-pose time p50 / p99 / max, the poses late for their slot,
-// sub-tiles and bytes loaded per pose, fallbacks. --viewshed-radius M adds a
-// viewshed of the cells within M metres to every answer (timed with it); with
+// baseline: per-pose time p50 / p99 / max (from the start of the pose's
+// work), the poses late for their slot, the time from a pose's slot to its
+// answer (p99, max: a queue behind a slow pose shows here), sub-tiles and
+// bytes loaded per pose, fallbacks. --viewshed-radius M adds a viewshed
+// of the cells within M metres to every answer (timed with it); with
 // --accuracy its mask is compared with exact's (run_viewshed, Algorithm::kExact)
 // on the cells both answer: IoU of the visible sets, false hidden and visible.
 //
@@ -148,7 +150,8 @@ clipmap::SessionPose pose_at(const Options& o, int i) {
 }
 
 struct Timing {
-  std::vector<double> seconds;
+  std::vector<double> seconds;  // a pose's answer, from the start of its work
+  std::vector<double> lag;      // a pose's answer, from its slot: its wait behind the session's earlier poses too
   std::uint64_t late = 0, subtiles = 0, bytes = 0, samples = 0, fallbacks = 0, answers = 0, rings = 0, tests = 0;
   std::uint64_t on_gpu = 0, uploaded = 0;
   double cull_seconds = 0;
@@ -228,11 +231,13 @@ void fly_session(const Options& o, const std::shared_ptr<const terrain::Elevatio
     std::this_thread::sleep_until(slot);
     const auto began = Clock::now();
     auto answer = (*session)->answer(pose_at(o, i));
-    const double took = std::chrono::duration<double>(Clock::now() - began).count();
+    const auto ended = Clock::now();
+    const double took = std::chrono::duration<double>(ended - began).count();
     if (!answer.ok()) usage(answer.error().message.c_str());
     for (const auto& c : answer->changes) seen[c.id] = c.state != visibility::Visibility::kOccluded;
     std::lock_guard lock(timing.mutex);
     timing.seconds.push_back(took);
+    timing.lag.push_back(std::chrono::duration<double>(ended - slot).count());
     timing.late += Clock::now() > slot + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1 / o.rate));
     timing.subtiles += answer->subtiles_loaded;
     timing.bytes += answer->bytes_loaded;
@@ -277,8 +282,9 @@ void fly_cullboxes(const Options& o, const std::shared_ptr<const terrain::Elevat
     if (!plan.ok()) usage(plan.error().message.c_str());
     auto run = visibility::run_cull_boxes(*plan, *source, &cache, nullptr, nullptr, nullptr, &workspace);
     if (!run.ok()) usage(run.error().message.c_str());
-    const double took = std::chrono::duration<double>(Clock::now() - began).count();
-    timing.seconds.push_back(took);
+    const auto ended = Clock::now();
+    timing.seconds.push_back(std::chrono::duration<double>(ended - began).count());
+    timing.lag.push_back(std::chrono::duration<double>(ended - slot).count());
     timing.late += Clock::now() > slot + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1 / o.rate));
     timing.bytes += run->read.cells_decoded * sizeof(float);
     timing.samples += run->result.stats.dem_cells;
@@ -337,6 +343,8 @@ int main(int argc, char** argv) {
               static_cast<double>(timing.subtiles) / n, static_cast<double>(timing.bytes) / 1024.0 / n,
               timing.samples ? 100.0 * static_cast<double>(timing.fallbacks) / static_cast<double>(timing.samples) : 0.0,
               static_cast<unsigned long long>(timing.samples), wall);
+  std::printf("; from its slot: p99 %.2f ms, max %.2f ms", percentile(timing.lag, 0.99) * 1e3,
+              percentile(timing.lag, 1.0) * 1e3);
   if (timing.rings)
     std::printf("; a pose: %.0f rings, %.0f box tests, %.2f ms culling", static_cast<double>(timing.rings) / n,
                 static_cast<double>(timing.tests) / n, timing.cull_seconds / n * 1e3);
