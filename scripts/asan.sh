@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Builds the engine's and the daemon's in-process unit tests with
 # AddressSanitizer and UndefinedBehaviorSanitizer into build-asan/ and runs
-# them: test_common, test_terrain, test_visibility, test_clipmap (the
-# engine) and test_server_units (config, budget figures, health, deadlines,
+# them: test_common, test_terrain, test_visibility, test_clipmap, test_mesh
+# (the engine; test_mesh reads mesh files) and test_server_units (config, budget figures, health, deadlines,
 # paths). Any report fails the run (UBSan does not recover). The daemon's
 # process-level tests (test_server: a real horizond per test) are left to
 # the ordinary build: under ASan their RSS checks mean nothing and their
@@ -12,7 +12,7 @@ set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
 build_dir="${HORIZON_ASAN_BUILD_DIR:-build-asan}"
-binaries=(test_common test_terrain test_visibility test_clipmap test_server_units)
+binaries=(test_common test_terrain test_visibility test_clipmap test_mesh test_server_units)
 cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHORIZON_SANITIZE=ON \
   -DHORIZON_BUILD_BENCH=OFF >/dev/null
 cmake --build "$build_dir" -j "$(nproc)" --target "${binaries[@]}"
