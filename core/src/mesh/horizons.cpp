@@ -35,7 +35,16 @@ struct Planar {
   std::uint32_t index;
 };
 
+// The orientation of (u, v, w) in the (t, z) plane, exactly: the double
+// determinant where Shewchuk's error bound for it ("Adaptive precision
+// floating-point arithmetic and fast robust geometric predicates", 1997,
+// orient2d's first stage) proves its sign, CGAL's exact predicate where not.
 CGAL::Orientation turn(const Planar& u, const Planar& v, const Planar& w) {
+  const double left = (u.t - w.t) * (v.z - w.z), right = (u.z - w.z) * (v.t - w.t), det = left - right;
+  constexpr double kBound = (3.0 + 16.0 * 0x1p-53) * 0x1p-53;  // Shewchuk's ccwerrboundA
+  const double bound = kBound * (std::fabs(left) + std::fabs(right));
+  if (det > bound) return CGAL::LEFT_TURN;
+  if (-det > bound) return CGAL::RIGHT_TURN;
   return CGAL::orientation(Kernel::Point_2(u.t, u.z), Kernel::Point_2(v.t, v.z), Kernel::Point_2(w.t, w.z));
 }
 
@@ -107,29 +116,11 @@ class UpperHull {
 // have, in the same order, so the answers are the same; but a node's hull
 // is built and read in one go, in cache, and the tree's levels are the
 // passes of a bottom-up merge sort of the leaves by processing rank.
-std::vector<std::uint32_t> sweep(const std::vector<Projected>& pts) {
+std::vector<std::uint32_t> sweep(const std::vector<Projected>& pts, const std::vector<std::uint32_t>& order,
+                                 const std::vector<std::uint32_t>& leaves) {
   const std::size_t n = pts.size();
-  // Sorted by value, not through indices: the keys stay in cache.
-  struct Keyed {
-    double first, second;
-    std::uint32_t index;
-  };
-  std::vector<Keyed> keyed(n);
-  auto sort_keyed = [&] {
-    std::sort(keyed.begin(), keyed.end(), [](const Keyed& u, const Keyed& v) {
-      return u.first < v.first || (u.first == v.first && (u.second < v.second || (u.second == v.second && u.index < v.index)));
-    });
-  };
-  // Processing: decreasing A (ties: increasing B, then index).
-  for (std::uint32_t i = 0; i < n; ++i) keyed[i] = {-pts[i].a, pts[i].b, i};
-  sort_keyed();
   std::vector<std::uint32_t> rank(n);
-  for (std::size_t i = 0; i < n; ++i) rank[keyed[i].index] = static_cast<std::uint32_t>(i);
-  // Leaves: increasing B (ties: decreasing A, then index). Then q is p's
-  // candidate exactly when it comes before p in both orders (horizons.hpp's
-  // test).
-  for (std::uint32_t i = 0; i < n; ++i) keyed[i] = {pts[i].b, -pts[i].a, i};
-  sort_keyed();
+  for (std::size_t i = 0; i < n; ++i) rank[order[i]] = static_cast<std::uint32_t>(i);
   // `run` holds the leaves, each block of `width` sorted by processing rank;
   // each carries its best answer so far, so the merge reads only in order.
   struct Leaf {
@@ -138,7 +129,7 @@ std::vector<std::uint32_t> sweep(const std::vector<Projected>& pts) {
   };
   std::vector<Leaf> run(n), merged(n);
   for (std::size_t i = 0; i < n; ++i) {
-    const std::uint32_t v = keyed[i].index;
+    const std::uint32_t v = leaves[i];
     run[i] = {{pts[v].t, pts[v].z, v}, {0.0, 0.0, kNoHorizon}, rank[v]};
   }
   UpperHull hull;
@@ -196,46 +187,146 @@ Status check_options(std::span<const TinVertex> points, const HorizonOptions& o)
   return Status::Ok();
 }
 
-// Sector i's horizons: its k subsectors traced one after another, each
-// vertex keeping the lowest subsector horizon by that horizon's slope in
-// its own subsector's plane; none once any subsector has none.
-template <class Trace>
-void trace_sector(std::span<const TinVertex> points, int sector, const HorizonOptions& o, Trace& trace,
-                  VertexHorizons& out) {
-  const std::size_t n = points.size();
-  std::vector<std::uint32_t> chosen(n, kNoHorizon);
-  std::vector<double> lowest(n, 0.0);
-  for (int j = 0; j < o.subsectors; ++j) {
-    const Wedge w = Wedge::sector(sector, o.sectors, j, o.subsectors);
-    const std::vector<std::uint32_t> h = trace(project(points, w));
-    for (std::size_t v = 0; v < n; ++v) {
-      if (j > 0 && chosen[v] == kNoHorizon) continue;  // a subsector before had none
+// A vertex keyed for sorting by its dot product with one edge's normal.
+struct Keyed {
+  double key;
+  std::uint32_t index;
+};
+
+// The vertices ascending by (n · v, index) for edge m's normal n.
+std::vector<Keyed> sorted_along(std::span<const TinVertex> points, const Wedge& edge_lo) {
+  std::vector<Keyed> out(points.size());
+  for (std::uint32_t i = 0; i < points.size(); ++i) out[i] = {edge_lo.a(points[i]), i};
+  std::sort(out.begin(), out.end(),
+            [](const Keyed& u, const Keyed& v) { return u.key < v.key || (u.key == v.key && u.index < v.index); });
+  return out;
+}
+
+// The indices of `sorted` by its key ascending, or descending, each run of
+// equal keys put in `tie`'s order.
+template <class Tie>
+std::vector<std::uint32_t> in_order(const std::vector<Keyed>& sorted, bool descending, Tie tie) {
+  const std::size_t n = sorted.size();
+  auto at = [&](std::size_t i) -> const Keyed& { return sorted[descending ? n - 1 - i : i]; };
+  std::vector<std::uint32_t> out(n);
+  for (std::size_t i = 0; i < n; ++i) out[i] = at(i).index;
+  for (std::size_t i = 0; i < n;) {
+    std::size_t j = i + 1;
+    while (j < n && at(j).key == at(i).key) ++j;
+    if (j - i > 1) std::sort(out.begin() + static_cast<std::ptrdiff_t>(i), out.begin() + static_cast<std::ptrdiff_t>(j), tie);
+    i = j;
+  }
+  return out;
+}
+
+// Each vertex's lowest subsector horizon of one sector, by that horizon's
+// slope in its own subsector's plane; none once any subsector has none.
+class LowestOfSubsectors {
+ public:
+  explicit LowestOfSubsectors(std::size_t n) : chosen_(n, kNoHorizon), lowest_(n, 0.0) {}
+
+  void add(std::span<const TinVertex> points, int j, const Wedge& w, const std::vector<std::uint32_t>& h) {
+    for (std::size_t v = 0; v < h.size(); ++v) {
+      if (j > 0 && chosen_[v] == kNoHorizon) continue;  // a subsector before had none
       if (h[v] == kNoHorizon) {
-        chosen[v] = kNoHorizon;
+        chosen_[v] = kNoHorizon;
         continue;
       }
       const double slope = (points[h[v]].z - points[v].z) / (w.t(points[h[v]]) - w.t(points[v]));
-      if (j == 0 || slope < lowest[v]) {
-        chosen[v] = h[v];
-        lowest[v] = slope;
+      if (j == 0 || slope < lowest_[v]) {
+        chosen_[v] = h[v];
+        lowest_[v] = slope;
       }
     }
   }
-  for (std::size_t v = 0; v < n; ++v)
-    out.horizon[v * static_cast<std::size_t>(o.sectors) + static_cast<std::size_t>(sector)] = chosen[v];
-}
 
-template <class Trace>
-Result<VertexHorizons> horizons_by(std::span<const TinVertex> points, const HorizonOptions& o, const RunControl* control,
-                                   Trace trace) {
+  void store(int sector, VertexHorizons& out) const {
+    for (std::size_t v = 0; v < chosen_.size(); ++v)
+      out.horizon[v * static_cast<std::size_t>(out.sectors) + static_cast<std::size_t>(sector)] = chosen_[v];
+  }
+
+ private:
+  std::vector<std::uint32_t> chosen_;
+  std::vector<double> lowest_;
+};
+
+Result<VertexHorizons> prepared(std::span<const TinVertex> points, const HorizonOptions& o) {
   HORIZON_RETURN_IF_ERROR(check_options(points, o));
   VertexHorizons out;
   out.sectors = o.sectors;
   out.horizon.assign(points.size() * static_cast<std::size_t>(o.sectors), kNoHorizon);
-  HORIZON_RETURN_IF_ERROR(parallel_for(static_cast<std::size_t>(o.sectors), o.threads, control, [&](std::size_t i) {
-    trace_sector(points, static_cast<int>(i), o, trace, out);
+  return out;
+}
+
+}  // namespace
+
+Result<VertexHorizons> compute_horizons(std::span<const TinVertex> points, const HorizonOptions& options,
+                                        const RunControl* control) {
+  auto out = prepared(points, options);
+  if (!out.ok()) return out;
+  const int s = options.sectors, k = options.subsectors;
+  // Sector i and its opposite i + s/2 (s even) share their edges' sorts: the
+  // opposite edge's normal is the exact negation (Wedge::sector), so its
+  // order is this one reversed, ties apart. k + 1 sorts serve 2k wedges.
+  const int groups = s % 2 == 0 ? s / 2 : s;
+  HORIZON_RETURN_IF_ERROR(parallel_for(static_cast<std::size_t>(groups), options.threads, control, [&](std::size_t g) {
+    const int sector = static_cast<int>(g);
+    std::vector<std::vector<Keyed>> edges;  // edge j of the sector: its lo edge of subsector j
+    for (int j = 0; j <= k; ++j)
+      edges.push_back(sorted_along(points, j < k ? Wedge::sector(sector, s, j, k) : Wedge::sector(sector + 1, s, 0, k)));
+    for (int opposite = 0; opposite <= (s % 2 == 0 ? 1 : 0); ++opposite) {
+      const int i = sector + opposite * s / 2;
+      LowestOfSubsectors lowest(points.size());
+      for (int j = 0; j < k; ++j) {
+        const Wedge w = Wedge::sector(i, s, j, k);
+        const std::vector<Projected> pts = project(points, w);
+        // Processing: decreasing A (ties: increasing B, then index). Leaves:
+        // increasing B (ties: decreasing A, then index). Then q is p's
+        // candidate exactly when it comes before p in both orders (the test
+        // of horizons.hpp). For the opposite sector A and B are the shared
+        // keys negated.
+        const auto order = in_order(edges[static_cast<std::size_t>(j)], !opposite, [&](std::uint32_t u, std::uint32_t v) {
+          return pts[u].b < pts[v].b || (pts[u].b == pts[v].b && u < v);
+        });
+        const auto leaves = in_order(edges[static_cast<std::size_t>(j) + 1], opposite, [&](std::uint32_t u, std::uint32_t v) {
+          return pts[u].a > pts[v].a || (pts[u].a == pts[v].a && u < v);
+        });
+        lowest.add(points, j, w, sweep(pts, order, leaves));
+      }
+      lowest.store(i, *out);
+    }
   }));
   return out;
+}
+
+Result<VertexHorizons> brute_force_horizons(std::span<const TinVertex> points, const HorizonOptions& options) {
+  auto out = prepared(points, options);
+  if (!out.ok()) return out;
+  const int s = options.sectors, k = options.subsectors;
+  parallel_for(static_cast<std::size_t>(s), options.threads, [&](std::size_t i) {
+    LowestOfSubsectors lowest(points.size());
+    for (int j = 0; j < k; ++j) {
+      const Wedge w = Wedge::sector(static_cast<int>(i), s, j, k);
+      lowest.add(points, j, w, brute_force(project(points, w)));
+    }
+    lowest.store(static_cast<int>(i), *out);
+  });
+  return out;
+}
+
+namespace {
+
+// The normal (-sin, cos) of edge m of n (angle 2πm/n), edge n being edge 0
+// and, for even n, edge m + n/2 exactly edge m's negation: opposite wedges
+// then see one order reversed, and the last wedge closes on the first.
+std::pair<double, double> edge_normal(int m, int n) {
+  m %= n;
+  if (n % 2 == 0 && m >= n / 2) {
+    const auto [x, y] = edge_normal(m - n / 2, n);
+    return {-x, -y};
+  }
+  const double angle = 2.0 * std::numbers::pi * m / n;
+  return {-std::sin(angle), std::cos(angle)};
 }
 
 }  // namespace
@@ -246,18 +337,11 @@ Wedge Wedge::between(double lo, double hi) {
 }
 
 Wedge Wedge::sector(int index, int count, int sub, int subs) {
-  const double total = static_cast<double>(count) * static_cast<double>(subs);
-  const double first = static_cast<double>(index) * subs + sub;
-  return between(2.0 * std::numbers::pi * first / total, 2.0 * std::numbers::pi * (first + 1.0) / total);
-}
-
-Result<VertexHorizons> compute_horizons(std::span<const TinVertex> points, const HorizonOptions& options,
-                                        const RunControl* control) {
-  return horizons_by(points, options, control, sweep);
-}
-
-Result<VertexHorizons> brute_force_horizons(std::span<const TinVertex> points, const HorizonOptions& options) {
-  return horizons_by(points, options, nullptr, brute_force);
+  const int n = count * subs, m = index * subs + sub;
+  const auto [ax, ay] = edge_normal(m, n);
+  const auto [bx, by] = edge_normal(m + 1, n);
+  const double mid = 2.0 * std::numbers::pi * (m + 0.5) / n;
+  return {ax, ay, bx, by, std::cos(mid), std::sin(mid)};
 }
 
 }  // namespace horizon::mesh
