@@ -19,7 +19,7 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 seconds="${FUZZ_SECONDS:-60}"
 build_dir="${HORIZON_FUZZ_BUILD_DIR:-build-fuzz}"
 targets=("$@")
-((${#targets[@]})) || targets=(raster config requests)
+((${#targets[@]})) || targets=(raster config requests mesh)
 
 CXX=clang++-14 cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DHORIZON_FUZZ=ON -DHORIZON_SANITIZE=ON -DHORIZON_BUILD_TESTS=OFF -DHORIZON_BUILD_BENCH=OFF >/dev/null

@@ -15,7 +15,7 @@ packages=(
   openimageio-tools  # OpenImageIO's CMake package refuses to load without its tools (/usr/bin/iconvert)
   libgeotiff-dev libtiff-dev libdeflate-dev  # libdeflate: the GeoTIFF writer deflates tiles on every core
   libproj-dev proj-data  # CRSs and their transformations (PROJ 9.1); proj-data holds proj.db and the datum grids
-  libcgal-dev  # TINs: exact predicates, Delaunay triangulation, OBJ/PLY/OFF readers (header-only; brings GMP, MPFR)
+  libcgal-dev  # TINs: exact predicates, Delaunay triangulation, OBJ/PLY readers (header-only; brings GMP, MPFR)
   # GPU path (EGL, headless Mesa)
   libegl-dev libegl-mesa0 libgl1-mesa-dri libgles-dev libopengl-dev libgl-dev
   # daemon
