@@ -3,8 +3,6 @@
 // readers dispatch on the name); the rest is the file. A reader must answer
 // an Error or cells, never crash, hang or read out of bounds; a header that
 // opens is read through a bounded window, and whole when it is small.
-#include <unistd.h>
-
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
@@ -13,19 +11,7 @@
 
 #include "horizon/terrain/dem_reader.hpp"
 #include "horizon/terrain/source.hpp"
-
-namespace {
-
-const std::filesystem::path& scratch() {
-  static const std::filesystem::path dir = [] {
-    auto d = std::filesystem::temp_directory_path() / ("horizon-fuzz-raster-" + std::to_string(::getpid()));
-    std::filesystem::create_directories(d);
-    return d;
-  }();
-  return dir;
-}
-
-}  // namespace
+#include "scratch_file.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace horizon::terrain;
@@ -33,13 +19,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   // An .hgt must hold 1201^2 or 3601^2 samples (2.9 or 26 MB), beyond a
   // fuzzer's inputs: for it, the size check is what is fuzzed.
   static const char* const kNames[] = {"dem.tif", "dem.tiff", "N46W122.hgt", "dem.png"};
-  const std::filesystem::path path = scratch() / kNames[data[0] % 4];
-  if (FILE* f = std::fopen(path.c_str(), "wb")) {
-    std::fwrite(data + 1, 1, size - 1, f);
-    std::fclose(f);
-  } else {
-    return 0;
-  }
+  const auto written = horizon::fuzz::write_scratch("raster", kNames[data[0] % 4], data + 1, size - 1);
+  if (!written) return 0;
+  const std::filesystem::path& path = *written;
   ReadOptions options;
   options.allow_missing_crs = true;
   auto raster = open_raster(path.string(), options);
