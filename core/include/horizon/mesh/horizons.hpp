@@ -35,8 +35,9 @@
 // B) for the steepest tangent, then inserted into the hulls on its path:
 // O(n log n · log h) a wedge, h the hulls' sizes, plus the O(h) moves of
 // an insertion into a hull kept as a sorted array (terrain's hulls are
-// short). Sectors run in parallel (threads), each tracing its subsectors
-// in turn. brute_force_horizons is the O(s·k·n²) reference with
+// short). Sectors run in parallel (threads), a sector and its opposite
+// together (they share their edges' sorts), each tracing its subsectors in
+// turn. brute_force_horizons is the O(s·k·n²) reference with
 // the same predicate and tie rule, for tests.
 #pragma once
 
@@ -59,7 +60,11 @@ struct Wedge {
   double rx = 0, ry = 0;  // the centre direction: (cos mid, sin mid)
 
   static Wedge between(double lo, double hi);
-  // Sector `index` of `count` (count >= 3), or subsector `sub` of `subs` of it.
+  // Sector `index` of `count` (count >= 3), or subsector `sub` of `subs` of
+  // it. Its edges are edges m and m + 1 of the count·subs edges around; the
+  // last closes on edge 0's normal, and with an even number of edges edge
+  // m + half is exactly edge m's negation, so neighbours and opposites
+  // compare the very same doubles.
   static Wedge sector(int index, int count, int sub = 0, int subs = 1);
 
   double a(const TinVertex& v) const { return ax * v.x + ay * v.y; }
