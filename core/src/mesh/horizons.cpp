@@ -331,11 +331,6 @@ std::pair<double, double> edge_normal(int m, int n) {
 
 }  // namespace
 
-Wedge Wedge::between(double lo, double hi) {
-  const double mid = 0.5 * (lo + hi);
-  return {-std::sin(lo), std::cos(lo), -std::sin(hi), std::cos(hi), std::cos(mid), std::sin(mid)};
-}
-
 Wedge Wedge::sector(int index, int count, int sub, int subs) {
   const int n = count * subs, m = index * subs + sub;
   const auto [ax, ay] = edge_normal(m, n);

@@ -59,7 +59,6 @@ struct Wedge {
   double bx = 0, by = 0;  // normal of the edge at hi: (-sin hi, cos hi)
   double rx = 0, ry = 0;  // the centre direction: (cos mid, sin mid)
 
-  static Wedge between(double lo, double hi);
   // Sector `index` of `count` (count >= 3), or subsector `sub` of `subs` of
   // it. Its edges are edges m and m + 1 of the count·subs edges around; the
   // last closes on edge 0's normal, and with an even number of edges edge
