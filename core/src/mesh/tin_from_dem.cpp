@@ -45,12 +45,11 @@ void for_cells_in(const GridPoint& a, const GridPoint& b, const GridPoint& c, in
   auto edge = [](const GridPoint& p, const GridPoint& q, double col, double row) {
     return (q.col - p.col) * (row - p.row) - (col - p.col) * (q.row - p.row);
   };
-  const double sign = area > 0.0 ? 1.0 : -1.0;
+  const double sign = area > 0.0 ? 1.0 : -1.0, inv = 1.0 / std::fabs(area);
   for (int r = r0; r <= r1; ++r)
     for (int col = c0; col <= c1; ++col) {
       const double wa = sign * edge(b, c, col, r), wb = sign * edge(c, a, col, r), wc = sign * edge(a, b, col, r);
       if (wa < 0.0 || wb < 0.0 || wc < 0.0) continue;
-      const double inv = 1.0 / std::fabs(area);
       visit(col, r, std::array<double, 3>{wa * inv, wb * inv, wc * inv});
     }
 }
