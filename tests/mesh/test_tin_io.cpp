@@ -3,6 +3,9 @@
 // what is wrong.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
 #include <fstream>
 
 #include "horizon/mesh/tin_io.hpp"
@@ -49,6 +52,97 @@ TEST(ReadTin, ReadsPlyAndCutsAQuadIntoTwoTriangles) {
   EXPECT_EQ(tin->triangles[1], (TinTriangle{0, 2, 3}));
 }
 
+// A binary PLY body, scalar by scalar, in either byte order.
+class PlyBytes {
+ public:
+  explicit PlyBytes(bool big_endian) : big_(big_endian) {}
+  template <class T>
+  PlyBytes& put(T value) {
+    char raw[sizeof(T)];
+    std::memcpy(raw, &value, sizeof(T));
+    if (big_) std::reverse(raw, raw + sizeof(T));
+    bytes_.append(raw, sizeof(T));
+    return *this;
+  }
+  const std::string& bytes() const { return bytes_; }
+
+ private:
+  bool big_;
+  std::string bytes_;
+};
+
+std::string binary_quad(bool big_endian) {
+  // x, y as double, z as int, a normal and a colour to read past; a face
+  // list with a uchar length and uint indices, a per-face flag; an "edge"
+  // element no TIN uses.
+  std::string text = std::string("ply\r\nformat ") + (big_endian ? "binary_big_endian" : "binary_little_endian") +
+                     " 1.0\ncomment made by hand\nelement vertex 4\nproperty double x\nproperty double y\n"
+                     "property float nx\nproperty int z\nproperty uchar red\nelement face 2\n"
+                     "property list uchar uint vertex_indices\nproperty short flag\nelement edge 1\n"
+                     "property list ushort int pair\nend_header\n";
+  PlyBytes body(big_endian);
+  const double xy[4][2] = {{450375.123456, 3042016.654321}, {450385.5, 3042016.654321}, {450385.5, 3042026.25},
+                           {450375.123456, 3042026.25}};
+  for (int v = 0; v < 4; ++v) body.put(xy[v][0]).put(xy[v][1]).put(0.5f).put(std::int32_t{8800 + v}).put(std::uint8_t{7});
+  body.put(std::uint8_t{3}).put(std::uint32_t{0}).put(std::uint32_t{1}).put(std::uint32_t{2}).put(std::int16_t{-1});
+  body.put(std::uint8_t{3}).put(std::uint32_t{0}).put(std::uint32_t{2}).put(std::uint32_t{3}).put(std::int16_t{1});
+  body.put(std::uint16_t{2}).put(std::int32_t{0}).put(std::int32_t{1});
+  return text + body.bytes();
+}
+
+TEST(ReadTin, ReadsBinaryPlyInEitherByteOrder) {
+  testing::TempDir dir;
+  for (bool big : {false, true}) {
+    auto tin = read_tin(write(dir, big ? "big.ply" : "little.ply", binary_quad(big)));
+    ASSERT_TRUE(tin.ok()) << tin.error().message;
+    ASSERT_EQ(tin->vertices.size(), 4u);
+    EXPECT_EQ(tin->vertices[0], (TinVertex{450375.123456, 3042016.654321, 8800}));
+    EXPECT_EQ(tin->vertices[2], (TinVertex{450385.5, 3042026.25, 8802}));
+    ASSERT_EQ(tin->triangles.size(), 2u);
+    EXPECT_EQ(tin->triangles[1], (TinTriangle{0, 2, 3}));
+  }
+}
+
+TEST(ReadTin, BoundsAndNamesWhatIsWrongInAPlyBody) {
+  testing::TempDir dir;
+  const std::string good = binary_quad(false);
+  const std::size_t body = good.find("end_header\n") + 11;
+  auto refused = [&](const std::string& name, const std::string& bytes, const std::string& message) {
+    auto tin = read_tin(write(dir, name, bytes));
+    ASSERT_FALSE(tin.ok()) << name;
+    EXPECT_EQ(tin.error().code, ErrorCode::kDataError) << name;
+    EXPECT_NE(tin.error().message.find(name + ": PLY " + message), std::string::npos) << tin.error().message;
+  };
+  // A face claiming 255 corners, in a file with 30 bytes left: refused
+  // before anything is sized from it.
+  std::string long_list = good;
+  long_list[body + 4 * 25] = static_cast<char>(255);
+  refused("long_list.ply", long_list, "face 0 (property vertex_indices): a list of 255 items, more than the file holds");
+  // A uint length of about four billion (what fuzz_mesh sent CGAL's reader).
+  std::string ascii = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                      "property float z\nelement face 1\nproperty list uint int vertex_indices\nend_header\n"
+                      "0 0 0\n1 0 0\n0 1 0\n";
+  refused("four_billion.ply", ascii + "4294967062 0 1 2\n",
+          "face 0 (property vertex_indices): a list of 4294967062 items, more than the file holds");
+  refused("cut.ply", good.substr(0, good.size() - 11), "ends or has a non-number inside face 1 (property flag)");
+  refused("few_bytes.ply", good.substr(0, body + 99), "element vertex claims 4 items, more than the file's remaining 99");
+  refused("trailing.ply", good + "xyz", "3 bytes follow the last element");
+  refused("word.ply", ascii + "3 0 one 2\n", "ends or has a non-number inside face 0 (property vertex_indices)");
+  refused("negative.ply", ascii + "3 0 -1 2\n",
+          "face 0 (property vertex_indices): vertex index -1 is not a whole number from 0 to 4294967295");
+  refused("no_z.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n1 2\n",
+          "header line 3: the vertex element has no property z");
+  refused("float_index.ply",
+          "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\nproperty float z\n"
+          "element face 0\nproperty list uchar float vertex_indices\nend_header\n",
+          "header line 7: face vertex indices must be an integer type");
+  refused("version.ply", "ply\nformat ascii 2.0\nend_header\n", "header line 2: expected 'format");
+  refused("keyword.ply", "ply\nformat ascii 1.0\nelemental vertex 1\nend_header\n",
+          "header line 3: unknown keyword 'elemental'");
+  refused("type.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty quad x\nend_header\n",
+          "header line 4: unknown property type 'quad'");
+}
+
 TEST(ReadTin, MergesCornersWrittenOncePerFace) {
   testing::TempDir dir;
   // Each face with its own copies of its corners, as some exporters write.
@@ -79,15 +173,16 @@ TEST(ReadTin, NamesTheFileAndWhatIsWrong) {
   auto empty = read_tin(write(dir, "empty.obj", "# nothing here\n"));
   ASSERT_FALSE(empty.ok());
   EXPECT_EQ(empty.error().code, ErrorCode::kDataError);
-  EXPECT_NE(empty.error().message.find("empty.obj: not a readable obj mesh"), std::string::npos)
+  EXPECT_NE(empty.error().message.find("empty.obj: not a readable OBJ mesh"),
+            std::string::npos)
       << empty.error().message;
 
   auto garbage = read_tin(write(dir, "garbage.ply", "this is not a ply file\n"));
   ASSERT_FALSE(garbage.ok());
   EXPECT_EQ(garbage.error().code, ErrorCode::kDataError);
 
-  // PLY headers CGAL's reader would trust: a property before any element,
-  // a count no file of this size can hold.
+  // PLY headers a trusting reader would follow: a property before any
+  // element, a count no file of this size can hold.
   auto orphan = read_tin(write(dir, "orphan.ply", "ply\nformat ascii 1.0\nproperty double x\nend_header\n"));
   ASSERT_FALSE(orphan.ok());
   EXPECT_NE(orphan.error().message.find("orphan.ply: PLY header line 3: a property before any element"),
@@ -95,11 +190,20 @@ TEST(ReadTin, NamesTheFileAndWhatIsWrong) {
       << orphan.error().message;
   auto huge = read_tin(write(dir, "huge.ply",
                              "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\n"
+                             "property float y\nproperty float z\n"
                              "end_header\n"));
   ASSERT_FALSE(huge.ok());
-  EXPECT_NE(huge.error().message.find("element vertex claims 4000000000 items, more than the file's"),
+  EXPECT_NE(huge.error().message.find("element vertex claims 4000000000 items, more than the file's remaining 0"),
             std::string::npos)
       << huge.error().message;
+
+  auto no_faces = read_tin(write(dir, "no_faces.ply",
+                                 "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                                 "property float z\nend_header\n1 2 3\n"));
+  ASSERT_FALSE(no_faces.ok());
+  EXPECT_NE(no_faces.error().message.find("no_faces.ply: the file has 1 vertices and 0 faces; a TIN needs both"),
+            std::string::npos)
+      << no_faces.error().message;
 
   auto fold = read_tin(write(dir, "fold.obj", "v 0 0 0\nv 2 0 0\nv 1 2 0\nv 1 1 5\nf 1 2 3\nf 1 2 4\n"));
   ASSERT_FALSE(fold.ok());

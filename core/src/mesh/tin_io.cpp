@@ -1,7 +1,9 @@
 #include "horizon/mesh/tin_io.hpp"
 
+#include "mesh/ply_reader.hpp"
+
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-#include <CGAL/IO/polygon_soup_io.h>
+#include <CGAL/IO/OBJ.h>
 
 #include <algorithm>
 #include <cctype>
@@ -24,52 +26,34 @@ std::string lower_extension(const std::string& path) {
   return ext;
 }
 
-// A PLY header checked before CGAL's reader sees it, which trusts it: a
-// property before any element indexes an empty list (found by fuzz_mesh),
-// and an element's count sizes what is read. Each line must be one CGAL
-// reads as intended; counts are bounded by the file's size (a vertex or
-// face takes a byte at least).
-Status check_ply_header(const std::string& path) {
+// The whole file, for the PLY reader (it bounds every count by the bytes
+// left, so it wants them all).
+Result<std::string> slurp(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  const auto bytes = std::filesystem::file_size(path);
-  auto refuse = [&](std::size_t line, const std::string& why) {
-    return make_error(ErrorCode::kDataError, path + ": PLY header line " + std::to_string(line) + ": " + why, "mesh");
-  };
-  std::string line;
-  bool element = false;
-  for (std::size_t number = 1; std::getline(in, line); ++number) {
-    if (number > 10'000) return refuse(number, "no end_header in the first 10 000 lines");
-    std::istringstream words(line);
-    std::string keyword;
-    words >> keyword;
-    if (number == 1) {
-      if (keyword != "ply") return refuse(1, "a PLY file starts with 'ply'");
-    } else if (number == 2) {
-      std::string format;
-      words >> format;
-      if (keyword != "format" || (format != "ascii" && format != "binary_little_endian" && format != "binary_big_endian"))
-        return refuse(2, "expected 'format ascii|binary_little_endian|binary_big_endian 1.0'");
-    } else if (keyword == "element") {
-      std::string name;
-      std::uint64_t count = 0;
-      if (!(words >> name >> count)) return refuse(number, "an element needs a name and a count");
-      if (count > bytes) return refuse(number, "element " + name + " claims " + std::to_string(count) +
-                                                   " items, more than the file's " + std::to_string(bytes) + " bytes");
-      element = true;
-    } else if (keyword == "property") {
-      if (!element) return refuse(number, "a property before any element");
-      // CGAL reads coordinates as float or double only (another type is a
-      // null dereference there).
-      std::string type, name;
-      words >> type >> name;
-      if ((name == "x" || name == "y" || name == "z") && type != "float" && type != "float32" && type != "double" &&
-          type != "float64")
-        return refuse(number, "coordinate " + name + " is " + type + "; it must be float or double");
-    } else if (keyword == "end_header") {
-      return Status::Ok();
-    }
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  if (!in.good() && !in.eof()) return make_error(ErrorCode::kIoError, path + ": cannot read the file", "mesh");
+  return bytes.str();
+}
+
+// An OBJ file through CGAL's reader, which sizes nothing from a count in
+// the file (a face's corners are the numbers on its line).
+Result<detail::PolygonSoup> read_obj(const std::string& path) {
+  std::vector<Point> points;
+  std::vector<std::vector<std::size_t>> faces;
+  bool read = false;
+  try {
+    read = CGAL::IO::read_OBJ(path, points, faces);
+  } catch (const std::exception&) {
+    read = false;
   }
-  return make_error(ErrorCode::kDataError, path + ": a PLY header without end_header", "mesh");
+  if (!read) return make_error(ErrorCode::kDataError, path + ": not a readable OBJ mesh (CGAL's reader stopped)", "mesh");
+  detail::PolygonSoup soup;
+  soup.points.reserve(points.size());
+  for (const Point& p : points) soup.points.push_back({p.x(), p.y(), p.z()});
+  soup.faces.reserve(faces.size());
+  for (const auto& face : faces) soup.faces.emplace_back(face.begin(), face.end());
+  return soup;
 }
 
 }  // namespace
@@ -84,27 +68,30 @@ Result<Tin> read_tin(const std::string& path) {
   if (ext != ".obj" && ext != ".ply")
     return make_error(ErrorCode::kUnsupported, path + ": a mesh file must be OBJ (.obj) or PLY (.ply), not '" + ext + "'",
                       "mesh");
-  if (ext == ".ply") HORIZON_RETURN_IF_ERROR(check_ply_header(path));
-  std::vector<Point> points;
-  std::vector<std::vector<std::size_t>> faces;
-  bool read = false;
-  try {  // CGAL's readers throw on some corrupt files (a list's length past a vector's limit)
-    read = CGAL::IO::read_polygon_soup(path, points, faces);
-  } catch (const std::exception&) {
-    read = false;
+  Result<detail::PolygonSoup> soup = make_error(ErrorCode::kInternal, "", "mesh");
+  if (ext == ".ply") {
+    auto bytes = slurp(path);
+    if (!bytes.ok()) return bytes.error();
+    soup = detail::read_ply(*bytes, path);
+  } else {
+    soup = read_obj(path);
   }
-  if (!read || points.empty())
+  if (!soup.ok()) return soup.error();
+  const auto& points = soup->points;
+  const auto& faces = soup->faces;
+  if (points.empty() || faces.empty())
     return make_error(ErrorCode::kDataError,
-                      path + ": not a readable " + ext.substr(1) + " mesh (CGAL's reader stopped; a TIN needs "
-                      "vertices and triangle faces)", "mesh");
+                      path + ": the file has " + std::to_string(points.size()) + " vertices and " +
+                          std::to_string(faces.size()) + " faces; a TIN needs both",
+                      "mesh");
   // Merge points at exactly the same place; map the file's indices to ours.
   Tin tin;
   std::vector<std::uint32_t> index(points.size());
   std::map<std::tuple<double, double, double>, std::uint32_t> at;
   for (std::size_t i = 0; i < points.size(); ++i) {
-    const auto key = std::tuple(points[i].x(), points[i].y(), points[i].z());
+    const auto key = std::tuple(points[i][0], points[i][1], points[i][2]);
     auto [it, fresh] = at.emplace(key, static_cast<std::uint32_t>(tin.vertices.size()));
-    if (fresh) tin.vertices.push_back({points[i].x(), points[i].y(), points[i].z()});
+    if (fresh) tin.vertices.push_back({points[i][0], points[i][1], points[i][2]});
     index[i] = it->second;
   }
   for (std::size_t f = 0; f < faces.size(); ++f) {
@@ -114,7 +101,7 @@ Result<Tin> read_tin(const std::string& path) {
                         path + ": face " + std::to_string(f) + " has " + std::to_string(face.size()) +
                             " corners; a TIN's faces need three or more",
                         "mesh");
-    for (std::size_t c : face)
+    for (std::uint64_t c : face)
       if (c >= points.size())
         return make_error(ErrorCode::kDataError,
                           path + ": face " + std::to_string(f) + " names vertex " + std::to_string(c) +
