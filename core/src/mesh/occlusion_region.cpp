@@ -1,0 +1,118 @@
+#include "horizon/mesh/occlusion_region.hpp"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+
+namespace horizon::mesh {
+
+OcclusionChain OcclusionChain::from_horizon(ChainPoint p, ChainPoint h) {
+  assert(h.t > p.t);
+  OcclusionChain chain;
+  chain.corners_.push_back(h);
+  chain.final_slope_ = (h.z - p.z) / (h.t - p.t);
+  return chain;
+}
+
+double OcclusionChain::height_at(double t) const {
+  assert(!empty());
+  // Corners are few (simplified chains hold a handful): a scan is fastest.
+  std::size_t j = 0;
+  while (j + 1 < corners_.size() && corners_[j + 1].t <= t) ++j;
+  const ChainPoint& a = corners_[j];
+  if (j + 1 == corners_.size()) return a.z + final_slope_ * (t - a.t);
+  const ChainPoint& b = corners_[j + 1];
+  return a.z + (b.z - a.z) * ((t - a.t) / (b.t - a.t));
+}
+
+bool OcclusionChain::contains(double t, double z) const {
+  if (empty() || t < corners_.front().t) return false;
+  return z <= height_at(t);
+}
+
+namespace {
+
+// The slope of a chain just after corner j.
+double slope_after(const std::vector<ChainPoint>& c, std::size_t j, double final_slope) {
+  if (j + 1 == c.size()) return final_slope;
+  return (c[j + 1].z - c[j].z) / (c[j + 1].t - c[j].t);
+}
+
+// Drops corners where the chain does not bend (equal slopes either side,
+// to a relative 1e-12) and corners closer than 1e-9 m to the previous.
+void drop_straight_corners(std::vector<ChainPoint>& c, double final_slope) {
+  std::vector<ChainPoint> kept;
+  kept.reserve(c.size());
+  for (std::size_t j = 0; j < c.size(); ++j) {
+    if (!kept.empty() && c[j].t - kept.back().t <= 1e-9) continue;
+    if (!kept.empty()) {
+      const double before = (c[j].z - kept.back().z) / (c[j].t - kept.back().t);
+      const double after = slope_after(c, j, final_slope);
+      if (std::abs(before - after) <= 1e-12 * std::max(1.0, std::abs(before))) continue;
+    }
+    kept.push_back(c[j]);
+  }
+  c = std::move(kept);
+}
+
+}  // namespace
+
+OcclusionChain OcclusionChain::intersect(const OcclusionChain& a, const OcclusionChain& b) {
+  if (a.empty() || b.empty()) return {};
+  const double t0 = std::max(a.corners_.front().t, b.corners_.front().t);
+  // Where either chain bends past t0; the lower envelope bends there or
+  // where the two cross between them.
+  std::vector<double> ts{t0};
+  for (const auto* chain : {&a, &b})
+    for (const ChainPoint& p : chain->corners_)
+      if (p.t > t0) ts.push_back(p.t);
+  std::sort(ts.begin(), ts.end());
+  ts.erase(std::unique(ts.begin(), ts.end()), ts.end());
+
+  OcclusionChain out;
+  auto lower = [&](double t) { return ChainPoint{t, std::min(a.height_at(t), b.height_at(t))}; };
+  for (std::size_t k = 0; k < ts.size(); ++k) {
+    out.corners_.push_back(lower(ts[k]));
+    const double gap_here = a.height_at(ts[k]) - b.height_at(ts[k]);
+    if (k + 1 < ts.size()) {
+      const double gap_next = a.height_at(ts[k + 1]) - b.height_at(ts[k + 1]);
+      if ((gap_here < 0 && gap_next > 0) || (gap_here > 0 && gap_next < 0)) {
+        const double t = ts[k] + (ts[k + 1] - ts[k]) * (gap_here / (gap_here - gap_next));
+        out.corners_.push_back(lower(t));
+      }
+    } else {
+      // Past the last bend both are rays: they may cross once more.
+      const double sa = a.final_slope_, sb = b.final_slope_;
+      if ((gap_here < 0 && sa > sb) || (gap_here > 0 && sa < sb)) {
+        const double t = ts[k] + gap_here / (sb - sa);
+        out.corners_.push_back(lower(t));
+      }
+      out.final_slope_ = std::min(sa, sb);
+    }
+  }
+  drop_straight_corners(out.corners_, out.final_slope_);
+  return out;
+}
+
+OcclusionChain OcclusionChain::simplified(std::size_t max_corners) const {
+  assert(max_corners >= 2);
+  OcclusionChain out = *this;
+  auto& c = out.corners_;
+  while (c.size() > max_corners) {
+    // Drop the corner (never the first) whose removal lowers the chain
+    // least there: its height above the chord (or above the final ray
+    // drawn back from the corner before it, for the last).
+    std::size_t best = 1;
+    double best_drop = INFINITY;
+    for (std::size_t j = 1; j < c.size(); ++j) {
+      const ChainPoint& a = c[j - 1];
+      const double slope = j + 1 < c.size() ? (c[j + 1].z - a.z) / (c[j + 1].t - a.t) : out.final_slope_;
+      const double drop = c[j].z - (a.z + slope * (c[j].t - a.t));
+      if (drop < best_drop) best_drop = drop, best = j;
+    }
+    c.erase(c.begin() + static_cast<std::ptrdiff_t>(best));
+  }
+  return out;
+}
+
+}  // namespace horizon::mesh
