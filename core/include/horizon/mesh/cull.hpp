@@ -1,0 +1,58 @@
+// horizon/mesh/cull.hpp — which groups of a prepared mesh a camera cannot
+// see, per frame.
+//
+// Edmondson (2004, §5.1.1, §5.3), top-down through the hierarchy. A group
+// is tested against the sectors the camera can lie in as seen from any
+// point of the group: from its circle (centre m, radius ρ), the
+// directions to the camera within asin(ρ / |c − m|) of the centre's (all
+// sectors when the camera is inside the circle). The group is culled when,
+// in every one of those sectors, the camera's projection onto the sector's
+// plane, (r·(x, y), z), lies in the group's occlusion region. A culled
+// group's triangles are all skipped; an unculled leaf is drawn; an
+// unculled parent is opened. The always-visible triangles are always
+// drawn.
+//
+// Frustum (optional): an azimuth range, degrees clockwise from north (the
+// y axis), from `azimuth_from` turning clockwise to `azimuth_to`; a group
+// whose circle lies wholly outside it, seen from the camera, is culled
+// before its regions are looked at. Omitted, or 360° wide: all around.
+//
+// Mode. This is the thesis's approximate test (occlusion_region.hpp says
+// how it can err: it may cull a triangle that can in fact be seen); the
+// tests and `horizon bench` measure how often against the exact
+// visibility of tin_visibility.hpp.
+//
+// Cost: O(groups tested · sectors a group spans · corners a chain),
+// independent of the mesh's triangles; it allocates the answer's vector
+// and a stack of groups to open.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "horizon/mesh/prepared_mesh.hpp"
+
+namespace horizon::mesh {
+
+struct CullQuery {
+  TinVertex camera;                 // x, y in the mesh's frame, z metres
+  std::optional<double> azimuth_from, azimuth_to;  // degrees; both or neither
+};
+
+struct CullAnswer {
+  std::vector<std::uint32_t> visible_groups;  // leaves to draw, in triangle order
+  std::uint32_t groups_tested = 0;            // region or frustum tests made
+  std::uint32_t groups_culled = 0;            // of those, culled (a culled parent counts once)
+  std::uint32_t frustum_culled = 0;           // of those, by the frustum alone
+  std::uint64_t triangles_culled = 0;
+  std::uint64_t triangles_visible = 0;        // in visible groups and the always-visible set
+};
+
+// Whether group g is hidden from `camera` by its regions (no frustum).
+bool group_hidden(const PreparedMesh& mesh, std::size_t g, const TinVertex& camera);
+
+// kInvalidArgument for a non-finite camera, or one azimuth without the other.
+Result<CullAnswer> cull(const PreparedMesh& mesh, const CullQuery& query);
+
+}  // namespace horizon::mesh

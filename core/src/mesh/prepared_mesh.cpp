@@ -1,0 +1,260 @@
+#include "horizon/mesh/prepared_mesh.hpp"
+
+#include <CGAL/Min_circle_2.h>
+#include <CGAL/Min_circle_2_traits_2.h>
+#include <CGAL/Simple_cartesian.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <numbers>
+
+#include "mesh/sector_frame.hpp"
+
+namespace horizon::mesh {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+Status check_options(const PrepareOptions& o) {
+  auto bad = [](const std::string& what) { return make_error(ErrorCode::kInvalidArgument, what, "mesh"); };
+  const CrystalOptions& c = o.crystals;
+  if (c.seeds < 1 || c.seeds > 1'000'000) return bad("seeds must be 1 to 1000000, not " + std::to_string(c.seeds));
+  if (c.min_group_size < 1 || c.min_group_size > 1'000'000)
+    return bad("min_group_size must be 1 to 1000000 triangles, not " + std::to_string(c.min_group_size));
+  if (c.max_orphan_passes < 0 || c.max_orphan_passes > 1000)
+    return bad("max_orphan_passes must be 0 to 1000, not " + std::to_string(c.max_orphan_passes));
+  if (c.max_groups < 1 || c.max_groups > 1'000'000)
+    return bad("max_groups must be 1 to 1000000, not " + std::to_string(c.max_groups));
+  if (!(o.merge_cutoff > 0.0 && o.merge_cutoff <= 1.0))
+    return bad("merge_cutoff must be a fraction of the mesh's area in (0, 1], not " + number_text(o.merge_cutoff));
+  if (o.max_chain_corners < 2 || o.max_chain_corners > 64)
+    return bad("max_chain_corners must be 2 to 64, not " + std::to_string(o.max_chain_corners));
+  return Status::Ok();
+}
+
+// GCC 12 at -O3 warns of an uninitialised temporary inside CGAL's
+// Min_circle_2 support-set code (a false positive in the library's
+// header); the pragma is scoped to this function.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+Circle min_circle(const std::vector<TinVertex>& vertices, const std::vector<std::uint32_t>& ids) {
+  using K = CGAL::Simple_cartesian<double>;
+  std::vector<K::Point_2> points;
+  points.reserve(ids.size());
+  for (std::uint32_t v : ids) points.emplace_back(vertices[v].x, vertices[v].y);
+  CGAL::Min_circle_2<CGAL::Min_circle_2_traits_2<K>> circle(points.begin(), points.end(), true);
+  const auto& c = circle.circle();
+  Circle out{c.center().x(), c.center().y(), std::sqrt(c.squared_radius())};
+  // Rounding in the construction must not leave a vertex outside.
+  for (std::uint32_t v : ids)
+    out.radius = std::max(out.radius, std::hypot(vertices[v].x - out.x, vertices[v].y - out.y));
+  out.radius *= 1 + 1e-6;
+  return out;
+}
+#pragma GCC diagnostic pop
+
+Circle enclosing(const Circle& a, const Circle& b) {
+  const double d = std::hypot(b.x - a.x, b.y - a.y);
+  if (d + b.radius <= a.radius) return a;
+  if (d + a.radius <= b.radius) return b;
+  const double radius = (d + a.radius + b.radius) / 2;
+  const double f = (radius - a.radius) / d;
+  return {a.x + (b.x - a.x) * f, a.y + (b.y - a.y) * f, radius * (1 + 1e-9)};
+}
+
+class Builder {
+ public:
+  Builder(PreparedMesh& mesh, const PrepareOptions& options) : mesh_(mesh), options_(options) {}
+
+  // Leaves from the crystals, then the hierarchy over them.
+  void build(const Crystals& crystals, std::vector<std::vector<std::uint32_t>>& faces_of) {
+    const SectorFrame frame(mesh_.tin.vertices, mesh_.horizons);
+    const int s = mesh_.sectors;
+    faces_of = crystals.groups;
+    for (const auto& faces : crystals.groups) {
+      std::vector<std::uint32_t> vertices;
+      for (std::uint32_t f : faces) vertices.insert(vertices.end(), mesh_.tin.triangles[f].begin(), mesh_.tin.triangles[f].end());
+      std::sort(vertices.begin(), vertices.end());
+      vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
+      MeshGroup group;
+      group.triangle_count = static_cast<std::uint32_t>(faces.size());
+      group.circle = min_circle(mesh_.tin.vertices, vertices);
+      mesh_.groups.push_back(group);
+      for (int i = 0; i < s; ++i) {
+        OcclusionChain region = frame.region(vertices[0], i);
+        for (std::size_t k = 1; k < vertices.size() && !region.empty(); ++k)
+          region = OcclusionChain::intersect(region, frame.region(vertices[k], i));
+        mesh_.regions.push_back(region.simplified(static_cast<std::size_t>(options_.max_chain_corners)));
+      }
+    }
+    mesh_.stats.leaf_groups = static_cast<std::uint32_t>(mesh_.groups.size());
+    met_.resize(mesh_.groups.size());
+    for (std::size_t g = 0; g < crystals.collisions.size(); ++g)
+      for (const auto& [other, count] : crystals.collisions[g]) met_[g][other] = count;
+    merge_levels();
+  }
+
+ private:
+  void merge_levels() {
+    std::vector<std::uint32_t> active;
+    for (std::uint32_t g = 0; g < mesh_.groups.size(); ++g) active.push_back(g);
+    while (!active.empty()) {
+      std::vector<std::uint32_t> next;
+      std::vector<bool> taken(mesh_.groups.size() * 2 + 1, false);
+      bool merged = false;
+      for (std::uint32_t g : active) {
+        if (taken[g]) continue;
+        if (met_[g].empty()) {
+          mesh_.top_level.push_back(g);
+          continue;
+        }
+        std::uint32_t h = met_[g].begin()->first, most = 0;
+        for (const auto& [other, count] : met_[g])
+          if (count > most) most = count, h = other;
+        if (taken[h]) continue;  // its partner is paired already: carried up (below)
+        const std::uint32_t parent = merge(g, h);
+        if (taken.size() <= parent) taken.resize(parent + 1, false);
+        taken[g] = taken[h] = taken[parent] = true;
+        merged = true;
+        const Circle& c = mesh_.groups[parent].circle;
+        if (std::numbers::pi * c.radius * c.radius > options_.merge_cutoff * mesh_.area) {
+          retire(parent);
+          mesh_.top_level.push_back(parent);
+        } else {
+          next.push_back(parent);
+        }
+      }
+      // Groups not paired this level (their partner was taken) wait for
+      // the next; a group only becomes top-level above with no collision
+      // left, and then no other group names it.
+      for (std::uint32_t g : active)
+        if (!taken[g] && !met_[g].empty()) next.push_back(g);
+      if (!merged) {
+        for (std::uint32_t g : next) mesh_.top_level.push_back(g);
+        break;
+      }
+      ++mesh_.stats.levels;
+      std::sort(next.begin(), next.end());
+      active = std::move(next);
+    }
+    std::sort(mesh_.top_level.begin(), mesh_.top_level.end());
+  }
+
+  // A parent of g and h: their collisions less their mutual ones, their
+  // regions intersected.
+  std::uint32_t merge(std::uint32_t g, std::uint32_t h) {
+    const auto parent = static_cast<std::uint32_t>(mesh_.groups.size());
+    MeshGroup group;
+    group.children[0] = static_cast<std::int32_t>(g);
+    group.children[1] = static_cast<std::int32_t>(h);
+    group.triangle_count = mesh_.groups[g].triangle_count + mesh_.groups[h].triangle_count;
+    group.circle = enclosing(mesh_.groups[g].circle, mesh_.groups[h].circle);
+    mesh_.groups.push_back(group);
+    const int s = mesh_.sectors;
+    for (int i = 0; i < s; ++i)
+      mesh_.regions.push_back(OcclusionChain::intersect(mesh_.region(g, i), mesh_.region(h, i))
+                                  .simplified(static_cast<std::size_t>(options_.max_chain_corners)));
+    met_.emplace_back();
+    for (std::uint32_t child : {g, h}) {
+      for (const auto& [other, count] : met_[child]) {
+        if (other == g || other == h) continue;
+        met_[parent][other] += count;
+        met_[other].erase(child);
+        met_[other][parent] += count;
+      }
+      met_[child].clear();
+    }
+    return parent;
+  }
+
+  // A top-level group takes no further part in merging.
+  void retire(std::uint32_t g) {
+    for (const auto& [other, count] : met_[g]) met_[other].erase(g);
+    met_[g].clear();
+  }
+
+  PreparedMesh& mesh_;
+  const PrepareOptions& options_;
+  std::vector<std::map<std::uint32_t, std::uint32_t>> met_;
+};
+
+// Triangles reordered so each group is one run: the trees depth first.
+void reorder(PreparedMesh& mesh, const std::vector<std::vector<std::uint32_t>>& leaf_faces,
+             const std::vector<std::uint32_t>& always_visible) {
+  std::vector<TinTriangle> triangles;
+  triangles.reserve(mesh.tin.triangles.size());
+  mesh.source_triangle.clear();
+  // Iterative depth-first walk; a group's run starts where its first leaf's does.
+  for (std::uint32_t root : mesh.top_level) {
+    std::vector<std::pair<std::uint32_t, bool>> stack{{root, false}};
+    while (!stack.empty()) {
+      auto [g, done] = stack.back();
+      stack.pop_back();
+      MeshGroup& group = mesh.groups[g];
+      if (done) {
+        const MeshGroup& first = mesh.groups[static_cast<std::size_t>(group.children[0])];
+        group.first_triangle = first.first_triangle;
+        continue;
+      }
+      if (group.leaf()) {
+        group.first_triangle = static_cast<std::uint32_t>(triangles.size());
+        for (std::uint32_t f : leaf_faces[g]) {
+          triangles.push_back(mesh.tin.triangles[f]);
+          mesh.source_triangle.push_back(f);
+        }
+        continue;
+      }
+      stack.push_back({g, true});
+      stack.push_back({static_cast<std::uint32_t>(group.children[1]), false});
+      stack.push_back({static_cast<std::uint32_t>(group.children[0]), false});
+    }
+  }
+  mesh.always_visible_first = static_cast<std::uint32_t>(triangles.size());
+  mesh.always_visible_count = static_cast<std::uint32_t>(always_visible.size());
+  for (std::uint32_t f : always_visible) {
+    triangles.push_back(mesh.tin.triangles[f]);
+    mesh.source_triangle.push_back(f);
+  }
+  mesh.tin.triangles = std::move(triangles);
+}
+
+}  // namespace
+
+Result<PreparedMesh> prepare_mesh(Tin tin, const PrepareOptions& options, const RunControl* control) {
+  HORIZON_RETURN_IF_ERROR(check_options(options));
+  PreparedMesh mesh;
+  mesh.tin = std::move(tin);
+  for (const TinTriangle& t : mesh.tin.triangles) mesh.area += std::abs(signed_area(mesh.tin, t));
+
+  auto start = Clock::now();
+  auto horizons = compute_horizons(mesh.tin.vertices, options.horizons, control);
+  if (!horizons.ok()) return horizons.error();
+  mesh.horizons = std::move(*horizons);
+  mesh.sectors = mesh.horizons.sectors;
+  for (int i = 0; i < mesh.sectors; ++i) {
+    const Wedge w = Wedge::sector(i, mesh.sectors);
+    mesh.centre_directions.push_back({w.rx, w.ry});
+  }
+  mesh.stats.horizon_seconds = seconds_since(start);
+
+  HORIZON_RETURN_IF_ERROR(check_control(control));
+  start = Clock::now();
+  const Crystals crystals = grow_crystals(mesh.tin, mesh.horizons, options.crystals);
+  mesh.stats.orphan_passes = crystals.orphan_passes;
+  mesh.stats.grouping_seconds = seconds_since(start);
+
+  HORIZON_RETURN_IF_ERROR(check_control(control));
+  start = Clock::now();
+  std::vector<std::vector<std::uint32_t>> leaf_faces;
+  Builder(mesh, options).build(crystals, leaf_faces);
+  reorder(mesh, leaf_faces, crystals.always_visible);
+  mesh.stats.hierarchy_seconds = seconds_since(start);
+  return mesh;
+}
+
+}  // namespace horizon::mesh
