@@ -10,10 +10,11 @@
 # test binary (e.g. --gtest_filter=Grid*).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
+source scripts/compiler_cache.sh
 
 build_dir="${HORIZON_ASAN_BUILD_DIR:-build-asan}"
 binaries=(test_common test_terrain test_visibility test_clipmap test_mesh test_server_units)
-cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHORIZON_SANITIZE=ON \
+cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" -DHORIZON_SANITIZE=ON \
   -DHORIZON_BUILD_BENCH=OFF >/dev/null
 cmake --build "$build_dir" -j "$(nproc)" --target "${binaries[@]}"
 # Leak checks on, with no suppression: nothing these tests load (Mesa's

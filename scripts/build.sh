@@ -7,6 +7,7 @@
 #   HORIZON_BUILD_TYPE    CMake build type (default: Release)
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
+source scripts/compiler_cache.sh
 
 build_dir="${HORIZON_BUILD_DIR:-build}"
 cmake -S . -B "$build_dir" -G Ninja \

@@ -9,6 +9,7 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 packages=(
   # build
   cmake ninja-build g++ pkg-config
+  ccache  # scripts/compiler_cache.sh: every build directory and clone on a machine shares one cache
   # engine libraries
   libboost-dev nlohmann-json3-dev libgeographiclib-dev
   libopenimageio-dev

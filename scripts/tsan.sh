@@ -23,6 +23,7 @@
 # hand-offs through gRPC (server/src/handoff.hpp).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
+source scripts/compiler_cache.sh
 
 build_dir="${HORIZON_TSAN_BUILD_DIR:-build-tsan}"
 tests_build_dir="${HORIZON_BUILD_DIR:-build}"
@@ -31,7 +32,7 @@ daemon_tests='ServerRpc.StreamedRaster*:ServerRpc.ProgressMessages*:ServerRpc.In
 daemon_tests+=':ServerRpc.LineOfSightBatch*:ServerRpc.CullAnswers*:ServerRpc.ClientCancelling*'
 daemon_tests+=':ServerSession.TheLatestPose*:ServerTrace.BoxAnswers*:ServerConcurrency.*'
 
-cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHORIZON_TSAN=ON \
+cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" -DHORIZON_TSAN=ON \
   -DHORIZON_BUILD_BENCH=OFF >/dev/null
 cmake --build "$build_dir" -j "$(nproc)" --target "${binaries[@]}" horizond
 
