@@ -9,15 +9,29 @@
 // each S/K (sectors/subsectors; default 8/1 8/2 8/4 8/8 16/4 32/2 64/1, the
 // thesis's Table 2) R times (default 3) on T threads (default 0: every
 // core), printing the median, and the vertices x sectors without one.
+//
+// With --prepare, each S/K is then prepared whole (horizons, crystal groups
+// with --seeds (default 500) and --max-groups (default 1000), hierarchy;
+// the thesis's Table 3 times its grouping) and culled from --cameras
+// (default 200) cameras 2 m above random vertices (a fixed seed), each
+// query repeated --cull-repeats (default 50) times on one thread: the
+// median microseconds a query, groups tested and the share of triangles
+// culled. --exact C checks the culls of the first C cameras against
+// exact sight lines (tin_visibility.hpp) at each culled triangle's
+// corners and centroid, printing the false-hidden triangles.
 #include <algorithm>
 #include <chrono>
+#include <random>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <string>
 #include <vector>
 
+#include "horizon/mesh/cull.hpp"
 #include "horizon/mesh/horizons.hpp"
+#include "horizon/mesh/prepared_mesh.hpp"
+#include "horizon/mesh/tin_visibility.hpp"
 #include "horizon/mesh/tin_from_dem.hpp"
 #include "horizon/terrain/dem_reader.hpp"
 
@@ -28,12 +42,76 @@ using Clock = std::chrono::steady_clock;
 [[noreturn]] void usage(const char* why) {
   std::fprintf(stderr,
                "bench_mesh: %s\nusage: bench_mesh --dem DEM.tif --vertices N [--sectors S/K ...] [--repeats R] "
-               "[--threads T]\n",
+               "[--threads T] [--prepare [--seeds N] [--max-groups G] [--cameras C] [--cull-repeats R] [--exact C]]\n",
                why);
   std::exit(2);
 }
 
 double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+struct CullBench {
+  long seeds = 500, max_groups = 1000, cameras = 200, cull_repeats = 50, exact = 0;
+};
+
+void prepare_and_cull(const horizon::mesh::Tin& tin, int s, int k, long threads, const CullBench& o) {
+  using namespace horizon::mesh;
+  PrepareOptions options;
+  options.horizons = {s, k, static_cast<unsigned>(threads)};
+  options.crystals.seeds = static_cast<int>(o.seeds);
+  options.crystals.max_groups = static_cast<int>(o.max_groups);
+  const auto start = Clock::now();
+  auto mesh = prepare_mesh(tin, options);
+  const double total = seconds_since(start);
+  if (!mesh.ok()) usage(mesh.error().message.c_str());
+  std::printf("prepare %d/%d: %.3f s (horizons %.3f, grouping %.3f, hierarchy %.3f); %u groups, %zu nodes, %u levels, "
+              "%zu top-level, %d orphan passes, %u always-visible triangles\n",
+              s, k, total, mesh->stats.horizon_seconds, mesh->stats.grouping_seconds, mesh->stats.hierarchy_seconds,
+              mesh->stats.leaf_groups, mesh->groups.size(), mesh->stats.levels, mesh->top_level.size(),
+              mesh->stats.orphan_passes, mesh->always_visible_count);
+  std::mt19937_64 rng(1);
+  std::uniform_int_distribution<std::size_t> pick(0, tin.vertices.size() - 1);
+  std::vector<double> micros;
+  std::uint64_t tested = 0, culled = 0, triangles = 0;
+  std::uint64_t checked = 0, false_hidden = 0;
+  const TinVisibility vis(mesh->tin);
+  for (long c = 0; c < o.cameras; ++c) {
+    TinVertex camera = tin.vertices[pick(rng)];
+    camera.z += 2.0;
+    CullAnswer answer;
+    const auto at = Clock::now();
+    for (long r = 0; r < o.cull_repeats; ++r) answer = std::move(*cull(*mesh, {camera, {}, {}}));
+    micros.push_back(seconds_since(at) / static_cast<double>(o.cull_repeats) * 1e6);
+    tested += answer.groups_tested;
+    culled += answer.triangles_culled;
+    triangles += mesh->tin.triangles.size();
+    if (c >= o.exact) continue;
+    std::vector<bool> drawn(mesh->tin.triangles.size(), false);
+    for (std::uint32_t g : answer.visible_groups)
+      for (std::uint32_t t = 0; t < mesh->groups[g].triangle_count; ++t) drawn[mesh->groups[g].first_triangle + t] = true;
+    for (std::uint32_t t = 0; t < mesh->always_visible_count; ++t) drawn[mesh->always_visible_first + t] = true;
+    for (std::size_t t = 0; t < drawn.size(); ++t) {
+      if (drawn[t]) continue;
+      ++checked;
+      const TinTriangle& tri = mesh->tin.triangles[t];
+      const TinVertex& a = mesh->tin.vertices[tri[0]];
+      const TinVertex& b = mesh->tin.vertices[tri[1]];
+      const TinVertex& d = mesh->tin.vertices[tri[2]];
+      const TinVertex centroid{(a.x + b.x + d.x) / 3, (a.y + b.y + d.y) / 3, (a.z + b.z + d.z) / 3};
+      if (vis.visible(camera, a) || vis.visible(camera, b) || vis.visible(camera, d) || vis.visible(camera, centroid))
+        ++false_hidden;
+    }
+  }
+  std::sort(micros.begin(), micros.end());
+  std::printf("cull %d/%d: median %.2f us a query (p90 %.2f, max %.2f) over %ld cameras; %.1f groups tested; "
+              "%.2f %% of triangles culled",
+              s, k, micros[micros.size() / 2], micros[micros.size() * 9 / 10], micros.back(), o.cameras,
+              static_cast<double>(tested) / static_cast<double>(o.cameras),
+              100.0 * static_cast<double>(culled) / static_cast<double>(triangles));
+  if (o.exact > 0)
+    std::printf("; exact check of %ld cameras: %llu of %llu culled triangles seen", std::min(o.exact, o.cameras),
+                static_cast<unsigned long long>(false_hidden), static_cast<unsigned long long>(checked));
+  std::printf("\n");
+}
 
 }  // namespace
 
@@ -41,8 +119,14 @@ int main(int argc, char** argv) {
   std::string dem_path;
   long vertices = 0, repeats = 3, threads = 0;
   std::vector<std::pair<int, int>> shapes;
+  bool prepare = false;
+  CullBench cull_bench;
   for (int i = 1; i < argc; ++i) {
     const std::string flag = argv[i];
+    if (flag == "--prepare") {
+      prepare = true;
+      continue;
+    }
     if (i + 1 >= argc) usage(("missing the value of " + flag).c_str());
     const char* value = argv[++i];
     if (flag == "--dem") {
@@ -53,6 +137,16 @@ int main(int argc, char** argv) {
       repeats = std::strtol(value, nullptr, 10);
     } else if (flag == "--threads") {
       threads = std::strtol(value, nullptr, 10);
+    } else if (flag == "--seeds") {
+      cull_bench.seeds = std::strtol(value, nullptr, 10);
+    } else if (flag == "--max-groups") {
+      cull_bench.max_groups = std::strtol(value, nullptr, 10);
+    } else if (flag == "--cameras") {
+      cull_bench.cameras = std::strtol(value, nullptr, 10);
+    } else if (flag == "--cull-repeats") {
+      cull_bench.cull_repeats = std::strtol(value, nullptr, 10);
+    } else if (flag == "--exact") {
+      cull_bench.exact = std::strtol(value, nullptr, 10);
     } else if (flag == "--sectors") {
       int s = 0, k = 0;
       if (std::sscanf(value, "%d/%d", &s, &k) != 2) usage("--sectors takes S/K, e.g. 16/4");
@@ -63,6 +157,8 @@ int main(int argc, char** argv) {
   }
   if (dem_path.empty() || vertices < 4) usage("--dem and --vertices (>= 4) are required");
   if (repeats < 1 || threads < 0) usage("--repeats must be >= 1 and --threads >= 0");
+  if (cull_bench.cameras < 1 || cull_bench.cull_repeats < 1 || cull_bench.exact < 0)
+    usage("--cameras and --cull-repeats must be >= 1, --exact >= 0");
   if (shapes.empty()) shapes = {{8, 1}, {8, 2}, {8, 4}, {8, 8}, {16, 4}, {32, 2}, {64, 1}};
 
   auto dem = horizon::terrain::read_dem(dem_path);
@@ -87,6 +183,7 @@ int main(int argc, char** argv) {
     std::sort(times.begin(), times.end());
     std::printf("horizons %d/%d: median %.3f s of %ld (min %.3f, max %.3f); %zu of %zu without a horizon\n", s, k,
                 times[times.size() / 2], repeats, times.front(), times.back(), none, total);
+    if (prepare) prepare_and_cull(tin->tin, s, k, threads, cull_bench);
   }
   return 0;
 }

@@ -1,5 +1,6 @@
 #include "horizon/mesh/cull.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -14,43 +15,54 @@ double wrap(double a) {
   return a < 0 ? a + kTwoPi : a;
 }
 
-// The directions from points of `circle` to `camera`: [lo, lo + width],
-// or nullopt when the camera is inside the circle.
-std::optional<std::pair<double, double>> directions_to(const Circle& circle, const TinVertex& camera) {
-  const double dx = camera.x - circle.x, dy = camera.y - circle.y;
-  const double d = std::hypot(dx, dy);
-  if (d <= circle.radius) return std::nullopt;
-  // A hair wider than exact, so a direction on a sector's edge takes both.
-  const double half = std::asin(circle.radius / d) + 1e-9;
-  return std::pair{std::atan2(dy, dx) - half, 2 * half};
-}
-
+// OcclusionChain::contains on the flat arrays, with the same arithmetic.
 bool hidden_in(const PreparedMesh& mesh, std::size_t g, int sector, const TinVertex& camera) {
+  const std::size_t chain = g * static_cast<std::size_t>(mesh.sectors) + static_cast<std::size_t>(sector);
+  const std::uint32_t begin = mesh.chain_begin[chain], end = mesh.chain_begin[chain + 1];
   const auto& r = mesh.centre_directions[static_cast<std::size_t>(sector)];
-  return mesh.region(g, sector).contains(r[0] * camera.x + r[1] * camera.y, camera.z);
+  const double t = r[0] * camera.x + r[1] * camera.y;
+  if (begin == end || t < mesh.corner_t[begin]) return false;
+  std::uint32_t j = begin;
+  while (j + 1 < end && mesh.corner_t[j + 1] <= t) ++j;
+  const double at = mesh.corner_t[j], az = mesh.corner_z[j];
+  const double height = j + 1 == end ? az + mesh.chain_slope[chain] * (t - at)
+                                     : az + (mesh.corner_z[j + 1] - az) * ((t - at) / (mesh.corner_t[j + 1] - at));
+  return camera.z <= height;
 }
 
+// The sector holding direction (x, y): the last whose first edge's
+// pseudo-angle is at or before the direction's.
+int sector_of(const PreparedMesh& mesh, double x, double y) {
+  const double p = pseudo_angle(x, y);
+  const auto& starts = mesh.sector_starts;
+  const auto it = std::upper_bound(starts.begin(), starts.end(), p);
+  return static_cast<int>(it - starts.begin()) - 1;
+}
+
+// The group is tested in every sector that a direction from a point of
+// its circle to the camera can fall in: those between the two tangents
+// from the camera, rotated out of the centre's direction by asin(ρ / d)
+// (computed from its sine, no trigonometric call), a hair wider so that
+// a direction on a sector's edge takes both sectors.
 bool hidden(const PreparedMesh& mesh, std::size_t g, const TinVertex& camera) {
   const int s = mesh.sectors;
-  const auto range = directions_to(mesh.groups[g].circle, camera);
-  if (!range) {
-    for (int i = 0; i < s; ++i)
-      if (!hidden_in(mesh, g, i, camera)) return false;
-    return true;
+  const Circle& circle = mesh.groups[g].circle;
+  const double dx = camera.x - circle.x, dy = camera.y - circle.y;
+  const double d2 = dx * dx + dy * dy;
+  int first = 0, count = s;
+  if (d2 > circle.radius * circle.radius) {
+    const double d = std::sqrt(d2);
+    const double sine = circle.radius / d * (1 + 1e-9) + 1e-12;
+    if (sine < 1.0) {
+      const double cosine = std::sqrt(1 - sine * sine);
+      const double ux = dx / d, uy = dy / d;
+      first = sector_of(mesh, ux * cosine + uy * sine, uy * cosine - ux * sine);
+      const int last = sector_of(mesh, ux * cosine - uy * sine, uy * cosine + ux * sine);
+      count = (last - first + s) % s + 1;
+    }
   }
-  const double width = kTwoPi / s;
-  const double lo = wrap(range->first);
-  const int first = static_cast<int>(lo / width);
-  const int last = static_cast<int>((lo + range->second) / width);
-  if (last - first + 1 >= s) {
-    for (int i = 0; i < s; ++i)
-      if (!hidden_in(mesh, g, i, camera)) return false;
-    return true;
-  }
-  for (int k = first; k <= last; ++k) {
-    const int i = k % s;
-    if (!hidden_in(mesh, g, i, camera)) return false;
-  }
+  for (int k = 0; k < count; ++k)
+    if (!hidden_in(mesh, g, (first + k) % s, camera)) return false;
   return true;
 }
 

@@ -223,6 +223,19 @@ void reorder(PreparedMesh& mesh, const std::vector<std::vector<std::uint32_t>>& 
   mesh.tin.triangles = std::move(triangles);
 }
 
+// The regions as flat arrays (prepared_mesh.hpp), what cull reads.
+void flatten_regions(PreparedMesh& mesh) {
+  mesh.chain_begin.assign(1, 0);
+  for (const OcclusionChain& chain : mesh.regions) {
+    for (const ChainPoint& c : chain.corners()) {
+      mesh.corner_t.push_back(c.t);
+      mesh.corner_z.push_back(c.z);
+    }
+    mesh.chain_slope.push_back(chain.final_slope());
+    mesh.chain_begin.push_back(static_cast<std::uint32_t>(mesh.corner_t.size()));
+  }
+}
+
 }  // namespace
 
 Result<PreparedMesh> prepare_mesh(Tin tin, const PrepareOptions& options, const RunControl* control) {
@@ -239,6 +252,7 @@ Result<PreparedMesh> prepare_mesh(Tin tin, const PrepareOptions& options, const 
   for (int i = 0; i < mesh.sectors; ++i) {
     const Wedge w = Wedge::sector(i, mesh.sectors);
     mesh.centre_directions.push_back({w.rx, w.ry});
+    mesh.sector_starts.push_back(i == 0 ? 0.0 : pseudo_angle(w.ay, -w.ax));  // the first edge's direction
   }
   mesh.stats.horizon_seconds = seconds_since(start);
 
@@ -253,6 +267,7 @@ Result<PreparedMesh> prepare_mesh(Tin tin, const PrepareOptions& options, const 
   std::vector<std::vector<std::uint32_t>> leaf_faces;
   Builder(mesh, options).build(crystals, leaf_faces);
   reorder(mesh, leaf_faces, crystals.always_visible);
+  flatten_regions(mesh);
   mesh.stats.hierarchy_seconds = seconds_since(start);
   return mesh;
 }

@@ -30,6 +30,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -75,7 +76,13 @@ struct PreparedMesh {
   std::vector<std::uint32_t> top_level;        // roots, ascending
   std::uint32_t always_visible_first = 0, always_visible_count = 0;
   std::vector<OcclusionChain> regions;         // group g, sector i at [g * sectors + i]
+  // The same regions flattened for culling, chain c = g * sectors + i:
+  // corners [chain_begin[c], chain_begin[c + 1]) of corner_t / corner_z,
+  // then a ray of slope chain_slope[c]; a group's chains are adjacent.
+  std::vector<std::uint32_t> chain_begin;
+  std::vector<double> corner_t, corner_z, chain_slope;
   std::vector<std::array<double, 2>> centre_directions;  // r_i of each sector
+  std::vector<double> sector_starts;           // pseudo_angle of each sector's first edge, ascending
   double area = 0.0;                           // the mesh seen from above
   PrepareStats stats;
 
@@ -83,6 +90,14 @@ struct PreparedMesh {
     return regions[group * static_cast<std::size_t>(sectors) + static_cast<std::size_t>(sector)];
   }
 };
+
+// A monotone stand-in for the angle of direction (x, y) counter-clockwise
+// from +x: 0 at +x, 1 at +y, 2 at -x, 3 at -y, below 4 just under +x. One
+// division, no trigonometry; culling finds sectors with it.
+inline double pseudo_angle(double x, double y) {
+  const double p = x / (std::abs(x) + std::abs(y));
+  return y >= 0 ? 1 - p : 3 + p;
+}
 
 // Prepares `tin` (it must have passed check_height_field; x, y metres of a
 // local frame). kInvalidArgument for options out of range (naming the
