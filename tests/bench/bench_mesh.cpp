@@ -16,7 +16,7 @@
 // (default 200) cameras 2 m above random vertices (a fixed seed), each
 // query repeated --cull-repeats (default 50) times on one thread: the
 // median microseconds a query, groups tested and the share of triangles
-// culled. --exact C checks the culls of the first C cameras against
+// culled, in the approximate and then the conservative mode. --exact C checks the culls of the first C cameras against
 // exact sight lines (tin_visibility.hpp) at each culled triangle's
 // corners and centroid, printing the false-hidden triangles.
 #include <algorithm>
@@ -63,23 +63,25 @@ void prepare_and_cull(const horizon::mesh::Tin& tin, int s, int k, long threads,
   auto mesh = prepare_mesh(tin, options);
   const double total = seconds_since(start);
   if (!mesh.ok()) usage(mesh.error().message.c_str());
-  std::printf("prepare %d/%d: %.3f s (horizons %.3f, grouping %.3f, hierarchy %.3f); %u groups, %zu nodes, %u levels, "
+  std::printf("prepare %d/%d: %.3f s (horizons %.3f, grouping %.3f, hierarchy %.3f, walls %.3f); %u groups, %zu nodes, %u levels, "
               "%zu top-level, %d orphan passes, %u always-visible triangles\n",
               s, k, total, mesh->stats.horizon_seconds, mesh->stats.grouping_seconds, mesh->stats.hierarchy_seconds,
-              mesh->stats.leaf_groups, mesh->groups.size(), mesh->stats.levels, mesh->top_level.size(),
+              mesh->stats.wall_seconds, mesh->stats.leaf_groups, mesh->groups.size(), mesh->stats.levels, mesh->top_level.size(),
               mesh->stats.orphan_passes, mesh->always_visible_count);
+  const TinVisibility vis(mesh->tin);
+  for (CullMode mode : {CullMode::kApproximate, CullMode::kConservative}) {
+  const char* mode_name = mode == CullMode::kApproximate ? "approximate" : "conservative";
   std::mt19937_64 rng(1);
   std::uniform_int_distribution<std::size_t> pick(0, tin.vertices.size() - 1);
   std::vector<double> micros;
   std::uint64_t tested = 0, culled = 0, triangles = 0;
   std::uint64_t checked = 0, false_hidden = 0;
-  const TinVisibility vis(mesh->tin);
   for (long c = 0; c < o.cameras; ++c) {
     TinVertex camera = tin.vertices[pick(rng)];
     camera.z += 2.0;
     CullAnswer answer;
     const auto at = Clock::now();
-    for (long r = 0; r < o.cull_repeats; ++r) answer = std::move(*cull(*mesh, {camera, {}, {}}));
+    for (long r = 0; r < o.cull_repeats; ++r) answer = std::move(*cull(*mesh, {camera, {}, {}, mode}));
     micros.push_back(seconds_since(at) / static_cast<double>(o.cull_repeats) * 1e6);
     tested += answer.groups_tested;
     culled += answer.triangles_culled;
@@ -102,15 +104,16 @@ void prepare_and_cull(const horizon::mesh::Tin& tin, int s, int k, long threads,
     }
   }
   std::sort(micros.begin(), micros.end());
-  std::printf("cull %d/%d: median %.2f us a query (p90 %.2f, max %.2f) over %ld cameras; %.1f groups tested; "
+  std::printf("cull %d/%d %s: median %.2f us a query (p90 %.2f, max %.2f) over %ld cameras; %.1f groups tested; "
               "%.2f %% of triangles culled",
-              s, k, micros[micros.size() / 2], micros[micros.size() * 9 / 10], micros.back(), o.cameras,
+              s, k, mode_name, micros[micros.size() / 2], micros[micros.size() * 9 / 10], micros.back(), o.cameras,
               static_cast<double>(tested) / static_cast<double>(o.cameras),
               100.0 * static_cast<double>(culled) / static_cast<double>(triangles));
   if (o.exact > 0)
     std::printf("; exact check of %ld cameras: %llu of %llu culled triangles seen", std::min(o.exact, o.cameras),
                 static_cast<unsigned long long>(false_hidden), static_cast<unsigned long long>(checked));
   std::printf("\n");
+  }
 }
 
 }  // namespace

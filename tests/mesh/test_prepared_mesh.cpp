@@ -166,11 +166,13 @@ TEST(CullMesh, TheSameSeedGivesTheSameGroupsAndScalingZChangesNothing) {
   EXPECT_EQ(a.top_level, c.top_level);
   ASSERT_EQ(a.groups.size(), c.groups.size());
   for (const TinVertex& camera : cameras(andes_tin())) {
-    auto plain = cull(a, {camera, {}, {}});
-    auto scaled = cull(c, {{camera.x, camera.y, camera.z * 3.0}, {}, {}});
-    ASSERT_TRUE(plain.ok() && scaled.ok());
-    EXPECT_EQ(plain->visible_groups, scaled->visible_groups);
-    EXPECT_EQ(plain->triangles_culled, scaled->triangles_culled);
+    for (CullMode mode : {CullMode::kApproximate, CullMode::kConservative}) {
+      auto plain = cull(a, {camera, {}, {}, mode});
+      auto scaled = cull(c, {{camera.x, camera.y, camera.z * 3.0}, {}, {}, mode});
+      ASSERT_TRUE(plain.ok() && scaled.ok());
+      EXPECT_EQ(plain->visible_groups, scaled->visible_groups);
+      EXPECT_EQ(plain->triangles_culled, scaled->triangles_culled);
+    }
   }
 
   PrepareOptions other = small_options();
@@ -268,6 +270,77 @@ TEST(CullMesh, ApproximateCullsAgainstExactLinesOfSight) {
     EXPECT_GT(culled, 0u) << s << "/" << k << " culled nothing from the valley";
     EXPECT_LE(culled, hidden + false_hidden);
   }
+}
+
+TEST(CullMesh, ConservativeCullsNothingThatCanBeSeen) {
+  const TinVisibility vis(andes_tin());
+  const PreparedMesh mesh = prepare(andes_tin(), small_options());
+  std::mt19937_64 rng(17);
+  std::uniform_int_distribution<std::size_t> pick(0, andes_tin().vertices.size() - 1);
+  std::vector<TinVertex> eyes = cameras(andes_tin());
+  for (int k = 0; k < 40; ++k) {
+    TinVertex eye = andes_tin().vertices[pick(rng)];
+    eye.z += k % 4 == 0 ? 50.0 : 2.0;
+    eyes.push_back(eye);
+  }
+  std::uint64_t culled = 0, approximate_culled = 0;
+  for (const TinVertex& eye : eyes) {
+    auto answer = cull(mesh, {eye, {}, {}, CullMode::kConservative});
+    ASSERT_TRUE(answer.ok());
+    std::vector<bool> drawn(mesh.tin.triangles.size(), false);
+    for (std::uint32_t g : answer->visible_groups)
+      for (std::uint32_t t = 0; t < mesh.groups[g].triangle_count; ++t) drawn[mesh.groups[g].first_triangle + t] = true;
+    for (std::uint32_t t = 0; t < mesh.always_visible_count; ++t) drawn[mesh.always_visible_first + t] = true;
+    for (std::size_t t = 0; t < drawn.size(); ++t) {
+      if (drawn[t]) continue;
+      ++culled;
+      ASSERT_FALSE(triangle_seen(vis, mesh.tin, mesh.tin.triangles[t], eye))
+          << "triangle " << t << " culled but seen from (" << eye.x << ", " << eye.y << ", " << eye.z << ")";
+    }
+    approximate_culled += cull(mesh, {eye, {}, {}, CullMode::kApproximate})->triangles_culled;
+  }
+  std::printf("conservative 16/4: culled %llu triangle-views from %zu cameras (approximate: %llu)\n",
+              static_cast<unsigned long long>(culled), eyes.size(), static_cast<unsigned long long>(approximate_culled));
+}
+
+TEST(CullMesh, ConservativeCullsACraterFloorFromOutside) {
+  // A crater 3 km across: a floor at 0 m inside 400 m, a plateau ring at
+  // 300 m from 500 m to 900 m, plains at 0 m outside 1 000 m.
+  const terrain::Dem dem = testing::make_dem(300, 300, [](int c, int r) {
+    const double d = std::hypot(c * 10.0 - 1495, r * 10.0 - 1495);
+    if (d < 400 || d > 1000) return 0.0;
+    if (d < 500) return 300 * (d - 400) / 100;
+    if (d > 900) return 300 * (1000 - d) / 100;
+    return 300.0;
+  });
+  auto built = tin_from_dem(dem, {3000, 0.0});
+  ASSERT_TRUE(built.ok()) << built.error().message;
+  const PreparedMesh mesh = prepare(built->tin, small_options());
+  const TinVisibility vis(mesh.tin);
+  double cx = 0, cy = 0;
+  for (const TinVertex& v : mesh.tin.vertices) cx += v.x, cy += v.y;
+  cx /= static_cast<double>(mesh.tin.vertices.size()), cy /= static_cast<double>(mesh.tin.vertices.size());
+  std::uint64_t floor_culled = 0;
+  for (double angle = 0; angle < 6.28; angle += 0.5) {
+    const TinVertex eye{cx + 1300 * std::cos(angle), cy + 1300 * std::sin(angle), 2.0};
+    auto answer = cull(mesh, {eye, {}, {}, CullMode::kConservative});
+    ASSERT_TRUE(answer.ok());
+    std::vector<bool> drawn(mesh.tin.triangles.size(), false);
+    for (std::uint32_t g : answer->visible_groups)
+      for (std::uint32_t t = 0; t < mesh.groups[g].triangle_count; ++t) drawn[mesh.groups[g].first_triangle + t] = true;
+    for (std::uint32_t t = 0; t < mesh.always_visible_count; ++t) drawn[mesh.always_visible_first + t] = true;
+    for (std::size_t t = 0; t < drawn.size(); ++t) {
+      if (drawn[t]) continue;
+      ASSERT_FALSE(triangle_seen(vis, mesh.tin, mesh.tin.triangles[t], eye)) << "triangle " << t;
+      const TinVertex& a = mesh.tin.vertices[mesh.tin.triangles[t][0]];
+      if (std::hypot(a.x - cx, a.y - cy) < 400) ++floor_culled;
+    }
+    // From 2 km up the crater floor is in view, and nothing may be culled.
+    auto high = cull(mesh, {{eye.x, eye.y, 2000.0}, {}, {}, CullMode::kConservative});
+    ASSERT_TRUE(high.ok());
+    EXPECT_EQ(high->triangles_culled, 0u);
+  }
+  EXPECT_GT(floor_culled, 0u);
 }
 
 TEST(PrepareMesh, RefusesOptionsOutOfRange) {

@@ -66,6 +66,27 @@ bool hidden(const PreparedMesh& mesh, std::size_t g, const TinVertex& camera) {
   return true;
 }
 
+// The conservative test: the camera's sector seen from the centre, the
+// farthest of its walls nearer than the camera, and that wall's bound.
+bool walled(const PreparedMesh& mesh, std::size_t g, const TinVertex& camera) {
+  const Circle& circle = mesh.groups[g].circle;
+  const double dx = camera.x - circle.x, dy = camera.y - circle.y;
+  const double d2 = dx * dx + dy * dy;
+  if (d2 <= circle.radius * circle.radius) return false;
+  const double d = std::sqrt(d2);
+  const std::size_t chain =
+      g * static_cast<std::size_t>(mesh.sectors) + static_cast<std::size_t>(sector_of(mesh, dx, dy));
+  std::uint32_t best = mesh.wall_begin[chain];
+  const std::uint32_t end = mesh.wall_begin[chain + 1];
+  if (best == end || mesh.wall_radius[best] >= d) return false;
+  while (best + 1 < end && mesh.wall_radius[best + 1] < d) ++best;
+  return camera.z < mesh.group_top[g] + mesh.wall_slope[best] * (d - circle.radius);
+}
+
+bool culled(const PreparedMesh& mesh, std::size_t g, const TinVertex& camera, CullMode mode) {
+  return mode == CullMode::kConservative ? walled(mesh, g, camera) : hidden(mesh, g, camera);
+}
+
 // Whether the circle lies wholly outside the view [from, from + width]
 // (math angles), seen from the camera.
 bool outside_view(const Circle& circle, const TinVertex& camera, double from, double width) {
@@ -81,8 +102,8 @@ bool outside_view(const Circle& circle, const TinVertex& camera, double from, do
 
 }  // namespace
 
-bool group_hidden(const PreparedMesh& mesh, std::size_t g, const TinVertex& camera) {
-  return hidden(mesh, g, camera);
+bool group_hidden(const PreparedMesh& mesh, std::size_t g, const TinVertex& camera, CullMode mode) {
+  return culled(mesh, g, camera, mode);
 }
 
 Result<CullAnswer> cull(const PreparedMesh& mesh, const CullQuery& query) {
@@ -123,7 +144,7 @@ Result<CullAnswer> cull(const PreparedMesh& mesh, const CullQuery& query) {
       answer.triangles_culled += group.triangle_count;
       continue;
     }
-    if (hidden(mesh, g, camera)) {
+    if (culled(mesh, g, camera, query.mode)) {
       ++answer.groups_culled;
       answer.triangles_culled += group.triangle_count;
       continue;

@@ -11,6 +11,7 @@
 #include <numbers>
 
 #include "mesh/sector_frame.hpp"
+#include "mesh/walls.hpp"
 
 namespace horizon::mesh {
 namespace {
@@ -269,6 +270,9 @@ Result<PreparedMesh> prepare_mesh(Tin tin, const PrepareOptions& options, const 
   reorder(mesh, leaf_faces, crystals.always_visible);
   flatten_regions(mesh);
   mesh.stats.hierarchy_seconds = seconds_since(start);
+  start = Clock::now();
+  build_walls(mesh, options.horizons.threads);
+  mesh.stats.wall_seconds = seconds_since(start);
   return mesh;
 }
 

@@ -17,10 +17,17 @@
 // whose circle lies wholly outside it, seen from the camera, is culled
 // before its regions are looked at. Omitted, or 360° wide: all around.
 //
-// Mode. This is the thesis's approximate test (occlusion_region.hpp says
-// how it can err: it may cull a triangle that can in fact be seen); the
-// tests and `horizon bench` measure how often against the exact
-// visibility of tin_visibility.hpp.
+// Modes.
+//   kApproximate: the thesis's test above. occlusion_region.hpp says how
+//     it can err: it may cull a triangle that can in fact be seen; the
+//     tests and bench_mesh measure how often against the exact sight
+//     lines of tin_visibility.hpp.
+//   kConservative: never culls a triangle any point of which the camera
+//     can see. A group is culled when the camera, in the sector of its
+//     azimuth from the group's centre and farther than one of the
+//     group's walls there, is below that wall's bound (prepared_mesh.hpp;
+//     the proof is at the top of src/mesh/walls.cpp). One sector and a
+//     few arcs a group.
 //
 // Cost: O(groups tested · sectors a group spans · corners a chain),
 // independent of the mesh's triangles; it allocates the answer's vector
@@ -35,9 +42,12 @@
 
 namespace horizon::mesh {
 
+enum class CullMode { kApproximate, kConservative };
+
 struct CullQuery {
   TinVertex camera;                 // x, y in the mesh's frame, z metres
   std::optional<double> azimuth_from, azimuth_to;  // degrees; both or neither
+  CullMode mode = CullMode::kApproximate;
 };
 
 struct CullAnswer {
@@ -49,8 +59,9 @@ struct CullAnswer {
   std::uint64_t triangles_visible = 0;        // in visible groups and the always-visible set
 };
 
-// Whether group g is hidden from `camera` by its regions (no frustum).
-bool group_hidden(const PreparedMesh& mesh, std::size_t g, const TinVertex& camera);
+// Whether group g is culled for `camera` in `mode` (no frustum).
+bool group_hidden(const PreparedMesh& mesh, std::size_t g, const TinVertex& camera,
+                  CullMode mode = CullMode::kApproximate);
 
 // kInvalidArgument for a non-finite camera, or one azimuth without the other.
 Result<CullAnswer> cull(const PreparedMesh& mesh, const CullQuery& query);

@@ -11,7 +11,8 @@
 //      group with no collision left is top-level, and so is a parent whose
 //      circle covers more than `merge_cutoff` of the mesh's area (seen from
 //      above): big groups span many sectors and are rarely hidden;
-//   4. every group's occlusion region in every sector: a leaf's is the
+//   4. every group's walls for the conservative mode (cull.hpp), and its
+//      occlusion region in every sector: a leaf's is the
 //      intersection of its vertices' (occlusion_region.hpp), a parent's the
 //      intersection of its children's, each simplified to at most
 //      `max_chain_corners` corners (which only shrinks it). So a parent's
@@ -62,7 +63,7 @@ struct MeshGroup {
 };
 
 struct PrepareStats {
-  double horizon_seconds = 0.0, grouping_seconds = 0.0, hierarchy_seconds = 0.0;
+  double horizon_seconds = 0.0, grouping_seconds = 0.0, hierarchy_seconds = 0.0, wall_seconds = 0.0;
   int orphan_passes = 0;
   std::uint32_t leaf_groups = 0, levels = 0;
 };
@@ -81,6 +82,15 @@ struct PreparedMesh {
   // then a ray of slope chain_slope[c]; a group's chains are adjacent.
   std::vector<std::uint32_t> chain_begin;
   std::vector<double> corner_t, corner_z, chain_slope;
+  // The conservative mode's walls (src/mesh/walls.cpp): each group's
+  // highest vertex, and for group g and sector i (the camera's azimuth
+  // from the group's centre) arcs [wall_begin[c], wall_begin[c + 1]),
+  // c = g * sectors + i, of ascending radius and slope: a camera at
+  // distance D > radius from the centre, lower than
+  // group_top + slope · (D − circle radius), sees no point of the group.
+  std::vector<double> group_top;
+  std::vector<std::uint32_t> wall_begin;
+  std::vector<double> wall_radius, wall_slope;
   std::vector<std::array<double, 2>> centre_directions;  // r_i of each sector
   std::vector<double> sector_starts;           // pseudo_angle of each sector's first edge, ascending
   double area = 0.0;                           // the mesh seen from above
