@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 
+#include "horizon/mesh/local_frame.hpp"
 #include "horizon/mesh/tin_from_dem.hpp"
 #include "horizon/terrain/dem_reader.hpp"
 #include "test_support.hpp"
@@ -181,6 +182,33 @@ TEST(TinFromDem, FitsABundledDemBetterWithEachBudget) {
   const DemTin bounded = build(*dem, 1'000'000, 25.0);
   EXPECT_LE(bounded.fit.max_error, 25.0);
   EXPECT_LT(bounded.tin.vertices.size(), 90'000u);  // far fewer vertices than cells
+}
+
+TEST(LocalFrame, GeographicDemsGetMetresAndProjectedOnesStayAsTheyAre) {
+  auto rainier = terrain::read_dem(testing::bundled_dem("rainier_summit_srtm3_400x400.tif"));
+  ASSERT_TRUE(rainier.ok()) << rainier.error().message;
+  auto frame = LocalFrame::for_dem(*rainier);
+  ASSERT_TRUE(frame.ok()) << frame.error().message;
+  EXPECT_TRUE(frame->geographic());
+  // 1/1200 degree of latitude is about 92.6 m; of longitude at 46.83 N, 63.5 m.
+  const TinVertex a = frame->to_local({-121.76, 46.83, 4000});
+  const TinVertex b = frame->to_local({-121.76, 46.83 + 1.0 / 1200, 4000});
+  const TinVertex c = frame->to_local({-121.76 + 1.0 / 1200, 46.83, 4000});
+  EXPECT_NEAR(std::hypot(b.x - a.x, b.y - a.y), 92.6, 0.2);
+  EXPECT_NEAR(std::hypot(c.x - a.x, c.y - a.y), 63.5, 0.2);
+  EXPECT_NEAR(b.y - a.y, 92.6, 0.2);  // north is +y
+  EXPECT_NEAR(c.x - a.x, 63.5, 0.2);  // east is +x
+  EXPECT_EQ(a.z, 4000.0);
+  const TinVertex back = frame->to_crs(b);
+  EXPECT_NEAR(back.x, -121.76, 1e-10);
+  EXPECT_NEAR(back.y, 46.83 + 1.0 / 1200, 1e-10);
+
+  auto andes = terrain::read_dem(testing::bundled_dem("ecuador_andes_utm17s_10m_383x415.tif"));
+  ASSERT_TRUE(andes.ok());
+  auto utm = LocalFrame::for_dem(*andes);
+  ASSERT_TRUE(utm.ok());
+  EXPECT_FALSE(utm->geographic());
+  EXPECT_EQ(utm->to_local({700000.5, 9550000.25, 2000}), (TinVertex{700000.5, 9550000.25, 2000}));
 }
 
 }  // namespace
