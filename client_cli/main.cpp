@@ -20,7 +20,7 @@ namespace {
 
 const Command* const kCommands[] = {&info_command(),   &viewshed_command(), &los_command(),    &bench_command(),
                                     &stress_command(), &cull_command(),     &region_command(), &session_command(),
-                                    &trace_command(),  &datasets_command()};
+                                    &trace_command(),  &mesh_command(),     &datasets_command()};
 
 const Command* find_command(std::string_view name) {
   for (const Command* c : kCommands)

@@ -45,6 +45,7 @@ const Command& region_command();
 const Command& datasets_command();  // --server only
 const Command& session_command();
 const Command& trace_command();
+const Command& mesh_command();
 
 // Prints "horizon: error: <message>" to stderr and returns kExitFailure.
 int report_error(const Error& error);

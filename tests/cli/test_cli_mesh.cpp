@@ -1,0 +1,137 @@
+// `horizon mesh` end to end: a DEM made a TIN, prepared and culled; the
+// JSON's counts and ranges against each other, the raster of drawn
+// triangles and the mesh written in group order; a mesh file as input;
+// usage errors by flag.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "cli_run.hpp"
+#include "horizon/terrain/dem_reader.hpp"
+#include "test_support.hpp"
+
+namespace horizon::testing {
+namespace {
+
+using Json = nlohmann::json;
+
+const std::string kAndes = "ecuador_andes_utm17s_10m_383x415.tif";  // UTM 17S, 10 m
+
+std::vector<std::string> mesh_args(std::vector<std::string> more) {
+  std::vector<std::string> args = {"mesh", bundled_dem(kAndes), "--vertices", "3000", "--observer", "713500,9558500"};
+  args.insert(args.end(), more.begin(), more.end());
+  return args;
+}
+
+TEST(CliMesh, CullsATinOfADemAndWritesWhatItDraws) {
+  TempDir dir;
+  const std::string raster = dir.file("drawn.tif"), obj = dir.file("prepared.obj");
+  const auto r = horizon(mesh_args({"--json", "-o", raster, "--mesh-out", obj}));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json j = Json::parse(r.output);
+  const std::uint64_t triangles = j["triangles"];
+  EXPECT_EQ(j["vertices"], 3000);
+  EXPECT_EQ(j["mode"], "approximate");
+  EXPECT_EQ(j["local_frame"], "the CRS");
+  const Json& cull = j["cull"];
+  EXPECT_GT(cull["triangles_culled"].get<std::uint64_t>(), 0u);
+  EXPECT_EQ(cull["triangles_culled"].get<std::uint64_t>() + cull["triangles_drawn"].get<std::uint64_t>(), triangles);
+  // Drawn ranges are disjoint runs before the always-visible run.
+  std::vector<bool> drawn(triangles, false);
+  std::uint64_t drawn_count = 0;
+  for (const Json& g : j["drawn_groups"]) {
+    const std::uint64_t first = g["first_triangle"], count = g["triangle_count"];
+    ASSERT_LE(first + count, j["always_visible"]["first_triangle"].get<std::uint64_t>());
+    for (std::uint64_t t = first; t < first + count; ++t) {
+      EXPECT_FALSE(drawn[t]);
+      drawn[t] = true;
+    }
+    drawn_count += count;
+  }
+  EXPECT_EQ(drawn_count + j["always_visible"]["triangle_count"].get<std::uint64_t>(),
+            cull["triangles_drawn"].get<std::uint64_t>());
+
+  // The raster: the DEM's grid, each value one of the four.
+  auto grid = terrain::read_dem(raster);
+  ASSERT_TRUE(grid.ok()) << grid.error().message;
+  auto dem = terrain::read_dem(bundled_dem(kAndes));
+  ASSERT_TRUE(dem.ok());
+  EXPECT_EQ(grid->width(), dem->width());
+  EXPECT_EQ(grid->height(), dem->height());
+  EXPECT_EQ(grid->georef.transform, dem->georef.transform);
+  std::uint64_t counts[4] = {};
+  for (int row = 0; row < grid->height(); ++row)
+    for (int col = 0; col < grid->width(); ++col) {
+      const float v = grid->elevation.at(col, row);
+      if (std::isnan(v)) continue;  // 255, no triangle
+      ASSERT_TRUE(v == 0 || v == 1 || v == 2) << v;
+      ++counts[static_cast<int>(v)];
+    }
+  EXPECT_GT(counts[0], 0u);  // culled ground
+  EXPECT_GT(counts[1], 0u);  // drawn
+  EXPECT_GT(counts[2], 0u);  // always visible
+
+  // The prepared mesh, read back as input, keeps its size.
+  std::ifstream in(obj);
+  std::size_t v = 0, f = 0;
+  for (std::string line; std::getline(in, line);) {
+    v += line.rfind("v ", 0) == 0;
+    f += line.rfind("f ", 0) == 0;
+  }
+  EXPECT_EQ(v, 3000u);
+  EXPECT_EQ(f, triangles);
+  const auto again = horizon({"mesh", obj, "--observer", "713500,9558500", "--json", "--conservative"});
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  const Json k = Json::parse(again.output);
+  EXPECT_EQ(k["triangles"], triangles);
+  EXPECT_EQ(k["mode"], "conservative");
+}
+
+TEST(CliMesh, GeographicDemsArePreparedInMetres) {
+  const auto r = horizon({"mesh", bundled_dem("rainier_summit_srtm3_400x400.tif"), "--vertices", "2000", "--lat",
+                          "46.80", "--lon", "-121.70", "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json j = Json::parse(r.output);
+  EXPECT_EQ(j["local_frame"], "tangent plane at the DEM's centre");
+  EXPECT_GT(j["cull"]["triangles_culled"].get<std::uint64_t>(), 0u);
+}
+
+TEST(CliMesh, UsageErrorsNameTheFlagAndWriteNothing) {
+  TempDir dir;
+  const std::string out = dir.file("drawn.tif");
+  const std::string obj = dir.file("m.obj");
+  std::ofstream(obj) << "v 0 0 0\nv 10 0 0\nv 0 10 1\nf 1 2 3\n";
+  struct Case {
+    std::vector<std::string> args;
+    std::string says;
+  };
+  const Case cases[] = {
+      {mesh_args({"--sectors", "16", "-o", out}), "--sectors"},
+      {mesh_args({"--height", "2", "--altitude", "3000", "-o", out}), "--altitude"},
+      {mesh_args({"--azimuth", "10", "-o", out}), "--azimuth"},
+      {{"mesh", obj, "--lat", "1", "--lon", "2", "-o", out}, "--observer"},
+      {{"mesh", obj, "--observer", "1,1", "-o", out}, "need a DEM"},
+  };
+  for (const Case& c : cases) {
+    const auto r = horizon(c.args);
+    EXPECT_EQ(r.exit_code, 2) << c.says << ": " << r.output;
+    EXPECT_NE(r.output.find(c.says), std::string::npos) << r.output;
+    EXPECT_FALSE(std::filesystem::exists(out)) << c.says;
+  }
+  // The engine's refusals (exit 1) name what is wrong.
+  const auto cutoff = horizon(mesh_args({"--merge-cutoff", "2", "-o", out}));
+  EXPECT_EQ(cutoff.exit_code, 1) << cutoff.output;
+  EXPECT_NE(cutoff.output.find("merge_cutoff must be"), std::string::npos) << cutoff.output;
+  const auto off = horizon({"mesh", obj, "--observer", "50,50"});
+  EXPECT_EQ(off.exit_code, 1) << off.output;
+  EXPECT_NE(off.output.find("off the mesh"), std::string::npos) << off.output;
+  EXPECT_FALSE(std::filesystem::exists(out));
+}
+
+}  // namespace
+}  // namespace horizon::testing
