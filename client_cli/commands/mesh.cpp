@@ -9,6 +9,7 @@
 #include "commands/command.hpp"
 #include "horizon/mesh/cull.hpp"
 #include "horizon/mesh/local_frame.hpp"
+#include "horizon/mesh/prepared_cache.hpp"
 #include "horizon/mesh/prepared_mesh.hpp"
 #include "horizon/mesh/tin_from_dem.hpp"
 #include "horizon/mesh/tin_io.hpp"
@@ -40,6 +41,8 @@ constexpr FlagSpec kFlags[] = {
     {"--out", "-o", "OUT.tif",
      "DEM input: a raster on the DEM's grid: 1 drawn, 0 culled, 2 always visible, 255 no triangle"},
     {"--mesh-out", "", "OUT.obj", "Write the TIN with its triangles in group order (the ranges the answer names)"},
+    {"--cache", "", "DIR",
+     "Keep the prepared mesh in DIR, keyed by the TIN and the knobs, and load it from there next time"},
     {"--threads", "", "N", "Worker threads for preparing (default 0 = all cores)"},
     {"--band", "", "N", "DEM band to read, 1-based (required when the file has several)"},
     {"--json", "", "", "Print a JSON document with every drawn group's triangle range"},
@@ -196,8 +199,12 @@ int run_mesh(const Args& args) {
   }
 
   const auto preparing = std::chrono::steady_clock::now();
-  auto prepared = mesh::prepare_mesh(std::move(tin), options);
+  const auto cache = args.text("--cache");
+  mesh::CacheUse cache_use;
+  auto prepared = cache ? mesh::prepare_cached(tin, options, *cache, &cache_use) : mesh::prepare_mesh(std::move(tin), options);
   if (!prepared.ok()) return report_error(prepared.error());
+  if (!cache_use.note.empty()) std::cerr << "horizon: warning: " << cache_use.note << '\n';
+  if (cache) report["cache"] = {{"hit", cache_use.hit}, {"path", cache_use.path}, {"note", cache_use.note}};
   const double prepare_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - preparing).count();
   const auto culling = std::chrono::steady_clock::now();
@@ -250,7 +257,8 @@ int run_mesh(const Args& args) {
   }
   std::cout << "TIN of " << path << ": " << prepared->tin.vertices.size() << " vertices, "
             << prepared->tin.triangles.size() << " triangles\n"
-            << "  prepared:  " << fixed(prepare_seconds, 3) << " s (" << prepared->sectors << '/'
+            << "  prepared:  " << fixed(prepare_seconds, 3) << " s" << (cache_use.hit ? " (from the cache)" : "") << " ("
+            << prepared->sectors << '/'
             << options.horizons.subsectors << "; " << st.leaf_groups << " groups, " << prepared->groups.size()
             << " nodes, " << prepared->always_visible_count << " always-visible triangles)\n"
             << "  culled:    " << answer->triangles_culled << " triangles in " << answer->groups_culled << " of "

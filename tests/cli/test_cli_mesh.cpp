@@ -92,6 +92,25 @@ TEST(CliMesh, CullsATinOfADemAndWritesWhatItDraws) {
   EXPECT_EQ(k["mode"], "conservative");
 }
 
+TEST(CliMesh, ACacheDirectoryKeepsThePreparedMesh) {
+  TempDir dir;
+  const std::string cache = dir.file("prepared");
+  const auto first = horizon(mesh_args({"--json", "--cache", cache}));
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  const auto second = horizon(mesh_args({"--json", "--cache", cache}));
+  ASSERT_EQ(second.exit_code, 0) << second.output;
+  const Json a = Json::parse(first.output), b = Json::parse(second.output);
+  EXPECT_FALSE(a["cache"]["hit"].get<bool>());
+  EXPECT_TRUE(b["cache"]["hit"].get<bool>());
+  EXPECT_EQ(a["cache"]["path"], b["cache"]["path"]);
+  EXPECT_EQ(a["drawn_groups"], b["drawn_groups"]);
+  EXPECT_EQ(a["cull"]["triangles_culled"], b["cull"]["triangles_culled"]);
+  // Other knobs are another entry.
+  const auto other = horizon(mesh_args({"--json", "--cache", cache, "--random-seed", "5"}));
+  ASSERT_EQ(other.exit_code, 0) << other.output;
+  EXPECT_FALSE(Json::parse(other.output)["cache"]["hit"].get<bool>());
+}
+
 TEST(CliMesh, GeographicDemsArePreparedInMetres) {
   const auto r = horizon({"mesh", bundled_dem("rainier_summit_srtm3_400x400.tif"), "--vertices", "2000", "--lat",
                           "46.80", "--lon", "-121.70", "--json"});

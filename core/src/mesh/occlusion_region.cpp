@@ -14,6 +14,18 @@ OcclusionChain OcclusionChain::from_horizon(ChainPoint p, ChainPoint h) {
   return chain;
 }
 
+std::optional<OcclusionChain> OcclusionChain::from_parts(std::vector<ChainPoint> corners, double final_slope) {
+  if (!std::isfinite(final_slope)) return std::nullopt;
+  for (std::size_t j = 0; j < corners.size(); ++j) {
+    if (!std::isfinite(corners[j].t) || !std::isfinite(corners[j].z)) return std::nullopt;
+    if (j > 0 && !(corners[j].t > corners[j - 1].t)) return std::nullopt;
+  }
+  OcclusionChain chain;
+  chain.corners_ = std::move(corners);
+  chain.final_slope_ = chain.corners_.empty() ? 0.0 : final_slope;
+  return chain;
+}
+
 double OcclusionChain::height_at(double t) const {
   assert(!empty());
   // Corners are few (simplified chains hold a handful): a scan is fastest.

@@ -11,6 +11,7 @@
 #include <numbers>
 
 #include "mesh/sector_frame.hpp"
+#include "mesh/prepared_parts.hpp"
 #include "mesh/walls.hpp"
 
 namespace horizon::mesh {
@@ -224,8 +225,13 @@ void reorder(PreparedMesh& mesh, const std::vector<std::vector<std::uint32_t>>& 
   mesh.tin.triangles = std::move(triangles);
 }
 
-// The regions as flat arrays (prepared_mesh.hpp), what cull reads.
+}  // namespace
+
 void flatten_regions(PreparedMesh& mesh) {
+  mesh.chain_begin.clear();
+  mesh.corner_t.clear();
+  mesh.corner_z.clear();
+  mesh.chain_slope.clear();
   mesh.chain_begin.assign(1, 0);
   for (const OcclusionChain& chain : mesh.regions) {
     for (const ChainPoint& c : chain.corners()) {
@@ -237,7 +243,15 @@ void flatten_regions(PreparedMesh& mesh) {
   }
 }
 
-}  // namespace
+void set_sector_tables(PreparedMesh& mesh) {
+  mesh.centre_directions.clear();
+  mesh.sector_starts.clear();
+  for (int i = 0; i < mesh.sectors; ++i) {
+    const Wedge w = Wedge::sector(i, mesh.sectors);
+    mesh.centre_directions.push_back({w.rx, w.ry});
+    mesh.sector_starts.push_back(i == 0 ? 0.0 : pseudo_angle(w.ay, -w.ax));  // the first edge's direction
+  }
+}
 
 Result<PreparedMesh> prepare_mesh(Tin tin, const PrepareOptions& options, const RunControl* control) {
   HORIZON_RETURN_IF_ERROR(check_options(options));
@@ -250,11 +264,7 @@ Result<PreparedMesh> prepare_mesh(Tin tin, const PrepareOptions& options, const 
   if (!horizons.ok()) return horizons.error();
   mesh.horizons = std::move(*horizons);
   mesh.sectors = mesh.horizons.sectors;
-  for (int i = 0; i < mesh.sectors; ++i) {
-    const Wedge w = Wedge::sector(i, mesh.sectors);
-    mesh.centre_directions.push_back({w.rx, w.ry});
-    mesh.sector_starts.push_back(i == 0 ? 0.0 : pseudo_angle(w.ay, -w.ax));  // the first edge's direction
-  }
+  set_sector_tables(mesh);
   mesh.stats.horizon_seconds = seconds_since(start);
 
   HORIZON_RETURN_IF_ERROR(check_control(control));

@@ -29,6 +29,7 @@
 // camera it holds is held by the unsimplified region too.
 #pragma once
 
+#include <optional>
 #include <vector>
 
 namespace horizon::mesh {
@@ -46,6 +47,10 @@ class OcclusionChain {
   // A vertex's region: p = (T_p, z_p), h = (T_h, z_h) in the sector's
   // plane, T_h > T_p.
   static OcclusionChain from_horizon(ChainPoint p, ChainPoint h);
+
+  // A chain from its parts as corners() and final_slope() gave them
+  // (a file read back): corners ascending in t. nullopt otherwise.
+  static std::optional<OcclusionChain> from_parts(std::vector<ChainPoint> corners, double final_slope);
 
   bool empty() const { return corners_.empty(); }
   const std::vector<ChainPoint>& corners() const { return corners_; }
