@@ -16,7 +16,9 @@
 #include "horizon/mesh/tin_visibility.hpp"
 #include "horizon/terrain/geotiff_writer.hpp"
 #include "inputs.hpp"
+#include "interrupt.hpp"
 #include "output.hpp"
+#include "progress.hpp"
 
 namespace horizon::cli {
 namespace {
@@ -201,7 +203,14 @@ int run_mesh(const Args& args) {
   const auto preparing = std::chrono::steady_clock::now();
   const auto cache = args.text("--cache");
   mesh::CacheUse cache_use;
-  auto prepared = cache ? mesh::prepare_cached(tin, options, *cache, &cache_use) : mesh::prepare_mesh(std::move(tin), options);
+  InterruptScope interrupt;  // Ctrl-C cancels the preparation cleanly
+  ProgressBar bar("preparing");
+  RunControl control;
+  control.cancel = &interrupt.token();
+  control.progress = bar.callback();
+  auto prepared = cache ? mesh::prepare_cached(tin, options, *cache, &cache_use, &control)
+                        : mesh::prepare_mesh(std::move(tin), options, &control);
+  bar.finish();
   if (!prepared.ok()) return report_error(prepared.error());
   if (!cache_use.note.empty()) std::cerr << "horizon: warning: " << cache_use.note << '\n';
   if (cache) report["cache"] = {{"hit", cache_use.hit}, {"path", cache_use.path}, {"note", cache_use.note}};

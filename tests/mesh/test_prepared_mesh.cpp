@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <mutex>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -341,6 +342,29 @@ TEST(CullMesh, ConservativeCullsACraterFloorFromOutside) {
     EXPECT_EQ(high->triangles_culled, 0u);
   }
   EXPECT_GT(floor_culled, 0u);
+}
+
+TEST(PrepareMesh, ReportsProgressAndStopsWhenCancelled) {
+  std::vector<double> seen;
+  std::mutex lock;
+  RunControl control;
+  control.progress = [&](double f) {
+    std::lock_guard<std::mutex> hold(lock);
+    seen.push_back(f);
+  };
+  ASSERT_TRUE(prepare_mesh(andes_tin(), small_options(), &control).ok());
+  ASSERT_FALSE(seen.empty());
+  EXPECT_DOUBLE_EQ(seen.back(), 1.0);
+  EXPECT_DOUBLE_EQ(*std::max_element(seen.begin(), seen.end()), 1.0);
+  EXPECT_GE(*std::min_element(seen.begin(), seen.end()), 0.0);
+
+  CancelToken cancel;
+  cancel.cancel();
+  RunControl stopped;
+  stopped.cancel = &cancel;
+  auto r = prepare_mesh(andes_tin(), small_options(), &stopped);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::kCancelled);
 }
 
 TEST(PrepareMesh, RefusesOptionsOutOfRange) {

@@ -259,8 +259,16 @@ Result<PreparedMesh> prepare_mesh(Tin tin, const PrepareOptions& options, const 
   mesh.tin = std::move(tin);
   for (const TinTriangle& t : mesh.tin.triangles) mesh.area += std::abs(signed_area(mesh.tin, t));
 
+  // Progress: the horizons are most of the work (0 to 0.8), then a step a
+  // phase; cancellation and the deadline are checked between phases too.
+  RunControl horizon_control;
+  if (control) {
+    horizon_control.cancel = control->cancel;
+    horizon_control.deadline = control->deadline;
+    if (control->progress) horizon_control.progress = [control](double f) { control->progress(0.8 * f); };
+  }
   auto start = Clock::now();
-  auto horizons = compute_horizons(mesh.tin.vertices, options.horizons, control);
+  auto horizons = compute_horizons(mesh.tin.vertices, options.horizons, control ? &horizon_control : nullptr);
   if (!horizons.ok()) return horizons.error();
   mesh.horizons = std::move(*horizons);
   mesh.sectors = mesh.horizons.sectors;
@@ -272,6 +280,7 @@ Result<PreparedMesh> prepare_mesh(Tin tin, const PrepareOptions& options, const 
   const Crystals crystals = grow_crystals(mesh.tin, mesh.horizons, options.crystals);
   mesh.stats.orphan_passes = crystals.orphan_passes;
   mesh.stats.grouping_seconds = seconds_since(start);
+  report_progress(control, 0.85);
 
   HORIZON_RETURN_IF_ERROR(check_control(control));
   start = Clock::now();
@@ -280,9 +289,12 @@ Result<PreparedMesh> prepare_mesh(Tin tin, const PrepareOptions& options, const 
   reorder(mesh, leaf_faces, crystals.always_visible);
   flatten_regions(mesh);
   mesh.stats.hierarchy_seconds = seconds_since(start);
+  report_progress(control, 0.9);
+  HORIZON_RETURN_IF_ERROR(check_control(control));
   start = Clock::now();
   build_walls(mesh, options.horizons.threads);
   mesh.stats.wall_seconds = seconds_since(start);
+  report_progress(control, 1.0);
   return mesh;
 }
 

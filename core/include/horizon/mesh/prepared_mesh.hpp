@@ -111,7 +111,9 @@ inline double pseudo_angle(double x, double y) {
 
 // Prepares `tin` (it must have passed check_height_field; x, y metres of a
 // local frame). kInvalidArgument for options out of range (naming the
-// option); kCancelled / kDeadlineExceeded from `control`.
+// option); kCancelled / kDeadlineExceeded from `control`, checked during
+// the horizons and between phases. `control`'s progress rises to 0.8
+// through the horizons, then by a step a phase to 1.
 Result<PreparedMesh> prepare_mesh(Tin tin, const PrepareOptions& options, const RunControl* control = nullptr);
 
 }  // namespace horizon::mesh
