@@ -14,6 +14,7 @@
 #include <random>
 
 #include "horizon/mesh/cull.hpp"
+#include "horizon/mesh/mesh_boxes.hpp"
 #include "horizon/mesh/prepared_mesh.hpp"
 #include "horizon/mesh/tin_from_dem.hpp"
 #include "horizon/mesh/tin_visibility.hpp"
@@ -365,6 +366,87 @@ TEST(PrepareMesh, ReportsProgressAndStopsWhenCancelled) {
   auto r = prepare_mesh(andes_tin(), small_options(), &stopped);
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.error().code, ErrorCode::kCancelled);
+}
+
+// The box's corners top and bottom, its top's centre and edge midpoints.
+std::vector<TinVertex> box_samples(const MeshBox& b) {
+  std::vector<TinVertex> out;
+  for (double z : {b.z_min, b.z_max})
+    for (double x : {b.x_min, b.x_max})
+      for (double y : {b.y_min, b.y_max}) out.push_back({x, y, z});
+  const double cx = (b.x_min + b.x_max) / 2, cy = (b.y_min + b.y_max) / 2;
+  for (auto [x, y] : {std::pair{cx, cy}, {cx, b.y_min}, {cx, b.y_max}, {b.x_min, cy}, {b.x_max, cy}})
+    out.push_back({x, y, b.z_max});
+  return out;
+}
+
+TEST(MeshBoxes, HiddenBoxesAreUnseenAndCraterBoxesHideFromThePlains) {
+  const terrain::Dem dem = testing::make_dem(300, 300, [](int c, int r) {
+    const double d = std::hypot(c * 10.0 - 1495, r * 10.0 - 1495);
+    if (d < 400 || d > 1000) return 0.0;
+    if (d < 500) return 300 * (d - 400) / 100;
+    if (d > 900) return 300 * (1000 - d) / 100;
+    return 300.0;
+  });
+  auto built = tin_from_dem(dem, {3000, 0.0});
+  ASSERT_TRUE(built.ok());
+  const PreparedMesh mesh = prepare(built->tin, small_options());
+  const TinVisibility vis(mesh.tin);
+  double cx = 0, cy = 0;
+  for (const TinVertex& v : mesh.tin.vertices) cx += v.x, cy += v.y;
+  cx /= static_cast<double>(mesh.tin.vertices.size()), cy /= static_cast<double>(mesh.tin.vertices.size());
+  // Twenty-metre boxes: four on the crater floor, four on the plains.
+  std::vector<MeshBox> boxes;
+  for (double angle : {0.3, 1.9, 3.5, 5.1}) {
+    for (double r : {150.0, 1250.0}) {
+      const double x = cx + r * std::cos(angle), y = cy + r * std::sin(angle);
+      boxes.push_back({x - 10, y - 10, x + 10, y + 10, 0.0, 20.0});
+    }
+  }
+  auto registered = RegisteredBoxes::make(mesh, boxes);
+  ASSERT_TRUE(registered.ok()) << registered.error().message;
+  int floor_hidden = 0;
+  for (double angle = 0; angle < 6.28; angle += 0.4) {
+    const TinVertex eye{cx + 1400 * std::cos(angle), cy + 1400 * std::sin(angle), 2.0};
+    for (std::size_t k = 0; k < boxes.size(); ++k) {
+      if (!registered->hidden(mesh, k, eye)) continue;
+      for (const TinVertex& p : box_samples(boxes[k])) ASSERT_FALSE(vis.visible(eye, p)) << "box " << k;
+      floor_hidden += k % 2 == 0 ? 1 : 0;
+    }
+    for (std::size_t k = 0; k < boxes.size(); ++k)
+      EXPECT_FALSE(registered->hidden(mesh, k, {eye.x, eye.y, 2000.0})) << "box " << k << " from 2 km up";
+  }
+  EXPECT_GT(floor_hidden, 0);
+
+  // Random boxes and cameras over the Andes: whatever is reported hidden
+  // is unseen at every sample.
+  const PreparedMesh andes = prepare(andes_tin(), small_options());
+  const TinVisibility andes_vis(andes_tin());
+  std::mt19937_64 rng(31);
+  std::uniform_int_distribution<std::size_t> pick(0, andes_tin().vertices.size() - 1);
+  std::vector<MeshBox> random_boxes;
+  for (int k = 0; k < 60; ++k) {
+    const TinVertex& v = andes_tin().vertices[pick(rng)];
+    random_boxes.push_back({v.x - 15, v.y - 15, v.x + 15, v.y + 15, v.z - 5, v.z + 10});
+  }
+  auto random_registered = RegisteredBoxes::make(andes, random_boxes);
+  ASSERT_TRUE(random_registered.ok());
+  for (int c = 0; c < 40; ++c) {
+    TinVertex eye = andes_tin().vertices[pick(rng)];
+    eye.z += 2;
+    for (std::size_t k = 0; k < random_boxes.size(); ++k) {
+      if (!random_registered->hidden(andes, k, eye)) continue;
+      for (const TinVertex& p : box_samples(random_boxes[k])) {
+        if (!andes_vis.height_at(p.x, p.y)) continue;  // a sample off the mesh
+        ASSERT_FALSE(andes_vis.visible(eye, p)) << "box " << k;
+      }
+    }
+  }
+
+  const MeshBox bad[] = {{0, 0, 1, 1, 5, 4}};
+  auto refused = RegisteredBoxes::make(mesh, bad);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().message.find("box 0 has a maximum below its minimum"), std::string::npos);
 }
 
 TEST(PrepareMesh, RefusesOptionsOutOfRange) {

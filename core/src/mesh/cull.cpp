@@ -4,6 +4,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "mesh/walls.hpp"
+
 namespace horizon::mesh {
 namespace {
 
@@ -30,15 +32,6 @@ bool hidden_in(const PreparedMesh& mesh, std::size_t g, int sector, const TinVer
   return camera.z <= height;
 }
 
-// The sector holding direction (x, y): the last whose first edge's
-// pseudo-angle is at or before the direction's.
-int sector_of(const PreparedMesh& mesh, double x, double y) {
-  const double p = pseudo_angle(x, y);
-  const auto& starts = mesh.sector_starts;
-  const auto it = std::upper_bound(starts.begin(), starts.end(), p);
-  return static_cast<int>(it - starts.begin()) - 1;
-}
-
 // The group is tested in every sector that a direction from a point of
 // its circle to the camera can fall in: those between the two tangents
 // from the camera, rotated out of the centre's direction by asin(ρ / d)
@@ -56,8 +49,8 @@ bool hidden(const PreparedMesh& mesh, std::size_t g, const TinVertex& camera) {
     if (sine < 1.0) {
       const double cosine = std::sqrt(1 - sine * sine);
       const double ux = dx / d, uy = dy / d;
-      first = sector_of(mesh, ux * cosine + uy * sine, uy * cosine - ux * sine);
-      const int last = sector_of(mesh, ux * cosine - uy * sine, uy * cosine + ux * sine);
+      first = mesh.sector_of(ux * cosine + uy * sine, uy * cosine - ux * sine);
+      const int last = mesh.sector_of(ux * cosine - uy * sine, uy * cosine + ux * sine);
       count = (last - first + s) % s + 1;
     }
   }
@@ -73,14 +66,10 @@ bool walled(const PreparedMesh& mesh, std::size_t g, const TinVertex& camera) {
   const double dx = camera.x - circle.x, dy = camera.y - circle.y;
   const double d2 = dx * dx + dy * dy;
   if (d2 <= circle.radius * circle.radius) return false;
-  const double d = std::sqrt(d2);
   const std::size_t chain =
-      g * static_cast<std::size_t>(mesh.sectors) + static_cast<std::size_t>(sector_of(mesh, dx, dy));
-  std::uint32_t best = mesh.wall_begin[chain];
-  const std::uint32_t end = mesh.wall_begin[chain + 1];
-  if (best == end || mesh.wall_radius[best] >= d) return false;
-  while (best + 1 < end && mesh.wall_radius[best + 1] < d) ++best;
-  return camera.z < mesh.group_top[g] + mesh.wall_slope[best] * (d - circle.radius);
+      g * static_cast<std::size_t>(mesh.sectors) + static_cast<std::size_t>(mesh.sector_of(dx, dy));
+  return behind_wall(circle, mesh.group_top[g], mesh.wall_begin.data(), mesh.wall_radius.data(),
+                     mesh.wall_slope.data(), chain, std::sqrt(d2), camera.z);
 }
 
 bool culled(const PreparedMesh& mesh, std::size_t g, const TinVertex& camera, CullMode mode) {

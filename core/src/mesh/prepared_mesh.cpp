@@ -243,6 +243,12 @@ void flatten_regions(PreparedMesh& mesh) {
   }
 }
 
+int PreparedMesh::sector_of(double dx, double dy) const {
+  const double p = pseudo_angle(dx, dy);
+  const auto it = std::upper_bound(sector_starts.begin(), sector_starts.end(), p);
+  return static_cast<int>(it - sector_starts.begin()) - 1;
+}
+
 void set_sector_tables(PreparedMesh& mesh) {
   mesh.centre_directions.clear();
   mesh.sector_starts.clear();

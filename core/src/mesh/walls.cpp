@@ -193,21 +193,16 @@ struct Arc {
 constexpr int kBinsPerSector = 4;
 constexpr int kRadialBins = 6;
 
-// Group g's top, and its bands per sector.
-double build_group(const PreparedMesh& mesh, const FloorPyramid& floors, std::size_t g,
-                   std::vector<std::vector<Arc>>& walls) {
-  const MeshGroup& group = mesh.groups[g];
-  double top = -INFINITY;
-  for (std::uint32_t t = group.first_triangle; t < group.first_triangle + group.triangle_count; ++t)
-    for (std::uint32_t v : mesh.tin.triangles[t]) top = std::max(top, mesh.tin.vertices[v].z);
-  const int s = mesh.sectors;
+// The bands of one item (a group, a box) inside `circle`, no point of it
+// higher than `top`, per sector.
+void bands_for(const FloorPyramid& floors, const Circle& circle, double top, int s,
+               std::vector<std::vector<Arc>>& walls) {
   walls.assign(static_cast<std::size_t>(s), {});
-  const Circle& circle = group.circle;
   const int bins = s * kBinsPerSector;
   const double bin = kTwoPi / bins;
   std::vector<double> floor(static_cast<std::size_t>(bins * kRadialBins));
   std::vector<double> best(kRadialBins), next(kRadialBins);
-  for (double r0 = 1.5 * circle.radius; r0 <= floors.diagonal(); r0 *= 2) {
+  for (double r0 = 1.5 * std::max(circle.radius, 1e-3); r0 <= floors.diagonal(); r0 *= 2) {
     const double r1 = 2 * r0;
     for (int a = 0; a < bins; ++a)
       for (int b = 0; b < kRadialBins; ++b)
@@ -244,30 +239,46 @@ double build_group(const PreparedMesh& mesh, const FloorPyramid& floors, std::si
       if (arcs.empty() || slope > arcs.back().slope) arcs.push_back({r1, slope});
     }
   }
-  return top;
 }
 
 }  // namespace
 
-void build_walls(PreparedMesh& mesh, unsigned threads) {
-  const FloorPyramid floors(mesh.tin);
-  const std::size_t groups = mesh.groups.size();
-  const auto s = static_cast<std::size_t>(mesh.sectors);
-  std::vector<double> tops(groups);
-  std::vector<std::vector<std::vector<Arc>>> walls(groups);
-  parallel_for(groups, threads, [&](std::size_t g) { tops[g] = build_group(mesh, floors, g, walls[g]); });
-  mesh.group_top = std::move(tops);
-  mesh.wall_begin.assign(1, 0);
-  mesh.wall_radius.clear();
-  mesh.wall_slope.clear();
-  for (std::size_t g = 0; g < groups; ++g)
+Walls build_walls(const Tin& tin, int sectors, std::span<const Circle> circles, std::span<const double> tops,
+                  unsigned threads) {
+  const FloorPyramid floors(tin);
+  const std::size_t items = circles.size();
+  const auto s = static_cast<std::size_t>(sectors);
+  std::vector<std::vector<std::vector<Arc>>> bands(items);
+  parallel_for(items, threads, [&](std::size_t k) { bands_for(floors, circles[k], tops[k], sectors, bands[k]); });
+  Walls walls;
+  walls.top.assign(tops.begin(), tops.end());
+  walls.begin.assign(1, 0);
+  for (std::size_t k = 0; k < items; ++k)
     for (std::size_t i = 0; i < s; ++i) {
-      for (const Arc& arc : walls[g][i]) {
-        mesh.wall_radius.push_back(arc.radius);
-        mesh.wall_slope.push_back(arc.slope);
+      for (const Arc& arc : bands[k][i]) {
+        walls.radius.push_back(arc.radius);
+        walls.slope.push_back(arc.slope);
       }
-      mesh.wall_begin.push_back(static_cast<std::uint32_t>(mesh.wall_radius.size()));
+      walls.begin.push_back(static_cast<std::uint32_t>(walls.radius.size()));
     }
+  return walls;
+}
+
+void build_walls(PreparedMesh& mesh, unsigned threads) {
+  std::vector<Circle> circles;
+  std::vector<double> tops;
+  for (const MeshGroup& group : mesh.groups) {
+    double top = -INFINITY;
+    for (std::uint32_t t = group.first_triangle; t < group.first_triangle + group.triangle_count; ++t)
+      for (std::uint32_t v : mesh.tin.triangles[t]) top = std::max(top, mesh.tin.vertices[v].z);
+    circles.push_back(group.circle);
+    tops.push_back(top);
+  }
+  Walls walls = build_walls(mesh.tin, mesh.sectors, circles, tops, threads);
+  mesh.group_top = std::move(walls.top);
+  mesh.wall_begin = std::move(walls.begin);
+  mesh.wall_radius = std::move(walls.radius);
+  mesh.wall_slope = std::move(walls.slope);
 }
 
 }  // namespace horizon::mesh

@@ -96,6 +96,9 @@ struct PreparedMesh {
   double area = 0.0;                           // the mesh seen from above
   PrepareStats stats;
 
+  // The sector holding direction (dx, dy), by pseudo_angle (below).
+  int sector_of(double dx, double dy) const;
+
   const OcclusionChain& region(std::size_t group, int sector) const {
     return regions[group * static_cast<std::size_t>(sectors) + static_cast<std::size_t>(sector)];
   }
