@@ -9,6 +9,7 @@
 #include "commands/command.hpp"
 #include "horizon/mesh/cull.hpp"
 #include "horizon/mesh/local_frame.hpp"
+#include "horizon/mesh/mesh_boxes.hpp"
 #include "horizon/mesh/prepared_cache.hpp"
 #include "horizon/mesh/prepared_mesh.hpp"
 #include "horizon/mesh/tin_from_dem.hpp"
@@ -43,6 +44,9 @@ constexpr FlagSpec kFlags[] = {
     {"--out", "-o", "OUT.tif",
      "DEM input: a raster on the DEM's grid: 1 drawn, 0 culled, 2 always visible, 255 no triangle"},
     {"--mesh-out", "", "OUT.obj", "Write the TIN with its triangles in group order (the ranges the answer names)"},
+    {"--boxes", "", "FILE.csv",
+     "Also cull object boxes: [id,]x_min,y_min,x_max,y_max,z_min,z_max a line (the input's CRS, absolute metres); "
+     "hidden means no point of the box can be seen"},
     {"--cache", "", "DIR",
      "Keep the prepared mesh in DIR, keyed by the TIN and the knobs, and load it from there next time"},
     {"--threads", "", "N", "Worker threads for preparing (default 0 = all cores)"},
@@ -145,6 +149,10 @@ int run_mesh(const Args& args) {
   const auto mesh_out = args.text("--mesh-out");
   if (mesh_out)
     if (auto s = check_output_path(*mesh_out, "--mesh-out", path, {".obj"}); !s.ok()) return report_error(s.error());
+  const auto boxes_path = args.text("--boxes");
+  std::vector<std::uint64_t> box_ids;
+  std::vector<visibility::BoxSpec> box_specs;
+  if (boxes_path) box_specs = read_boxes_file(*boxes_path, false, &box_ids);
   const auto vertices = args.positive_integer("--vertices").value_or(100'000);
   const double max_error = args.non_negative("--max-error").value_or(0.0);
   (void)args.positive_integer("--band");
@@ -221,6 +229,33 @@ int run_mesh(const Args& args) {
   if (!answer.ok()) return report_error(answer.error());
   const double cull_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - culling).count();
 
+  if (boxes_path) {
+    // Each box's footprint corners into the frame, and their bounding box.
+    std::vector<mesh::MeshBox> boxes;
+    for (const visibility::BoxSpec& b : box_specs) {
+      mesh::MeshBox m{INFINITY, INFINITY, -INFINITY, -INFINITY, b.z_min, b.z_max};
+      for (double x : {b.x_min, b.x_max})
+        for (double y : {b.y_min, b.y_max}) {
+          const mesh::TinVertex p = frame.to_local({x, y, 0.0});
+          m.x_min = std::min(m.x_min, p.x), m.x_max = std::max(m.x_max, p.x);
+          m.y_min = std::min(m.y_min, p.y), m.y_max = std::max(m.y_max, p.y);
+        }
+      boxes.push_back(m);
+    }
+    auto registered = mesh::RegisteredBoxes::make(*prepared, boxes, options.horizons.threads);
+    if (!registered.ok()) return report_error(registered.error());
+    Json list = Json::array();
+    std::size_t hidden = 0;
+    for (std::size_t k = 0; k < boxes.size(); ++k) {
+      const bool h = registered->hidden(*prepared, k, eye);
+      hidden += h ? 1 : 0;
+      Json item{{"index", k}, {"hidden", h}};
+      if (!box_ids.empty()) item["id"] = box_ids[k];
+      list.push_back(item);
+    }
+    report["boxes"] = {{"file", *boxes_path}, {"count", boxes.size()}, {"hidden_count", hidden}, {"boxes", list}};
+  }
+
   std::vector<std::uint8_t> state(prepared->tin.triangles.size(), 0);
   for (std::uint32_t g : answer->visible_groups)
     std::fill_n(state.begin() + prepared->groups[g].first_triangle, prepared->groups[g].triangle_count, 1);
@@ -275,6 +310,9 @@ int run_mesh(const Args& args) {
             << fixed(cull_seconds * 1e6, 1) << " us)\n"
             << "  drawn:     " << answer->triangles_visible << " triangles in " << answer->visible_groups.size()
             << " groups and the always-visible set\n";
+  if (boxes_path)
+    std::cout << "  boxes:     " << report["boxes"]["hidden_count"].get<std::size_t>() << " of " << box_specs.size()
+              << " hidden (walls; sound)\n";
   if (out) std::cout << "  wrote:     " << *out << '\n';
   if (mesh_out) std::cout << "  wrote:     " << *mesh_out << '\n';
   return kExitOk;

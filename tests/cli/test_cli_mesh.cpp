@@ -111,6 +111,25 @@ TEST(CliMesh, ACacheDirectoryKeepsThePreparedMesh) {
   EXPECT_FALSE(Json::parse(other.output)["cache"]["hit"].get<bool>());
 }
 
+TEST(CliMesh, AnswersBoxesWithTheMesh) {
+  TempDir dir;
+  const std::string boxes = dir.file("boxes.csv");
+  std::ofstream(boxes) << "# id,x_min,y_min,x_max,y_max,z_min,z_max\n"
+                          "7,713000,9558000,713020,9558020,2000,2020\n"
+                          "9,714000,9559000,714030,9559030,2100,2110\n";
+  const auto r = horizon(mesh_args({"--json", "--boxes", boxes}));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json j = Json::parse(r.output);
+  EXPECT_EQ(j["boxes"]["count"], 2);
+  EXPECT_EQ(j["boxes"]["boxes"][0]["id"], 7);
+  EXPECT_EQ(j["boxes"]["boxes"][1]["id"], 9);
+  EXPECT_TRUE(j["boxes"]["boxes"][0]["hidden"].is_boolean());
+  std::ofstream(boxes) << "1,2,3\n";
+  const auto bad = horizon(mesh_args({"--json", "--boxes", boxes}));
+  EXPECT_EQ(bad.exit_code, 2) << bad.output;
+  EXPECT_NE(bad.output.find("boxes.csv"), std::string::npos) << bad.output;
+}
+
 TEST(CliMesh, GeographicDemsArePreparedInMetres) {
   const auto r = horizon({"mesh", bundled_dem("rainier_summit_srtm3_400x400.tif"), "--vertices", "2000", "--lat",
                           "46.80", "--lon", "-121.70", "--json"});
