@@ -10,6 +10,7 @@
 #include <sstream>
 #include <string_view>
 
+#include "commands/bench_mesh.hpp"
 #include "commands/bench_region.hpp"
 #include "commands/command.hpp"
 #include "horizon/evaluation/bench.hpp"
@@ -40,6 +41,12 @@ constexpr FlagSpec kFlags[] = {
     {"--gpu", "", "", "Also run fast's GPU rows on an EGL context (the GPU, or Mesa llvmpipe without one)"},
     {"--out", "-o", "DIR", "Directory for bench.csv, bench.md and the charts (default bench-out)"},
     {"--markdown", "", "FILE", "Also write the Markdown tables to FILE"},
+    // The TIN culling sweep (commands/bench_mesh.cpp).
+    {"--mesh", "", "", "Sweep TIN culling instead: sectors/subsectors x cull mode, against exact sight lines"},
+    {"--vertices", "", "N", "--mesh: the TIN's vertices, greedy insertion (default 10000)"},
+    {"--sectors", "", "LIST", "--mesh: sectors/subsectors shapes (default 8/1,8/4,16/4,32/2)"},
+    {"--cameras", "", "N", "--mesh: cameras above vertices drawn with a fixed seed (default 50)"},
+    {"--exact", "", "N", "--mesh: of them, checked with exact sight lines (default 5)"},
     // The from-region sweep (commands/bench_region.cpp).
     {"--region", "", "", "Sweep from-region visibility instead: region size x fuzzy-array resolution"},
     {"--sizes", "", "LIST", "--region: square footprints' sides, ground metres (default 30,120,480)"},
@@ -117,6 +124,10 @@ evaluation::BenchConfig parse_config(const Args& args) {
 }
 
 int run_bench(const Args& args) {
+  if (args.has("--mesh") && args.has("--region")) throw UsageError("--mesh and --region are two sweeps; give one");
+  if (args.has("--mesh")) return run_mesh_bench(args);
+  for (std::string_view f : kMeshOnlyFlags)
+    if (args.has(f)) throw UsageError(std::string(f) + ": a flag of the mesh sweep; add --mesh");
   if (args.has("--region")) return run_region_bench(args);
   for (std::string_view f : kRegionOnlyFlags)
     if (args.has(f)) throw UsageError(std::string(f) + ": a flag of the region sweep; add --region");

@@ -130,6 +130,27 @@ TEST(CliMesh, AnswersBoxesWithTheMesh) {
   EXPECT_NE(bad.output.find("boxes.csv"), std::string::npos) << bad.output;
 }
 
+TEST(CliMesh, BenchSweepsShapesAndModesAgainstExactSight) {
+  TempDir dir;
+  const auto r = horizon({"bench", "--mesh", bundled_dem(kAndes), "--vertices", "1500", "--sectors", "8/1,16/4",
+                          "--cameras", "6", "--exact", "2", "--out", dir.path().string()});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream csv(dir.file("bench_mesh.csv"));
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(csv, line);) lines.push_back(line);
+  ASSERT_EQ(lines.size(), 5u);  // header, 2 shapes x 2 modes
+  EXPECT_EQ(lines[0].rfind("dem,vertices,triangles,sectors,subsectors,mode,", 0), 0u);
+  EXPECT_NE(lines[1].find(",8,1,approximate,"), std::string::npos) << lines[1];
+  EXPECT_NE(lines[4].find(",16,4,conservative,"), std::string::npos) << lines[4];
+  // The last column, false hidden, is 0 for the conservative rows.
+  for (std::size_t i : {2u, 4u}) EXPECT_EQ(lines[i].substr(lines[i].rfind(',') + 1), "0") << lines[i];
+  EXPECT_TRUE(std::filesystem::exists(dir.file("bench_mesh.md")));
+
+  const auto stray = horizon({"bench", bundled_dem(kAndes), "--vertices", "10", "--out", dir.path().string()});
+  EXPECT_EQ(stray.exit_code, 2) << stray.output;
+  EXPECT_NE(stray.output.find("--vertices: a flag of the mesh sweep; add --mesh"), std::string::npos) << stray.output;
+}
+
 TEST(CliMesh, GeographicDemsArePreparedInMetres) {
   const auto r = horizon({"mesh", bundled_dem("rainier_summit_srtm3_400x400.tif"), "--vertices", "2000", "--lat",
                           "46.80", "--lon", "-121.70", "--json"});
