@@ -256,10 +256,7 @@ int run_mesh(const Args& args) {
     report["boxes"] = {{"file", *boxes_path}, {"count", boxes.size()}, {"hidden_count", hidden}, {"boxes", list}};
   }
 
-  std::vector<std::uint8_t> state(prepared->tin.triangles.size(), 0);
-  for (std::uint32_t g : answer->visible_groups)
-    std::fill_n(state.begin() + prepared->groups[g].first_triangle, prepared->groups[g].triangle_count, 1);
-  std::fill_n(state.begin() + prepared->always_visible_first, prepared->always_visible_count, 2);
+  const std::vector<std::uint8_t> state = mesh::triangle_states(*prepared, *answer);
   if (out) {
     if (auto s = terrain::write_geotiff(*out, rasterise(*dem, crs_vertices, *prepared, state), dem->georef, 255.0);
         !s.ok())

@@ -87,10 +87,7 @@ void prepare_and_cull(const horizon::mesh::Tin& tin, int s, int k, long threads,
     culled += answer.triangles_culled;
     triangles += mesh->tin.triangles.size();
     if (c >= o.exact) continue;
-    std::vector<bool> drawn(mesh->tin.triangles.size(), false);
-    for (std::uint32_t g : answer.visible_groups)
-      for (std::uint32_t t = 0; t < mesh->groups[g].triangle_count; ++t) drawn[mesh->groups[g].first_triangle + t] = true;
-    for (std::uint32_t t = 0; t < mesh->always_visible_count; ++t) drawn[mesh->always_visible_first + t] = true;
+    const std::vector<std::uint8_t> drawn = triangle_states(*mesh, answer);
     for (std::size_t t = 0; t < drawn.size(); ++t) {
       if (drawn[t]) continue;
       ++checked;

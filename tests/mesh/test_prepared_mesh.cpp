@@ -246,10 +246,7 @@ TEST(CullMesh, ApproximateCullsAgainstExactLinesOfSight) {
     for (std::size_t e = 0; e < eyes.size(); ++e) {
       auto answer = cull(mesh, {eyes[e], {}, {}});
       ASSERT_TRUE(answer.ok());
-      std::vector<bool> drawn(mesh.tin.triangles.size(), false);
-      for (std::uint32_t g : answer->visible_groups)
-        for (std::uint32_t t = 0; t < mesh.groups[g].triangle_count; ++t) drawn[mesh.groups[g].first_triangle + t] = true;
-      for (std::uint32_t t = 0; t < mesh.always_visible_count; ++t) drawn[mesh.always_visible_first + t] = true;
+      const std::vector<std::uint8_t> drawn = triangle_states(mesh, *answer);
       std::uint64_t culled_here = 0;
       for (std::size_t t = 0; t < drawn.size(); ++t) {
         const bool seen = triangle_seen(vis, mesh.tin, mesh.tin.triangles[t], eyes[e]);
@@ -289,10 +286,7 @@ TEST(CullMesh, ConservativeCullsNothingThatCanBeSeen) {
   for (const TinVertex& eye : eyes) {
     auto answer = cull(mesh, {eye, {}, {}, CullMode::kConservative});
     ASSERT_TRUE(answer.ok());
-    std::vector<bool> drawn(mesh.tin.triangles.size(), false);
-    for (std::uint32_t g : answer->visible_groups)
-      for (std::uint32_t t = 0; t < mesh.groups[g].triangle_count; ++t) drawn[mesh.groups[g].first_triangle + t] = true;
-    for (std::uint32_t t = 0; t < mesh.always_visible_count; ++t) drawn[mesh.always_visible_first + t] = true;
+    const std::vector<std::uint8_t> drawn = triangle_states(mesh, *answer);
     for (std::size_t t = 0; t < drawn.size(); ++t) {
       if (drawn[t]) continue;
       ++culled;
@@ -327,10 +321,7 @@ TEST(CullMesh, ConservativeCullsACraterFloorFromOutside) {
     const TinVertex eye{cx + 1300 * std::cos(angle), cy + 1300 * std::sin(angle), 2.0};
     auto answer = cull(mesh, {eye, {}, {}, CullMode::kConservative});
     ASSERT_TRUE(answer.ok());
-    std::vector<bool> drawn(mesh.tin.triangles.size(), false);
-    for (std::uint32_t g : answer->visible_groups)
-      for (std::uint32_t t = 0; t < mesh.groups[g].triangle_count; ++t) drawn[mesh.groups[g].first_triangle + t] = true;
-    for (std::uint32_t t = 0; t < mesh.always_visible_count; ++t) drawn[mesh.always_visible_first + t] = true;
+    const std::vector<std::uint8_t> drawn = triangle_states(mesh, *answer);
     for (std::size_t t = 0; t < drawn.size(); ++t) {
       if (drawn[t]) continue;
       ASSERT_FALSE(triangle_seen(vis, mesh.tin, mesh.tin.triangles[t], eye)) << "triangle " << t;

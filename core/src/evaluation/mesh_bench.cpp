@@ -104,10 +104,7 @@ Result<MeshBenchReport> run_mesh_bench(const MeshBenchConfig& config, const RunC
           tested += answer.groups_tested;
           culled += answer.triangles_culled;
           if (c >= seen.size()) continue;
-          std::vector<bool> drawn(prepared->tin.triangles.size(), false);
-          for (std::uint32_t g : answer.visible_groups)
-            std::fill_n(drawn.begin() + prepared->groups[g].first_triangle, prepared->groups[g].triangle_count, true);
-          std::fill_n(drawn.begin() + prepared->always_visible_first, prepared->always_visible_count, true);
+          const std::vector<std::uint8_t> drawn = mesh::triangle_states(*prepared, answer);
           for (std::size_t t = 0; t < drawn.size(); ++t) {
             ++row.checked_views;
             row.exactly_hidden += seen[c][t] ? 0 : 1;

@@ -150,4 +150,12 @@ Result<CullAnswer> cull(const PreparedMesh& mesh, const CullQuery& query) {
   return answer;
 }
 
+std::vector<std::uint8_t> triangle_states(const PreparedMesh& mesh, const CullAnswer& answer) {
+  std::vector<std::uint8_t> state(mesh.tin.triangles.size(), kCulled);
+  for (std::uint32_t g : answer.visible_groups)
+    std::fill_n(state.begin() + mesh.groups[g].first_triangle, mesh.groups[g].triangle_count, kDrawn);
+  std::fill_n(state.begin() + mesh.always_visible_first, mesh.always_visible_count, kAlwaysVisible);
+  return state;
+}
+
 }  // namespace horizon::mesh

@@ -66,4 +66,9 @@ bool group_hidden(const PreparedMesh& mesh, std::size_t g, const TinVertex& came
 // kInvalidArgument for a non-finite camera, or one azimuth without the other.
 Result<CullAnswer> cull(const PreparedMesh& mesh, const CullQuery& query);
 
+// What an answer draws, triangle by triangle of mesh.tin: kCulled,
+// kDrawn (in a visible group) or kAlwaysVisible.
+enum TriangleState : std::uint8_t { kCulled = 0, kDrawn = 1, kAlwaysVisible = 2 };
+std::vector<std::uint8_t> triangle_states(const PreparedMesh& mesh, const CullAnswer& answer);
+
 }  // namespace horizon::mesh
