@@ -13,6 +13,7 @@
 #include <numbers>
 #include <random>
 
+#include "horizon/mesh/crystals.hpp"
 #include "horizon/mesh/cull.hpp"
 #include "horizon/mesh/mesh_boxes.hpp"
 #include "horizon/mesh/prepared_mesh.hpp"
@@ -48,6 +49,35 @@ PreparedMesh prepare(const Tin& tin, const PrepareOptions& options) {
   auto mesh = prepare_mesh(tin, options);
   EXPECT_TRUE(mesh.ok()) << mesh.error().message;
   return std::move(*mesh);
+}
+
+TEST(Crystals, AVertexCannotSeePastAWallBelowItsHorizon) {
+  // A 10 m lattice, flat at 0 but for a 20 m wall along x = 40.
+  Tin tin;
+  const int n = 8;
+  for (int r = 0; r <= n; ++r)
+    for (int c = 0; c <= n; ++c) tin.vertices.push_back({10.0 * c, 10.0 * r, c == 4 ? 20.0 : 0.0});
+  auto at = [&](int c, int r) { return static_cast<std::uint32_t>(r * (n + 1) + c); };
+  for (int r = 0; r < n; ++r)
+    for (int c = 0; c < n; ++c) {
+      tin.triangles.push_back({at(c, r), at(c + 1, r), at(c + 1, r + 1)});
+      tin.triangles.push_back({at(c, r), at(c + 1, r + 1), at(c, r + 1)});
+    }
+  ASSERT_TRUE(check_height_field(tin, "wall").ok());
+  auto horizons = compute_horizons(tin.vertices, {16, 1, 1});
+  ASSERT_TRUE(horizons.ok());
+  const std::uint32_t p = at(1, 4);  // (10, 40, 0), west of the wall
+  // East-north-east, behind the wall: hidden low, seen from high up (the
+  // ray from p over the crest at x = 40 rises 20 m in 30 m).
+  EXPECT_TRUE(occluded_from_vertex(tin.vertices, *horizons, p, {75, 45, 0}));
+  EXPECT_TRUE(occluded_from_vertex(tin.vertices, *horizons, p, {75, 45, 40}));
+  EXPECT_FALSE(occluded_from_vertex(tin.vertices, *horizons, p, {75, 45, 60}));
+  // In front of the wall nothing is in the way.
+  EXPECT_FALSE(occluded_from_vertex(tin.vertices, *horizons, p, {30, 42, 0}));
+  // West, away from the wall, a metre up: the flat lattice hides nothing
+  // (at 0 m the camera is on the horizon's ray, which counts as hidden).
+  EXPECT_FALSE(occluded_from_vertex(tin.vertices, *horizons, p, {0, 41, 1}));
+  EXPECT_TRUE(occluded_from_vertex(tin.vertices, *horizons, p, {0, 41, 0}));
 }
 
 TEST(PrepareMesh, GroupsAreContiguousRunsThatPartitionTheTriangles) {
