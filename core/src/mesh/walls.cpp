@@ -29,8 +29,9 @@
 // it is at least the chain's lowest floor.
 //
 // Floors. The mesh's box is cut into a grid of about two triangles a
-// cell. A cell's floor is the lowest vertex of every triangle whose box
-// meets the cell (so no point of the surface in the cell is lower); a cell
+// cell. A cell's floor is the lowest point of the surface over the cell:
+// each triangle meeting it clipped to it, the plane's lowest corner of the
+// clipped piece, less a micrometre for rounding; a cell
 // is whole when no border edge's box meets it and its centre is on the
 // mesh (then all of it is). A pyramid of 2×2 minima (whole when all four
 // are) serves large radii. A polar cell's floor is the lowest floor of the
@@ -53,6 +54,49 @@ namespace horizon::mesh {
 namespace {
 
 constexpr double kTwoPi = 2 * std::numbers::pi;
+
+// The lowest height of triangle abc's plane over its part inside the box
+// [x0, x1] x [y0, y1] (the triangle clipped to the box, Sutherland and
+// Hodgman; a plane's minimum over a polygon is at a corner), less a
+// micrometre for the clipping's rounding; +inf when they do not meet.
+double lowest_in_box(const TinVertex& a, const TinVertex& b, const TinVertex& c, double x0, double y0, double x1,
+                     double y1) {
+  struct P {
+    double x, y;
+  };
+  P poly[12] = {{a.x, a.y}, {b.x, b.y}, {c.x, c.y}};
+  int n = 3;
+  P next[12];
+  // Keep the side where f(p) >= 0 of each of the box's four edges.
+  auto clip = [&](auto&& f) {
+    int m = 0;
+    for (int i = 0; i < n; ++i) {
+      const P& p = poly[i];
+      const P& q = poly[(i + 1) % n];
+      const double fp = f(p), fq = f(q);
+      if (fp >= 0) next[m++] = p;
+      if ((fp >= 0) != (fq >= 0)) {
+        const double t = fp / (fp - fq);
+        next[m++] = {p.x + t * (q.x - p.x), p.y + t * (q.y - p.y)};
+      }
+    }
+    n = m;
+    std::copy(next, next + m, poly);
+  };
+  clip([&](const P& p) { return p.x - x0; });
+  if (n) clip([&](const P& p) { return x1 - p.x; });
+  if (n) clip([&](const P& p) { return p.y - y0; });
+  if (n) clip([&](const P& p) { return y1 - p.y; });
+  if (n == 0) return INFINITY;
+  const double denom = (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);
+  if (denom == 0) return std::min({a.z, b.z, c.z});
+  const double gx = ((b.z - a.z) * (c.y - a.y) - (c.z - a.z) * (b.y - a.y)) / denom;
+  const double gy = ((c.z - a.z) * (b.x - a.x) - (b.z - a.z) * (c.x - a.x)) / denom;
+  double low = INFINITY;
+  for (int i = 0; i < n; ++i) low = std::min(low, a.z + gx * (poly[i].x - a.x) + gy * (poly[i].y - a.y));
+  // Never below the triangle's lowest corner (rounding at a sliver).
+  return std::max(low, std::min({a.z, b.z, c.z})) - 1e-6;
+}
 
 struct Level {
   int nx = 0, ny = 0;
@@ -94,10 +138,10 @@ class FloorPyramid {
       const TinVertex& a = tin.vertices[t[0]];
       const TinVertex& b = tin.vertices[t[1]];
       const TinVertex& c = tin.vertices[t[2]];
-      const double low = std::min({a.z, b.z, c.z});
       each_cell(std::min({a.x, b.x, c.x}), std::min({a.y, b.y, c.y}), std::max({a.x, b.x, c.x}),
                 std::max({a.y, b.y, c.y}), [&](int cx, int cy, std::size_t k) {
-                  base.floor[k] = std::min(base.floor[k], low);
+                  const double x0 = x0_ + cx * base.cell, y0 = y0_ + cy * base.cell;
+                  base.floor[k] = std::min(base.floor[k], lowest_in_box(a, b, c, x0, y0, x0 + base.cell, y0 + base.cell));
                   // Is the cell's centre inside this (counter-clockwise) triangle?
                   const double px = x0_ + (cx + 0.5) * base.cell, py = y0_ + (cy + 0.5) * base.cell;
                   bool inside = true;
