@@ -35,8 +35,8 @@
 // is whole when no border edge's box meets it and its centre is on the
 // mesh (then all of it is). A pyramid of 2×2 minima (whole when all four
 // are) serves large radii. A polar cell's floor is the lowest floor of the
-// 3×3 blocks around points spaced at most a pyramid cell apart over it,
-// which hold every pyramid cell it meets.
+// pyramid cells its box covers, on the finest level whose cells are half
+// as wide as the box (3 x 3 cells at most).
 //
 // Each group keeps, per sector, the bands [1.5ρ·2^j, 3ρ·2^j] out to the
 // mesh's diagonal that give a bound, reduced to those no nearer band
@@ -195,33 +195,37 @@ class FloorPyramid {
   double diagonal() const { return diagonal_; }
 
   // A lower bound of the surface over the polar cell of radii [r0, r1]
-  // and azimuths [lo, lo + width] about (mx, my); −∞ when the cell is not
-  // wholly on the mesh.
+  // and azimuths [lo, lo + width] about (mx, my): the lowest floor of the
+  // pyramid cells its box covers, on the finest level whose cells are at
+  // least half as wide as the box (so 3 x 3 of them at most); −∞ when one
+  // of them is not wholly on the mesh.
   double polar_floor(double mx, double my, double r0, double r1, double lo, double width) const {
-    const double size = std::min(r1 - r0, r0 * width);
+    // The box: the four corners, and the outer arc's extremes where it
+    // crosses an axis.
+    double bx0 = INFINITY, by0 = INFINITY, bx1 = -INFINITY, by1 = -INFINITY;
+    auto take = [&](double r, double a) {
+      const double x = mx + r * std::cos(a), y = my + r * std::sin(a);
+      bx0 = std::min(bx0, x), by0 = std::min(by0, y), bx1 = std::max(bx1, x), by1 = std::max(by1, y);
+    };
+    take(r0, lo), take(r0, lo + width), take(r1, lo), take(r1, lo + width);
+    for (int quarter = static_cast<int>(std::ceil(lo / (kTwoPi / 4))); quarter * (kTwoPi / 4) <= lo + width; ++quarter)
+      take(r1, quarter * (kTwoPi / 4));
+    const double size = std::max(bx1 - bx0, by1 - by0);
     std::size_t l = 0;
-    while (l + 1 < levels_.size() && levels_[l + 1].cell <= size) ++l;
+    while (l + 1 < levels_.size() && levels_[l].cell < size / 2) ++l;
     const Level& level = levels_[l];
-    const int na = std::max(1, static_cast<int>(std::ceil(r1 * width / level.cell))) + 1;
-    const int nr = std::max(1, static_cast<int>(std::ceil((r1 - r0) / level.cell))) + 1;
+    const int cx0 = static_cast<int>(std::floor((bx0 - x0_) / level.cell));
+    const int cy0 = static_cast<int>(std::floor((by0 - y0_) / level.cell));
+    const int cx1 = static_cast<int>(std::floor((bx1 - x0_) / level.cell));
+    const int cy1 = static_cast<int>(std::floor((by1 - y0_) / level.cell));
+    if (cx0 < 0 || cy0 < 0 || cx1 >= level.nx || cy1 >= level.ny) return -INFINITY;
     double lowest = INFINITY;
-    for (int i = 0; i < na; ++i) {
-      const double a = lo + width * i / (na - 1);
-      const double ca = std::cos(a), sa = std::sin(a);
-      for (int j = 0; j < nr; ++j) {
-        const double r = r0 + (r1 - r0) * j / (nr - 1);
-        const int cx = static_cast<int>(std::floor((mx + r * ca - x0_) / level.cell));
-        const int cy = static_cast<int>(std::floor((my + r * sa - y0_) / level.cell));
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dx = -1; dx <= 1; ++dx) {
-            const int x = cx + dx, y = cy + dy;
-            if (x < 0 || y < 0 || x >= level.nx || y >= level.ny) return -INFINITY;
-            const std::size_t c = static_cast<std::size_t>(y) * static_cast<std::size_t>(level.nx) + static_cast<std::size_t>(x);
-            if (!level.whole[c]) return -INFINITY;
-            lowest = std::min(lowest, level.floor[c]);
-          }
+    for (int y = cy0; y <= cy1; ++y)
+      for (int x = cx0; x <= cx1; ++x) {
+        const std::size_t c = static_cast<std::size_t>(y) * static_cast<std::size_t>(level.nx) + static_cast<std::size_t>(x);
+        if (!level.whole[c]) return -INFINITY;
+        lowest = std::min(lowest, level.floor[c]);
       }
-    }
     return lowest;
   }
 
