@@ -62,6 +62,36 @@ TEST(OcclusionChain, IntersectionIsTheLowerEnvelopeOfItsLines) {
   }
 }
 
+TEST(OcclusionChain, TheLowerEnvelopeOfManyRaysIsTheirFoldedIntersection) {
+  std::mt19937_64 rng(13);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int trial = 0; trial < 300; ++trial) {
+    std::vector<OcclusionChain::Ray> rays;
+    OcclusionChain folded;
+    const int count = 1 + trial % 40;
+    for (int k = 0; k < count; ++k) {
+      // Whole-metre values now and then, so equal slopes and common points occur.
+      const bool coarse = trial % 3 == 0;
+      const ChainPoint p{coarse ? std::floor(u(rng) * 5) : u(rng) * 100, coarse ? std::floor(u(rng) * 5) : u(rng) * 500};
+      const ChainPoint h{p.t + 1 + (coarse ? std::floor(u(rng) * 4) : u(rng) * 400),
+                         p.z + (coarse ? std::floor(u(rng) * 5) - 2 : (u(rng) - 0.3) * 300)};
+      const auto one = OcclusionChain::from_horizon(p, h);
+      rays.push_back({h, one.final_slope()});
+      folded = k == 0 ? one : OcclusionChain::intersect(folded, one);
+    }
+    const OcclusionChain envelope = OcclusionChain::lower_envelope(rays);
+    ASSERT_FALSE(envelope.empty());
+    EXPECT_DOUBLE_EQ(envelope.corners().front().t, folded.corners().front().t);
+    EXPECT_DOUBLE_EQ(envelope.final_slope(), folded.final_slope());
+    for (int i = 0; i < 100; ++i) {
+      const double t = folded.corners().front().t + u(rng) * 2000;
+      EXPECT_NEAR(envelope.height_at(t), folded.height_at(t), 1e-7 * std::max(1.0, std::abs(folded.height_at(t))))
+          << "trial " << trial;
+    }
+  }
+  EXPECT_TRUE(OcclusionChain::lower_envelope({}).empty());
+}
+
 TEST(OcclusionChain, SimplifyingOnlyShrinksTheRegion) {
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> u(0.0, 1.0);

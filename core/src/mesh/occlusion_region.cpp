@@ -106,6 +106,58 @@ OcclusionChain OcclusionChain::intersect(const OcclusionChain& a, const Occlusio
   return out;
 }
 
+OcclusionChain OcclusionChain::lower_envelope(std::span<const Ray> rays) {
+  if (rays.empty()) return {};
+  double t0 = -INFINITY;
+  for (const Ray& r : rays) t0 = std::max(t0, r.h.t);
+  // Each ray's line as its height at t0 and its slope.
+  struct Line {
+    double z0, slope;
+  };
+  std::vector<Line> lines;
+  lines.reserve(rays.size());
+  for (const Ray& r : rays) lines.push_back({r.h.z + r.slope * (t0 - r.h.t), r.slope});
+  // Steepest first; of equal slopes only the lowest matters.
+  std::sort(lines.begin(), lines.end(), [](const Line& a, const Line& b) {
+    return a.slope != b.slope ? a.slope > b.slope : a.z0 < b.z0;
+  });
+  // The lower envelope for u = t - t0 >= 0: start with the lowest at u = 0
+  // (ties: the shallowest), then lines of ever smaller slope take over.
+  std::vector<Line> hull;
+  std::vector<double> from;  // u where each hull line starts
+  for (const Line& l : lines) {
+    if (!hull.empty() && l.slope == hull.back().slope) continue;  // a higher line of the same slope
+    while (!hull.empty()) {
+      const Line& top = hull.back();
+      // Where l meets top (l is shallower, so it is lower past it).
+      const double u = (l.z0 - top.z0) / (top.slope - l.slope);
+      if (u <= from.back()) {
+        hull.pop_back();  // top is never the lowest past its start
+        from.pop_back();
+        continue;
+      }
+      hull.push_back(l);
+      from.push_back(u);
+      break;
+    }
+    if (hull.empty()) {
+      hull.push_back(l);
+      from.push_back(0.0);
+    }
+  }
+  // At u = 0 the lowest line must start the envelope: pop starts <= 0.
+  std::size_t first = 0;
+  while (first + 1 < hull.size() && from[first + 1] <= 0.0) ++first;
+  OcclusionChain out;
+  for (std::size_t j = first; j < hull.size(); ++j) {
+    const double u = j == first ? 0.0 : from[j];
+    out.corners_.push_back({t0 + u, hull[j].z0 + hull[j].slope * u});
+  }
+  out.final_slope_ = hull.back().slope;
+  drop_straight_corners(out.corners_, out.final_slope_);
+  return out;
+}
+
 OcclusionChain OcclusionChain::simplified(std::size_t max_corners) const {
   assert(max_corners >= 2);
   OcclusionChain out = *this;

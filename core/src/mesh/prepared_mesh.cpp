@@ -87,11 +87,20 @@ class Builder {
       group.triangle_count = static_cast<std::uint32_t>(faces.size());
       group.circle = min_circle(mesh_.tin.vertices, vertices);
       mesh_.groups.push_back(group);
+      std::vector<OcclusionChain::Ray> rays;
       for (int i = 0; i < s; ++i) {
-        OcclusionChain region = frame.region(vertices[0], i);
-        for (std::size_t k = 1; k < vertices.size() && !region.empty(); ++k)
-          region = OcclusionChain::intersect(region, frame.region(vertices[k], i));
-        mesh_.regions.push_back(region.simplified(static_cast<std::size_t>(options_.max_chain_corners)));
+        // The vertices' rays at once; a vertex with no horizon empties it.
+        rays.clear();
+        for (std::uint32_t v : vertices) {
+          const auto ray = frame.ray(v, i);
+          if (!ray) {
+            rays.clear();
+            break;
+          }
+          rays.push_back(*ray);
+        }
+        mesh_.regions.push_back(
+            OcclusionChain::lower_envelope(rays).simplified(static_cast<std::size_t>(options_.max_chain_corners)));
       }
     }
     mesh_.stats.leaf_groups = static_cast<std::uint32_t>(mesh_.groups.size());

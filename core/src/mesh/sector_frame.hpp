@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -31,6 +32,17 @@ class SectorFrame {
     const TinVertex& p = vertices_[v];
     const TinVertex& q = vertices_[h];
     return OcclusionChain::from_horizon({w.t(p), p.z}, {w.t(q), q.z});
+  }
+
+  // The same as a ray (occlusion_region.hpp), or nullopt without a horizon.
+  std::optional<OcclusionChain::Ray> ray(std::uint32_t v, int sector) const {
+    const std::uint32_t h = horizons_.at(v, sector);
+    if (h == kNoHorizon) return std::nullopt;
+    const Wedge& w = wedge(sector);
+    const TinVertex& p = vertices_[v];
+    const TinVertex& q = vertices_[h];
+    const double tp = w.t(p), tq = w.t(q);
+    return OcclusionChain::Ray{{tq, q.z}, (q.z - p.z) / (tq - tp)};
   }
 
   // Whether `camera` is in the region of v for every sector whose closed

@@ -30,6 +30,7 @@
 #pragma once
 
 #include <optional>
+#include <span>
 #include <vector>
 
 namespace horizon::mesh {
@@ -64,6 +65,16 @@ class OcclusionChain {
 
   // The intersection of two regions (empty if either is).
   static OcclusionChain intersect(const OcclusionChain& a, const OcclusionChain& b);
+
+  // The intersection of many vertex regions at once, each given as its
+  // horizon h and the slope of its ray (from_horizon's), in O(m log m):
+  // past the farthest horizon, the lower envelope of the rays' lines.
+  // Empty for no rays. The same region as folding intersect over them.
+  struct Ray {
+    ChainPoint h;
+    double slope;
+  };
+  static OcclusionChain lower_envelope(std::span<const Ray> rays);
 
   // The same region shrunk to at most `max_corners` (>= 2) corners by
   // chords; the first corner and the final ray are kept.
