@@ -5,7 +5,8 @@
 //   build/tests/bench/bench_mesh --dem DEM.tif --vertices N [--sectors S/K ...] [--repeats R] [--threads T]
 //
 // Builds a TIN of N vertices from the DEM by greedy insertion (timed once;
-// its fit to the DEM printed), then computes every vertex's horizons for
+// its fit to the DEM printed; a geographic DEM's TIN is then taken to the
+// local metric frame, local_frame.hpp), then computes every vertex's horizons for
 // each S/K (sectors/subsectors; default 8/1 8/2 8/4 8/8 16/4 32/2 64/1, the
 // thesis's Table 2) R times (default 3) on T threads (default 0: every
 // core), printing the median, and the vertices x sectors without one.
@@ -30,6 +31,7 @@
 
 #include "horizon/mesh/cull.hpp"
 #include "horizon/mesh/horizons.hpp"
+#include "horizon/mesh/local_frame.hpp"
 #include "horizon/mesh/prepared_mesh.hpp"
 #include "horizon/mesh/tin_visibility.hpp"
 #include "horizon/mesh/tin_from_dem.hpp"
@@ -166,6 +168,10 @@ int main(int argc, char** argv) {
   const auto built_at = Clock::now();
   auto tin = horizon::mesh::tin_from_dem(*dem, {static_cast<std::uint32_t>(vertices), 0.0});
   if (!tin.ok()) usage(tin.error().message.c_str());
+  // Horizons compare slopes: a geographic DEM's TIN goes to metres first.
+  auto frame = horizon::mesh::LocalFrame::for_dem(*dem);
+  if (!frame.ok()) usage(frame.error().message.c_str());
+  frame->to_local(tin->tin);
   std::printf("tin: %zu vertices, %zu triangles from %d x %d cells in %.3f s; fit max %.2f m, RMSE %.3f m\n",
               tin->tin.vertices.size(), tin->tin.triangles.size(), dem->width(), dem->height(),
               seconds_since(built_at), tin->fit.max_error, tin->fit.rmse);
