@@ -127,6 +127,26 @@ TEST(PrepareMesh, GroupsAreContiguousRunsThatPartitionTheTriangles) {
   }
 }
 
+TEST(PrepareMesh, EveryGroupIsPlacedWhateverTheMergeCutoff) {
+  // A small cutoff retires parents early; a group whose last collision
+  // went into a retired parent must still be a root, so the runs still
+  // tile the triangles.
+  for (double cutoff : {0.005, 0.02, 0.1, 1.0}) {
+    PrepareOptions o = small_options();
+    o.merge_cutoff = cutoff;
+    const PreparedMesh mesh = prepare(andes_tin(), o);
+    std::uint64_t total = mesh.always_visible_count;
+    for (std::uint32_t root : mesh.top_level) total += mesh.groups[root].triangle_count;
+    EXPECT_EQ(total, andes_tin().triangles.size()) << "cutoff " << cutoff;
+    // Every group is a root or some parent's child, once.
+    std::vector<int> owners(mesh.groups.size(), 0);
+    for (std::uint32_t root : mesh.top_level) ++owners[root];
+    for (const MeshGroup& g : mesh.groups)
+      if (!g.leaf()) ++owners[static_cast<std::size_t>(g.children[0])], ++owners[static_cast<std::size_t>(g.children[1])];
+    for (std::size_t g = 0; g < owners.size(); ++g) EXPECT_EQ(owners[g], 1) << "group " << g << " cutoff " << cutoff;
+  }
+}
+
 TEST(PrepareMesh, AParentsRegionLiesInsideItsChildrens) {
   const PreparedMesh mesh = prepare(andes_tin(), small_options());
   std::mt19937_64 rng(5);
