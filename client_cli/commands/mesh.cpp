@@ -328,8 +328,9 @@ const Command& mesh_command() {
       "groups the viewpoint cannot see are culled. Geographic DEMs are prepared in a local metric frame. The "
       "answer names each drawn group's run of triangles in the prepared order (--mesh-out writes that order).",
       kFlags,
-      "  horizon mesh data/dem/ecuador_andes_utm17s_10m_383x415.tif --vertices 3000 --observer 700300,9555300 --json\n"
-      "  horizon mesh dem.tif --lat 46.85 --lon -121.76 --conservative -o drawn.tif",
+      "  horizon mesh data/dem/ecuador_andes_utm17s_10m_383x415.tif --vertices 3000 --observer 713500,9558500 --json\n"
+      "  horizon mesh data/dem/rainier_summit_srtm3_400x400.tif --vertices 5000 --lat 46.85 --lon -121.76 \\\n"
+      "      --conservative -o out/drawn.tif",
       run_mesh};
   return command;
 }
