@@ -330,7 +330,7 @@ const Command& mesh_command() {
       kFlags,
       "  horizon mesh data/dem/ecuador_andes_utm17s_10m_383x415.tif --vertices 3000 --observer 713500,9558500 --json\n"
       "  horizon mesh data/dem/rainier_summit_srtm3_400x400.tif --vertices 5000 --lat 46.85 --lon -121.76 \\\n"
-      "      --conservative -o out/drawn.tif",
+      "      --conservative -o out/drawn.tif\n",
       run_mesh};
   return command;
 }
