@@ -10,8 +10,10 @@
 // what its destructor frees as a data race.
 //
 // Each reactor holds a Handoff. It wraps each hand-off in to_grpc(), calls
-// publish() before gRPC may call it back once its method handler returns,
-// and calls from_grpc() first in each callback. In a TSan build these are
+// publish() before gRPC may call it back once its method handler returns
+// and at the end of an OnCancel that does not finish the call (gRPC runs
+// OnDone only after OnCancel has returned, but TSan cannot see that), and
+// calls from_grpc() first in each callback. In a TSan build these are
 // __tsan_release and __tsan_acquire on the Handoff, and from_grpc() also
 // waits until no other thread is still inside a hand-off: gRPC may run
 // OnWriteDone or OnDone before the StartWrite or Finish that caused it has

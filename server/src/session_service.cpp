@@ -140,6 +140,7 @@ class SessionCall final : public grpc::ServerBidiReactor<v1::SessionRequest, v1:
     end_locked(dropped ? *dropped
                        : scope_.status_of(make_error(ErrorCode::kCancelled, "the session was cancelled")));
     pump(lock);
+    handoff_.publish();  // gRPC runs OnDone only after this returns, even when pump finished the call
   }
 
   void OnDone() override {

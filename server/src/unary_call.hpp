@@ -44,7 +44,8 @@ class UnaryCall final : public grpc::ServerUnaryReactor {
 
   void OnCancel() override {
     handoff_.from_grpc();
-    if (auto dropped = scope_.cancel()) finish(*dropped);
+    if (auto dropped = scope_.cancel()) return finish(*dropped);
+    handoff_.publish();  // gRPC runs OnDone only after this returns
   }
   void OnDone() override {
     handoff_.from_grpc();
