@@ -39,8 +39,9 @@ TinVisibility::TinVisibility(const Tin& tin) : tin_(tin) {
   const double w = std::max(x1 - x0_, 1e-9), h = std::max(y1 - y0_, 1e-9);
   const double cells = std::max<double>(1.0, static_cast<double>(edges_.size()) / 2.0);
   cell_ = std::sqrt(w * h / cells);
-  nx_ = std::clamp(static_cast<int>(std::ceil(w / cell_)), 1, 1 << 14);
-  ny_ = std::clamp(static_cast<int>(std::ceil(h / cell_)), 1, 1 << 14);
+  // Clamped as doubles: a sliver of a mesh makes one ratio huge.
+  nx_ = static_cast<int>(std::clamp(std::ceil(w / cell_), 1.0, 16384.0));
+  ny_ = static_cast<int>(std::clamp(std::ceil(h / cell_), 1.0, 16384.0));
   cell_ = std::max(w / nx_, h / ny_) * (1 + 1e-12);
 
   auto box_cells = [&](double bx0, double by0, double bx1, double by1, std::uint32_t item, auto& pairs) {
@@ -71,9 +72,9 @@ TinVisibility::TinVisibility(const Tin& tin) : tin_(tin) {
 }
 
 std::optional<double> TinVisibility::height_at(double x, double y) const {
-  const int cx = static_cast<int>(std::floor((x - x0_) / cell_));
-  const int cy = static_cast<int>(std::floor((y - y0_) / cell_));
-  if (cx < 0 || cy < 0 || cx >= nx_ || cy >= ny_) return std::nullopt;
+  const double fx = std::floor((x - x0_) / cell_), fy = std::floor((y - y0_) / cell_);
+  if (!(fx >= 0 && fy >= 0 && fx < nx_ && fy < ny_)) return std::nullopt;  // NaN too
+  const int cx = static_cast<int>(fx), cy = static_cast<int>(fy);
   const std::size_t cell = cell_of(cx, cy);
   for (std::uint32_t k = triangle_start_[cell]; k < triangle_start_[cell + 1]; ++k) {
     const TinTriangle& t = tin_.triangles[triangle_items_[k]];

@@ -118,8 +118,9 @@ class FloorPyramid {
     diagonal_ = std::hypot(w, h);
     Level base;
     base.cell = std::sqrt(w * h / std::max<double>(1.0, static_cast<double>(tin.triangles.size()) / 2.0));
-    base.nx = std::clamp(static_cast<int>(std::ceil(w / base.cell)), 1, 1 << 13);
-    base.ny = std::clamp(static_cast<int>(std::ceil(h / base.cell)), 1, 1 << 13);
+    // Clamped as doubles: a sliver of a mesh makes one ratio huge.
+    base.nx = static_cast<int>(std::clamp(std::ceil(w / base.cell), 1.0, 8192.0));
+    base.ny = static_cast<int>(std::clamp(std::ceil(h / base.cell), 1.0, 8192.0));
     base.cell = std::max(w / base.nx, h / base.ny) * (1 + 1e-12);
     const std::size_t cells = static_cast<std::size_t>(base.nx) * static_cast<std::size_t>(base.ny);
     base.floor.assign(cells, INFINITY);
