@@ -40,4 +40,9 @@ bool RegisteredBoxes::hidden(const PreparedMesh& mesh, std::size_t k, const TinV
   return behind_wall(circle, top_[k], begin_.data(), radius_.data(), slope_.data(), chain, std::sqrt(d2), camera.z);
 }
 
+std::uint64_t RegisteredBoxes::memory_bytes() const {
+  return circles_.capacity() * sizeof(Circle) + begin_.capacity() * sizeof(std::uint32_t) +
+         (top_.capacity() + radius_.capacity() + slope_.capacity()) * sizeof(double);
+}
+
 }  // namespace horizon::mesh

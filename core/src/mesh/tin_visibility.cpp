@@ -169,4 +169,10 @@ bool TinVisibility::visible(const TinVertex& eye, const TinVertex& target, doubl
   return !hidden;
 }
 
+std::uint64_t TinVisibility::memory_bytes() const {
+  return edges_.capacity() * sizeof(edges_[0]) +
+         (edge_start_.capacity() + edge_items_.capacity() + triangle_start_.capacity() + triangle_items_.capacity()) *
+             sizeof(std::uint32_t);
+}
+
 }  // namespace horizon::mesh

@@ -33,6 +33,8 @@ class RegisteredBoxes {
                                       unsigned threads = 0);
 
   std::size_t size() const { return circles_.size(); }
+  // The bytes it holds.
+  std::uint64_t memory_bytes() const;
 
   // Whether no point of box k can be seen from `camera`.
   bool hidden(const PreparedMesh& mesh, std::size_t k, const TinVertex& camera) const;

@@ -34,6 +34,9 @@ class TinVisibility {
   // Whether `target` can be seen from `eye`.
   bool visible(const TinVertex& eye, const TinVertex& target, double tolerance = 1e-6) const;
 
+  // The bytes of its index (not of the TIN it refers to).
+  std::uint64_t memory_bytes() const;
+
  private:
   template <class Visit>
   void walk_cells(double x0, double y0, double x1, double y1, Visit&& visit) const;
