@@ -1,5 +1,7 @@
-// `horizon mesh INPUT --observer ...`: a TIN prepared for per-frame culling
-// (horizons, crystal groups, hierarchy) and culled from one viewpoint.
+// `horizon mesh prepare INPUT` and `horizon mesh cull INPUT --observer ...`:
+// a TIN prepared for per-frame culling (horizons, crystal groups,
+// hierarchy: core's mesh/mesh_model.hpp), and culled from one viewpoint,
+// embedded or by a daemon's MeshService (--server, remote/mesh.cpp).
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -8,18 +10,13 @@
 
 #include "commands/command.hpp"
 #include "horizon/mesh/cull.hpp"
-#include "horizon/mesh/local_frame.hpp"
-#include "horizon/mesh/mesh_boxes.hpp"
-#include "horizon/mesh/prepared_cache.hpp"
-#include "horizon/mesh/prepared_mesh.hpp"
-#include "horizon/mesh/tin_from_dem.hpp"
-#include "horizon/mesh/tin_io.hpp"
-#include "horizon/mesh/tin_visibility.hpp"
+#include "horizon/mesh/mesh_model.hpp"
 #include "horizon/terrain/geotiff_writer.hpp"
 #include "inputs.hpp"
 #include "interrupt.hpp"
 #include "output.hpp"
 #include "progress.hpp"
+#include "remote/remote.hpp"
 
 namespace horizon::cli {
 namespace {
@@ -37,10 +34,13 @@ constexpr FlagSpec kFlags[] = {
     {"--min-group", "", "N", "Smallest group, triangles (default 30)"},
     {"--max-groups", "", "N", "Most groups (default 1000)"},
     {"--orphan-passes", "", "N", "Reseeding passes over unclaimed triangles (default 10)"},
-    {"--merge-cutoff", "", "F", "A merged group whose circle covers more than F of the mesh is top-level (default 0.25)"},
+    {"--merge-cutoff", "", "F",
+     "A merged group whose circle covers more than F of the mesh is top-level (default 0.25)"},
     {"--random-seed", "", "N", "Seed of the crystal seeding (default 1; the same seed gives the same groups)"},
-    {"--azimuth", "", "FROM,TO", "The view: degrees clockwise from north, FROM turning clockwise to TO (default all round)"},
-    {"--conservative", "", "", "Never cull a triangle the viewpoint can see (walls; default: the thesis's approximate test)"},
+    {"--azimuth", "", "FROM,TO",
+     "The view: degrees clockwise from north, FROM turning clockwise to TO (default all round)"},
+    {"--conservative", "", "",
+     "Never cull a triangle the viewpoint can see (walls; default: the thesis's approximate test)"},
     {"--out", "-o", "OUT.tif",
      "DEM input: a raster on the DEM's grid: 1 drawn, 0 culled, 2 always visible, 255 no triangle"},
     {"--mesh-out", "", "OUT.obj", "Write the TIN with its triangles in group order (the ranges the answer names)"},
@@ -51,8 +51,22 @@ constexpr FlagSpec kFlags[] = {
      "Keep the prepared mesh in DIR, keyed by the TIN and the knobs, and load it from there next time"},
     {"--threads", "", "N", "Worker threads for preparing (default 0 = all cores)"},
     {"--band", "", "N", "DEM band to read, 1-based (required when the file has several)"},
-    {"--json", "", "", "Print a JSON document with every drawn group's triangle range"},
+    {"--registered-boxes", "", "", "With --server: also cull the boxes registered with the daemon's mesh"},
+    {"--json", "", "", "Print a JSON document (cull: with every drawn group's triangle range)"},
+    remote::kServerFlag,
+    remote::kDeadlineFlag,
+    remote::kCaFlag,
+    remote::kClientCertFlag,
+    remote::kTokenFileFlag,
 };
+
+// The flags only `horizon mesh cull` takes, and those only a local input takes.
+constexpr std::string_view kCullOnly[] = {"--observer", "--lat",          "--lon", "--height", "--altitude",
+                                          "--azimuth",  "--conservative", "--out", "--boxes",  "--registered-boxes"};
+constexpr std::string_view kLocalOnly[] = {"--vertices",    "--max-error",  "--sectors",       "--seeds",
+                                           "--min-group",   "--max-groups", "--orphan-passes", "--merge-cutoff",
+                                           "--random-seed", "--out",        "--mesh-out",      "--boxes",
+                                           "--cache",       "--threads",    "--band"};
 
 bool is_mesh_file(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
@@ -128,126 +142,199 @@ terrain::Grid<std::uint8_t> rasterise(const terrain::Dem& dem, const std::vector
   return grid;
 }
 
-int run_mesh(const Args& args) {
-  const std::string& path = single_operand(args, "DEM or mesh file");
-  const bool json = args.has("--json");
-  const bool from_file = is_mesh_file(path);
-  if (args.has("--height") && args.has("--altitude"))
-    throw UsageError("--height and --altitude both set the eye; give one of them");
-  if (from_file && (args.has("--lat") || args.has("--lon")))
-    throw UsageError("a mesh file has no CRS Horizon can read: place the viewpoint with --observer X,Y");
-  if (from_file && (args.has("--vertices") || args.has("--max-error") || args.has("--out")))
-    throw UsageError("--vertices, --max-error and --out need a DEM as input, not a mesh file");
-  geodesy::PointSpec spec = point_from_flags(args, {"--observer", "--lat", "--lon"});
-  const mesh::PrepareOptions options = options_from_flags(args);
-  mesh::CullQuery query;
-  query.mode = args.has("--conservative") ? mesh::CullMode::kConservative : mesh::CullMode::kApproximate;
-  if (auto view = args.pair("--azimuth")) query.azimuth_from = view->first, query.azimuth_to = view->second;
-  const auto out = args.text("--out");
-  if (out)
-    if (auto s = check_output_path(*out, "--out", path, {".tif", ".tiff"}); !s.ok()) return report_error(s.error());
-  const auto mesh_out = args.text("--mesh-out");
-  if (mesh_out)
-    if (auto s = check_output_path(*mesh_out, "--mesh-out", path, {".obj"}); !s.ok()) return report_error(s.error());
-  const auto boxes_path = args.text("--boxes");
-  std::vector<std::uint64_t> box_ids;
-  std::vector<visibility::BoxSpec> box_specs;
-  if (boxes_path) box_specs = read_boxes_file(*boxes_path, false, &box_ids);
-  const auto vertices = args.positive_integer("--vertices").value_or(100'000);
-  const double max_error = args.non_negative("--max-error").value_or(0.0);
-  (void)args.positive_integer("--band");
-
-  const auto started = std::chrono::steady_clock::now();
-  Json report;
-  report["input"] = path;
-  mesh::Tin tin;
-  std::optional<terrain::Dem> dem;
-  mesh::LocalFrame frame;
-  if (from_file) {
-    auto read = mesh::read_tin(path);
-    if (!read.ok()) return report_error(read.error());
-    tin = std::move(*read);
-  } else {
-    auto loaded = load_dem(path, args);
-    if (!loaded.ok()) return report_error(loaded.error());
-    dem = std::move(*loaded);
-    auto built = mesh::tin_from_dem(*dem, {static_cast<std::uint32_t>(vertices), max_error});
-    if (!built.ok()) return report_error(built.error());
-    tin = std::move(built->tin);
-    report["fit"] = {{"max_error_m", built->fit.max_error}, {"rmse_m", built->fit.rmse},
-                     {"cells_measured", built->fit.cells}};
-    auto local = mesh::LocalFrame::for_dem(*dem);
-    if (!local.ok()) return report_error(local.error());
-    frame = std::move(*local);
-  }
-  const std::vector<mesh::TinVertex> crs_vertices = tin.vertices;
-  frame.to_local(tin);
-
-  // The eye: a DEM's point rules (its CRS or WGS84, above its ground); a
-  // mesh file's, the surface of the mesh itself.
-  mesh::TinVertex eye;
-  if (dem) {
-    if (args.has("--altitude")) spec.height = *args.number("--altitude"), spec.height_mode = geodesy::HeightMode::kAbsolute;
-    else spec.height = args.non_negative("--height").value_or(2.0);
-    auto point = geodesy::resolve_point(*dem, spec, "observer");
-    if (!point.ok()) return report_error(point.error());
-    eye = frame.to_local({point->x, point->y, point->elevation});
-    report["observer"] = to_json(*point, lonlat_of(*dem, point->x, point->y));
-  } else {
-    const mesh::TinVisibility surface(tin);
-    const auto ground = surface.height_at(spec.x, spec.y);
-    if (args.has("--altitude")) {
-      eye = {spec.x, spec.y, *args.number("--altitude")};
-    } else {
-      if (!ground)
-        return report_error(make_error(ErrorCode::kOutOfRange,
-                                       "observer (" + fixed(spec.x, 3) + ", " + fixed(spec.y, 3) + ") is off the mesh",
-                                       "observer"));
-      eye = {spec.x, spec.y, *ground + args.non_negative("--height").value_or(2.0)};
-    }
-    report["observer"] = {{"x", eye.x}, {"y", eye.y}, {"z", eye.z}};
-  }
-
-  const auto preparing = std::chrono::steady_clock::now();
-  const auto cache = args.text("--cache");
-  mesh::CacheUse cache_use;
+// The model of a local input: a DEM made a TIN, or a mesh file; prepared
+// (through --cache) with the progress bar up and Ctrl-C cancelling.
+Result<mesh::MeshModel> load_model(const Args& args, const std::string& path) {
+  mesh::MeshModelOptions options;
+  options.prepare = options_from_flags(args);
+  options.greedy.max_vertices = static_cast<std::uint32_t>(args.positive_integer("--vertices").value_or(100'000));
+  options.greedy.max_error = args.non_negative("--max-error").value_or(0.0);
+  if (auto cache = args.text("--cache")) options.cache_dir = *cache;
   InterruptScope interrupt;  // Ctrl-C cancels the preparation cleanly
   ProgressBar bar("preparing");
   RunControl control;
   control.cancel = &interrupt.token();
   control.progress = bar.callback();
-  auto prepared = cache ? mesh::prepare_cached(tin, options, *cache, &cache_use, &control)
-                        : mesh::prepare_mesh(std::move(tin), options, &control);
+  Result<mesh::MeshModel> model = make_error(ErrorCode::kInternal, "not loaded", "");
+  if (is_mesh_file(path)) {
+    model = mesh::MeshModel::from_file(path, options, &control);
+  } else {
+    auto dem = load_dem(path, args);
+    if (!dem.ok()) return dem.error();
+    model = mesh::MeshModel::from_dem(std::move(*dem), options, &control);
+  }
   bar.finish();
-  if (!prepared.ok()) return report_error(prepared.error());
-  if (!cache_use.note.empty()) std::cerr << "horizon: warning: " << cache_use.note << '\n';
-  if (cache) report["cache"] = {{"hit", cache_use.hit}, {"path", cache_use.path}, {"note", cache_use.note}};
-  const double prepare_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - preparing).count();
+  if (model.ok() && !model->cache_use().note.empty())
+    std::cerr << "horizon: warning: " << model->cache_use().note << '\n';
+  return model;
+}
+
+// What a prepared model is, for the JSON report of both verbs.
+Json describe(const mesh::MeshModel& model, const mesh::PrepareOptions& options, const Args& args) {
+  const mesh::PreparedMesh& p = model.prepared();
+  const mesh::PrepareStats& st = p.stats;
+  Json report;
+  report["vertices"] = p.tin.vertices.size();
+  report["triangles"] = p.tin.triangles.size();
+  if (model.fit())
+    report["fit"] = {
+        {"max_error_m", model.fit()->max_error}, {"rmse_m", model.fit()->rmse}, {"cells_measured", model.fit()->cells}};
+  report["local_frame"] = model.frame().geographic() ? "tangent plane at the DEM's centre" : "the CRS";
+  report["options"] = {{"sectors", p.sectors},
+                       {"subsectors", options.horizons.subsectors},
+                       {"seeds", options.crystals.seeds},
+                       {"min_group", options.crystals.min_group_size},
+                       {"max_groups", options.crystals.max_groups},
+                       {"orphan_passes", options.crystals.max_orphan_passes},
+                       {"merge_cutoff", options.merge_cutoff},
+                       {"random_seed", options.crystals.random_seed}};
+  report["prepare"] = {{"seconds", model.prepare_seconds()},
+                       {"horizon_seconds", st.horizon_seconds},
+                       {"grouping_seconds", st.grouping_seconds},
+                       {"hierarchy_seconds", st.hierarchy_seconds},
+                       {"wall_seconds", st.wall_seconds},
+                       {"groups", st.leaf_groups},
+                       {"nodes", p.groups.size()},
+                       {"levels", st.levels},
+                       {"top_level", p.top_level.size()},
+                       {"orphan_passes", st.orphan_passes},
+                       {"always_visible_triangles", p.always_visible_count},
+                       {"resident_bytes", model.memory_bytes()}};
+  if (args.has("--cache"))
+    report["cache"] = {
+        {"hit", model.cache_use().hit}, {"path", model.cache_use().path}, {"note", model.cache_use().note}};
+  return report;
+}
+
+void print_prepared(const std::string& path, const mesh::MeshModel& model, const mesh::PrepareOptions& options) {
+  const mesh::PreparedMesh& p = model.prepared();
+  std::cout << "TIN of " << path << ": " << p.tin.vertices.size() << " vertices, " << p.tin.triangles.size()
+            << " triangles\n";
+  if (model.fit())
+    std::cout << "  fit:       max " << fixed(model.fit()->max_error, 2) << " m, RMSE " << fixed(model.fit()->rmse, 2)
+              << " m against the DEM\n";
+  std::cout << "  prepared:  " << fixed(model.prepare_seconds(), 3) << " s"
+            << (model.cache_use().hit ? " (from the cache)" : "") << " (" << p.sectors << '/'
+            << options.horizons.subsectors << "; " << p.stats.leaf_groups << " groups, " << p.groups.size()
+            << " nodes, " << p.always_visible_count << " always-visible triangles)\n";
+}
+
+// Writes --mesh-out when given.
+Status write_mesh_out(const Args& args, const mesh::MeshModel& model) {
+  const auto mesh_out = args.text("--mesh-out");
+  if (!mesh_out) return Status::Ok();
+  HORIZON_RETURN_IF_ERROR(write_obj(*mesh_out, model.crs_vertices(), model.prepared().tin.triangles));
+  std::cout << (args.has("--json") ? "" : "  wrote:     " + *mesh_out + "\n");
+  return Status::Ok();
+}
+
+int run_prepare(const Args& args, const std::string& path) {
+  for (std::string_view flag : kCullOnly)
+    if (args.has(flag)) throw UsageError(args.typed(flag) + ": a flag of `horizon mesh cull`, not of prepare");
+  if (args.has("--server"))
+    throw UsageError("--server: a daemon prepares its meshes from its config (\"meshes\"); prepare runs locally");
+  if (is_mesh_file(path) && (args.has("--vertices") || args.has("--max-error")))
+    throw UsageError("--vertices and --max-error need a DEM as input, not a mesh file");
+  if (auto mesh_out = args.text("--mesh-out"))
+    if (auto s = check_output_path(*mesh_out, "--mesh-out", path, {".obj"}); !s.ok()) return report_error(s.error());
+  (void)args.positive_integer("--band");
+  const mesh::PrepareOptions options = options_from_flags(args);
+  auto model = load_model(args, path);
+  if (!model.ok()) return report_error(model.error());
+  const bool json = args.has("--json");
+  if (json) {
+    Json report{{"input", path}};
+    report.update(describe(*model, options, args));
+    if (auto s = write_mesh_out(args, *model); !s.ok()) return report_error(s.error());
+    if (auto mesh_out = args.text("--mesh-out")) report["mesh_out"] = *mesh_out;
+    std::cout << report.dump(2) << '\n';
+    return kExitOk;
+  }
+  print_prepared(path, *model, options);
+  if (auto s = write_mesh_out(args, *model); !s.ok()) return report_error(s.error());
+  return kExitOk;
+}
+
+int run_cull(const Args& args, const std::string& path) {
+  const bool json = args.has("--json");
+  if (args.has("--height") && args.has("--altitude"))
+    throw UsageError("--height and --altitude both set the eye; give one of them");
+  geodesy::PointSpec spec = point_from_flags(args, {"--observer", "--lat", "--lon"});
+  if (args.has("--altitude"))
+    spec.height = *args.number("--altitude"), spec.height_mode = geodesy::HeightMode::kAbsolute;
+  else
+    spec.height = args.non_negative("--height").value_or(2.0);
+  mesh::CullQuery query;
+  query.mode = args.has("--conservative") ? mesh::CullMode::kConservative : mesh::CullMode::kApproximate;
+  if (auto view = args.pair("--azimuth")) query.azimuth_from = view->first, query.azimuth_to = view->second;
+
+  if (args.has("--server")) {
+    for (std::string_view flag : kLocalOnly)
+      if (args.has(flag))
+        throw UsageError(args.typed(flag) +
+                         ": applies to a local input; a daemon's mesh is prepared with the knobs of its config"
+                         " (--boxes: use --registered-boxes for the boxes registered there)");
+    remote::MeshCullInputs inputs{path,
+                                  spec,
+                                  query.azimuth_from,
+                                  query.azimuth_to,
+                                  query.mode == mesh::CullMode::kConservative,
+                                  args.has("--registered-boxes"),
+                                  json};
+    return remote::run_mesh_cull(args, inputs);
+  }
+  if (args.has("--registered-boxes"))
+    throw UsageError("--registered-boxes: a flag of --server; locally, give --boxes FILE");
+  const bool from_file = is_mesh_file(path);
+  if (from_file && (args.has("--lat") || args.has("--lon")))
+    throw UsageError("a mesh file has no CRS Horizon can read: place the viewpoint with --observer X,Y");
+  if (from_file && (args.has("--vertices") || args.has("--max-error") || args.has("--out")))
+    throw UsageError("--vertices, --max-error and --out need a DEM as input, not a mesh file");
+  const auto out = args.text("--out");
+  if (out)
+    if (auto s = check_output_path(*out, "--out", path, {".tif", ".tiff"}); !s.ok()) return report_error(s.error());
+  if (auto mesh_out = args.text("--mesh-out"))
+    if (auto s = check_output_path(*mesh_out, "--mesh-out", path, {".obj"}); !s.ok()) return report_error(s.error());
+  const auto boxes_path = args.text("--boxes");
+  std::vector<std::uint64_t> box_ids;
+  std::vector<visibility::BoxSpec> box_specs;
+  if (boxes_path) box_specs = read_boxes_file(*boxes_path, false, &box_ids);
+  (void)args.positive_integer("--band");
+  const mesh::PrepareOptions options = options_from_flags(args);
+
+  const auto started = std::chrono::steady_clock::now();
+  auto model = load_model(args, path);
+  if (!model.ok()) return report_error(model.error());
+  auto eye = model->eye(spec, "observer");
+  if (!eye.ok()) return report_error(eye.error());
+  query.camera = eye->local;
+  if (boxes_path)
+    if (auto s = model->register_boxes(box_specs, options.horizons.threads); !s.ok()) return report_error(s.error());
+
   const auto culling = std::chrono::steady_clock::now();
-  auto answer = mesh::cull(*prepared, query);
+  auto answer = mesh::cull(model->prepared(), query);
   if (!answer.ok()) return report_error(answer.error());
   const double cull_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - culling).count();
+  const mesh::PreparedMesh& prepared = model->prepared();
 
+  Json report;
+  report["input"] = path;
+  report.update(describe(*model, options, args));
+  if (const terrain::Dem* dem = model->dem()) {
+    geodesy::GridPoint point;
+    point.x = eye->crs.x, point.y = eye->crs.y, point.elevation = eye->crs.z, point.ground = eye->ground;
+    const terrain::GeoTransform& t = dem->georef.transform;
+    point.col = t.col_at(point.x), point.row = t.row_at(point.y);
+    report["observer"] = to_json(point, lonlat_of(*dem, point.x, point.y));
+  } else {
+    report["observer"] = {{"x", eye->crs.x}, {"y", eye->crs.y}, {"z", eye->crs.z}};
+  }
   if (boxes_path) {
-    // Each box's footprint corners into the frame, and their bounding box.
-    std::vector<mesh::MeshBox> boxes;
-    for (const visibility::BoxSpec& b : box_specs) {
-      mesh::MeshBox m{INFINITY, INFINITY, -INFINITY, -INFINITY, b.z_min, b.z_max};
-      for (double x : {b.x_min, b.x_max})
-        for (double y : {b.y_min, b.y_max}) {
-          const mesh::TinVertex p = frame.to_local({x, y, 0.0});
-          m.x_min = std::min(m.x_min, p.x), m.x_max = std::max(m.x_max, p.x);
-          m.y_min = std::min(m.y_min, p.y), m.y_max = std::max(m.y_max, p.y);
-        }
-      boxes.push_back(m);
-    }
-    auto registered = mesh::RegisteredBoxes::make(*prepared, boxes, options.horizons.threads);
-    if (!registered.ok()) return report_error(registered.error());
+    const mesh::RegisteredBoxes& boxes = *model->boxes();
     Json list = Json::array();
     std::size_t hidden = 0;
     for (std::size_t k = 0; k < boxes.size(); ++k) {
-      const bool h = registered->hidden(*prepared, k, eye);
+      const bool h = boxes.hidden(prepared, k, eye->local);
       hidden += h ? 1 : 0;
       Json item{{"index", k}, {"hidden", h}};
       if (!box_ids.empty()) item["id"] = box_ids[k];
@@ -255,54 +342,37 @@ int run_mesh(const Args& args) {
     }
     report["boxes"] = {{"file", *boxes_path}, {"count", boxes.size()}, {"hidden_count", hidden}, {"boxes", list}};
   }
-
-  const std::vector<std::uint8_t> state = mesh::triangle_states(*prepared, *answer);
+  const std::vector<std::uint8_t> state = mesh::triangle_states(prepared, *answer);
   if (out) {
-    if (auto s = terrain::write_geotiff(*out, rasterise(*dem, crs_vertices, *prepared, state), dem->georef, 255.0);
+    const terrain::Dem& dem = *model->dem();
+    if (auto s =
+            terrain::write_geotiff(*out, rasterise(dem, model->crs_vertices(), prepared, state), dem.georef, 255.0);
         !s.ok())
       return report_error(s.error());
   }
-  if (mesh_out) {
-    if (auto s = write_obj(*mesh_out, crs_vertices, prepared->tin.triangles); !s.ok()) return report_error(s.error());
-  }
+  if (auto mesh_out = args.text("--mesh-out"))
+    if (auto s = write_obj(*mesh_out, model->crs_vertices(), prepared.tin.triangles); !s.ok())
+      return report_error(s.error());
 
-  const mesh::PrepareStats& st = prepared->stats;
-  report["vertices"] = prepared->tin.vertices.size();
-  report["triangles"] = prepared->tin.triangles.size();
-  report["local_frame"] = frame.geographic() ? "tangent plane at the DEM's centre" : "the CRS";
-  report["options"] = {{"sectors", prepared->sectors}, {"subsectors", options.horizons.subsectors},
-                       {"seeds", options.crystals.seeds}, {"min_group", options.crystals.min_group_size},
-                       {"max_groups", options.crystals.max_groups}, {"orphan_passes", options.crystals.max_orphan_passes},
-                       {"merge_cutoff", options.merge_cutoff}, {"random_seed", options.crystals.random_seed}};
-  report["prepare"] = {{"seconds", prepare_seconds}, {"horizon_seconds", st.horizon_seconds},
-                       {"grouping_seconds", st.grouping_seconds}, {"hierarchy_seconds", st.hierarchy_seconds},
-                       {"wall_seconds", st.wall_seconds}, {"groups", st.leaf_groups},
-                       {"nodes", prepared->groups.size()}, {"levels", st.levels},
-                       {"top_level", prepared->top_level.size()}, {"orphan_passes", st.orphan_passes},
-                       {"always_visible_triangles", prepared->always_visible_count}};
   report["mode"] = query.mode == mesh::CullMode::kConservative ? "conservative" : "approximate";
-  report["cull"] = {{"microseconds", cull_seconds * 1e6}, {"groups_tested", answer->groups_tested},
-                    {"groups_culled", answer->groups_culled}, {"frustum_culled", answer->frustum_culled},
+  report["cull"] = {{"microseconds", cull_seconds * 1e6},           {"groups_tested", answer->groups_tested},
+                    {"groups_culled", answer->groups_culled},       {"frustum_culled", answer->frustum_culled},
                     {"triangles_culled", answer->triangles_culled}, {"triangles_drawn", answer->triangles_visible}};
   Json drawn = Json::array();
   for (std::uint32_t g : answer->visible_groups)
-    drawn.push_back({{"group", g}, {"first_triangle", prepared->groups[g].first_triangle},
-                     {"triangle_count", prepared->groups[g].triangle_count}});
+    drawn.push_back({{"group", g},
+                     {"first_triangle", prepared.groups[g].first_triangle},
+                     {"triangle_count", prepared.groups[g].triangle_count}});
   report["drawn_groups"] = drawn;
-  report["always_visible"] = {{"first_triangle", prepared->always_visible_first},
-                              {"triangle_count", prepared->always_visible_count}};
+  report["always_visible"] = {{"first_triangle", prepared.always_visible_first},
+                              {"triangle_count", prepared.always_visible_count}};
   report["total_seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   if (json) {
     std::cout << report.dump(2) << '\n';
     return kExitOk;
   }
-  std::cout << "TIN of " << path << ": " << prepared->tin.vertices.size() << " vertices, "
-            << prepared->tin.triangles.size() << " triangles\n"
-            << "  prepared:  " << fixed(prepare_seconds, 3) << " s" << (cache_use.hit ? " (from the cache)" : "") << " ("
-            << prepared->sectors << '/'
-            << options.horizons.subsectors << "; " << st.leaf_groups << " groups, " << prepared->groups.size()
-            << " nodes, " << prepared->always_visible_count << " always-visible triangles)\n"
-            << "  culled:    " << answer->triangles_culled << " triangles in " << answer->groups_culled << " of "
+  print_prepared(path, *model, options);
+  std::cout << "  culled:    " << answer->triangles_culled << " triangles in " << answer->groups_culled << " of "
             << answer->groups_tested << " groups tested (" << report["mode"].get<std::string>() << ", "
             << fixed(cull_seconds * 1e6, 1) << " us)\n"
             << "  drawn:     " << answer->triangles_visible << " triangles in " << answer->visible_groups.size()
@@ -311,8 +381,22 @@ int run_mesh(const Args& args) {
     std::cout << "  boxes:     " << report["boxes"]["hidden_count"].get<std::size_t>() << " of " << box_specs.size()
               << " hidden (walls; sound)\n";
   if (out) std::cout << "  wrote:     " << *out << '\n';
-  if (mesh_out) std::cout << "  wrote:     " << *mesh_out << '\n';
+  if (auto mesh_out = args.text("--mesh-out")) std::cout << "  wrote:     " << *mesh_out << '\n';
   return kExitOk;
+}
+
+int run_mesh(const Args& args) {
+  const auto& operands = args.positionals();
+  if (operands.empty()) throw UsageError("missing the verb: `horizon mesh prepare INPUT` or `horizon mesh cull INPUT`");
+  const std::string& verb = operands.front();
+  if (verb != "prepare" && verb != "cull")
+    throw UsageError("unknown verb '" + verb + "': expected prepare or cull (horizon mesh prepare|cull INPUT ...)");
+  if (operands.size() < 2)
+    throw UsageError("missing the " +
+                     std::string(verb == "cull" && args.has("--server") ? "mesh name" : "DEM or mesh file") +
+                     " operand");
+  if (operands.size() > 2) throw UsageError("unexpected extra operand '" + operands[2] + "'");
+  return verb == "prepare" ? run_prepare(args, operands[1]) : run_cull(args, operands[1]);
 }
 
 }  // namespace
@@ -320,17 +404,25 @@ int run_mesh(const Args& args) {
 const Command& mesh_command() {
   static const Command command{
       "mesh",
-      "Prepare a TIN for per-frame culling and cull it from one viewpoint",
-      "horizon mesh (DEM | MESH.obj | MESH.ply) (--observer X,Y | --lat LAT --lon LON) [options]",
+      "Prepare a TIN for per-frame culling, and cull it from one viewpoint",
+      "horizon mesh prepare (DEM | MESH.obj | MESH.ply) [options]\n"
+      "       horizon mesh cull (DEM | MESH.obj | MESH.ply) (--observer X,Y | --lat LAT --lon LON) [options]\n"
+      "       horizon mesh cull MESH --server HOST:PORT (--observer X,Y | --lat LAT --lon LON) [options]",
       "A DEM is turned into a TIN by greedy insertion (--vertices, --max-error); an OBJ or PLY mesh is read as "
       "it is (a height field, x and y in metres). Each vertex's horizon is found in S sectors of K subsectors, "
-      "the triangles are grown into visibility-aware groups and a merge hierarchy (Edmondson 2004), and the "
-      "groups the viewpoint cannot see are culled. Geographic DEMs are prepared in a local metric frame. The "
-      "answer names each drawn group's run of triangles in the prepared order (--mesh-out writes that order).",
+      "the triangles are grown into visibility-aware groups and a merge hierarchy (Edmondson 2004): `prepare` "
+      "stops there (with --cache it keeps the result for the next run, with --mesh-out it writes the TIN in "
+      "group order); `cull` then culls the groups the viewpoint cannot see. Geographic DEMs are prepared in a "
+      "local metric frame. The answer names each drawn group's run of triangles in the prepared order "
+      "(--mesh-out writes that order). With --server, MESH names one of the daemon's configured meshes, "
+      "prepared when it loaded.",
       kFlags,
-      "  horizon mesh data/dem/ecuador_andes_utm17s_10m_383x415.tif --vertices 3000 --observer 713500,9558500 --json\n"
-      "  horizon mesh data/dem/rainier_summit_srtm3_400x400.tif --vertices 5000 --lat 46.85 --lon -121.76 \\\n"
-      "      --conservative -o out/drawn.tif\n",
+      "  horizon mesh prepare data/dem/ecuador_andes_utm17s_10m_383x415.tif --vertices 3000 --cache out/meshes\n"
+      "  horizon mesh cull data/dem/ecuador_andes_utm17s_10m_383x415.tif --vertices 3000 --observer 713500,9558500 "
+      "--json\n"
+      "  horizon mesh cull data/dem/rainier_summit_srtm3_400x400.tif --vertices 5000 --lat 46.85 --lon -121.76 \\\n"
+      "      --conservative -o out/drawn.tif\n"
+      "  horizon mesh cull rainier_tin --server localhost:50051 --lat 46.85 --lon -121.76 --json\n",
       run_mesh};
   return command;
 }

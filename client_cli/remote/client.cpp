@@ -68,6 +68,7 @@ Client::Client(const Args& args) {
   visibility_ = v1::VisibilityService::NewStub(channel);
   sessions_ = v1::SessionService::NewStub(channel);
   traces_ = v1::TraceService::NewStub(channel);
+  meshes_ = v1::MeshService::NewStub(channel);
 }
 
 grpc::Status Client::get_dataset(const std::string& name, v1::Dataset& out) {

@@ -15,6 +15,7 @@
 #include "horizon/geodesy/observer.hpp"
 #include "horizon/terrain/geotiff_options.hpp"
 #include "horizon/v1/datasets.grpc.pb.h"
+#include "horizon/v1/mesh.grpc.pb.h"
 #include "horizon/v1/session.grpc.pb.h"
 #include "horizon/v1/trace.grpc.pb.h"
 #include "horizon/v1/visibility.grpc.pb.h"
@@ -42,6 +43,7 @@ class Client {
   v1::VisibilityService::Stub& visibility() { return *visibility_; }
   v1::SessionService::Stub& sessions() { return *sessions_; }
   v1::TraceService::Stub& traces() { return *traces_; }
+  v1::MeshService::Stub& meshes() { return *meshes_; }
 
  private:
   std::string address_;
@@ -51,6 +53,7 @@ class Client {
   std::unique_ptr<v1::VisibilityService::Stub> visibility_;
   std::unique_ptr<v1::SessionService::Stub> sessions_;
   std::unique_ptr<v1::TraceService::Stub> traces_;
+  std::unique_ptr<v1::MeshService::Stub> meshes_;
 };
 
 // Prints "horizon: error: <message> (<CODE> from HOST:PORT[, field F])" and

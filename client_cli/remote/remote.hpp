@@ -100,6 +100,17 @@ int run_cull(const Args& args, const std::string& dataset, const geodesy::PointS
              const std::vector<visibility::BoxSpec>& boxes, const std::vector<std::uint64_t>& ids,
              const visibility::CullOptions& options, bool json);
 int run_datasets(const Args& args, bool json);
+// `horizon mesh cull MESH --server ...`: one CullMesh call (and a
+// DescribeMesh for the mesh's facts); prints what embedded mode prints.
+struct MeshCullInputs {
+  std::string mesh;
+  geodesy::PointSpec observer;
+  std::optional<double> azimuth_from, azimuth_to;
+  bool conservative = false;
+  bool boxes = false;  // the mesh's registered boxes too
+  bool json = false;
+};
+int run_mesh_cull(const Args& args, const MeshCullInputs& inputs);
 int run_trace(const Args& args, const TraceInputs& inputs);
 // The flight over one session stream; prints the same report as embedded mode.
 int run_session(const Args& args, const SessionPlayback& playback, bool json, bool every_pose);

@@ -139,6 +139,121 @@ Status parse_datasets(const Json& j, const std::string& source, Config& config) 
   return Status::Ok();
 }
 
+// A number in [lo, hi] (lo_open: lo itself excluded).
+Result<double> get_number(const Json& object, const std::string& source, const std::string& key,
+                          const std::string& path, double lo, double hi, bool lo_open) {
+  const Json& v = object.at(key);
+  const bool in = v.is_number() && (lo_open ? v.get<double>() > lo : v.get<double>() >= lo) && v.get<double>() <= hi;
+  if (!in)
+    return config_error(source, path,
+                        std::string("expected a number in ") + (lo_open ? "(" : "[") + Json(lo).dump() + ", " +
+                            Json(hi).dump() + "], got " + v.dump());
+  return v.get<double>();
+}
+
+// "meshes": name -> {"dataset" | "file", knobs, "boxes"}. After the datasets
+// (a mesh names one) and the limits (they cap its boxes).
+Status parse_meshes(const Json& j, const std::string& source, Config& config) {
+  if (!j.is_object()) return config_error(source, "meshes", "expected an object of name -> {\"dataset\": ...}");
+  for (const auto& [name, value] : j.items()) {
+    const std::string key = "meshes." + name;
+    if (name.empty() || name.size() > kMaxDatasetName || name.find_first_of("/\\ \t\n") != std::string::npos)
+      return config_error(
+          source, key,
+          "a mesh name is 1-" + std::to_string(kMaxDatasetName) + " characters without '/', '\\' or spaces");
+    if (!value.is_object())
+      return config_error(source, key, "expected {\"dataset\": NAME} or {\"file\": \"mesh.ply\"}, got " + value.dump());
+    HORIZON_RETURN_IF_ERROR(
+        check_keys(value, source, key + ".",
+                   {"dataset", "file", "vertices", "max_error_m", "sectors", "subsectors", "seeds", "min_group",
+                    "max_groups", "orphan_passes", "merge_cutoff", "random_seed", "boxes"}));
+    MeshConfig m;
+    m.name = name;
+    if (value.contains("dataset") == value.contains("file"))
+      return config_error(source, key,
+                          "give one of \"dataset\" (a TIN built from it) or \"file\" (an OBJ or PLY mesh)");
+    if (value.contains("dataset")) {
+      auto d = get_string(value, source, "dataset", key + ".dataset", false);
+      if (!d.ok()) return d.error();
+      m.dataset = *d;
+      const bool known = std::any_of(config.datasets.begin(), config.datasets.end(),
+                                     [&](const DatasetConfig& c) { return c.name == m.dataset; });
+      if (!known) return config_error(source, key + ".dataset", "'" + m.dataset + "' is not a configured dataset");
+    } else {
+      auto f = get_string(value, source, "file", key + ".file", false);
+      if (!f.ok()) return f.error();
+      m.file = *f;
+      for (const char* dem_only : {"vertices", "max_error_m"})
+        if (value.contains(dem_only))
+          return config_error(source, key + "." + dem_only, "applies to a TIN built from a dataset, not a mesh file");
+    }
+    struct Count {
+      const char* name;
+      std::uint64_t lo, hi;
+      int* out;
+    };
+    const Count counts[] = {{"sectors", 3, 256, &m.prepare.horizons.sectors},
+                            {"subsectors", 1, 64, &m.prepare.horizons.subsectors},
+                            {"seeds", 1, 1'000'000, &m.prepare.crystals.seeds},
+                            {"min_group", 1, 1'000'000, &m.prepare.crystals.min_group_size},
+                            {"max_groups", 1, 1'000'000, &m.prepare.crystals.max_groups},
+                            {"orphan_passes", 0, 1000, &m.prepare.crystals.max_orphan_passes}};
+    for (const Count& c : counts) {
+      if (!value.contains(c.name)) continue;
+      auto v = get_count(value, source, c.name, key + "." + c.name, c.lo, c.hi);
+      if (!v.ok()) return v.error();
+      *c.out = static_cast<int>(*v);
+    }
+    if (m.prepare.horizons.sectors * m.prepare.horizons.subsectors > 1024)
+      return config_error(source, key + ".subsectors", "sectors x subsectors must be at most 1024");
+    if (value.contains("vertices")) {
+      auto v = get_count(value, source, "vertices", key + ".vertices", 4, 16'000'000);
+      if (!v.ok()) return v.error();
+      m.greedy.max_vertices = static_cast<std::uint32_t>(*v);
+    }
+    if (value.contains("max_error_m")) {
+      auto v = get_number(value, source, "max_error_m", key + ".max_error_m", 0.0, 1e6, false);
+      if (!v.ok()) return v.error();
+      m.greedy.max_error = *v;
+    }
+    if (value.contains("merge_cutoff")) {
+      auto v = get_number(value, source, "merge_cutoff", key + ".merge_cutoff", 0.0, 1.0, true);
+      if (!v.ok()) return v.error();
+      m.prepare.merge_cutoff = *v;
+    }
+    if (value.contains("random_seed")) {
+      auto v = get_count(value, source, "random_seed", key + ".random_seed", 0, UINT64_MAX);
+      if (!v.ok()) return v.error();
+      m.prepare.crystals.random_seed = *v;
+    }
+    if (value.contains("boxes")) {
+      const Json& boxes = value.at("boxes");
+      if (!boxes.is_array()) return config_error(source, key + ".boxes", "expected an array of boxes");
+      if (boxes.size() > config.limits.max_boxes)
+        return config_error(source, key + ".boxes",
+                            std::to_string(boxes.size()) +
+                                " boxes, more than limits.max_boxes = " + std::to_string(config.limits.max_boxes));
+      for (std::size_t i = 0; i < boxes.size(); ++i) {
+        const Json& b = boxes[i];
+        const std::string at = key + ".boxes[" + std::to_string(i) + "]";
+        const bool six = b.is_array() && b.size() == 6 &&
+                         std::all_of(b.begin(), b.end(), [](const Json& x) { return x.is_number(); });
+        if (!six)
+          return config_error(source, at, "expected [x_min, y_min, x_max, y_max, z_min, z_max], got " + b.dump());
+        visibility::BoxSpec box;
+        box.x_min = b[0].get<double>(), box.y_min = b[1].get<double>();
+        box.x_max = b[2].get<double>(), box.y_max = b[3].get<double>();
+        box.z_min = b[4].get<double>(), box.z_max = b[5].get<double>();
+        if (!(box.x_min <= box.x_max && box.y_min <= box.y_max && box.z_min <= box.z_max))
+          return config_error(source, at, "each minimum must be at most its maximum, got " + b.dump());
+        m.boxes.push_back(box);
+      }
+    }
+    config.meshes.push_back(std::move(m));
+  }
+  return Status::Ok();
+}
+
 // The text of the file `key` names (relative to base_dir).
 Result<std::string> read_named_file(const Json& object, const std::string& source, const std::string& name,
                                     const std::string& key, const fs::path& base_dir) {
@@ -302,11 +417,29 @@ Result<Config> parse_config(const std::string& text, const std::string& source, 
   if (!overrides.listen.empty()) j["listen"] = overrides.listen;
   if (!overrides.metrics_listen.empty()) j["metrics_listen"] = overrides.metrics_listen;
   if (!overrides.data_root.empty()) j["data_root"] = fs::absolute(overrides.data_root).string();
-  HORIZON_RETURN_IF_ERROR(check_keys(
-      j, source, "",
-      {"listen", "metrics_listen", "data_root", "datasets", "memory_budget_mb", "block_cache_mb",
-       "receive_buffer_mb", "io_threads", "worker_threads", "engine_threads", "limits", "gpu", "default_deadline_ms",
-       "shutdown_grace_ms", "scratch_dir", "tls", "health_listen", "plaintext", "auth_tokens_file", "sessions"}));
+  HORIZON_RETURN_IF_ERROR(check_keys(j, source, "",
+                                     {"listen",
+                                      "metrics_listen",
+                                      "data_root",
+                                      "datasets",
+                                      "memory_budget_mb",
+                                      "block_cache_mb",
+                                      "receive_buffer_mb",
+                                      "io_threads",
+                                      "worker_threads",
+                                      "engine_threads",
+                                      "limits",
+                                      "gpu",
+                                      "default_deadline_ms",
+                                      "shutdown_grace_ms",
+                                      "scratch_dir",
+                                      "tls",
+                                      "health_listen",
+                                      "plaintext",
+                                      "auth_tokens_file",
+                                      "sessions",
+                                      "meshes",
+                                      "mesh_cache_dir"}));
   Config c;
   c.source = source;
   for (const char* required : {"listen", "data_root", "datasets", "memory_budget_mb"})
@@ -359,6 +492,12 @@ Result<Config> parse_config(const std::string& text, const std::string& source, 
   if (j.contains("limits")) HORIZON_RETURN_IF_ERROR(parse_limits(j.at("limits"), source, c.limits));
   if (j.contains("gpu")) HORIZON_RETURN_IF_ERROR(parse_gpu(j.at("gpu"), source, c.gpu));
   if (j.contains("sessions")) HORIZON_RETURN_IF_ERROR(parse_sessions(j.at("sessions"), source, c.sessions));
+  if (j.contains("meshes")) HORIZON_RETURN_IF_ERROR(parse_meshes(j.at("meshes"), source, c));
+  if (j.contains("mesh_cache_dir")) {
+    auto v = get_string(j, source, "mesh_cache_dir", "mesh_cache_dir", false);
+    if (!v.ok()) return v.error();
+    c.mesh_cache_dir = base_dir / *v;
+  }
   if (j.contains("default_deadline_ms")) {
     auto v = get_count(j, source, "default_deadline_ms", "default_deadline_ms", 1, 3'600'000);
     if (!v.ok()) return v.error();
@@ -396,9 +535,9 @@ Result<Config> parse_config(const std::string& text, const std::string& source, 
                       : j.contains("receive_buffer_mb") ? "receive_buffer_mb"
                                                         : "memory_budget_mb";
     return config_error(source, key,
-                        "block_cache_mb = " + std::to_string(c.block_cache_bytes >> 20) + " and receive_buffer_mb = " +
-                            std::to_string(c.receive_buffer_bytes >> 20) + " do not fit in memory_budget_mb = " +
-                            std::to_string(c.memory_budget_bytes >> 20) +
+                        "block_cache_mb = " + std::to_string(c.block_cache_bytes >> 20) +
+                            " and receive_buffer_mb = " + std::to_string(c.receive_buffer_bytes >> 20) +
+                            " do not fit in memory_budget_mb = " + std::to_string(c.memory_budget_bytes >> 20) +
                             " (which also holds 48 MiB of process overhead and the requests' working memory)");
   }
   c.scratch_dir = default_scratch_dir();
@@ -428,9 +567,14 @@ Result<Config> load_config(const std::string& path, const ConfigOverrides& overr
   return parse_config(text.str(), path, base, overrides);
 }
 
-Result<fs::path> resolve_dataset_file(const Config& config, const DatasetConfig& dataset) {
-  const std::string key = "datasets." + dataset.name;
-  const fs::path joined = config.data_root / dataset.file;
+namespace {
+
+// `file` (relative to data_root) resolved, symlinks followed, and checked to
+// lie inside the root and to be a file (or, with `folders`, a folder).
+// Errors name `key`.
+Result<fs::path> resolve_inside_root(const Config& config, const std::string& file, const std::string& key,
+                                     bool folders) {
+  const fs::path joined = config.data_root / file;
   std::error_code ec;
   const fs::path resolved = fs::weakly_canonical(joined, ec);
   if (ec) return config_error(config.source, key, "cannot resolve '" + joined.string() + "': " + ec.message());
@@ -438,13 +582,24 @@ Result<fs::path> resolve_dataset_file(const Config& config, const DatasetConfig&
   const auto rel = resolved.lexically_relative(config.data_root);
   if (rel.empty() || *rel.begin() == "..")
     return config_error(config.source, key,
-                        "'" + dataset.file + "' resolves to '" + resolved.string() + "', outside data_root '" +
+                        "'" + file + "' resolves to '" + resolved.string() + "', outside data_root '" +
                             config.data_root.string() + "'");
-  if (!fs::is_regular_file(resolved, ec) && !fs::is_directory(resolved, ec))
+  if (!fs::is_regular_file(resolved, ec) && !(folders && fs::is_directory(resolved, ec)))
     return make_error(ErrorCode::kNotFound,
-                      "config '" + config.source + "': " + key + ": no such file or folder '" + resolved.string() + "'",
+                      "config '" + config.source + "': " + key + ": no such file" + (folders ? " or folder" : "") +
+                          " '" + resolved.string() + "'",
                       key);
   return resolved;
+}
+
+}  // namespace
+
+Result<fs::path> resolve_dataset_file(const Config& config, const DatasetConfig& dataset) {
+  return resolve_inside_root(config, dataset.file, "datasets." + dataset.name, true);
+}
+
+Result<fs::path> resolve_mesh_file(const Config& config, const MeshConfig& mesh) {
+  return resolve_inside_root(config, mesh.file, "meshes." + mesh.name + ".file", false);
 }
 
 std::vector<std::string> keys_needing_restart(const Config& a, const Config& b) {

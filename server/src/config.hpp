@@ -15,6 +15,21 @@
 //                                           cell outside it is a corrupt block, refused at load;
 //                                           "sha256": "<64 hex digits>" (a single file): its bytes
 //                                           checked against sha256sum's digest at every load
+//     "meshes": {                           TIN meshes culled per frame (MeshService, mesh.proto),
+//       "rainier_tin": {"dataset": "rainier",  built from a dataset by greedy insertion ("vertices",
+//                       "vertices": 100000},   default 100000, [4, 16000000]; "max_error_m", default 0),
+//       "city": {"file": "city.ply"}         or read from an OBJ/PLY file inside data_root; knobs
+//     },                                    (defaults the thesis's): "sectors" 16 [3, 256],
+//                                           "subsectors" 4 [1, 64] (sectors x subsectors <= 1024),
+//                                           "seeds" 500, "min_group" 30, "max_groups" 1000 (each
+//                                           [1, 1000000]), "orphan_passes" 10 [0, 1000],
+//                                           "merge_cutoff" 0.25 (0, 1], "random_seed" 1; "boxes":
+//                                           [[x_min, y_min, x_max, y_max, z_min, z_max], ...] in the
+//                                           source's CRS, at most limits.max_boxes. Prepared at load
+//                                           (and on SIGHUP when changed), held in memory_budget_mb; a
+//                                           dataset's TIN reads the whole DEM, at most limits.max_cells
+//     "mesh_cache_dir": "cache/meshes",     prepared meshes kept on disk (mesh/prepared_cache.hpp),
+//                                           keyed by the TIN and the knobs; absent: none
 //     "memory_budget_mb": 2048,             the block cache + the working memory of requests in flight
 //     "block_cache_mb": 256,                decoded elevation blocks shared by every request (LRU),
 //                                           reserved in memory_budget_mb at start; [1, 1048576]
@@ -85,7 +100,10 @@
 #include <vector>
 
 #include "horizon/common/error.hpp"
+#include "horizon/mesh/prepared_mesh.hpp"
+#include "horizon/mesh/tin_from_dem.hpp"
 #include "horizon/terrain/source.hpp"
+#include "horizon/visibility/cull.hpp"
 
 namespace horizon::server {
 
@@ -103,6 +121,16 @@ struct DatasetConfig {
   // "sha256": the file's SHA-256 (64 hex digits, kept lowercase), checked on
   // every load; empty: not checked. A single file only, not a folder of tiles.
   std::string sha256;
+};
+
+// One configured mesh: a TIN from a dataset, or from a file.
+struct MeshConfig {
+  std::string name;     // the key
+  std::string dataset;  // a configured dataset's name, or
+  std::string file;     // an OBJ or PLY file, relative to data_root
+  mesh::GreedyOptions greedy;    // dataset only
+  mesh::PrepareOptions prepare;  // the knobs (threads: the daemon's io_threads at load)
+  std::vector<visibility::BoxSpec> boxes;  // registered with the mesh, in the source's CRS
 };
 
 struct Limits {
@@ -152,6 +180,8 @@ struct Config {
   std::string metrics_listen;
   std::filesystem::path data_root;
   std::vector<DatasetConfig> datasets;  // in name order
+  std::vector<MeshConfig> meshes;       // in name order
+  std::filesystem::path mesh_cache_dir;  // empty: no cache
   std::uint64_t memory_budget_bytes = 2048ull << 20;
   std::uint64_t block_cache_bytes = 256ull << 20;
   std::uint64_t receive_buffer_bytes = 256ull << 20;
@@ -180,7 +210,7 @@ struct ConfigOverrides {
 
 // The keys whose values differ between the running configuration and one
 // read on SIGHUP, among those a reload does not apply (everything but the
-// datasets and data_root): they take effect at the next start. In the order
+// datasets, the meshes, mesh_cache_dir and data_root): they take effect at the next start. In the order
 // the file documents them, e.g. {"listen", "limits.max_cells"}.
 std::vector<std::string> keys_needing_restart(const Config& running, const Config& next);
 
@@ -193,5 +223,7 @@ Result<Config> load_config(const std::string& path, const ConfigOverrides& overr
 // The dataset's file or folder, resolved (symlinks followed) and checked to
 // lie inside the data root. Errors name "datasets.<name>".
 Result<std::filesystem::path> resolve_dataset_file(const Config& config, const DatasetConfig& dataset);
+// A mesh's file, likewise; errors name "meshes.<name>.file".
+Result<std::filesystem::path> resolve_mesh_file(const Config& config, const MeshConfig& mesh);
 
 }  // namespace horizon::server

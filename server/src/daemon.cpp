@@ -21,6 +21,8 @@
 #include "horizon/visibility/radial_sweep_gl.hpp"
 #include "gl_image_budget.hpp"
 #include "memory_budget.hpp"
+#include "mesh_service.hpp"
+#include "meshes.hpp"
 #include "metrics.hpp"
 #include "request_log.hpp"
 #include "scratch_dir.hpp"
@@ -34,7 +36,8 @@ namespace horizon::server {
 namespace {
 
 constexpr const char* kServices[] = {"", "horizon.v1.DatasetService", "horizon.v1.VisibilityService",
-                                     "horizon.v1.SessionService", "horizon.v1.TraceService"};
+                                     "horizon.v1.SessionService", "horizon.v1.TraceService",
+                                     "horizon.v1.MeshService"};
 
 // The GPU contexts config.gpu asks for (absent: one per worker thread), or
 // null: none asked for, or no EGL display (a warning; the CPU answers all).
@@ -83,13 +86,15 @@ struct Daemon::Impl {
         memory(config.memory_budget_bytes),
         cache(cache_options(config)),
         datasets(&cache, config.io_threads),
+        meshes(memory, &cache, 0),  // preparing on every core: at start nothing else runs
         pool(config.worker_threads),
-        env{config, datasets, pool, memory, metrics, cache},
+        env{config, datasets, pool, memory, metrics, cache, meshes},
         sessions(env),
         dataset_service(env),
         visibility_service(env),
         session_service(env, sessions),
-        trace_service(env) {
+        trace_service(env),
+        mesh_service(env) {
     env.trimmer = &trimmer;
     env.deadlines = &deadlines;
   }
@@ -116,6 +121,7 @@ struct Daemon::Impl {
   Reservation receive_memory;  // gRPC's receive buffers (config receive_buffer_mb), likewise
   terrain::BlockCache cache;  // outlives the datasets whose blocks it holds
   DatasetRegistry datasets;
+  MeshRegistry meshes;  // after the memory budget its meshes reserve from
   GlImageBudget gl_images{memory, metrics};  // outlives the pool that gives back to it
   std::unique_ptr<gpu::ContextPool> gpu;  // outlives the workers that borrow from it
   visibility::BackendPolicy backend;      // when requests use `gpu`; likewise
@@ -127,6 +133,7 @@ struct Daemon::Impl {
   VisibilityService visibility_service;
   SessionService session_service;
   TraceService trace_service;
+  MeshService mesh_service;
   ScratchDir scratch;  // env.scratch; removed after the last call
   std::unique_ptr<grpc::Server> server;
   int port = 0;
@@ -215,6 +222,7 @@ Status Daemon::start() {
   builder.RegisterService(&d.visibility_service);
   builder.RegisterService(&d.session_service);
   builder.RegisterService(&d.trace_service);
+  builder.RegisterService(&d.mesh_service);
   builder.SetMaxReceiveMessageSize(static_cast<int>(largest_request_bytes(d.config.limits)));
   // Requests on the wire: gRPC reads a whole message before the daemon sees
   // it, so its buffers get a quota of their own (reserved above). Full, gRPC
@@ -255,6 +263,8 @@ Status Daemon::load_datasets() {
   const auto started = std::chrono::steady_clock::now();
   HORIZON_RETURN_IF_ERROR(d.datasets.load(d.config));
   const auto set = d.datasets.snapshot();
+  // The meshes are prepared before the daemon says SERVING.
+  HORIZON_RETURN_IF_ERROR(d.meshes.load(d.config, *set));
   d.metrics.set_datasets(set->size());
   d.metrics.set_block_cache(d.cache.stats());
   d.metrics.set_memory_reserved(d.memory.reserved());
@@ -262,6 +272,7 @@ Status Daemon::load_datasets() {
   log_event(
       "info", "datasets_loaded",
       {{"datasets", std::to_string(set->size()), true},
+       {"meshes", std::to_string(d.meshes.snapshot()->size()), true},
        {"resident_bytes", std::to_string(d.cache.stats().resident_bytes), true},
        {"seconds", std::to_string(std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count()),
         true}});
@@ -272,11 +283,13 @@ Status Daemon::reload(const Config& config) {
   Impl& d = *impl_;
   HORIZON_RETURN_IF_ERROR(d.datasets.load(config));
   const auto set = d.datasets.snapshot();
+  HORIZON_RETURN_IF_ERROR(d.meshes.load(config, *set));
   d.metrics.set_datasets(set->size());
   d.metrics.set_block_cache(d.cache.stats());
   d.metrics.set_memory_reserved(d.memory.reserved());
   log_event("info", "datasets_reloaded",
             {{"datasets", std::to_string(set->size()), true},
+             {"meshes", std::to_string(d.meshes.snapshot()->size()), true},
              {"resident_bytes", std::to_string(d.cache.stats().resident_bytes), true}});
   // Everything else is fixed at start: say so rather than ignore it silently.
   if (const auto keys = keys_needing_restart(d.config, config); !keys.empty()) {

@@ -2,8 +2,8 @@
 //
 //   start()          gRPC server listening (health NOT_SERVING, reflection on),
 //                    metrics endpoint up; logs {"event":"listening",...} with the ports
-//   load_datasets()  reads the configured DEMs -> health SERVING
-//   reload(config)   SIGHUP: a new dataset set swapped in; calls in flight keep theirs;
+//   load_datasets()  reads the configured DEMs, prepares the meshes -> health SERVING
+//   reload(config)   SIGHUP: a new dataset set (and mesh set) swapped in; calls in flight keep theirs;
 //                    other changed keys logged ("reload_needs_restart") and left as they were
 //   shutdown()       SIGTERM/SIGINT: health NOT_SERVING, no new calls, calls in
 //                    flight get config.shutdown_grace to finish (then they are

@@ -18,6 +18,7 @@
 #include "daemon.hpp"
 #include "datasets.hpp"
 #include "memory_budget.hpp"
+#include "meshes.hpp"
 #include "request_log.hpp"
 #include "signals.hpp"
 
@@ -29,10 +30,12 @@ constexpr const char* kUsage =
     "Usage: horizond --config FILE [--listen HOST:PORT] [--metrics-listen HOST:PORT] [--data-root DIR]\n"
     "       horizond --check-config FILE [--data-root DIR]\n"
     "\n"
-    "Serves the horizon.v1 gRPC API (DatasetService, VisibilityService), the gRPC\n"
-    "health service and server reflection; Prometheus metrics on metrics_listen.\n"
-    "SIGTERM/SIGINT drain and exit 0; SIGHUP reloads the datasets from FILE.\n"
-    "--check-config validates FILE and loads every dataset, then exits (0 = accepted).\n"
+    "Serves the horizon.v1 gRPC API (DatasetService, VisibilityService, SessionService,\n"
+    "TraceService, MeshService), the gRPC health service and server reflection;\n"
+    "Prometheus metrics on metrics_listen.\n"
+    "SIGTERM/SIGINT drain and exit 0; SIGHUP reloads the datasets and meshes from FILE.\n"
+    "--check-config validates FILE, loads every dataset and prepares every mesh, then\n"
+    "exits (0 = accepted).\n"
     "The overrides replace the file's values (port 0 = any free port).\n";
 
 struct Options {
@@ -66,13 +69,23 @@ int check_config(const Options& o) {
     std::fprintf(stderr, "horizond: %s\n", s.error().message.c_str());
     return 1;
   }
+  // Every mesh prepared, in what the budget leaves beside the cache and the receive buffers.
+  MemoryBudget memory(config->memory_budget_bytes);
+  Reservation fixed;
+  (void)memory.try_reserve(config->block_cache_bytes + config->receive_buffer_bytes, fixed);
+  MeshRegistry meshes(memory, nullptr, 0);
+  if (auto s = meshes.load(*config, *registry.snapshot()); !s.ok()) {
+    std::fprintf(stderr, "horizond: %s\n", s.error().message.c_str());
+    return 1;
+  }
   std::uint64_t cells = 0;
   for (const auto& [name, d] : *registry.snapshot())
     cells += static_cast<std::uint64_t>(d->header().width) * static_cast<std::uint64_t>(d->header().height);
   std::printf(
-      "horizond: config '%s' accepted: %zu datasets, %llu M cells (every block decodes), a %llu MiB block cache of a "
-      "%llu MiB budget, listen %s\n",
+      "horizond: config '%s' accepted: %zu datasets, %llu M cells (every block decodes), %zu meshes prepared, a %llu "
+      "MiB block cache of a %llu MiB budget, listen %s\n",
       o.config.c_str(), config->datasets.size(), static_cast<unsigned long long>(cells / 1000000),
+      config->meshes.size(),
       static_cast<unsigned long long>(config->block_cache_bytes >> 20),
       static_cast<unsigned long long>(config->memory_budget_bytes >> 20), config->listen.c_str());
   return 0;

@@ -1,5 +1,5 @@
 // server_env.hpp — what every RPC handler reaches: the configuration, the
-// datasets and their block cache, the worker pool, the memory budget, the
+// datasets and their block cache, the meshes, the worker pool, the memory budget, the
 // metrics and the GPU contexts. Owned by the Daemon; outlives every call.
 #pragma once
 
@@ -16,6 +16,7 @@
 #include "horizon/visibility/plan.hpp"
 #include "horizon/visibility/backend_policy.hpp"
 #include "memory_budget.hpp"
+#include "meshes.hpp"
 #include "metrics.hpp"
 #include "worker_pool.hpp"
 
@@ -28,6 +29,7 @@ struct ServerEnv {
   MemoryBudget& memory;
   Metrics& metrics;
   terrain::BlockCache& cache;  // decoded blocks of every dataset, shared by every request
+  MeshRegistry& meshes;        // the prepared TIN meshes (config "meshes"), swapped with the datasets
   // Set once at start, before the first call; null when config gpu.contexts is
   // 0 or no EGL display could be had (every request then runs on the CPU).
   gpu::ContextPool* gpu = nullptr;

@@ -1,4 +1,4 @@
-// `horizon mesh` end to end: a DEM made a TIN, prepared and culled; the
+// `horizon mesh prepare|cull` end to end: a DEM made a TIN, prepared and culled; the
 // JSON's counts and ranges against each other, the raster of drawn
 // triangles and the mesh written in group order; a mesh file as input;
 // usage errors by flag.
@@ -23,7 +23,7 @@ using Json = nlohmann::json;
 const std::string kAndes = "ecuador_andes_utm17s_10m_383x415.tif";  // UTM 17S, 10 m
 
 std::vector<std::string> mesh_args(std::vector<std::string> more) {
-  std::vector<std::string> args = {"mesh", bundled_dem(kAndes), "--vertices", "3000", "--observer", "713500,9558500"};
+  std::vector<std::string> args = {"mesh", "cull", bundled_dem(kAndes), "--vertices", "3000", "--observer", "713500,9558500"};
   args.insert(args.end(), more.begin(), more.end());
   return args;
 }
@@ -85,7 +85,7 @@ TEST(CliMesh, CullsATinOfADemAndWritesWhatItDraws) {
   }
   EXPECT_EQ(v, 3000u);
   EXPECT_EQ(f, triangles);
-  const auto again = horizon({"mesh", obj, "--observer", "713500,9558500", "--json", "--conservative"});
+  const auto again = horizon({"mesh", "cull", obj, "--observer", "713500,9558500", "--json", "--conservative"});
   ASSERT_EQ(again.exit_code, 0) << again.output;
   const Json k = Json::parse(again.output);
   EXPECT_EQ(k["triangles"], triangles);
@@ -109,6 +109,65 @@ TEST(CliMesh, ACacheDirectoryKeepsThePreparedMesh) {
   const auto other = horizon(mesh_args({"--json", "--cache", cache, "--random-seed", "5"}));
   ASSERT_EQ(other.exit_code, 0) << other.output;
   EXPECT_FALSE(Json::parse(other.output)["cache"]["hit"].get<bool>());
+}
+
+// `prepare` stops before the cull: what it keeps in the cache is what `cull`
+// then loads, and its --mesh-out is the same TIN in the same order.
+TEST(CliMesh, PrepareFillsTheCacheThatCullThenUses) {
+  TempDir dir;
+  const std::string cache = dir.file("prepared"), a = dir.file("a.obj"), b = dir.file("b.obj");
+  const auto prepared = horizon({"mesh", "prepare", bundled_dem(kAndes), "--vertices", "3000", "--json", "--cache",
+                                 cache, "--mesh-out", a});
+  ASSERT_EQ(prepared.exit_code, 0) << prepared.output;
+  const Json p = Json::parse(prepared.output);
+  EXPECT_EQ(p["vertices"], 3000);
+  EXPECT_GT(p["prepare"]["groups"].get<int>(), 0);
+  EXPECT_GT(p["prepare"]["resident_bytes"].get<std::uint64_t>(), 0u);
+  EXPECT_GT(p["fit"]["max_error_m"].get<double>(), 0.0);
+  EXPECT_FALSE(p["cache"]["hit"].get<bool>());
+  EXPECT_FALSE(p.contains("cull"));
+  EXPECT_EQ(p["mesh_out"], a);
+
+  const auto culled = horizon(mesh_args({"--json", "--cache", cache, "--mesh-out", b}));
+  ASSERT_EQ(culled.exit_code, 0) << culled.output;
+  const Json c = Json::parse(culled.output);
+  EXPECT_TRUE(c["cache"]["hit"].get<bool>());
+  EXPECT_EQ(c["prepare"]["groups"], p["prepare"]["groups"]);
+  EXPECT_EQ(c["prepare"]["always_visible_triangles"], p["prepare"]["always_visible_triangles"]);
+  std::ifstream fa(a), fb(b);
+  const std::string ta((std::istreambuf_iterator<char>(fa)), {}), tb((std::istreambuf_iterator<char>(fb)), {});
+  EXPECT_FALSE(ta.empty());
+  EXPECT_EQ(ta, tb);
+
+  // The plain report names the fit and the groups.
+  const auto text = horizon({"mesh", "prepare", bundled_dem(kAndes), "--vertices", "1000"});
+  ASSERT_EQ(text.exit_code, 0) << text.output;
+  EXPECT_NE(text.output.find("1000 vertices"), std::string::npos) << text.output;
+  EXPECT_NE(text.output.find("against the DEM"), std::string::npos) << text.output;
+}
+
+TEST(CliMesh, TheVerbIsRequiredAndEachTakesItsOwnFlags) {
+  struct Case {
+    std::vector<std::string> args;
+    std::string says;
+  };
+  const Case cases[] = {
+      {{"mesh"}, "missing the verb"},
+      {{"mesh", "draw", bundled_dem(kAndes)}, "unknown verb 'draw'"},
+      {{"mesh", "prepare"}, "missing the DEM or mesh file operand"},
+      {{"mesh", "prepare", bundled_dem(kAndes), "--observer", "713500,9558500"}, "--observer: a flag of `horizon mesh cull`"},
+      {{"mesh", "prepare", bundled_dem(kAndes), "--conservative"}, "--conservative: a flag of `horizon mesh cull`"},
+      {{"mesh", "prepare", bundled_dem(kAndes), "--server", "localhost:1"}, "--server: a daemon prepares its meshes"},
+      {{"mesh", "cull", bundled_dem(kAndes), "--observer", "713500,9558500", "--registered-boxes"},
+       "--registered-boxes: a flag of --server"},
+      {{"mesh", "cull", "tin", "--server", "localhost:1", "--observer", "1,2", "--cache", "x"},
+       "--cache: applies to a local input"},
+  };
+  for (const Case& c : cases) {
+    const auto r = horizon(c.args);
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find(c.says), std::string::npos) << c.says << "\n" << r.output;
+  }
 }
 
 TEST(CliMesh, AnswersBoxesWithTheMesh) {
@@ -152,7 +211,7 @@ TEST(CliMesh, BenchSweepsShapesAndModesAgainstExactSight) {
 }
 
 TEST(CliMesh, GeographicDemsArePreparedInMetres) {
-  const auto r = horizon({"mesh", bundled_dem("rainier_summit_srtm3_400x400.tif"), "--vertices", "2000", "--lat",
+  const auto r = horizon({"mesh", "cull", bundled_dem("rainier_summit_srtm3_400x400.tif"), "--vertices", "2000", "--lat",
                           "46.80", "--lon", "-121.70", "--json"});
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const Json j = Json::parse(r.output);
@@ -173,8 +232,8 @@ TEST(CliMesh, UsageErrorsNameTheFlagAndWriteNothing) {
       {mesh_args({"--sectors", "16", "-o", out}), "--sectors"},
       {mesh_args({"--height", "2", "--altitude", "3000", "-o", out}), "--altitude"},
       {mesh_args({"--azimuth", "10", "-o", out}), "--azimuth"},
-      {{"mesh", obj, "--lat", "1", "--lon", "2", "-o", out}, "--observer"},
-      {{"mesh", obj, "--observer", "1,1", "-o", out}, "need a DEM"},
+      {{"mesh", "cull", obj, "--lat", "1", "--lon", "2", "-o", out}, "--observer"},
+      {{"mesh", "cull", obj, "--observer", "1,1", "-o", out}, "need a DEM"},
   };
   for (const Case& c : cases) {
     const auto r = horizon(c.args);
@@ -186,7 +245,7 @@ TEST(CliMesh, UsageErrorsNameTheFlagAndWriteNothing) {
   const auto cutoff = horizon(mesh_args({"--merge-cutoff", "2", "-o", out}));
   EXPECT_EQ(cutoff.exit_code, 1) << cutoff.output;
   EXPECT_NE(cutoff.output.find("merge_cutoff must be"), std::string::npos) << cutoff.output;
-  const auto off = horizon({"mesh", obj, "--observer", "50,50"});
+  const auto off = horizon({"mesh", "cull", obj, "--observer", "50,50"});
   EXPECT_EQ(off.exit_code, 1) << off.output;
   EXPECT_NE(off.output.find("off the mesh"), std::string::npos) << off.output;
   EXPECT_FALSE(std::filesystem::exists(out));

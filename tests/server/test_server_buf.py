@@ -41,7 +41,8 @@ def listing(buf, address, flag):
 def run_checks(buf, address):
     services = listing(buf, address, "--list-services")
     for s in ["grpc.health.v1.Health", "grpc.reflection.v1alpha.ServerReflection", "horizon.v1.DatasetService",
-              "horizon.v1.VisibilityService", "horizon.v1.SessionService", "horizon.v1.TraceService"]:
+              "horizon.v1.VisibilityService", "horizon.v1.SessionService", "horizon.v1.TraceService",
+              "horizon.v1.MeshService"]:
         assert s in services, (s, services)
     methods = listing(buf, address, "--list-methods")
     for m in ["grpc.health.v1.Health/Check", "grpc.health.v1.Health/Watch",
@@ -49,7 +50,8 @@ def run_checks(buf, address):
               "horizon.v1.DatasetService/GetDataset", "horizon.v1.DatasetService/ListDatasets",
               "horizon.v1.VisibilityService/ComputeViewshed", "horizon.v1.VisibilityService/LineOfSight",
               "horizon.v1.VisibilityService/CullBoxes", "horizon.v1.VisibilityService/RegionVisibility",
-              "horizon.v1.SessionService/Session", "horizon.v1.TraceService/TraceCamera"]:
+              "horizon.v1.SessionService/Session", "horizon.v1.TraceService/TraceCamera",
+              "horizon.v1.MeshService/DescribeMesh", "horizon.v1.MeshService/CullMesh"]:
         assert m in methods, (m, methods)
     # Every listed service's methods are described (the health service's were not).
     for s in services:

@@ -60,6 +60,41 @@ TEST(ServerConfig, GoodDocumentGivesItsValues) {
 
 // Found by fuzz_config: a number beyond double threw out of the parser
 // (nlohmann's out_of_range, not a parse_error) and terminated the daemon.
+TEST(ServerConfig, MeshesGiveTheirKnobsAndDefaultToTheThesis) {
+  auto c = parse_config(document(R"("meshes": {"tin": {"dataset": "rainier", "vertices": 5000, "max_error_m": 0.5,
+                                                       "sectors": 8, "subsectors": 2, "seeds": 100, "min_group": 20,
+                                                       "max_groups": 300, "orphan_passes": 3, "merge_cutoff": 0.5,
+                                                       "random_seed": 7, "boxes": [[1, 2, 3, 4, 5, 6]]},
+                                               "file": {"file": "sub/m.ply"}},
+                                    "mesh_cache_dir": "cache")"),
+                        "test.json", "/base");
+  ASSERT_TRUE(c.ok()) << c.error().message;
+  ASSERT_EQ(c->meshes.size(), 2u);
+  const MeshConfig& f = c->meshes[0];  // in name order
+  EXPECT_EQ(f.name, "file");
+  EXPECT_EQ(f.file, "sub/m.ply");
+  EXPECT_EQ(f.prepare.horizons.sectors, 16);
+  EXPECT_EQ(f.prepare.horizons.subsectors, 4);
+  EXPECT_EQ(f.prepare.crystals.seeds, 500);
+  EXPECT_EQ(f.prepare.merge_cutoff, 0.25);
+  const MeshConfig& t = c->meshes[1];
+  EXPECT_EQ(t.dataset, "rainier");
+  EXPECT_EQ(t.greedy.max_vertices, 5000u);
+  EXPECT_EQ(t.greedy.max_error, 0.5);
+  EXPECT_EQ(t.prepare.horizons.sectors, 8);
+  EXPECT_EQ(t.prepare.horizons.subsectors, 2);
+  EXPECT_EQ(t.prepare.crystals.seeds, 100);
+  EXPECT_EQ(t.prepare.crystals.min_group_size, 20);
+  EXPECT_EQ(t.prepare.crystals.max_groups, 300);
+  EXPECT_EQ(t.prepare.crystals.max_orphan_passes, 3);
+  EXPECT_EQ(t.prepare.merge_cutoff, 0.5);
+  EXPECT_EQ(t.prepare.crystals.random_seed, 7u);
+  ASSERT_EQ(t.boxes.size(), 1u);
+  EXPECT_EQ(t.boxes[0].y_max, 4.0);
+  EXPECT_EQ(t.boxes[0].z_max, 6.0);
+  EXPECT_EQ(c->mesh_cache_dir, std::filesystem::path("/base/cache"));
+}
+
 TEST(ServerConfig, ANumberBeyondDoubleIsInvalidJsonNotACrash) {
   auto c = parse_config(R"({"listen": "127.0.0.1:0", "plaintext": true, "memory_budget_mb": 1e400})", "test.json", "/");
   ASSERT_FALSE(c.ok());
@@ -250,7 +285,37 @@ INSTANTIATE_TEST_SUITE_P(
                 document(R"("block_cache_mb": 150, "receive_buffer_mb": 60)"), "block_cache_mb"},
         BadCase{"receive_buffer_mb leaves no room for the cache", document(R"("receive_buffer_mb": 250)"),
                 "receive_buffer_mb"},
-        BadCase{"io_threads 0", document(R"("io_threads": 0)"), "io_threads"}),
+        BadCase{"io_threads 0", document(R"("io_threads": 0)"), "io_threads"},
+        BadCase{"meshes not an object", document(R"("meshes": [1])"), "meshes"},
+        BadCase{"mesh neither dataset nor file", document(R"("meshes": {"m": {"sectors": 8}})"), "meshes.m"},
+        BadCase{"mesh both dataset and file",
+                document(R"("meshes": {"m": {"dataset": "rainier", "file": "m.obj"}})"), "meshes.m"},
+        BadCase{"mesh unknown dataset", document(R"("meshes": {"m": {"dataset": "everest"}})"), "meshes.m.dataset"},
+        BadCase{"mesh unknown key", document(R"("meshes": {"m": {"dataset": "rainier", "sector": 8}})"),
+                "meshes.m.sector"},
+        BadCase{"mesh sectors 2", document(R"("meshes": {"m": {"dataset": "rainier", "sectors": 2}})"),
+                "meshes.m.sectors"},
+        BadCase{"mesh sectors x subsectors over 1024",
+                document(R"("meshes": {"m": {"dataset": "rainier", "sectors": 64, "subsectors": 32}})"),
+                "meshes.m.subsectors"},
+        BadCase{"mesh vertices 3", document(R"("meshes": {"m": {"dataset": "rainier", "vertices": 3}})"),
+                "meshes.m.vertices"},
+        BadCase{"mesh merge_cutoff 0", document(R"("meshes": {"m": {"dataset": "rainier", "merge_cutoff": 0}})"),
+                "meshes.m.merge_cutoff"},
+        BadCase{"mesh max_error negative",
+                document(R"("meshes": {"m": {"dataset": "rainier", "max_error_m": -1}})"), "meshes.m.max_error_m"},
+        BadCase{"mesh file with vertices", document(R"("meshes": {"m": {"file": "m.obj", "vertices": 100}})"),
+                "meshes.m.vertices"},
+        BadCase{"mesh box of five", document(R"("meshes": {"m": {"dataset": "rainier", "boxes": [[1, 2, 3, 4, 5]]}})"),
+                "meshes.m.boxes[0]"},
+        BadCase{"mesh box reversed",
+                document(R"("meshes": {"m": {"dataset": "rainier", "boxes": [[0, 0, 1, 1, 0, 1], [5, 0, 1, 1, 0, 1]]}})"),
+                "meshes.m.boxes[1]"},
+        BadCase{"mesh boxes over max_boxes",
+                document(R"("limits": {"max_boxes": 1},
+                            "meshes": {"m": {"dataset": "rainier", "boxes": [[0, 0, 1, 1, 0, 1], [0, 0, 1, 1, 0, 1]]}})"),
+                "meshes.m.boxes"},
+        BadCase{"mesh_cache_dir empty", document(R"("mesh_cache_dir": "")"), "mesh_cache_dir"}),
     [](const ::testing::TestParamInfo<BadCase>& test) {
       // "listen port too large" -> "listen_port_too_large"
       std::string name;
