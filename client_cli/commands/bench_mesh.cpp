@@ -80,7 +80,8 @@ int run_mesh_bench(const Args& args) {
   if (auto extra = args.text("--markdown"))
     if (auto s = write_text(*extra, report->markdown()); !s.ok()) return report_error(s.error());
   std::cout << "TIN culling: runtime against error, " << config.cameras << " cameras " << fixed(config.height, 1)
-            << " m above vertices, " << config.exact_cameras << " checked with exact sight lines\n\n"
+            << " m above vertices, " << config.exact_cameras
+            << " checked with exact sight lines over the TIN and with R3 on the DEM\n\n"
             << report->markdown() << "\nWrote " << csv << ", " << md << '\n';
   std::uint64_t unsound = 0;
   for (const auto& r : report->rows)
