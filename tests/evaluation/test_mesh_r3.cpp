@@ -41,7 +41,7 @@ terrain::Dem wall_dem(bool geographic) {
 // Hidden cells, by hand, for an eye on the ground of column `col` (or on the wall).
 int hand_hidden(int col) {
   if (col < kWall) return (kWidth - kWall - 1) * kHeight;  // the columns east of the wall
-  if (col > kWall) return kWall * kHeight;                  // the columns west of it
+  if (col > kWall) return kWall * kHeight;                 // the columns west of it
   return 0;
 }
 
@@ -156,7 +156,9 @@ TEST_P(WallDem, TheBenchCountsWhatR3HidesCameraByCamera) {
   }
 }
 
-std::string frame_name(const ::testing::TestParamInfo<bool>& p) { return p.param ? "Geographic" : "Projected"; }
+std::string frame_name(const ::testing::TestParamInfo<bool>& p) {
+  return p.param ? "Geographic" : "Projected";
+}
 INSTANTIATE_TEST_SUITE_P(MeshR3, WallDem, ::testing::Values(false, true), frame_name);
 
 }  // namespace

@@ -51,12 +51,14 @@ TEST(TinRaster, ATriangleOffTheGridIsClipped) {
   const terrain::GeoTransform& g = dem.georef.transform;
   // A right triangle from cell (2,2) out to (1e6, 2) and (2, 1e6): the cells
   // with col >= 2 and row >= 2, the rest none.
-  const std::vector<TinVertex> v = {{g.x_at(2), g.y_at(2), 0}, {g.x_at(1e6), g.y_at(2), 0}, {g.x_at(2), g.y_at(1e6), 0}};
+  const std::vector<TinVertex> v = {
+      {g.x_at(2), g.y_at(2), 0}, {g.x_at(1e6), g.y_at(2), 0}, {g.x_at(2), g.y_at(1e6), 0}};
   const auto grid = cell_triangles(g, 5, 5, v, {{0, 1, 2}});
   for (int r = 0; r < 5; ++r)
     for (int c = 0; c < 5; ++c) EXPECT_EQ(grid.at(c, r), c >= 2 && r >= 2 ? 0u : kNoTriangle) << c << ',' << r;
   // Wholly off the grid: nothing.
-  const std::vector<TinVertex> far = {{g.x_at(-50), g.y_at(-50), 0}, {g.x_at(-40), g.y_at(-50), 0}, {g.x_at(-50), g.y_at(-40), 0}};
+  const std::vector<TinVertex> far = {
+      {g.x_at(-50), g.y_at(-50), 0}, {g.x_at(-40), g.y_at(-50), 0}, {g.x_at(-50), g.y_at(-40), 0}};
   const auto none = cell_triangles(g, 5, 5, far, {{0, 1, 2}});
   for (int r = 0; r < 5; ++r)
     for (int c = 0; c < 5; ++c) EXPECT_EQ(none.at(c, r), kNoTriangle);

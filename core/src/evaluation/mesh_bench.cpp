@@ -168,15 +168,15 @@ std::string MeshBenchReport::markdown() const {
   char line[512];
   for (const MeshBenchRow& r : rows) {
     const double hidden = percent(r.exactly_hidden, r.checked_views);
-    std::snprintf(line, sizeof line,
-                  "| %s | %u | %d/%d | %s | %.3f (%.3f, %.3f, %.3f, %.3f) | %u | %.2f | %.0f | %.2f %% | %.2f %% | %llu of %llu "
-                  "| %.2f %% | %.2f %% | %.3f %% |\n",
-                  r.dem.c_str(), r.vertices, r.sectors, r.subsectors, r.mode.c_str(), r.prepare_seconds,
-                  r.horizon_seconds, r.grouping_seconds, r.hierarchy_seconds, r.wall_seconds, r.groups,
-                  r.cull_us_median, r.groups_tested, 100.0 * r.culled_share, hidden,
-                  static_cast<unsigned long long>(r.false_hidden), static_cast<unsigned long long>(r.culled_checked),
-                  percent(r.r3_hidden, r.r3_cells), percent(r.r3_culled, r.r3_cells),
-                  percent(r.r3_culled_visible, r.r3_cells));
+    std::snprintf(
+        line, sizeof line,
+        "| %s | %u | %d/%d | %s | %.3f (%.3f, %.3f, %.3f, %.3f) | %u | %.2f | %.0f | %.2f %% | %.2f %% | %llu of %llu "
+        "| %.2f %% | %.2f %% | %.3f %% |\n",
+        r.dem.c_str(), r.vertices, r.sectors, r.subsectors, r.mode.c_str(), r.prepare_seconds, r.horizon_seconds,
+        r.grouping_seconds, r.hierarchy_seconds, r.wall_seconds, r.groups, r.cull_us_median, r.groups_tested,
+        100.0 * r.culled_share, hidden, static_cast<unsigned long long>(r.false_hidden),
+        static_cast<unsigned long long>(r.culled_checked), percent(r.r3_hidden, r.r3_cells),
+        percent(r.r3_culled, r.r3_cells), percent(r.r3_culled_visible, r.r3_cells));
     out << line;
   }
   return out.str();

@@ -11,7 +11,7 @@
 namespace horizon::evaluation {
 
 Result<terrain::Grid<std::uint8_t>> r3_ground_viewshed(const terrain::Dem& dem, const mesh::TinVertex& eye,
-                                                        unsigned threads, const RunControl* control) {
+                                                       unsigned threads, const RunControl* control) {
   geodesy::PointSpec spec;
   spec.frame = geodesy::PointFrame::kDatasetCrs;
   spec.x = eye.x, spec.y = eye.y;

@@ -13,8 +13,8 @@
 namespace horizon::mesh {
 
 terrain::Grid<std::uint32_t> cell_triangles(const terrain::GeoTransform& transform, int width, int height,
-                                             const std::vector<TinVertex>& crs_vertices,
-                                             const std::vector<TinTriangle>& triangles) {
+                                            const std::vector<TinVertex>& crs_vertices,
+                                            const std::vector<TinTriangle>& triangles) {
   terrain::Grid<std::uint32_t> grid(width, height, kNoTriangle);
   if (width <= 0 || height <= 0) return grid;
   for (std::size_t i = 0; i < triangles.size(); ++i) {

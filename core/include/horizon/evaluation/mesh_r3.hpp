@@ -55,7 +55,7 @@ struct R3CellCounts {
 // 1 visible, 0 hidden, 255 no answer (a void). kOutOfRange when the eye is
 // off the DEM; a viewshed's error (cancelled, ...) as it is.
 Result<terrain::Grid<std::uint8_t>> r3_ground_viewshed(const terrain::Dem& dem, const mesh::TinVertex& eye,
-                                                        unsigned threads = 0, const RunControl* control = nullptr);
+                                                       unsigned threads = 0, const RunControl* control = nullptr);
 
 // The counts for one camera: `cell_triangle` from mesh::cell_triangles over
 // the DEM's grid (indices of the TIN's triangles), `r3` from

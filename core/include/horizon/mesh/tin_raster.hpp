@@ -36,7 +36,7 @@ inline constexpr std::uint32_t kNoTriangle = 0xFFFF'FFFFu;
 // must name a vertex of `crs_vertices` (a checked TIN's do); a triangle with
 // no area holds no centre.
 terrain::Grid<std::uint32_t> cell_triangles(const terrain::GeoTransform& transform, int width, int height,
-                                             const std::vector<TinVertex>& crs_vertices,
-                                             const std::vector<TinTriangle>& triangles);
+                                            const std::vector<TinVertex>& crs_vertices,
+                                            const std::vector<TinTriangle>& triangles);
 
 }  // namespace horizon::mesh
