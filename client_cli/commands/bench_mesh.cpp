@@ -8,6 +8,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "commands/bench_out.hpp"
 #include "commands/bench_region.hpp"
 #include "commands/command.hpp"
 #include "horizon/evaluation/mesh_bench.hpp"
@@ -63,11 +64,9 @@ Status write_text(const std::string& path, const std::string& text) {
 
 int run_mesh_bench(const Args& args) {
   const evaluation::MeshBenchConfig config = parse_config(args);
-  const std::string out_dir = args.text("--out").value_or("bench-out");
-  std::error_code ec;
-  fs::create_directories(out_dir, ec);
-  if (ec || !fs::is_directory(out_dir))
-    return report_error(make_error(ErrorCode::kIoError, "--out: cannot create directory '" + out_dir + "'", "--out"));
+  const auto made = bench_out_dir(args);
+  if (!made.ok()) return report_error(made.error());
+  const std::string& out_dir = *made;
   InterruptScope interrupt;
   RunControl control;
   control.cancel = &interrupt.token();
@@ -80,7 +79,8 @@ int run_mesh_bench(const Args& args) {
   if (auto extra = args.text("--markdown"))
     if (auto s = write_text(*extra, report->markdown()); !s.ok()) return report_error(s.error());
   std::cout << "TIN culling: runtime against error, " << config.cameras << " cameras " << fixed(config.height, 1)
-            << " m above vertices, " << config.exact_cameras << " checked with exact sight lines\n\n"
+            << " m above vertices, " << config.exact_cameras
+            << " checked with exact sight lines over the TIN and with R3 on the DEM\n\n"
             << report->markdown() << "\nWrote " << csv << ", " << md << '\n';
   std::uint64_t unsound = 0;
   for (const auto& r : report->rows)

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <iostream>
 
+#include "commands/bench_out.hpp"
 #include "commands/command.hpp"
 #include "horizon/evaluation/region_bench.hpp"
 #include "inputs.hpp"
@@ -107,11 +108,9 @@ std::string dem_slug(const std::string& dem) {
 
 int run_region_bench(const Args& args) {
   const evaluation::RegionBenchConfig config = parse_config(args);
-  const std::string out_dir = args.text("--out").value_or("bench-out");
-  std::error_code ec;
-  fs::create_directories(out_dir, ec);
-  if (ec || !fs::is_directory(out_dir))
-    return report_error(make_error(ErrorCode::kIoError, "--out: cannot create directory '" + out_dir + "'", "--out"));
+  const auto made = bench_out_dir(args);
+  if (!made.ok()) return report_error(made.error());
+  const std::string& out_dir = *made;
 
   InterruptScope interrupt;
   RunControl control;

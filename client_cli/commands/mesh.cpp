@@ -11,6 +11,7 @@
 #include "commands/command.hpp"
 #include "horizon/mesh/cull.hpp"
 #include "horizon/mesh/mesh_model.hpp"
+#include "horizon/mesh/tin_raster.hpp"
 #include "horizon/terrain/geotiff_writer.hpp"
 #include "inputs.hpp"
 #include "interrupt.hpp"
@@ -115,30 +116,12 @@ Status write_obj(const std::string& path, const std::vector<mesh::TinVertex>& ve
 // 1 drawn, 0 culled, 2 always visible, 255 no triangle, at each cell centre.
 terrain::Grid<std::uint8_t> rasterise(const terrain::Dem& dem, const std::vector<mesh::TinVertex>& crs_vertices,
                                       const mesh::PreparedMesh& prepared, const std::vector<std::uint8_t>& state) {
+  const terrain::Grid<std::uint32_t> triangle =
+      mesh::cell_triangles(dem.georef.transform, dem.width(), dem.height(), crs_vertices, prepared.tin.triangles);
   terrain::Grid<std::uint8_t> grid(dem.width(), dem.height(), 255);
-  const terrain::GeoTransform& t = dem.georef.transform;
-  for (std::size_t i = 0; i < prepared.tin.triangles.size(); ++i) {
-    const mesh::TinTriangle& tri = prepared.tin.triangles[i];
-    const mesh::TinVertex& a = crs_vertices[tri[0]];
-    const mesh::TinVertex& b = crs_vertices[tri[1]];
-    const mesh::TinVertex& c = crs_vertices[tri[2]];
-    const double cols[3] = {t.col_at(a.x), t.col_at(b.x), t.col_at(c.x)};
-    const double rows[3] = {t.row_at(a.y), t.row_at(b.y), t.row_at(c.y)};
-    const int c0 = std::max(0, static_cast<int>(std::floor(std::min({cols[0], cols[1], cols[2]}))));
-    const int c1 = std::min(dem.width() - 1, static_cast<int>(std::ceil(std::max({cols[0], cols[1], cols[2]}))));
-    const int r0 = std::max(0, static_cast<int>(std::floor(std::min({rows[0], rows[1], rows[2]}))));
-    const int r1 = std::min(dem.height() - 1, static_cast<int>(std::ceil(std::max({rows[0], rows[1], rows[2]}))));
-    const double area = (cols[1] - cols[0]) * (rows[2] - rows[0]) - (rows[1] - rows[0]) * (cols[2] - cols[0]);
-    for (int r = r0; r <= r1; ++r)
-      for (int col = c0; col <= c1; ++col) {
-        double w[3];
-        for (int e = 0; e < 3; ++e) {
-          const int p = (e + 1) % 3, q = (e + 2) % 3;
-          w[e] = ((cols[q] - cols[p]) * (r - rows[p]) - (rows[q] - rows[p]) * (col - cols[p])) / area;
-        }
-        if (w[0] >= -1e-12 && w[1] >= -1e-12 && w[2] >= -1e-12) grid.at(col, r) = state[i];
-      }
-  }
+  for (int r = 0; r < dem.height(); ++r)
+    for (int c = 0; c < dem.width(); ++c)
+      if (const std::uint32_t t = triangle.at(c, r); t != mesh::kNoTriangle) grid.at(c, r) = state[t];
   return grid;
 }
 

@@ -7,10 +7,12 @@
 #include <random>
 #include <sstream>
 
+#include "horizon/evaluation/mesh_r3.hpp"
 #include "horizon/mesh/cull.hpp"
 #include "horizon/mesh/local_frame.hpp"
 #include "horizon/mesh/prepared_mesh.hpp"
 #include "horizon/mesh/tin_from_dem.hpp"
+#include "horizon/mesh/tin_raster.hpp"
 #include "horizon/mesh/tin_visibility.hpp"
 #include "horizon/terrain/dem_reader.hpp"
 
@@ -43,6 +45,14 @@ bool any_sample_seen(const mesh::TinVisibility& vis, const mesh::Tin& tin, const
 
 }  // namespace
 
+std::vector<std::uint32_t> mesh_bench_cameras(std::size_t vertices, int count) {
+  std::mt19937_64 rng(1);
+  std::uniform_int_distribution<std::size_t> pick(0, vertices - 1);
+  std::vector<std::uint32_t> out;
+  for (int c = 0; c < count; ++c) out.push_back(static_cast<std::uint32_t>(pick(rng)));
+  return out;
+}
+
 Result<MeshBenchReport> run_mesh_bench(const MeshBenchConfig& config, const RunControl* control) {
   HORIZON_RETURN_IF_ERROR(check(config));
   MeshBenchReport report;
@@ -54,8 +64,27 @@ Result<MeshBenchReport> run_mesh_bench(const MeshBenchConfig& config, const RunC
     auto frame = mesh::LocalFrame::for_dem(*dem);
     if (!frame.ok()) return frame.error();
     mesh::Tin tin = std::move(built->tin);
+    const std::vector<mesh::TinVertex> crs_vertices = tin.vertices;  // R3 reads the DEM in its own CRS
     frame->to_local(tin);
     const mesh::TinVisibility vis(tin);
+    // The cameras, in the TIN's frame and in the DEM's CRS: the same vertex,
+    // the same height above it.
+    std::vector<mesh::TinVertex> cameras, crs_cameras;
+    for (std::uint32_t v : mesh_bench_cameras(tin.vertices.size(), config.cameras)) {
+      cameras.push_back({tin.vertices[v].x, tin.vertices[v].y, tin.vertices[v].z + config.height});
+      crs_cameras.push_back({crs_vertices[v].x, crs_vertices[v].y, crs_vertices[v].z + config.height});
+    }
+    // R3 on the source DEM from each checked camera, once for every shape
+    // and mode, read through the triangle over each cell (the input's
+    // numbering; a prepared mesh maps back by source_triangle).
+    const terrain::Grid<std::uint32_t> cell_triangle =
+        mesh::cell_triangles(dem->georef.transform, dem->width(), dem->height(), crs_vertices, tin.triangles);
+    std::vector<terrain::Grid<std::uint8_t>> r3(static_cast<std::size_t>(config.exact_cameras));
+    for (std::size_t c = 0; c < r3.size(); ++c) {
+      auto seen = r3_ground_viewshed(*dem, crs_cameras[c], config.threads, control);
+      if (!seen.ok()) return seen.error();
+      r3[c] = std::move(*seen);
+    }
     for (auto [s, k] : config.shapes) {
       HORIZON_RETURN_IF_ERROR(check_control(control));
       mesh::PrepareOptions options;
@@ -67,14 +96,6 @@ Result<MeshBenchReport> run_mesh_bench(const MeshBenchConfig& config, const RunC
       if (!prepared.ok()) return prepared.error();
       const double prepare_seconds = seconds_since(start);
       // Visibility of every triangle from each checked camera, once for both modes.
-      std::mt19937_64 rng(1);
-      std::uniform_int_distribution<std::size_t> pick(0, tin.vertices.size() - 1);
-      std::vector<mesh::TinVertex> cameras;
-      for (int c = 0; c < config.cameras; ++c) {
-        mesh::TinVertex eye = tin.vertices[pick(rng)];
-        eye.z += config.height;
-        cameras.push_back(eye);
-      }
       std::vector<std::vector<bool>> seen(static_cast<std::size_t>(config.exact_cameras));
       for (std::size_t c = 0; c < seen.size(); ++c) {
         seen[c].resize(prepared->tin.triangles.size());
@@ -96,6 +117,8 @@ Result<MeshBenchReport> run_mesh_bench(const MeshBenchConfig& config, const RunC
         row.always_visible = prepared->always_visible_count;
         std::vector<double> micros;
         std::uint64_t tested = 0, culled = 0;
+        std::vector<std::uint8_t> culled_source(tin.triangles.size());
+        R3CellCounts cells;
         for (std::size_t c = 0; c < cameras.size(); ++c) {
           mesh::CullAnswer answer;
           const auto at = Clock::now();
@@ -106,13 +129,17 @@ Result<MeshBenchReport> run_mesh_bench(const MeshBenchConfig& config, const RunC
           if (c >= seen.size()) continue;
           const std::vector<std::uint8_t> drawn = mesh::triangle_states(*prepared, answer);
           for (std::size_t t = 0; t < drawn.size(); ++t) {
+            culled_source[prepared->source_triangle[t]] = drawn[t] == mesh::kCulled ? 1 : 0;
             ++row.checked_views;
             row.exactly_hidden += seen[c][t] ? 0 : 1;
             if (drawn[t]) continue;
             ++row.culled_checked;
             row.false_hidden += seen[c][t] ? 1 : 0;
           }
+          cells += count_cells(cell_triangle, r3[c], culled_source);
         }
+        row.r3_cells = cells.cells, row.r3_hidden = cells.r3_hidden;
+        row.r3_culled = cells.culled, row.r3_culled_visible = cells.culled_r3_visible;
         std::sort(micros.begin(), micros.end());
         row.cull_us_median = micros[micros.size() / 2];
         row.groups_tested = static_cast<double>(tested) / static_cast<double>(cameras.size());
@@ -125,20 +152,31 @@ Result<MeshBenchReport> run_mesh_bench(const MeshBenchConfig& config, const RunC
   return report;
 }
 
+namespace {
+
+double percent(std::uint64_t part, std::uint64_t whole) {
+  return whole ? 100.0 * static_cast<double>(part) / static_cast<double>(whole) : 0.0;
+}
+
+}  // namespace
+
 std::string MeshBenchReport::markdown() const {
   std::ostringstream out;
   out << "| DEM | vertices | s/k | mode | prepare s (horizons, groups, hierarchy, walls) | groups | cull us | "
-         "groups tested | culled | exactly hidden | false hidden |\n"
-         "|---|---:|---|---|---|---:|---:|---:|---:|---:|---:|\n";
+         "groups tested | culled | exactly hidden | false hidden | R3 hidden | culled cells | culled but R3-visible |\n"
+         "|---|---:|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   char line[512];
   for (const MeshBenchRow& r : rows) {
-    const double hidden = r.checked_views ? 100.0 * static_cast<double>(r.exactly_hidden) / static_cast<double>(r.checked_views) : 0.0;
-    std::snprintf(line, sizeof line,
-                  "| %s | %u | %d/%d | %s | %.3f (%.3f, %.3f, %.3f, %.3f) | %u | %.2f | %.0f | %.2f %% | %.2f %% | %llu of %llu |\n",
-                  r.dem.c_str(), r.vertices, r.sectors, r.subsectors, r.mode.c_str(), r.prepare_seconds,
-                  r.horizon_seconds, r.grouping_seconds, r.hierarchy_seconds, r.wall_seconds, r.groups,
-                  r.cull_us_median, r.groups_tested, 100.0 * r.culled_share, hidden,
-                  static_cast<unsigned long long>(r.false_hidden), static_cast<unsigned long long>(r.culled_checked));
+    const double hidden = percent(r.exactly_hidden, r.checked_views);
+    std::snprintf(
+        line, sizeof line,
+        "| %s | %u | %d/%d | %s | %.3f (%.3f, %.3f, %.3f, %.3f) | %u | %.2f | %.0f | %.2f %% | %.2f %% | %llu of %llu "
+        "| %.2f %% | %.2f %% | %.3f %% |\n",
+        r.dem.c_str(), r.vertices, r.sectors, r.subsectors, r.mode.c_str(), r.prepare_seconds, r.horizon_seconds,
+        r.grouping_seconds, r.hierarchy_seconds, r.wall_seconds, r.groups, r.cull_us_median, r.groups_tested,
+        100.0 * r.culled_share, hidden, static_cast<unsigned long long>(r.false_hidden),
+        static_cast<unsigned long long>(r.culled_checked), percent(r.r3_hidden, r.r3_cells),
+        percent(r.r3_culled, r.r3_cells), percent(r.r3_culled_visible, r.r3_cells));
     out << line;
   }
   return out.str();
@@ -148,13 +186,14 @@ std::string MeshBenchReport::csv() const {
   std::ostringstream out;
   out << "dem,vertices,triangles,sectors,subsectors,mode,prepare_seconds,horizon_seconds,grouping_seconds,"
          "hierarchy_seconds,wall_seconds,groups,nodes,always_visible,cull_us_median,groups_tested,culled_share,"
-         "checked_views,exactly_hidden,culled_checked,false_hidden\n";
+         "checked_views,exactly_hidden,culled_checked,false_hidden,r3_cells,r3_hidden,r3_culled,r3_culled_visible\n";
   for (const MeshBenchRow& r : rows)
     out << r.dem << ',' << r.vertices << ',' << r.triangles << ',' << r.sectors << ',' << r.subsectors << ',' << r.mode
         << ',' << r.prepare_seconds << ',' << r.horizon_seconds << ',' << r.grouping_seconds << ','
         << r.hierarchy_seconds << ',' << r.wall_seconds << ',' << r.groups << ',' << r.nodes << ',' << r.always_visible
         << ',' << r.cull_us_median << ',' << r.groups_tested << ',' << r.culled_share << ',' << r.checked_views << ','
-        << r.exactly_hidden << ',' << r.culled_checked << ',' << r.false_hidden << '\n';
+        << r.exactly_hidden << ',' << r.culled_checked << ',' << r.false_hidden << ',' << r.r3_cells << ','
+        << r.r3_hidden << ',' << r.r3_culled << ',' << r.r3_culled_visible << '\n';
   return out.str();
 }
 

@@ -13,10 +13,23 @@
 // sight ("false hidden": the approximate mode's error; the conservative
 // mode must have none).
 //
+// The same checked cameras are also read against R3 on the DEM the TIN
+// was made from (mesh_r3.hpp): over the DEM cells under the TIN's
+// triangles, how many R3 hides ("truly hidden"), how many lie under a
+// culled triangle, and how many of those R3 sees. The eye is the same
+// point in both frames (the vertex's CRS place, its height plus
+// `height`); R3 runs on a flat earth, as the TIN's frame is. The two
+// references differ by the TIN's vertical error: the TIN-exact measure
+// judges the cull by the surface drawn, the R3 one by the terrain.
+//
+// Cameras: mesh_bench_cameras(), the same for every shape and mode.
+//
 // Cost: DEMs x shapes x (one preparation + modes x cameras x cull_repeats
-// culls) plus modes x exact_cameras x triangles x 4 sight lines.
+// culls) plus modes x exact_cameras x triangles x 4 sight lines, plus
+// DEMs x exact_cameras exact viewsheds of the whole DEM.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <utility>
@@ -47,6 +60,10 @@ struct MeshBenchRow {
   double cull_us_median = 0, groups_tested = 0, culled_share = 0;  // share of triangle-views culled
   // The exact check over the first exact_cameras cameras.
   std::uint64_t checked_views = 0, exactly_hidden = 0, culled_checked = 0, false_hidden = 0;
+  // R3 on the source DEM, the same cameras: cell-views (DEM cells under a
+  // triangle with an R3 answer), those R3 hides, those under a culled
+  // triangle, and those culled that R3 sees (mesh_r3.hpp).
+  std::uint64_t r3_cells = 0, r3_hidden = 0, r3_culled = 0, r3_culled_visible = 0;
 };
 
 struct MeshBenchReport {
@@ -54,6 +71,11 @@ struct MeshBenchReport {
   std::string markdown() const;
   std::string csv() const;
 };
+
+// The cameras' vertices: `count` indices into a TIN of `vertices` vertices
+// (> 0), drawn uniformly with a fixed seed (std::mt19937_64 seeded 1), so a
+// test can say where each camera stands.
+std::vector<std::uint32_t> mesh_bench_cameras(std::size_t vertices, int count);
 
 // kInvalidArgument for a bad config; a DEM's read or TIN error as it is.
 Result<MeshBenchReport> run_mesh_bench(const MeshBenchConfig& config, const RunControl* control = nullptr);
