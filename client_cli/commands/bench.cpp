@@ -12,6 +12,7 @@
 
 #include "commands/bench_mesh.hpp"
 #include "commands/bench_region.hpp"
+#include "commands/bench_out.hpp"
 #include "commands/command.hpp"
 #include "horizon/evaluation/bench.hpp"
 #include "inputs.hpp"
@@ -46,7 +47,8 @@ constexpr FlagSpec kFlags[] = {
     {"--vertices", "", "N", "--mesh: the TIN's vertices, greedy insertion (default 10000)"},
     {"--sectors", "", "LIST", "--mesh: sectors/subsectors shapes (default 8/1,8/4,16/4,32/2)"},
     {"--cameras", "", "N", "--mesh: cameras above vertices drawn with a fixed seed (default 50)"},
-    {"--exact", "", "N", "--mesh: of them, checked with exact sight lines (default 5)"},
+    {"--exact", "", "N",
+     "--mesh: of them, checked with exact sight lines over the TIN and R3 on the source DEM (default 5)"},
     // The from-region sweep (commands/bench_region.cpp).
     {"--region", "", "", "Sweep from-region visibility instead: region size x fuzzy-array resolution"},
     {"--sizes", "", "LIST", "--region: square footprints' sides, ground metres (default 30,120,480)"},
@@ -132,11 +134,10 @@ int run_bench(const Args& args) {
   for (std::string_view f : kRegionOnlyFlags)
     if (args.has(f)) throw UsageError(std::string(f) + ": a flag of the region sweep; add --region");
   evaluation::BenchConfig config = parse_config(args);
-  const std::string out_dir = args.text("--out").value_or("bench-out");
+  const auto made = bench_out_dir(args);
+  if (!made.ok()) return report_error(made.error());
+  const std::string& out_dir = *made;
   std::error_code ec;
-  fs::create_directories(out_dir, ec);
-  if (ec || !fs::is_directory(out_dir))
-    return report_error(make_error(ErrorCode::kIoError, "--out: cannot create directory '" + out_dir + "'", "--out"));
   const fs::path work = fs::path(out_dir) / "peer-work";
   if (!config.peers.empty()) {
     fs::create_directories(work, ec);
