@@ -48,6 +48,7 @@ constexpr FlagSpec kFlags[] = {
     {"--boxes", "", "FILE.csv",
      "Also cull object boxes: [id,]x_min,y_min,x_max,y_max,z_min,z_max a line (the input's CRS, absolute metres); "
      "hidden means no point of the box can be seen"},
+    {"--lonlat", "", "", "--boxes are in WGS84 degrees (x = longitude, y = latitude; DEM input only)"},
     {"--cache", "", "DIR",
      "Keep the prepared mesh in DIR, keyed by the TIN and the knobs, and load it from there next time"},
     {"--threads", "", "N", "Worker threads for preparing (default 0 = all cores)"},
@@ -281,7 +282,10 @@ int run_cull(const Args& args, const std::string& path) {
   const auto boxes_path = args.text("--boxes");
   std::vector<std::uint64_t> box_ids;
   std::vector<visibility::BoxSpec> box_specs;
-  if (boxes_path) box_specs = read_boxes_file(*boxes_path, false, &box_ids);
+  if (args.has("--lonlat") && !boxes_path) throw UsageError("--lonlat: says how --boxes are given; add --boxes");
+  if (args.has("--lonlat") && from_file)
+    throw UsageError("--lonlat: a mesh file has no CRS Horizon can read; give the boxes in its frame");
+  if (boxes_path) box_specs = read_boxes_file(*boxes_path, args.has("--lonlat"), &box_ids);
   (void)args.positive_integer("--band");
   const mesh::PrepareOptions options = options_from_flags(args);
 

@@ -23,7 +23,8 @@ using Json = nlohmann::json;
 const std::string kAndes = "ecuador_andes_utm17s_10m_383x415.tif";  // UTM 17S, 10 m
 
 std::vector<std::string> mesh_args(std::vector<std::string> more) {
-  std::vector<std::string> args = {"mesh", "cull", bundled_dem(kAndes), "--vertices", "3000", "--observer", "713500,9558500"};
+  std::vector<std::string> args = {"mesh", "cull",       bundled_dem(kAndes), "--vertices",
+                                   "3000", "--observer", "713500,9558500"};
   args.insert(args.end(), more.begin(), more.end());
   return args;
 }
@@ -116,8 +117,8 @@ TEST(CliMesh, ACacheDirectoryKeepsThePreparedMesh) {
 TEST(CliMesh, PrepareFillsTheCacheThatCullThenUses) {
   TempDir dir;
   const std::string cache = dir.file("prepared"), a = dir.file("a.obj"), b = dir.file("b.obj");
-  const auto prepared = horizon({"mesh", "prepare", bundled_dem(kAndes), "--vertices", "3000", "--json", "--cache",
-                                 cache, "--mesh-out", a});
+  const auto prepared = horizon(
+      {"mesh", "prepare", bundled_dem(kAndes), "--vertices", "3000", "--json", "--cache", cache, "--mesh-out", a});
   ASSERT_EQ(prepared.exit_code, 0) << prepared.output;
   const Json p = Json::parse(prepared.output);
   EXPECT_EQ(p["vertices"], 3000);
@@ -146,6 +147,16 @@ TEST(CliMesh, PrepareFillsTheCacheThatCullThenUses) {
   EXPECT_NE(text.output.find("against the DEM"), std::string::npos) << text.output;
 }
 
+TEST(CliMesh, BoxesMayBeGivenInLongitudeAndLatitude) {
+  const auto r = horizon({"mesh", "cull", bundled_dem("rainier_summit_srtm3_400x400.tif"), "--vertices", "2000",
+                          "--lat", "46.80", "--lon", "-121.70", "--boxes",
+                          std::string(HORIZON_DATA_DIR) + "/../../examples/rainier_boxes.csv", "--lonlat", "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json j = Json::parse(r.output);
+  EXPECT_GT(j["boxes"]["count"].get<int>(), 0);
+  EXPECT_EQ(j["boxes"]["boxes"].size(), j["boxes"]["count"].get<std::size_t>());
+}
+
 TEST(CliMesh, TheVerbIsRequiredAndEachTakesItsOwnFlags) {
   struct Case {
     std::vector<std::string> args;
@@ -155,13 +166,15 @@ TEST(CliMesh, TheVerbIsRequiredAndEachTakesItsOwnFlags) {
       {{"mesh"}, "missing the verb"},
       {{"mesh", "draw", bundled_dem(kAndes)}, "unknown verb 'draw'"},
       {{"mesh", "prepare"}, "missing the DEM or mesh file operand"},
-      {{"mesh", "prepare", bundled_dem(kAndes), "--observer", "713500,9558500"}, "--observer: a flag of `horizon mesh cull`"},
+      {{"mesh", "prepare", bundled_dem(kAndes), "--observer", "713500,9558500"},
+       "--observer: a flag of `horizon mesh cull`"},
       {{"mesh", "prepare", bundled_dem(kAndes), "--conservative"}, "--conservative: a flag of `horizon mesh cull`"},
       {{"mesh", "prepare", bundled_dem(kAndes), "--server", "localhost:1"}, "--server: a daemon prepares its meshes"},
       {{"mesh", "cull", bundled_dem(kAndes), "--observer", "713500,9558500", "--registered-boxes"},
        "--registered-boxes: a flag of --server"},
       {{"mesh", "cull", "tin", "--server", "localhost:1", "--observer", "1,2", "--cache", "x"},
        "--cache: applies to a local input"},
+      {{"mesh", "cull", bundled_dem(kAndes), "--observer", "713500,9558500", "--lonlat"}, "--lonlat: says how --boxes"},
   };
   for (const Case& c : cases) {
     const auto r = horizon(c.args);
@@ -211,8 +224,8 @@ TEST(CliMesh, BenchSweepsShapesAndModesAgainstExactSight) {
 }
 
 TEST(CliMesh, GeographicDemsArePreparedInMetres) {
-  const auto r = horizon({"mesh", "cull", bundled_dem("rainier_summit_srtm3_400x400.tif"), "--vertices", "2000", "--lat",
-                          "46.80", "--lon", "-121.70", "--json"});
+  const auto r = horizon({"mesh", "cull", bundled_dem("rainier_summit_srtm3_400x400.tif"), "--vertices", "2000",
+                          "--lat", "46.80", "--lon", "-121.70", "--json"});
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const Json j = Json::parse(r.output);
   EXPECT_EQ(j["local_frame"], "tangent plane at the DEM's centre");

@@ -68,10 +68,46 @@ TEST(MeshModel, ADemsViewpointIsResolvedAndMappedIntoItsFrame) {
   std::uint64_t floor = memory_bytes(model->prepared()) + 400ull * 400ull * sizeof(float);
   EXPECT_GT(model->memory_bytes(), floor);
 
-  box.frame = geodesy::PointFrame::kWgs84;
-  const Status refused = model->register_boxes({&box, 1});
+  // A box in the crop's lowest valley, in WGS 84 (the DEM's CRS is
+  // geographic too) and in the CRS: the same answer from eyes all over it,
+  // hidden from some. One off the DEM is refused naming it.
+  const terrain::Dem& d = *model->dem();
+  int low_c = 0, low_r = 0;
+  for (int r = 0; r < d.height(); ++r)
+    for (int c = 0; c < d.width(); ++c)
+      if (std::isfinite(d.elevation.at(c, r)) &&
+          (!std::isfinite(d.elevation.at(low_c, low_r)) || d.elevation.at(c, r) < d.elevation.at(low_c, low_r)))
+        low_c = c, low_r = r;
+  const terrain::GeoTransform& t = d.georef.transform;
+  const double lon = t.origin_x + (low_c + 0.5) * t.pixel_width, lat = t.origin_y + (low_r + 0.5) * t.pixel_height;
+  visibility::BoxSpec valley{geodesy::PointFrame::kDatasetCrs,
+                             lon - 0.0004,
+                             lat - 0.0004,
+                             lon + 0.0004,
+                             lat + 0.0004,
+                             d.elevation.at(low_c, low_r),
+                             d.elevation.at(low_c, low_r) + 5.0};
+  std::vector<visibility::BoxSpec> both = {valley, valley};
+  both[1].frame = geodesy::PointFrame::kWgs84;
+  ASSERT_TRUE(model->register_boxes(both).ok());
+  int hidden = 0, eyes = 0;
+  for (double x = -121.92; x < -121.60; x += 0.02)
+    for (double y = 46.67; y < 47.0; y += 0.02) {
+      spec.x = x, spec.y = y, spec.height = 2;
+      auto from = model->eye(spec);
+      if (!from.ok()) continue;  // on a void
+      const bool h = model->boxes()->hidden(model->prepared(), 1, from->local);
+      EXPECT_EQ(model->boxes()->hidden(model->prepared(), 0, from->local), h);
+      hidden += h ? 1 : 0;
+      ++eyes;
+    }
+  EXPECT_GT(hidden, 0);  // the comparison is not between answers that are all "seen"
+  EXPECT_GT(eyes, 200);
+  both[1].x_min = 10, both[1].x_max = 11;
+  const Status refused = model->register_boxes(both);
   ASSERT_FALSE(refused.ok());
   EXPECT_EQ(refused.error().field, "boxes");
+  EXPECT_NE(refused.error().message.find("box 1"), std::string::npos) << refused.error().message;
 }
 
 TEST(MeshModel, AMeshFilesViewpointStandsOnItsSurface) {
@@ -121,6 +157,10 @@ TEST(MeshModel, AMeshFilesViewpointStandsOnItsSurface) {
   auto wgs = model->eye(spec);
   ASSERT_FALSE(wgs.ok());
   EXPECT_EQ(wgs.error().code, ErrorCode::kInvalidArgument);
+  visibility::BoxSpec box{geodesy::PointFrame::kWgs84, 1, 1, 2, 2, 0, 1};
+  const Status refused = model->register_boxes({&box, 1});
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().field, "boxes");
 }
 
 }  // namespace

@@ -146,11 +146,33 @@ Status MeshModel::register_boxes(std::span<const visibility::BoxSpec> specs, uns
   std::vector<MeshBox> boxes;
   boxes.reserve(specs.size());
   for (std::size_t k = 0; k < specs.size(); ++k) {
-    const visibility::BoxSpec& b = specs[k];
-    if (b.frame != geodesy::PointFrame::kDatasetCrs)
-      return make_error(ErrorCode::kInvalidArgument,
-                        "box " + std::to_string(k) + ": a mesh's boxes are given in its CRS, not longitude/latitude",
-                        "boxes");
+    visibility::BoxSpec b = specs[k];
+    if (b.frame != geodesy::PointFrame::kDatasetCrs) {
+      if (!p_->dem)
+        return make_error(ErrorCode::kInvalidArgument,
+                          "box " + std::to_string(k) +
+                              ": a mesh file has no CRS to place longitude and latitude in; give x and y of its frame",
+                          "boxes");
+      // Into the DEM's CRS as every query does it (visibility/cull.hpp: the
+      // rectangle bounding its corners and edge midpoints), wholly on the DEM.
+      const terrain::Dem& dem = *p_->dem;
+      auto footprint = visibility::resolve_boxes(dem.georef, dem.width(), dem.height(), dem.source, {&b, 1});
+      if (!footprint.ok()) {
+        Error e = footprint.error();
+        e.message = "box " + std::to_string(k) + ": " + e.message;
+        e.field = "boxes";
+        return e;
+      }
+      const terrain::GeoTransform& t = dem.georef.transform;
+      const visibility::BoxFootprint& f = footprint->front();
+      const double xa = t.origin_x + (f.col_min + 0.5) * t.pixel_width,
+                   xb = t.origin_x + (f.col_max + 0.5) * t.pixel_width;
+      const double ya = t.origin_y + (f.row_min + 0.5) * t.pixel_height,
+                   yb = t.origin_y + (f.row_max + 0.5) * t.pixel_height;
+      b.frame = geodesy::PointFrame::kDatasetCrs;
+      b.x_min = std::min(xa, xb), b.x_max = std::max(xa, xb);
+      b.y_min = std::min(ya, yb), b.y_max = std::max(ya, yb);
+    }
     // The footprint's corners into the frame, and their bounding box there.
     MeshBox m{INFINITY, INFINITY, -INFINITY, -INFINITY, b.z_min, b.z_max};
     for (double x : {b.x_min, b.x_max})

@@ -19,8 +19,8 @@
 // Preparation goes through a disk cache when `cache_dir` is set
 // (prepared_cache.hpp), keyed by the TIN in its frame and the knobs. Boxes
 // may be registered once (mesh_boxes.hpp); they are given in the source's
-// CRS (a mesh file's frame), and each box's footprint corners are mapped
-// into the frame and bounded there.
+// CRS (a mesh file's frame) or, over a DEM, in WGS 84, and each box's
+// footprint corners are mapped into the frame and bounded there.
 //
 // A MeshModel is immutable once made (register_boxes aside, which is part
 // of making it) and may be read by any number of threads at once.
@@ -92,9 +92,10 @@ class MeshModel {
   // off the mesh.
   Result<MeshEye> eye(const geodesy::PointSpec& spec, const char* what = "observer") const;
 
-  // Registers boxes given in the source's CRS (a mesh file's frame),
-  // replacing any registered before; kInvalidArgument naming the first
-  // bad box (by index), or any box given in WGS 84.
+  // Registers boxes given in the source's CRS (a mesh file's frame), or in
+  // WGS 84 over a DEM (converted as every query converts them, and wholly
+  // on the DEM), replacing any registered before; kInvalidArgument naming
+  // the first bad box (by index), or a WGS 84 box over a mesh file.
   Status register_boxes(std::span<const visibility::BoxSpec> boxes, unsigned threads = 0);
   // Null until register_boxes.
   const RegisteredBoxes* boxes() const;
