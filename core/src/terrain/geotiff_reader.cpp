@@ -24,6 +24,13 @@
 // Pixel types: Int16, UInt16, Int32, Float32, Float64 for DEMs, and UInt8
 // and UInt32 so that Horizon's own results (viewsheds, observer counts) read
 // back (UInt32 values past 2^24 round to float32).
+// Memory: a header may claim any size, so the cost of a read is bounded from
+// the header before anything is decoded: a block (tile, or a strip down to
+// the window's last row; a whole strip for codecs that decode strips whole)
+// needing more than ReadOptions::max_block_bytes is a kResourceExhausted
+// error naming it, and every single allocation libtiff makes for the file is
+// held to the same figure. A block whose bytes run past the end of the file
+// is refused as truncated before it is decoded.
 // Values: integer pixels are converted to float32 exactly (|v| < 2^24 for any
 // real elevation); cells equal to the GDAL_NODATA code become NaN and
 // Dem::nodata keeps the code for writers.
@@ -63,6 +70,16 @@ using detail::TiffPtr;
 // Cells we are willing to hold (8 GiB of float32); more is a resource error.
 constexpr std::uint64_t kMaxCells = std::uint64_t{1} << 31;
 
+// The bound on each allocation libtiff makes for a file read under a block
+// limit (ReadOptions::max_block_bytes; 0 = none): the limit itself, but never
+// below 16 MiB, which libtiff's own tables need whatever the blocks (the
+// handle, a codec's state and code tables, the offset and byte-count arrays
+// of up to a million strips, 8 MB each).
+std::uint64_t libtiff_alloc_limit(std::uint64_t max_block_bytes) {
+  constexpr std::uint64_t kFloor = std::uint64_t{16} << 20;
+  return max_block_bytes == 0 ? 0 : std::max(max_block_bytes, kFloor);
+}
+
 Error dem_error(ErrorCode code, const std::string& path, const std::string& what) {
   return make_error(code, "dem '" + path + "': " + what, path);
 }
@@ -80,6 +97,15 @@ std::string compression_name(std::uint16_t c) {
       return "PackBits";
     case COMPRESSION_JPEG:
       return "JPEG";
+    case COMPRESSION_OJPEG:
+      return "old-style JPEG";
+    case COMPRESSION_PIXARLOG:
+      return "PixarLog";
+    case COMPRESSION_SGILOG:
+    case COMPRESSION_SGILOG24:
+      return "LogLuv";
+    case COMPRESSION_JBIG:
+      return "JBIG";
     case COMPRESSION_LZMA:
       return "LZMA";
     case COMPRESSION_ZSTD:
@@ -179,6 +205,8 @@ struct TiffFacts {
   bool tiled = false;
   int block_width = 0, block_height = 0;  // a tile, or a strip (width x rows per strip)
   std::uint64_t blocks_per_plane = 0;
+  std::uint16_t compression = COMPRESSION_NONE;
+  std::uint64_t block_bytes = 0;  // one whole tile or strip of one plane, decoded (libtiff's count)
   // What ReadOptions asked for, checked against the layout.
   int channel = 0;  // 0-based sample of the chosen band
   PixelType type = PixelType::kUInt8;
@@ -233,7 +261,7 @@ std::optional<std::string> truncated_header(const std::string& path) {
 // Reads georeferencing, nodata and layout through libtiff + libgeotiff.
 Result<TiffFacts> read_tiff_facts(const std::string& path, const ReadOptions& options) {
   TiffMessages messages;
-  TiffPtr tif = detail::open_tiff(path, "r", messages);
+  TiffPtr tif = detail::open_tiff(path, "r", messages, libtiff_alloc_limit(options.max_block_bytes));
   if (!tif) {
     if (auto cut = truncated_header(path)) return dem_error(ErrorCode::kDataError, path, *cut);
     return dem_error(
@@ -282,9 +310,10 @@ Result<TiffFacts> read_tiff_facts(const std::string& path, const ReadOptions& op
   }
   facts.blocks_per_plane = static_cast<std::uint64_t>((facts.width + facts.block_width - 1) / facts.block_width) *
                            static_cast<std::uint64_t>((facts.height + facts.block_height - 1) / facts.block_height);
-  std::uint16_t compression = COMPRESSION_NONE;
-  TIFFGetFieldDefaulted(tif.get(), TIFFTAG_COMPRESSION, &compression);
-  facts.layout = compression_name(compression);
+  TIFFGetFieldDefaulted(tif.get(), TIFFTAG_COMPRESSION, &facts.compression);
+  facts.block_bytes = facts.tiled ? TIFFTileSize64(tif.get()) : TIFFStripSize64(tif.get());
+  if (facts.block_bytes == 0) return dem_error(ErrorCode::kDataError, path, "inconsistent block layout");
+  facts.layout = compression_name(facts.compression);
   if (TIFFIsTiled(tif.get())) {
     std::uint32_t tw = 0, th = 0;
     TIFFGetField(tif.get(), TIFFTAG_TILEWIDTH, &tw);
@@ -440,34 +469,110 @@ void convert_any(PixelType type, const unsigned char* src, std::size_t stride, i
   }
 }
 
+// Bytes from one pixel of a block row to the next: the pixel type times the
+// bands interleaved with it.
+std::size_t pixel_stride(const TiffFacts& f) {
+  const std::size_t bytes = pixel_type_size(f.type);
+  return f.planar_separate ? bytes : bytes * static_cast<std::size_t>(f.samples);
+}
+
+// Codecs that decode a strip into the caller's buffer row after row and stop
+// where the buffer ends, holding nothing of the strip's size themselves: a
+// window at the top of a tall strip costs only its rows. Every other codec
+// (JPEG, old JPEG, PixarLog, LogLuv, LERC, WebP, JBIG, ...) keeps a whole
+// strip or tile, or more, in buffers of its own.
+bool decodes_strips_partly(std::uint16_t compression) {
+  switch (compression) {
+    case COMPRESSION_NONE:
+    case COMPRESSION_LZW:
+    case COMPRESSION_ADOBE_DEFLATE:
+    case COMPRESSION_DEFLATE:
+    case COMPRESSION_PACKBITS:
+    case COMPRESSION_LZMA:
+    case COMPRESSION_ZSTD:
+      return true;
+    default:
+      return false;
+  }
+}
+
+// Bytes of the buffer that decodes the top `rows` rows of a strip of
+// `block_bytes`, `row_pitch` bytes a row: never more than the whole strip.
+std::uint64_t strip_top_bytes(std::uint64_t block_bytes, std::uint64_t row_pitch, int rows) {
+  const auto n = static_cast<std::uint64_t>(rows);
+  return row_pitch != 0 && n <= block_bytes / row_pitch ? n * row_pitch : block_bytes;
+}
+
+// Refuses, before anything is decoded, a read of `window` whose biggest
+// block needs more than `limit` bytes at once (ReadOptions::max_block_bytes;
+// 0 = no limit). Each thread holds one such buffer, and libtiff a codec's or
+// predictor's copy beside it, so this bounds the read's memory whatever the
+// header claims.
+Status check_block_cost(const std::string& path, const TiffFacts& f, const Window& window, std::uint64_t limit) {
+  if (limit == 0) return Status::Ok();
+  const std::size_t stride = pixel_stride(f);
+  const int bw = f.block_width, bh = f.block_height;
+  const int first_row = window.row0 / bh * bh, first_col = window.col0 / bw * bw;
+  const bool whole = f.tiled || !decodes_strips_partly(f.compression);
+  // The first block under the window costs the most: a strip is needed from
+  // its top down to the window's end, or whole when the window runs past it
+  // (the strips below then cost no more; the image's last may be shorter).
+  const int rows = std::min(bh, window.row1 - first_row);
+  const std::uint64_t row_pitch = static_cast<std::uint64_t>(bw) * stride;
+  const std::uint64_t need = whole ? f.block_bytes : strip_top_bytes(f.block_bytes, row_pitch, rows);
+  if (need <= limit) return Status::Ok();
+  std::string cells = std::to_string(bw) + " " + pixel_type_name(f.type) + " cells";
+  if (f.samples > 1 && !f.planar_separate) cells += " of " + std::to_string(f.samples) + " bands";
+  std::string what;
+  if (f.tiled) {
+    what = "the tile at col " + std::to_string(first_col) + ", row " + std::to_string(first_row) + " (" +
+           std::to_string(bh) + " rows of " + cells + ")";
+  } else {
+    what = "the strip at row " + std::to_string(first_row) + " (" +
+           (whole ? std::to_string(std::min(bh, f.height - first_row)) + " rows of " + cells + ", which " +
+                        compression_name(f.compression) + " decodes whole"
+                  : "its top " + std::to_string(rows) + " rows of " + cells + ", down to row " +
+                        std::to_string(first_row + rows - 1)) +
+           ")";
+  }
+  return dem_error(ErrorCode::kResourceExhausted, path,
+                   what + " needs " + std::to_string(need) +
+                       " bytes decoded at once, more than the reader's limit of " + std::to_string(limit) +
+                       " bytes (max_block_bytes); re-tile the file (e.g. gdal_translate -co TILED=YES) or raise "
+                       "the limit");
+}
+
+// When a block's bytes, as the file's own offsets and counts place them, run
+// past the end of the file: the file is cut short (a copy or a download that
+// stopped). Checked before each block is decoded, whatever the codec, so such
+// a block is refused before libtiff sizes anything from it.
+std::optional<std::string> truncation(std::uint64_t file_size, TIFF* tif, std::uint32_t index,
+                                      const std::string& block_name) {
+  const std::uint64_t start = TIFFGetStrileOffset(tif, index), count = TIFFGetStrileByteCount(tif, index);
+  if (count <= file_size && start <= file_size - count) return std::nullopt;
+  return "the file is truncated: it has " + std::to_string(file_size) + " bytes, but the " + block_name +
+         " lies at bytes " + std::to_string(start) + ".." + std::to_string(start + count) +
+         " (a copy or download that stopped early?)";
+}
+
 // Decodes only the blocks (tiles or strips) of one channel that intersect
 // `window`, straight through libtiff, and converts them into `out` (window-
 // sized float elevations, nodata as NaN) on the same thread, block by block.
 // Counts the blocks it decodes. libtiff undoes the compression, the
-// predictor and the byte order, exactly as for a full read.
-//
-// A block that does not decode is most often a file cut short (a copy or a
-// download that stopped): when the block's bytes, as the file's own offsets
-// and counts place them, run past the end of the file, the message says so.
-std::optional<std::string> truncation(const std::string& path, TIFF* tif, std::uint32_t index,
-                                      const std::string& block_name) {
-  std::error_code ec;
-  const std::uintmax_t size = std::filesystem::file_size(path, ec);
-  if (ec) return std::nullopt;
-  const std::uint64_t start = TIFFGetStrileOffset(tif, index), count = TIFFGetStrileByteCount(tif, index);
-  if (start + count <= size) return std::nullopt;
-  return "the file is truncated: it has " + std::to_string(size) + " bytes, but the " + block_name + " lies at bytes " +
-         std::to_string(start) + ".." + std::to_string(start + count) + " (a copy or download that stopped early?)";
-}
-
-Status read_window_with_libtiff(const std::string& path, const TiffFacts& f, int channel, const Window& window,
-                                std::size_t bytes, unsigned threads, Grid<float>& out, ReadStats& stats) {
-  const std::size_t stride = f.planar_separate ? bytes : bytes * static_cast<std::size_t>(f.samples);
-  const std::size_t offset = f.planar_separate ? 0 : bytes * static_cast<std::size_t>(channel);
-  const std::uint16_t plane = f.planar_separate ? static_cast<std::uint16_t>(channel) : 0;
+// predictor and the byte order, exactly as for a full read. The caller has
+// checked the blocks' cost (check_block_cost); `max_block_bytes` also bounds
+// each allocation libtiff makes (libtiff_alloc_limit).
+Status read_window_with_libtiff(const std::string& path, const TiffFacts& f, const Window& window, unsigned threads,
+                                std::uint64_t max_block_bytes, Grid<float>& out, ReadStats& stats) {
+  const std::size_t stride = pixel_stride(f);
+  const std::size_t offset = f.planar_separate ? 0 : pixel_type_size(f.type) * static_cast<std::size_t>(f.channel);
+  const std::uint16_t plane = f.planar_separate ? static_cast<std::uint16_t>(f.channel) : 0;
   const int bw = f.block_width, bh = f.block_height;
   const int first_row = window.row0 / bh * bh;
   const int block_rows = (window.row1 - first_row + bh - 1) / bh;
+  std::error_code size_error;
+  const std::uint64_t file_size = std::filesystem::file_size(path, size_error);
+  if (size_error) return dem_error(ErrorCode::kIoError, path, "cannot read its size: " + size_error.message());
   // Rows of blocks are shared out in contiguous runs, one libtiff handle per
   // run (a handle is not thread-safe); each run writes its own rows of `out`.
   const unsigned hw = threads ? threads : std::max(1u, std::thread::hardware_concurrency());
@@ -476,14 +581,9 @@ Status read_window_with_libtiff(const std::string& path, const TiffFacts& f, int
   std::vector<std::uint64_t> blocks(static_cast<std::size_t>(runs), 0), cells(static_cast<std::size_t>(runs), 0);
   parallel_for(static_cast<std::size_t>(runs), static_cast<unsigned>(runs), [&](std::size_t run) {
     TiffMessages messages;
-    TiffPtr tif = detail::open_tiff(path, "r", messages);
+    TiffPtr tif = detail::open_tiff(path, "r", messages, libtiff_alloc_limit(max_block_bytes));
     if (!tif) {
       status[run] = dem_error(ErrorCode::kDataError, path, "cannot reopen (" + messages.errors + ")");
-      return;
-    }
-    const tmsize_t block_bytes = f.tiled ? TIFFTileSize(tif.get()) : TIFFStripSize(tif.get());
-    if (block_bytes <= 0) {
-      status[run] = dem_error(ErrorCode::kDataError, path, "inconsistent block layout");
       return;
     }
     // libtiff writes every byte it reports, so the buffer is left
@@ -492,7 +592,7 @@ Status read_window_with_libtiff(const std::string& path, const TiffFacts& f, int
     // 256-row window at the top of a one-strip file of 65 000 rows decodes
     // 256 rows, and touches no more memory).
     std::unique_ptr<unsigned char[]> block;
-    tmsize_t capacity = 0;
+    std::uint64_t capacity = 0;
     const int row_lo = static_cast<int>(run * block_rows / runs),
               row_hi = static_cast<int>((run + 1) * block_rows / runs);
     for (int by = first_row + row_lo * bh; by < first_row + row_hi * bh && by < window.row1; by += bh) {
@@ -502,30 +602,28 @@ Status read_window_with_libtiff(const std::string& path, const TiffFacts& f, int
         const int r0 = std::max(by, window.row0), r1 = std::min({by + bh, window.row1, f.height});
         const int c0 = std::max(bx, window.col0), c1 = std::min({bx + bw, window.col1, f.width});
         const std::size_t row_pitch = static_cast<std::size_t>(bw) * stride;
-        const tmsize_t wanted =
-            f.tiled ? block_bytes
-                    : std::min(block_bytes, static_cast<tmsize_t>(static_cast<std::size_t>(r1 - by) * row_pitch));
+        const std::uint64_t wanted = f.tiled ? f.block_bytes : strip_top_bytes(f.block_bytes, row_pitch, r1 - by);
+        assert(max_block_bytes == 0 || wanted <= max_block_bytes);  // check_block_cost
         if (wanted > capacity) {
           block.reset(new unsigned char[static_cast<std::size_t>(wanted)]);
           capacity = wanted;
         }
-        tmsize_t got = 0;
-        std::uint32_t index = 0;
-        if (f.tiled) {
-          index = TIFFComputeTile(tif.get(), static_cast<std::uint32_t>(bx), static_cast<std::uint32_t>(by), 0, plane);
-          got = TIFFReadEncodedTile(tif.get(), index, block.get(), wanted);
-        } else {
-          index = TIFFComputeStrip(tif.get(), static_cast<std::uint32_t>(by), plane);
-          got = TIFFReadEncodedStrip(tif.get(), index, block.get(), wanted);
+        const std::uint32_t index = f.tiled ? TIFFComputeTile(tif.get(), static_cast<std::uint32_t>(bx),
+                                                              static_cast<std::uint32_t>(by), 0, plane)
+                                            : TIFFComputeStrip(tif.get(), static_cast<std::uint32_t>(by), plane);
+        const std::string block_name =
+            std::string(f.tiled ? "tile" : "strip") + " at col " + std::to_string(bx) + ", row " + std::to_string(by);
+        if (auto cut = truncation(file_size, tif.get(), index, block_name)) {
+          status[run] = dem_error(ErrorCode::kDataError, path, *cut);
+          return;
         }
+        const tmsize_t got = f.tiled
+                                 ? TIFFReadEncodedTile(tif.get(), index, block.get(), static_cast<tmsize_t>(wanted))
+                                 : TIFFReadEncodedStrip(tif.get(), index, block.get(), static_cast<tmsize_t>(wanted));
         if (got < 0) {
-          const std::string block_name =
-              std::string(f.tiled ? "tile" : "strip") + " at col " + std::to_string(bx) + ", row " + std::to_string(by);
-          status[run] =
-              dem_error(ErrorCode::kDataError, path,
-                        truncation(path, tif.get(), index, block_name)
-                            .value_or("cannot decode " + block_name +
-                                      (messages.errors.empty() ? std::string() : " (" + messages.errors + ")")));
+          status[run] = dem_error(
+              ErrorCode::kDataError, path,
+              "cannot decode " + block_name + (messages.errors.empty() ? std::string() : " (" + messages.errors + ")"));
           return;
         }
         ++blocks[run];
@@ -589,15 +687,15 @@ Result<Dem> read_geotiff_window(const std::string& path, const ReadOptions& opti
   local.block_width = facts.block_width;
   local.block_height = facts.block_height;
   local.blocks_total = facts.blocks_per_plane;
-  const std::size_t bytes = pixel_type_size(type);
   if (window->cell_count() > kMaxCells)
     return dem_error(ErrorCode::kResourceExhausted, path,
                      std::to_string(window->width()) + "x" + std::to_string(window->height()) +
                          " cells exceed the limit of " + std::to_string(kMaxCells));
+  HORIZON_RETURN_IF_ERROR(check_block_cost(path, facts, *window, options.max_block_bytes));
   Dem dem;
   dem.elevation = Grid<float>(window->width(), window->height(), kUninitialized);  // every block writes its cells
   HORIZON_RETURN_IF_ERROR(
-      read_window_with_libtiff(path, facts, channel, *window, bytes, options.threads, dem.elevation, local));
+      read_window_with_libtiff(path, facts, *window, options.threads, options.max_block_bytes, dem.elevation, local));
   dem.georef = facts.georef;
   dem.georef.transform = facts.georef.transform.shifted(window->col0, window->row0);
   dem.nodata = facts.nodata;
@@ -628,8 +726,11 @@ DemHeader header_of(const std::string& path, const TiffFacts& facts) {
 // each other.
 class GeoTiffFile final : public RasterFile {
  public:
-  GeoTiffFile(std::string path, TiffFacts facts)
-      : RasterFile(header_of(path, facts)), path_(std::move(path)), facts_(std::move(facts)) {}
+  GeoTiffFile(std::string path, TiffFacts facts, std::uint64_t max_block_bytes)
+      : RasterFile(header_of(path, facts)),
+        path_(std::move(path)),
+        facts_(std::move(facts)),
+        max_block_bytes_(max_block_bytes) {}
 
   Result<Grid<float>> read_cells(const Window& window, unsigned threads, ReadStats* stats) const override {
     const auto start = std::chrono::steady_clock::now();
@@ -643,9 +744,9 @@ class GeoTiffFile final : public RasterFile {
     local.block_width = facts_.block_width;
     local.block_height = facts_.block_height;
     local.blocks_total = facts_.blocks_per_plane;
+    HORIZON_RETURN_IF_ERROR(check_block_cost(path_, facts_, window, max_block_bytes_));
     Grid<float> cells(window.width(), window.height(), kUninitialized);  // every block writes its cells
-    HORIZON_RETURN_IF_ERROR(read_window_with_libtiff(path_, facts_, facts_.channel, window,
-                                                     pixel_type_size(facts_.type), threads, cells, local));
+    HORIZON_RETURN_IF_ERROR(read_window_with_libtiff(path_, facts_, window, threads, max_block_bytes_, cells, local));
     local.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (stats) *stats = local;
     return cells;
@@ -654,6 +755,7 @@ class GeoTiffFile final : public RasterFile {
  private:
   std::string path_;
   TiffFacts facts_;
+  std::uint64_t max_block_bytes_;
 };
 
 }  // namespace
@@ -669,7 +771,7 @@ Result<std::unique_ptr<RasterFile>> open_geotiff(const std::string& path, const 
   HORIZON_RETURN_IF_ERROR(check_path(path, options));
   auto facts = read_tiff_facts(path, options);
   if (!facts.ok()) return facts.error();
-  return std::unique_ptr<RasterFile>(std::make_unique<GeoTiffFile>(path, std::move(*facts)));
+  return std::unique_ptr<RasterFile>(std::make_unique<GeoTiffFile>(path, std::move(*facts), options.max_block_bytes));
 }
 
 Result<Dem> read_geotiff(const std::string& path, const ReadOptions& options, ReadStats* stats) {

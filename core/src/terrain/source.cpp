@@ -117,6 +117,7 @@ Result<std::shared_ptr<const ElevationSource>> ElevationSource::open(const std::
   source->id_ = BlockCache::next_source_id();
   ReadOptions read;
   read.band = options.band;
+  read.max_block_bytes = options.max_block_bytes;
 
   if (!S_ISDIR(st.st_mode)) {
     read.allow_missing_crs = options.allow_missing_crs;

@@ -8,6 +8,14 @@
 // * Opens files with per-handle error/warning handlers (libtiff >= 4.5
 //   TIFFOpenExt), so messages land in the Error we return instead of stderr,
 //   and concurrent readers do not share a global handler.
+// * Bounds, for readers, every single allocation libtiff makes for a handle
+//   (libtiff >= 4.5 TIFFOpenOptionsSetMaxSingleMemAlloc): a codec's whole-
+//   strip buffer (PixarLog, LogLuv, LERC, WebP), a predictor's copy, tag
+//   arrays. A header may claim any size; this keeps libtiff's share of a
+//   read near the reader's own limit (ReadOptions::max_block_bytes) rather
+//   than near what the header claims. libjpeg's own allocations and the raw
+//   strip bytes are not counted: the reader bounds JPEG strips before
+//   decoding, and raw bytes come from the memory-mapped file.
 // * RAII owners for TIFF* and GTIF*, so every error path closes them.
 #pragma once
 
@@ -15,8 +23,11 @@
 #include <tiffio.h>
 #include <xtiffio.h>
 
+#include <algorithm>
 #include <cstdarg>
+#include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -87,11 +98,19 @@ struct TiffMessages {
 };
 
 // Opens `path` with libtiff mode `mode` ("r", "w", "w8"), GeoTIFF and GDAL
-// tags registered, messages routed to `messages`. Null on failure.
-inline TiffPtr open_tiff(const std::string& path, const char* mode, TiffMessages& messages) {
+// tags registered, messages routed to `messages`. `max_single_alloc` bytes
+// (0: no limit) bound each allocation libtiff makes for the handle; one
+// beyond it fails the call that needed it with a libtiff error ("Memory
+// allocation of N bytes is beyond the M byte limit defined in open
+// options"). Null on failure.
+inline TiffPtr open_tiff(const std::string& path, const char* mode, TiffMessages& messages,
+                         std::uint64_t max_single_alloc = 0) {
   register_tiff_tags();
   TIFFOpenOptions* opts = TIFFOpenOptionsAlloc();
   if (!opts) return nullptr;
+  if (max_single_alloc > 0)
+    TIFFOpenOptionsSetMaxSingleMemAlloc(
+        opts, static_cast<tmsize_t>(std::min<std::uint64_t>(max_single_alloc, std::numeric_limits<tmsize_t>::max())));
   TIFFOpenOptionsSetErrorHandlerExtR(opts, &TiffMessages::on_error, &messages);
   TIFFOpenOptionsSetWarningHandlerExtR(opts, &TiffMessages::on_warning, &messages);
   TiffPtr tif(TIFFOpenExt(path.c_str(), mode, opts));

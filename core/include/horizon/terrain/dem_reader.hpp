@@ -60,6 +60,27 @@ struct ReadOptions {
   std::optional<Window> window;
   // Threads decoding a GeoTIFF's blocks (0 = all cores).
   unsigned threads = 0;
+  // The most bytes a GeoTIFF block (a strip or a tile) may need decoded at
+  // once, per decoding thread; 0 = no limit. A header may claim any size (a
+  // 150-byte file can declare one strip of 100 000 x 20 000 Float64 cells,
+  // 16 GB), so the cost is bounded from the header, before anything is read.
+  // What counts, in the file's own pixel type and all its interleaved bands:
+  //   * a tile: the whole tile;
+  //   * a strip: its rows from the top down to the window's last row
+  //     (libtiff decodes a strip from the top and stops there), for the
+  //     codecs that decode into the caller's buffer as far as it asks (none,
+  //     LZW, deflate, PackBits, LZMA, ZSTD); every other codec (JPEG,
+  //     PixarLog, LogLuv, LERC, WebP, ...) holds the whole strip, and counts it.
+  // A read that needs more fails with kResourceExhausted naming the file,
+  // the block, its bytes and this limit. The same figure (but at least 16 MiB,
+  // for libtiff's own tables) bounds every single allocation libtiff makes
+  // while reading the file (a codec's buffer, the floating-point predictor's
+  // copy, tag and strip-offset arrays). A read's peak memory is
+  // then the cells it returns plus, per thread, a few blocks' worth (the
+  // block, a predictor's or codec's copy of it). The default, 1 GiB, is a
+  // strip of 16 384 x 16 384 Float32 cells; a file with larger strips reads
+  // with a larger limit, or once re-tiled (gdal_translate -co TILED=YES).
+  std::uint64_t max_block_bytes = std::uint64_t{1} << 30;
 };
 
 // What a read decoded. A "block" is the file's unit of storage and decoding:

@@ -58,6 +58,9 @@ namespace horizon::terrain {
 struct SourceOptions {
   int band = 0;                    // as ReadOptions::band, for every file
   bool allow_missing_crs = false;  // as ReadOptions (a single file only; a mosaic needs its CRS)
+  // As ReadOptions::max_block_bytes, for every file: a GeoTIFF strip or tile
+  // needing more to decode fails the read that touches it (kResourceExhausted).
+  std::uint64_t max_block_bytes = std::uint64_t{1} << 30;
   // Cells no file covers (and files gone since open()) read as voids instead
   // of failing the read.
   bool missing_as_nodata = false;
