@@ -100,7 +100,7 @@ void set_frame_tables(const PreparedMesh& mesh, CullFrame& frame, std::vector<do
 // visible leaves are put back in the scalar twin's depth-first order by
 // their ranks (GroupColumns).
 CullAnswer cull_by_levels(const PreparedMesh& mesh, const CullFrame& frame, simd_isa::Isa isa) {
-  constexpr std::size_t kWidth = 8;  // both kernels take whole eights
+  constexpr std::size_t kWidth = 16;  // both kernels take whole sixteens
   CullAnswer answer;
   const GroupColumns& columns = mesh.columns;
   std::vector<std::uint32_t> level(mesh.top_level), next;

@@ -37,7 +37,7 @@ constexpr double kCertainAngle = 1e-8;   // g against ± this · d
 struct Lanes8 {
   const CullFrame& f;
   const PreparedMesh& m;
-  __m512i g;  // the groups, in the low eight 32-bit lanes
+  __m512d t_low, t_high;  // sector_t[0, 16), where there are no more sectors
 };
 
 HORIZON_AVX512 inline __m512d set8(double x) {
@@ -51,9 +51,6 @@ HORIZON_AVX512 inline __m256i low(__m512i x) {
 }
 HORIZON_AVX512 inline __m512d gather8(__mmask8 k, __m512i index, const double* base) {
   return _mm512_mask_i32gather_pd(_mm512_setzero_pd(), k, low(index), base, 8);
-}
-HORIZON_AVX512 inline __m512i gatheri8(__mmask8 k, __m512i index, const std::uint32_t* base) {
-  return _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), static_cast<__mmask16>(k), index, base, 4);
 }
 HORIZON_AVX512 inline __mmask8 lt_i(__m512i a, __m512i b) {
   return static_cast<__mmask8>(_mm512_cmplt_epi32_mask(a, b));
@@ -81,99 +78,167 @@ HORIZON_AVX512 __m512i sector_of8(const PreparedMesh& m, __m512d x, __m512d y) {
   return _mm512_sub_epi32(count, one);
 }
 
-// hidden_in for the lanes of k: chain `chain`, sector `sector`.
-HORIZON_AVX512 __mmask8 hidden_in8(const Lanes8& l, __mmask8 k, __m512i chain, __m512i sector) {
-  const PreparedMesh& m = l.m;
-  const __m512i one = seti8(1);
-  const __m512i begin = gatheri8(k, chain, m.chain_begin.data());
-  const __m512i end = gatheri8(k, _mm512_add_epi32(chain, one), m.chain_begin.data());
-  const __m512d t = gather8(k, sector, l.f.sector_t);
-  __mmask8 ok = k & static_cast<__mmask8>(~eq_i(begin, end));
-  ok &= _mm512_cmp_pd_mask(t, gather8(ok, begin, m.corner_t.data()), _CMP_NLT_UQ);
-  __m512i j = begin;
-  for (;;) {
-    const __m512i next = _mm512_add_epi32(j, one);
-    __mmask8 more = ok & lt_i(next, end);
-    if (!more) break;
-    more &= _mm512_cmp_pd_mask(gather8(more, next, m.corner_t.data()), t, _CMP_LE_OQ);
-    if (!more) break;
-    j = _mm512_mask_mov_epi32(j, more, next);
-  }
-  if (!ok) return 0;
-  const __m512i next = _mm512_add_epi32(j, one);
-  const __mmask8 ray = ok & eq_i(next, end);
-  const __mmask8 segment = ok & static_cast<__mmask8>(~ray);
-  const __m512d at = gather8(ok, j, m.corner_t.data()), az = gather8(ok, j, m.corner_z.data());
-  const __m512d ray_height =
-      _mm512_add_pd(az, _mm512_mul_pd(gather8(ray, chain, m.chain_slope.data()), _mm512_sub_pd(t, at)));
-  const __m512d nt = gather8(segment, next, m.corner_t.data()), nz = gather8(segment, next, m.corner_z.data());
-  const __m512d segment_height = _mm512_add_pd(
-      az, _mm512_mul_pd(_mm512_sub_pd(nz, az), _mm512_div_pd(_mm512_sub_pd(t, at), _mm512_sub_pd(nt, at))));
-  const __m512d height = _mm512_mask_blend_pd(ray, segment_height, ray_height);
-  return ok & _mm512_cmp_pd_mask(set8(l.f.camera.z), height, _CMP_LE_OQ);
+// begin[index] and begin[index + 1] for the lanes of k, by one 64-bit
+// gather of the adjacent pair.
+HORIZON_AVX512 inline void pair8(__mmask8 k, __m512i index, const std::uint32_t* begin, __m512i& first,
+                                 __m512i& second) {
+  const __m512i both = _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), k, low(index), begin, 4);
+  first = _mm512_zextsi256_si512(_mm512_cvtepi64_epi32(both));
+  second = _mm512_zextsi256_si512(_mm512_cvtepi64_epi32(_mm512_srli_epi64(both, 32)));
 }
 
+// The loops below run H batches of eight lanes side by side (H = 2:
+// sixteen groups), so that one batch's gathers wait while the other's
+// issue; a loop runs until every batch is done.
+
+// hidden_in for the lanes of k: chain `chain`, sector `sector`. The walk
+// carries the corner it stands on (at) and the first one past the camera
+// (past), so that neither is gathered again.
+template <int H>
+HORIZON_AVX512 void hidden_in8(const Lanes8& l, const __mmask8* k, const __m512i* chain, const __m512i* sector,
+                               __mmask8* hidden) {
+  const PreparedMesh& m = l.m;
+  const __m512i one = seti8(1);
+  __m512i begin[H], end[H], j[H];
+  __m512d t[H], at[H], past[H];
+  __mmask8 ok[H], walking[H];
+  unsigned any = 0;
+  for (int h = 0; h < H; ++h) {
+    pair8(k[h], chain[h], m.chain_begin.data(), begin[h], end[h]);
+    // Up to sixteen sectors' t sit in two registers: a permute, not a gather.
+    t[h] = m.sectors <= 16 ? _mm512_permutex2var_pd(l.t_low, _mm512_cvtepi32_epi64(low(sector[h])), l.t_high)
+                           : gather8(k[h], sector[h], l.f.sector_t);
+    ok[h] = k[h] & static_cast<__mmask8>(~eq_i(begin[h], end[h]));
+    at[h] = gather8(ok[h], begin[h], m.corner_t.data());
+    ok[h] &= _mm512_cmp_pd_mask(t[h], at[h], _CMP_NLT_UQ);
+    j[h] = begin[h];
+    past[h] = _mm512_setzero_pd();
+    walking[h] = ok[h];
+    any |= walking[h];
+  }
+  while (any) {
+    any = 0;
+    for (int h = 0; h < H; ++h) {
+      const __m512i next = _mm512_add_epi32(j[h], one);
+      const __mmask8 more = walking[h] & lt_i(next, end[h]);  // the others stand on their last corner
+      const __m512d nt = gather8(more, next, m.corner_t.data());
+      const __mmask8 step = more & _mm512_cmp_pd_mask(nt, t[h], _CMP_LE_OQ);
+      past[h] = _mm512_mask_mov_pd(past[h], more & static_cast<__mmask8>(~step), nt);
+      at[h] = _mm512_mask_mov_pd(at[h], step, nt);
+      j[h] = _mm512_mask_mov_epi32(j[h], step, next);
+      walking[h] = step;
+      any |= step;
+    }
+  }
+  for (int h = 0; h < H; ++h) {
+    const __m512i next = _mm512_add_epi32(j[h], one);
+    const __mmask8 ray = ok[h] & eq_i(next, end[h]);
+    const __mmask8 segment = ok[h] & static_cast<__mmask8>(~ray);
+    const __m512d az = gather8(ok[h], j[h], m.corner_z.data());
+    const __m512d ray_height =
+        _mm512_add_pd(az, _mm512_mul_pd(gather8(ray, chain[h], m.chain_slope.data()), _mm512_sub_pd(t[h], at[h])));
+    const __m512d nz = gather8(segment, next, m.corner_z.data());
+    const __m512d segment_height =
+        _mm512_add_pd(az, _mm512_mul_pd(_mm512_sub_pd(nz, az), _mm512_div_pd(_mm512_sub_pd(t[h], at[h]),
+                                                                             _mm512_sub_pd(past[h], at[h]))));
+    const __m512d height = _mm512_mask_blend_pd(ray, segment_height, ray_height);
+    hidden[h] = ok[h] & _mm512_cmp_pd_mask(set8(l.f.camera.z), height, _CMP_LE_OQ);
+  }
+}
+
+// Per batch: its groups, the camera's offset from their centres, the
+// squared distance, the radii, and which lanes have the camera outside
+// the circle.
+struct Centres8 {
+  __m512i g;
+  __m512d dx, dy, d2, r;
+  __mmask8 out;
+};
+
 // hidden() for the lanes of k.
-HORIZON_AVX512 __mmask8 hidden8(const Lanes8& l, __mmask8 k, __m512d dx, __m512d dy, __m512d d2, __m512d r,
-                                __mmask8 out) {
-  const int s = l.m.sectors;
-  const __m512d d = _mm512_sqrt_pd(d2);
-  const __m512d sine = _mm512_add_pd(_mm512_mul_pd(_mm512_div_pd(r, d), set8(1 + 1e-9)), set8(1e-12));
-  const __mmask8 wide = out & _mm512_cmp_pd_mask(sine, set8(1.0), _CMP_LT_OQ);
-  const __m512d cosine = _mm512_sqrt_pd(_mm512_sub_pd(set8(1.0), _mm512_mul_pd(sine, sine)));
-  const __m512d ux = _mm512_div_pd(dx, d), uy = _mm512_div_pd(dy, d);
-  const __m512i vs = seti8(s);
-  __m512i first = _mm512_setzero_si512(), count = vs;
-  if (wide) {
-    const __m512i a = sector_of8(l.m, _mm512_add_pd(_mm512_mul_pd(ux, cosine), _mm512_mul_pd(uy, sine)),
-                                 _mm512_sub_pd(_mm512_mul_pd(uy, cosine), _mm512_mul_pd(ux, sine)));
-    const __m512i b = sector_of8(l.m, _mm512_sub_pd(_mm512_mul_pd(ux, cosine), _mm512_mul_pd(uy, sine)),
-                                 _mm512_add_pd(_mm512_mul_pd(uy, cosine), _mm512_mul_pd(ux, sine)));
-    __m512i span = _mm512_add_epi32(_mm512_sub_epi32(b, a), vs);  // (last − first + s) % s, for both in [0, s)
-    span = _mm512_mask_sub_epi32(span, static_cast<__mmask16>(~lt_i(span, vs)), span, vs);
-    first = _mm512_mask_mov_epi32(first, wide, a);
-    count = _mm512_mask_mov_epi32(count, wide, _mm512_add_epi32(span, seti8(1)));
+template <int H>
+HORIZON_AVX512 void hidden8(const Lanes8& l, const __mmask8* k, const Centres8* c, __mmask8* hid) {
+  const __m512i vs = seti8(l.m.sectors);
+  __m512i count[H], sector[H], base[H];
+  for (int h = 0; h < H; ++h) {
+    const __m512d d = _mm512_sqrt_pd(c[h].d2);
+    const __m512d sine = _mm512_add_pd(_mm512_mul_pd(_mm512_div_pd(c[h].r, d), set8(1 + 1e-9)), set8(1e-12));
+    const __mmask8 wide = c[h].out & _mm512_cmp_pd_mask(sine, set8(1.0), _CMP_LT_OQ);
+    sector[h] = _mm512_setzero_si512();
+    count[h] = vs;
+    if (wide) {
+      const __m512d cosine = _mm512_sqrt_pd(_mm512_sub_pd(set8(1.0), _mm512_mul_pd(sine, sine)));
+      const __m512d ux = _mm512_div_pd(c[h].dx, d), uy = _mm512_div_pd(c[h].dy, d);
+      const __m512i a = sector_of8(l.m, _mm512_add_pd(_mm512_mul_pd(ux, cosine), _mm512_mul_pd(uy, sine)),
+                                   _mm512_sub_pd(_mm512_mul_pd(uy, cosine), _mm512_mul_pd(ux, sine)));
+      const __m512i b = sector_of8(l.m, _mm512_sub_pd(_mm512_mul_pd(ux, cosine), _mm512_mul_pd(uy, sine)),
+                                   _mm512_add_pd(_mm512_mul_pd(uy, cosine), _mm512_mul_pd(ux, sine)));
+      __m512i span = _mm512_add_epi32(_mm512_sub_epi32(b, a), vs);  // (last − first + s) % s, for both in [0, s)
+      span = _mm512_mask_sub_epi32(span, static_cast<__mmask16>(~lt_i(span, vs)), span, vs);
+      sector[h] = _mm512_mask_mov_epi32(sector[h], wide, a);
+      count[h] = _mm512_mask_mov_epi32(count[h], wide, _mm512_add_epi32(span, seti8(1)));
+    }
+    base[h] = _mm512_mullo_epi32(c[h].g, vs);
+    hid[h] = k[h];
   }
-  const __m512i base = _mm512_mullo_epi32(l.g, vs);
-  __mmask8 hid = k;
-  __m512i sector = first;
   for (int i = 0;; ++i) {
-    const __mmask8 lanes = hid & lt_i(seti8(i), count);
-    if (!lanes) break;
-    const __mmask8 in = hidden_in8(l, lanes, _mm512_add_epi32(base, sector), sector);
-    hid &= static_cast<__mmask8>(~(lanes & static_cast<__mmask8>(~in)));
-    sector = _mm512_add_epi32(sector, seti8(1));
-    sector = _mm512_mask_sub_epi32(sector, static_cast<__mmask16>(~lt_i(sector, vs)), sector, vs);
+    __mmask8 lanes[H], in[H];
+    __m512i chain[H];
+    unsigned any = 0;
+    for (int h = 0; h < H; ++h) {
+      lanes[h] = hid[h] & lt_i(seti8(i), count[h]);
+      chain[h] = _mm512_add_epi32(base[h], sector[h]);
+      any |= lanes[h];
+    }
+    if (!any) break;
+    hidden_in8<H>(l, lanes, chain, sector, in);
+    for (int h = 0; h < H; ++h) {
+      hid[h] &= static_cast<__mmask8>(~(lanes[h] & static_cast<__mmask8>(~in[h])));
+      sector[h] = _mm512_add_epi32(sector[h], seti8(1));
+      sector[h] = _mm512_mask_sub_epi32(sector[h], static_cast<__mmask16>(~lt_i(sector[h], vs)), sector[h], vs);
+    }
   }
-  return hid;
 }
 
 // walled() for the lanes of k.
-HORIZON_AVX512 __mmask8 walled8(const Lanes8& l, __mmask8 k, __m512d dx, __m512d dy, __m512d d2, __m512d r,
-                                __mmask8 out) {
+template <int H>
+HORIZON_AVX512 void walled8(const Lanes8& l, const __mmask8* k, const Centres8* c, __mmask8* culled) {
   const PreparedMesh& m = l.m;
   const __m512i one = seti8(1);
-  const __m512d d = _mm512_sqrt_pd(d2);
-  __mmask8 ok = k & out & _mm512_cmp_pd_mask(d, r, _CMP_NLE_UQ);
-  if (!ok) return 0;
-  const __m512i chain = _mm512_add_epi32(_mm512_mullo_epi32(l.g, seti8(m.sectors)), sector_of8(m, dx, dy));
-  const __m512i begin = gatheri8(ok, chain, m.wall_begin.data());
-  const __m512i end = gatheri8(ok, _mm512_add_epi32(chain, one), m.wall_begin.data());
-  ok &= static_cast<__mmask8>(~eq_i(begin, end));
-  ok &= _mm512_cmp_pd_mask(gather8(ok, begin, m.wall_radius.data()), d, _CMP_NGE_UQ);
-  __m512i best = begin;
-  for (;;) {
-    const __m512i next = _mm512_add_epi32(best, one);
-    __mmask8 more = ok & lt_i(next, end);
-    if (!more) break;
-    more &= _mm512_cmp_pd_mask(gather8(more, next, m.wall_radius.data()), d, _CMP_LT_OQ);
-    if (!more) break;
-    best = _mm512_mask_mov_epi32(best, more, next);
+  __m512d d[H];
+  __m512i best[H], end[H];
+  __mmask8 ok[H], walking[H];
+  unsigned any = 0;
+  for (int h = 0; h < H; ++h) {
+    d[h] = _mm512_sqrt_pd(c[h].d2);
+    ok[h] = k[h] & c[h].out & _mm512_cmp_pd_mask(d[h], c[h].r, _CMP_NLE_UQ);
+    const __m512i chain = _mm512_add_epi32(_mm512_mullo_epi32(c[h].g, seti8(m.sectors)), sector_of8(m, c[h].dx, c[h].dy));
+    pair8(ok[h], chain, m.wall_begin.data(), best[h], end[h]);
+    ok[h] &= static_cast<__mmask8>(~eq_i(best[h], end[h]));
+    // Most chains have no wall: skip the gathers of a batch without one.
+    if (ok[h]) ok[h] &= _mm512_cmp_pd_mask(gather8(ok[h], best[h], m.wall_radius.data()), d[h], _CMP_NGE_UQ);
+    walking[h] = ok[h];
+    any |= ok[h];
   }
-  if (!ok) return 0;
-  const __m512d bound = _mm512_add_pd(gather8(ok, l.g, m.group_top.data()),
-                                      _mm512_mul_pd(gather8(ok, best, m.wall_slope.data()), _mm512_sub_pd(d, r)));
-  return ok & _mm512_cmp_pd_mask(set8(l.f.camera.z), bound, _CMP_LT_OQ);
+  while (any) {
+    any = 0;
+    for (int h = 0; h < H; ++h) {
+      const __m512i next = _mm512_add_epi32(best[h], one);
+      __mmask8 more = walking[h] & lt_i(next, end[h]);
+      more &= _mm512_cmp_pd_mask(gather8(more, next, m.wall_radius.data()), d[h], _CMP_LT_OQ);
+      best[h] = _mm512_mask_mov_epi32(best[h], more, next);
+      walking[h] = more;
+      any |= more;
+    }
+  }
+  for (int h = 0; h < H; ++h) {
+    culled[h] = 0;
+    if (!ok[h]) continue;
+    const __m512d bound =
+        _mm512_add_pd(gather8(ok[h], c[h].g, m.group_top.data()),
+                      _mm512_mul_pd(gather8(ok[h], best[h], m.wall_slope.data()), _mm512_sub_pd(d[h], c[h].r)));
+    culled[h] = ok[h] & _mm512_cmp_pd_mask(set8(l.f.camera.z), bound, _CMP_LT_OQ);
+  }
 }
 
 // The frustum for all eight lanes (the header's argument); ids for the
@@ -208,21 +273,41 @@ HORIZON_AVX512 __mmask8 frustum8(const Lanes8& l, const std::uint32_t* ids, __m5
 
 HORIZON_AVX512 void cull_lanes_avx512(const CullFrame& f, const std::uint32_t* ids, std::size_t n,
                                       std::uint8_t* verdict) {
+  constexpr int H = 2;
   const PreparedMesh& m = *f.mesh;
-  const GroupColumns& c = m.columns;
-  for (std::size_t at = 0; at < n; at += 8) {
-    const Lanes8 l{f, m, _mm512_zextsi256_si512(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(ids + at)))};
-    const __m512d x = gather8(0xff, l.g, c.x.data()), y = gather8(0xff, l.g, c.y.data());
-    const __m512d r = gather8(0xff, l.g, c.radius.data());
-    const __m512d dx = _mm512_sub_pd(set8(f.camera.x), x), dy = _mm512_sub_pd(set8(f.camera.y), y);
-    const __m512d d2 = _mm512_add_pd(_mm512_mul_pd(dx, dx), _mm512_mul_pd(dy, dy));
-    const __mmask8 out = _mm512_cmp_pd_mask(d2, _mm512_mul_pd(r, r), _CMP_GT_OQ);
-    const __mmask8 framed = f.frustum ? frustum8(l, ids + at, x, y, d2, r) : __mmask8{0};
-    const __mmask8 k = static_cast<__mmask8>(~framed);
-    __mmask8 culled = 0;
-    if (k) culled = f.mode == CullMode::kConservative ? walled8(l, k, dx, dy, d2, r, out) : hidden8(l, k, dx, dy, d2, r, out);
-    for (int i = 0; i < 8; ++i)
-      verdict[at + static_cast<std::size_t>(i)] = (framed >> i & 1) ? kFrustumCulled : (culled >> i & 1) ? kRegionCulled : kOpen;
+  const GroupColumns& columns = m.columns;
+  double t16[16] = {};
+  for (int i = 0; i < m.sectors && i < 16; ++i) t16[i] = f.sector_t[i];
+  const Lanes8 l{f, m, _mm512_loadu_pd(t16), _mm512_loadu_pd(t16 + 8)};
+  for (std::size_t at = 0; at < n; at += 8 * H) {
+    Centres8 c[H];
+    __mmask8 framed[H], k[H], culled[H];
+    unsigned any = 0;
+    for (int h = 0; h < H; ++h) {
+      const std::uint32_t* batch = ids + at + 8 * static_cast<std::size_t>(h);
+      c[h].g = _mm512_zextsi256_si512(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(batch)));
+      const __m512d x = gather8(0xff, c[h].g, columns.x.data()), y = gather8(0xff, c[h].g, columns.y.data());
+      c[h].r = gather8(0xff, c[h].g, columns.radius.data());
+      c[h].dx = _mm512_sub_pd(set8(f.camera.x), x);
+      c[h].dy = _mm512_sub_pd(set8(f.camera.y), y);
+      c[h].d2 = _mm512_add_pd(_mm512_mul_pd(c[h].dx, c[h].dx), _mm512_mul_pd(c[h].dy, c[h].dy));
+      c[h].out = _mm512_cmp_pd_mask(c[h].d2, _mm512_mul_pd(c[h].r, c[h].r), _CMP_GT_OQ);
+      framed[h] = f.frustum ? frustum8(l, batch, x, y, c[h].d2, c[h].r) : __mmask8{0};
+      k[h] = static_cast<__mmask8>(~framed[h]);
+      culled[h] = 0;
+      any |= k[h];
+    }
+    if (any) {
+      if (f.mode == CullMode::kConservative)
+        walled8<H>(l, k, c, culled);
+      else
+        hidden8<H>(l, k, c, culled);
+    }
+    for (int h = 0; h < H; ++h)
+      for (int i = 0; i < 8; ++i)
+        verdict[at + static_cast<std::size_t>(8 * h + i)] = (framed[h] >> i & 1)   ? kFrustumCulled
+                                                            : (culled[h] >> i & 1) ? kRegionCulled
+                                                                                   : kOpen;
   }
 }
 
@@ -236,7 +321,6 @@ namespace {
 struct Lanes4 {
   const CullFrame& f;
   const PreparedMesh& m;
-  __m128i g;
 };
 
 HORIZON_AVX2 inline __m256d set4(double x) {
@@ -260,9 +344,6 @@ HORIZON_AVX2 inline unsigned bits(__m128i m) {
 }
 HORIZON_AVX2 inline __m256d gather4(unsigned k, __m128i index, const double* base) {
   return _mm256_mask_i32gather_pd(_mm256_setzero_pd(), base, index, mask_d(k), 8);
-}
-HORIZON_AVX2 inline __m128i gatheri4(unsigned k, __m128i index, const std::uint32_t* base) {
-  return _mm_mask_i32gather_epi32(_mm_setzero_si128(), reinterpret_cast<const int*>(base), index, mask_i(k), 4);
 }
 HORIZON_AVX2 inline __m256d blend4(unsigned k, __m256d a, __m256d b) {  // b where k, else a
   return _mm256_blendv_pd(a, b, mask_d(k));
@@ -295,92 +376,149 @@ HORIZON_AVX2 __m128i sector_of4(const PreparedMesh& m, __m256d x, __m256d y) {
   return _mm_sub_epi32(narrow, seti4(1));
 }
 
-HORIZON_AVX2 unsigned hidden_in4(const Lanes4& l, unsigned k, __m128i chain, __m128i sector) {
-  const PreparedMesh& m = l.m;
-  const __m128i one = seti4(1);
-  const __m128i begin = gatheri4(k, chain, m.chain_begin.data());
-  const __m128i end = gatheri4(k, _mm_add_epi32(chain, one), m.chain_begin.data());
-  const __m256d t = gather4(k, sector, l.f.sector_t);
-  unsigned ok = k & ~eq_i(begin, end);
-  ok &= bits(_mm256_cmp_pd(t, gather4(ok, begin, m.corner_t.data()), _CMP_NLT_UQ));
-  __m128i j = begin;
-  for (;;) {
-    const __m128i next = _mm_add_epi32(j, one);
-    unsigned more = ok & lt_i(next, end);
-    if (!more) break;
-    more &= bits(_mm256_cmp_pd(gather4(more, next, m.corner_t.data()), t, _CMP_LE_OQ));
-    if (!more) break;
-    j = blendi4(more, j, next);
-  }
-  if (!ok) return 0;
-  const __m128i next = _mm_add_epi32(j, one);
-  const unsigned ray = ok & eq_i(next, end);
-  const unsigned segment = ok & ~ray;
-  const __m256d at = gather4(ok, j, m.corner_t.data()), az = gather4(ok, j, m.corner_z.data());
-  const __m256d ray_height =
-      _mm256_add_pd(az, _mm256_mul_pd(gather4(ray, chain, m.chain_slope.data()), _mm256_sub_pd(t, at)));
-  const __m256d nt = gather4(segment, next, m.corner_t.data()), nz = gather4(segment, next, m.corner_z.data());
-  const __m256d segment_height = _mm256_add_pd(
-      az, _mm256_mul_pd(_mm256_sub_pd(nz, az), _mm256_div_pd(_mm256_sub_pd(t, at), _mm256_sub_pd(nt, at))));
-  const __m256d height = blend4(ray, segment_height, ray_height);
-  return ok & bits(_mm256_cmp_pd(set4(l.f.camera.z), height, _CMP_LE_OQ));
+// begin[index] and begin[index + 1] for the lanes of k, by one 64-bit
+// gather of the adjacent pair.
+HORIZON_AVX2 inline void pair4(unsigned k, __m128i index, const std::uint32_t* begin, __m128i& first,
+                               __m128i& second) {
+  const __m256i both = _mm256_mask_i32gather_epi64(_mm256_setzero_si256(), reinterpret_cast<const long long*>(begin),
+                                                   index, _mm256_castpd_si256(mask_d(k)), 4);
+  first = _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(both, _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6)));
+  second = _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(both, _mm256_setr_epi32(1, 3, 5, 7, 1, 3, 5, 7)));
 }
 
-HORIZON_AVX2 unsigned hidden4(const Lanes4& l, unsigned k, __m256d dx, __m256d dy, __m256d d2, __m256d r,
-                              unsigned out) {
-  const __m256d d = _mm256_sqrt_pd(d2);
-  const __m256d sine = _mm256_add_pd(_mm256_mul_pd(_mm256_div_pd(r, d), set4(1 + 1e-9)), set4(1e-12));
-  const unsigned wide = out & bits(_mm256_cmp_pd(sine, set4(1.0), _CMP_LT_OQ));
-  const __m256d cosine = _mm256_sqrt_pd(_mm256_sub_pd(set4(1.0), _mm256_mul_pd(sine, sine)));
-  const __m256d ux = _mm256_div_pd(dx, d), uy = _mm256_div_pd(dy, d);
+// hidden_in8's twin, H batches of four side by side.
+template <int H>
+HORIZON_AVX2 void hidden_in4(const Lanes4& l, const unsigned* k, const __m128i* chain, const __m128i* sector,
+                             unsigned* hidden) {
+  const PreparedMesh& m = l.m;
+  const __m128i one = seti4(1);
+  __m128i begin[H], end[H], j[H];
+  __m256d t[H], at[H], past[H];
+  unsigned ok[H], walking[H], any = 0;
+  for (int h = 0; h < H; ++h) {
+    pair4(k[h], chain[h], m.chain_begin.data(), begin[h], end[h]);
+    t[h] = gather4(k[h], sector[h], l.f.sector_t);
+    ok[h] = k[h] & ~eq_i(begin[h], end[h]);
+    at[h] = gather4(ok[h], begin[h], m.corner_t.data());
+    ok[h] &= bits(_mm256_cmp_pd(t[h], at[h], _CMP_NLT_UQ));
+    j[h] = begin[h];
+    past[h] = _mm256_setzero_pd();
+    walking[h] = ok[h];
+    any |= ok[h];
+  }
+  while (any) {
+    any = 0;
+    for (int h = 0; h < H; ++h) {
+      const __m128i next = _mm_add_epi32(j[h], one);
+      const unsigned more = walking[h] & lt_i(next, end[h]);
+      const __m256d nt = gather4(more, next, m.corner_t.data());
+      const unsigned step = more & bits(_mm256_cmp_pd(nt, t[h], _CMP_LE_OQ));
+      past[h] = blend4(more & ~step, past[h], nt);
+      at[h] = blend4(step, at[h], nt);
+      j[h] = blendi4(step, j[h], next);
+      walking[h] = step;
+      any |= step;
+    }
+  }
+  for (int h = 0; h < H; ++h) {
+    const __m128i next = _mm_add_epi32(j[h], one);
+    const unsigned ray = ok[h] & eq_i(next, end[h]);
+    const unsigned segment = ok[h] & ~ray;
+    const __m256d az = gather4(ok[h], j[h], m.corner_z.data());
+    const __m256d ray_height =
+        _mm256_add_pd(az, _mm256_mul_pd(gather4(ray, chain[h], m.chain_slope.data()), _mm256_sub_pd(t[h], at[h])));
+    const __m256d nz = gather4(segment, next, m.corner_z.data());
+    const __m256d segment_height =
+        _mm256_add_pd(az, _mm256_mul_pd(_mm256_sub_pd(nz, az), _mm256_div_pd(_mm256_sub_pd(t[h], at[h]),
+                                                                             _mm256_sub_pd(past[h], at[h]))));
+    const __m256d height = blend4(ray, segment_height, ray_height);
+    hidden[h] = ok[h] & bits(_mm256_cmp_pd(set4(l.f.camera.z), height, _CMP_LE_OQ));
+  }
+}
+
+struct Centres4 {
+  __m128i g;
+  __m256d dx, dy, d2, r;
+  unsigned out;
+};
+
+template <int H>
+HORIZON_AVX2 void hidden4(const Lanes4& l, const unsigned* k, const Centres4* c, unsigned* hid) {
   const __m128i vs = seti4(l.m.sectors);
-  __m128i first = _mm_setzero_si128(), count = vs;
-  if (wide) {
-    const __m128i a = sector_of4(l.m, _mm256_add_pd(_mm256_mul_pd(ux, cosine), _mm256_mul_pd(uy, sine)),
-                                 _mm256_sub_pd(_mm256_mul_pd(uy, cosine), _mm256_mul_pd(ux, sine)));
-    const __m128i b = sector_of4(l.m, _mm256_sub_pd(_mm256_mul_pd(ux, cosine), _mm256_mul_pd(uy, sine)),
-                                 _mm256_add_pd(_mm256_mul_pd(uy, cosine), _mm256_mul_pd(ux, sine)));
-    const __m128i span = wrap_i(_mm_add_epi32(_mm_sub_epi32(b, a), vs), vs);
-    first = blendi4(wide, first, a);
-    count = blendi4(wide, count, _mm_add_epi32(span, seti4(1)));
+  __m128i count[H], sector[H], base[H];
+  for (int h = 0; h < H; ++h) {
+    const __m256d d = _mm256_sqrt_pd(c[h].d2);
+    const __m256d sine = _mm256_add_pd(_mm256_mul_pd(_mm256_div_pd(c[h].r, d), set4(1 + 1e-9)), set4(1e-12));
+    const unsigned wide = c[h].out & bits(_mm256_cmp_pd(sine, set4(1.0), _CMP_LT_OQ));
+    sector[h] = _mm_setzero_si128();
+    count[h] = vs;
+    if (wide) {
+      const __m256d cosine = _mm256_sqrt_pd(_mm256_sub_pd(set4(1.0), _mm256_mul_pd(sine, sine)));
+      const __m256d ux = _mm256_div_pd(c[h].dx, d), uy = _mm256_div_pd(c[h].dy, d);
+      const __m128i a = sector_of4(l.m, _mm256_add_pd(_mm256_mul_pd(ux, cosine), _mm256_mul_pd(uy, sine)),
+                                   _mm256_sub_pd(_mm256_mul_pd(uy, cosine), _mm256_mul_pd(ux, sine)));
+      const __m128i b = sector_of4(l.m, _mm256_sub_pd(_mm256_mul_pd(ux, cosine), _mm256_mul_pd(uy, sine)),
+                                   _mm256_add_pd(_mm256_mul_pd(uy, cosine), _mm256_mul_pd(ux, sine)));
+      const __m128i span = wrap_i(_mm_add_epi32(_mm_sub_epi32(b, a), vs), vs);
+      sector[h] = blendi4(wide, sector[h], a);
+      count[h] = blendi4(wide, count[h], _mm_add_epi32(span, seti4(1)));
+    }
+    base[h] = _mm_mullo_epi32(c[h].g, vs);
+    hid[h] = k[h];
   }
-  const __m128i base = _mm_mullo_epi32(l.g, vs);
-  unsigned hid = k;
-  __m128i sector = first;
   for (int i = 0;; ++i) {
-    const unsigned lanes = hid & lt_i(seti4(i), count);
-    if (!lanes) break;
-    hid &= ~(lanes & ~hidden_in4(l, lanes, _mm_add_epi32(base, sector), sector));
-    sector = wrap_i(_mm_add_epi32(sector, seti4(1)), vs);
+    unsigned lanes[H], in[H], any = 0;
+    __m128i chain[H];
+    for (int h = 0; h < H; ++h) {
+      lanes[h] = hid[h] & lt_i(seti4(i), count[h]);
+      chain[h] = _mm_add_epi32(base[h], sector[h]);
+      any |= lanes[h];
+    }
+    if (!any) break;
+    hidden_in4<H>(l, lanes, chain, sector, in);
+    for (int h = 0; h < H; ++h) {
+      hid[h] &= ~(lanes[h] & ~in[h]);
+      sector[h] = wrap_i(_mm_add_epi32(sector[h], seti4(1)), vs);
+    }
   }
-  return hid;
 }
 
-HORIZON_AVX2 unsigned walled4(const Lanes4& l, unsigned k, __m256d dx, __m256d dy, __m256d d2, __m256d r,
-                              unsigned out) {
+template <int H>
+HORIZON_AVX2 void walled4(const Lanes4& l, const unsigned* k, const Centres4* c, unsigned* culled) {
   const PreparedMesh& m = l.m;
   const __m128i one = seti4(1);
-  const __m256d d = _mm256_sqrt_pd(d2);
-  unsigned ok = k & out & bits(_mm256_cmp_pd(d, r, _CMP_NLE_UQ));
-  if (!ok) return 0;
-  const __m128i chain = _mm_add_epi32(_mm_mullo_epi32(l.g, seti4(m.sectors)), sector_of4(m, dx, dy));
-  const __m128i begin = gatheri4(ok, chain, m.wall_begin.data());
-  const __m128i end = gatheri4(ok, _mm_add_epi32(chain, one), m.wall_begin.data());
-  ok &= ~eq_i(begin, end);
-  ok &= bits(_mm256_cmp_pd(gather4(ok, begin, m.wall_radius.data()), d, _CMP_NGE_UQ));
-  __m128i best = begin;
-  for (;;) {
-    const __m128i next = _mm_add_epi32(best, one);
-    unsigned more = ok & lt_i(next, end);
-    if (!more) break;
-    more &= bits(_mm256_cmp_pd(gather4(more, next, m.wall_radius.data()), d, _CMP_LT_OQ));
-    if (!more) break;
-    best = blendi4(more, best, next);
+  __m256d d[H];
+  __m128i best[H], end[H];
+  unsigned ok[H], walking[H], any = 0;
+  for (int h = 0; h < H; ++h) {
+    d[h] = _mm256_sqrt_pd(c[h].d2);
+    ok[h] = k[h] & c[h].out & bits(_mm256_cmp_pd(d[h], c[h].r, _CMP_NLE_UQ));
+    const __m128i chain = _mm_add_epi32(_mm_mullo_epi32(c[h].g, seti4(m.sectors)), sector_of4(m, c[h].dx, c[h].dy));
+    pair4(ok[h], chain, m.wall_begin.data(), best[h], end[h]);
+    ok[h] &= ~eq_i(best[h], end[h]);
+    if (ok[h]) ok[h] &= bits(_mm256_cmp_pd(gather4(ok[h], best[h], m.wall_radius.data()), d[h], _CMP_NGE_UQ));
+    walking[h] = ok[h];
+    any |= ok[h];
   }
-  if (!ok) return 0;
-  const __m256d bound = _mm256_add_pd(gather4(ok, l.g, m.group_top.data()),
-                                      _mm256_mul_pd(gather4(ok, best, m.wall_slope.data()), _mm256_sub_pd(d, r)));
-  return ok & bits(_mm256_cmp_pd(set4(l.f.camera.z), bound, _CMP_LT_OQ));
+  while (any) {
+    any = 0;
+    for (int h = 0; h < H; ++h) {
+      const __m128i next = _mm_add_epi32(best[h], one);
+      unsigned more = walking[h] & lt_i(next, end[h]);
+      more &= bits(_mm256_cmp_pd(gather4(more, next, m.wall_radius.data()), d[h], _CMP_LT_OQ));
+      best[h] = blendi4(more, best[h], next);
+      walking[h] = more;
+      any |= more;
+    }
+  }
+  for (int h = 0; h < H; ++h) {
+    culled[h] = 0;
+    if (!ok[h]) continue;
+    const __m256d bound =
+        _mm256_add_pd(gather4(ok[h], c[h].g, m.group_top.data()),
+                      _mm256_mul_pd(gather4(ok[h], best[h], m.wall_slope.data()), _mm256_sub_pd(d[h], c[h].r)));
+    culled[h] = ok[h] & bits(_mm256_cmp_pd(set4(l.f.camera.z), bound, _CMP_LT_OQ));
+  }
 }
 
 HORIZON_AVX2 unsigned frustum4(const Lanes4& l, const std::uint32_t* ids, __m256d x, __m256d y, __m256d d2,
@@ -411,21 +549,38 @@ HORIZON_AVX2 unsigned frustum4(const Lanes4& l, const std::uint32_t* ids, __m256
 }  // namespace
 
 HORIZON_AVX2 void cull_lanes_avx2(const CullFrame& f, const std::uint32_t* ids, std::size_t n, std::uint8_t* verdict) {
+  constexpr int H = 2;
   const PreparedMesh& m = *f.mesh;
-  const GroupColumns& c = m.columns;
-  for (std::size_t at = 0; at < n; at += 4) {
-    const Lanes4 l{f, m, _mm_loadu_si128(reinterpret_cast<const __m128i*>(ids + at))};
-    const __m256d x = gather4(0xf, l.g, c.x.data()), y = gather4(0xf, l.g, c.y.data());
-    const __m256d r = gather4(0xf, l.g, c.radius.data());
-    const __m256d dx = _mm256_sub_pd(set4(f.camera.x), x), dy = _mm256_sub_pd(set4(f.camera.y), y);
-    const __m256d d2 = _mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy));
-    const unsigned out = bits(_mm256_cmp_pd(d2, _mm256_mul_pd(r, r), _CMP_GT_OQ));
-    const unsigned framed = f.frustum ? frustum4(l, ids + at, x, y, d2, r) : 0u;
-    const unsigned k = 0xfu & ~framed;
-    unsigned culled = 0;
-    if (k) culled = f.mode == CullMode::kConservative ? walled4(l, k, dx, dy, d2, r, out) : hidden4(l, k, dx, dy, d2, r, out);
-    for (int i = 0; i < 4; ++i)
-      verdict[at + static_cast<std::size_t>(i)] = (framed >> i & 1) ? kFrustumCulled : (culled >> i & 1) ? kRegionCulled : kOpen;
+  const GroupColumns& columns = m.columns;
+  const Lanes4 l{f, m};
+  for (std::size_t at = 0; at < n; at += 4 * H) {
+    Centres4 c[H];
+    unsigned framed[H], k[H], culled[H], any = 0;
+    for (int h = 0; h < H; ++h) {
+      const std::uint32_t* batch = ids + at + 4 * static_cast<std::size_t>(h);
+      c[h].g = _mm_loadu_si128(reinterpret_cast<const __m128i*>(batch));
+      const __m256d x = gather4(0xf, c[h].g, columns.x.data()), y = gather4(0xf, c[h].g, columns.y.data());
+      c[h].r = gather4(0xf, c[h].g, columns.radius.data());
+      c[h].dx = _mm256_sub_pd(set4(f.camera.x), x);
+      c[h].dy = _mm256_sub_pd(set4(f.camera.y), y);
+      c[h].d2 = _mm256_add_pd(_mm256_mul_pd(c[h].dx, c[h].dx), _mm256_mul_pd(c[h].dy, c[h].dy));
+      c[h].out = bits(_mm256_cmp_pd(c[h].d2, _mm256_mul_pd(c[h].r, c[h].r), _CMP_GT_OQ));
+      framed[h] = f.frustum ? frustum4(l, batch, x, y, c[h].d2, c[h].r) : 0u;
+      k[h] = 0xfu & ~framed[h];
+      culled[h] = 0;
+      any |= k[h];
+    }
+    if (any) {
+      if (f.mode == CullMode::kConservative)
+        walled4<H>(l, k, c, culled);
+      else
+        hidden4<H>(l, k, c, culled);
+    }
+    for (int h = 0; h < H; ++h)
+      for (int i = 0; i < 4; ++i)
+        verdict[at + static_cast<std::size_t>(4 * h + i)] = (framed[h] >> i & 1)   ? kFrustumCulled
+                                                            : (culled[h] >> i & 1) ? kRegionCulled
+                                                                                   : kOpen;
   }
 }
 

@@ -43,7 +43,7 @@ struct CullFrame {
 // Verdicts, one a group.
 enum LaneVerdict : std::uint8_t { kOpen = 0, kRegionCulled = 1, kFrustumCulled = 2 };
 
-// Groups ids[0, n) (n a multiple of 8) into verdict[0, n); the caller
+// Groups ids[0, n) (n a multiple of 16) into verdict[0, n); the caller
 // checks that they can run (kernel_isa(), mesh.columns.usable). Defined
 // where HORIZON_SIMD_AVX2 is (common/simd_isa.hpp).
 void cull_lanes_avx2(const CullFrame& frame, const std::uint32_t* ids, std::size_t n, std::uint8_t* verdict);
