@@ -1,7 +1,9 @@
 // The cull's vector kernels (cull_lanes.hpp): AVX-512 (eight doubles, mask
 // registers) and AVX2 (four doubles, masks as bit sets expanded when a
 // gather or a blend needs them), each the scalar twin's arithmetic of
-// cull.cpp lane by lane. The file is built with -ffp-contract=off (all of
+// cull.cpp lane by lane. Gathers are most of the cost, so each form runs
+// two batches side by side (H = 2) and reads what it can once: a chain's
+// begin and end in one 64-bit gather, the corners the walk passed kept. The file is built with -ffp-contract=off (all of
 // horizon_mesh is): a * b + c must round twice here as it does there.
 //
 // The frustum. The scalar test asks whether the circle's arc of

@@ -1,6 +1,7 @@
 // mesh/cull_lanes.hpp (private) — the cull's vector form (cull.hpp):
-// one level of the hierarchy's groups at a time, four (AVX2) or eight
-// (AVX-512) lanes of doubles a step, each lane one group.
+// one level of the hierarchy's groups at a time, each lane one group, in
+// vectors of four (AVX2) or eight (AVX-512) doubles, two such batches
+// side by side (eight or sixteen groups a step).
 //
 // A lane runs the scalar twin's arithmetic (cull.cpp) operation for
 // operation, in the same order and with the same comparisons (NaN
