@@ -24,6 +24,8 @@
 // scalar test itself.
 #include "mesh/cull_lanes.hpp"
 
+#include <cmath>
+
 #include "common/simd_isa.hpp"
 
 namespace horizon::mesh {
@@ -39,7 +41,8 @@ constexpr double kCertainAngle = 1e-8;   // g against ± this · d
 struct Lanes8 {
   const CullFrame& f;
   const PreparedMesh& m;
-  __m512d t_low, t_high;  // sector_t[0, 16), where there are no more sectors
+  __m512d t_low, t_high;            // sector_t[0, 16), where there are no more sectors
+  __m512d starts_low, starts_high;  // sector_starts[0, 16), padded with +inf
 };
 
 HORIZON_AVX512 inline __m512d set8(double x) {
@@ -61,19 +64,34 @@ HORIZON_AVX512 inline __mmask8 eq_i(__m512i a, __m512i b) {
   return static_cast<__mmask8>(_mm512_cmpeq_epi32_mask(a, b));
 }
 
-// PreparedMesh::sector_of lane by lane: pseudo_angle, then how many
-// sector starts are not above it, less one (upper_bound's answer, NaN
-// included: it compares above none, so it lands in the last sector).
-HORIZON_AVX512 __m512i sector_of8(const PreparedMesh& m, __m512d x, __m512d y) {
+// PreparedMesh::sector_of lane by lane: pseudo_angle, then the last
+// sector start not above it, as upper_bound finds it (NaN, which compares
+// above none, lands in the last sector). Up to sixteen starts sit in two
+// registers, padded with +inf, and are searched by halves; more are
+// counted one by one.
+HORIZON_AVX512 __m512i sector_of8(const Lanes8& l, __m512d x, __m512d y) {
   const __m512d sign = set8(-0.0);
   const __m512d ax = _mm512_castsi512_pd(_mm512_andnot_si512(_mm512_castpd_si512(sign), _mm512_castpd_si512(x)));
   const __m512d ay = _mm512_castsi512_pd(_mm512_andnot_si512(_mm512_castpd_si512(sign), _mm512_castpd_si512(y)));
   const __m512d q = _mm512_div_pd(x, _mm512_add_pd(ax, ay));
   const __mmask8 up = _mm512_cmp_pd_mask(y, _mm512_setzero_pd(), _CMP_GE_OQ);
   const __m512d p = _mm512_mask_blend_pd(up, _mm512_add_pd(set8(3.0), q), _mm512_sub_pd(set8(1.0), q));
+  const int s = l.m.sectors;
+  if (s <= 16) {
+    // p >= 0 = starts[0] (|x| <= |x| + |y| after rounding too), so the
+    // search starts at 0 and finds the last start that p is not below.
+    __m512i at = _mm512_setzero_si512();
+    for (long long step : {8LL, 4LL, 2LL, 1LL}) {
+      const __m512i probe = _mm512_add_epi64(at, _mm512_set1_epi64(step));
+      const __mmask8 below =
+          _mm512_cmp_pd_mask(p, _mm512_permutex2var_pd(l.starts_low, probe, l.starts_high), _CMP_NLT_UQ);
+      at = _mm512_mask_mov_epi64(at, below, probe);
+    }
+    return _mm512_min_epi32(_mm512_zextsi256_si512(_mm512_cvtepi64_epi32(at)), seti8(s - 1));
+  }
   const __m512i one = seti8(1);
   __m512i count = _mm512_setzero_si512();
-  for (double start : m.sector_starts) {
+  for (double start : l.m.sector_starts) {
     const __mmask8 below = _mm512_cmp_pd_mask(p, set8(start), _CMP_NLT_UQ);
     count = _mm512_mask_add_epi32(count, below, count, one);
   }
@@ -171,9 +189,9 @@ HORIZON_AVX512 void hidden8(const Lanes8& l, const __mmask8* k, const Centres8* 
     if (wide) {
       const __m512d cosine = _mm512_sqrt_pd(_mm512_sub_pd(set8(1.0), _mm512_mul_pd(sine, sine)));
       const __m512d ux = _mm512_div_pd(c[h].dx, d), uy = _mm512_div_pd(c[h].dy, d);
-      const __m512i a = sector_of8(l.m, _mm512_add_pd(_mm512_mul_pd(ux, cosine), _mm512_mul_pd(uy, sine)),
+      const __m512i a = sector_of8(l, _mm512_add_pd(_mm512_mul_pd(ux, cosine), _mm512_mul_pd(uy, sine)),
                                    _mm512_sub_pd(_mm512_mul_pd(uy, cosine), _mm512_mul_pd(ux, sine)));
-      const __m512i b = sector_of8(l.m, _mm512_sub_pd(_mm512_mul_pd(ux, cosine), _mm512_mul_pd(uy, sine)),
+      const __m512i b = sector_of8(l, _mm512_sub_pd(_mm512_mul_pd(ux, cosine), _mm512_mul_pd(uy, sine)),
                                    _mm512_add_pd(_mm512_mul_pd(uy, cosine), _mm512_mul_pd(ux, sine)));
       __m512i span = _mm512_add_epi32(_mm512_sub_epi32(b, a), vs);  // (last − first + s) % s, for both in [0, s)
       span = _mm512_mask_sub_epi32(span, static_cast<__mmask16>(~lt_i(span, vs)), span, vs);
@@ -214,7 +232,7 @@ HORIZON_AVX512 void walled8(const Lanes8& l, const __mmask8* k, const Centres8* 
   for (int h = 0; h < H; ++h) {
     d[h] = _mm512_sqrt_pd(c[h].d2);
     ok[h] = k[h] & c[h].out & _mm512_cmp_pd_mask(d[h], c[h].r, _CMP_NLE_UQ);
-    const __m512i chain = _mm512_add_epi32(_mm512_mullo_epi32(c[h].g, seti8(m.sectors)), sector_of8(m, c[h].dx, c[h].dy));
+    const __m512i chain = _mm512_add_epi32(_mm512_mullo_epi32(c[h].g, seti8(m.sectors)), sector_of8(l, c[h].dx, c[h].dy));
     pair8(ok[h], chain, m.wall_begin.data(), best[h], end[h]);
     ok[h] &= static_cast<__mmask8>(~eq_i(best[h], end[h]));
     // Most chains have no wall: skip the gathers of a batch without one.
@@ -278,9 +296,13 @@ HORIZON_AVX512 void cull_lanes_avx512(const CullFrame& f, const std::uint32_t* i
   constexpr int H = 2;
   const PreparedMesh& m = *f.mesh;
   const GroupColumns& columns = m.columns;
-  double t16[16] = {};
-  for (int i = 0; i < m.sectors && i < 16; ++i) t16[i] = f.sector_t[i];
-  const Lanes8 l{f, m, _mm512_loadu_pd(t16), _mm512_loadu_pd(t16 + 8)};
+  double t16[16] = {}, starts16[16];
+  for (int i = 0; i < 16; ++i) {
+    t16[i] = i < m.sectors ? f.sector_t[i] : 0.0;
+    starts16[i] = i < m.sectors ? m.sector_starts[static_cast<std::size_t>(i)] : HUGE_VAL;
+  }
+  const Lanes8 l{f, m, _mm512_loadu_pd(t16), _mm512_loadu_pd(t16 + 8), _mm512_loadu_pd(starts16),
+                 _mm512_loadu_pd(starts16 + 8)};
   for (std::size_t at = 0; at < n; at += 8 * H) {
     Centres8 c[H];
     __mmask8 framed[H], k[H], culled[H];
@@ -369,10 +391,16 @@ HORIZON_AVX2 __m128i sector_of4(const PreparedMesh& m, __m256d x, __m256d y) {
   const __m256d q = _mm256_div_pd(x, _mm256_add_pd(_mm256_andnot_pd(sign, x), _mm256_andnot_pd(sign, y)));
   const __m256d up = _mm256_cmp_pd(y, _mm256_setzero_pd(), _CMP_GE_OQ);
   const __m256d p = _mm256_blendv_pd(_mm256_add_pd(set4(3.0), q), _mm256_sub_pd(set4(1.0), q), up);
-  // Each start not above p adds a lane's all-ones (−1) to a 64-bit count.
-  __m256i count = _mm256_setzero_si256();
-  for (double start : m.sector_starts)
-    count = _mm256_sub_epi64(count, _mm256_castpd_si256(_mm256_cmp_pd(p, set4(start), _CMP_NLT_UQ)));
+  // Each start not above p adds a lane's all-ones (−1) to a 64-bit count,
+  // in two sums that do not wait on each other.
+  __m256i even = _mm256_setzero_si256(), odd = _mm256_setzero_si256();
+  const std::size_t n = m.sector_starts.size();
+  for (std::size_t i = 0; i < n; i += 2) {
+    even = _mm256_sub_epi64(even, _mm256_castpd_si256(_mm256_cmp_pd(p, set4(m.sector_starts[i]), _CMP_NLT_UQ)));
+    if (i + 1 < n)
+      odd = _mm256_sub_epi64(odd, _mm256_castpd_si256(_mm256_cmp_pd(p, set4(m.sector_starts[i + 1]), _CMP_NLT_UQ)));
+  }
+  const __m256i count = _mm256_add_epi64(even, odd);
   const __m128i narrow =
       _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(count, _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6)));
   return _mm_sub_epi32(narrow, seti4(1));
