@@ -3,8 +3,9 @@
 // scalar twin does (the visible leaves in order, every count), in both
 // modes, with and without a view, from cameras inside and outside the
 // mesh, high and low, at group centres and on group circles, and with
-// view edges tangent to groups; and a mesh loaded from the cache has the
-// same columns as the prepared one.
+// view edges tangent to groups; a mesh loaded from the cache has the
+// same columns as the prepared one; and a hierarchy the vector form cannot
+// rank is culled by the scalar twin whatever the cap.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -17,6 +18,7 @@
 #include "horizon/mesh/prepared_mesh.hpp"
 #include "horizon/mesh/tin_from_dem.hpp"
 #include "horizon/terrain/dem_reader.hpp"
+#include "mesh/prepared_parts.hpp"  // core/src: set_group_columns
 #include "test_support.hpp"
 
 namespace horizon::mesh {
@@ -240,6 +242,34 @@ TEST(CullSimd, ALoadedMeshHasThePreparedColumns) {
   EXPECT_EQ(a->columns.leaf_rank, b->columns.leaf_rank);
   Totals t;
   if (!vector_isas().empty()) expect_forms_agree(*b, 30, t);
+}
+
+// A hierarchy that reaches a group twice (a damaged cache could name a
+// child as a root too) cannot be ranked: the columns say so and every
+// form answers as the scalar twin, the group counted each time it is
+// reached.
+TEST(CullSimd, AGroupReachedTwiceKeepsTheCullScalar) {
+  PreparedMesh mesh = prepare(16, 4);
+  ASSERT_TRUE(mesh.columns.usable);
+  const MeshGroup& root = mesh.groups[mesh.top_level.front()];
+  ASSERT_FALSE(root.leaf());
+  mesh.top_level.push_back(static_cast<std::uint32_t>(root.children[0]));
+  set_group_columns(mesh);
+  EXPECT_FALSE(mesh.columns.usable);
+  const TinVertex camera{mesh.groups[0].circle.x, mesh.groups[0].circle.y, 1e5};  // high: nothing hidden
+  CullAnswer scalar;
+  {
+    IsaCap cap(Isa::kScalar);
+    scalar = std::move(*cull(mesh, {camera, {}, {}}));
+  }
+  EXPECT_GT(scalar.groups_tested, static_cast<std::uint32_t>(mesh.groups.size()));  // some twice
+  for (Isa isa : vector_isas()) {
+    IsaCap cap(isa);
+    auto v = cull(mesh, {camera, {}, {}});
+    ASSERT_TRUE(v.ok());
+    EXPECT_EQ(v->visible_groups, scalar.visible_groups);
+    EXPECT_EQ(v->groups_tested, scalar.groups_tested);
+  }
 }
 
 }  // namespace
