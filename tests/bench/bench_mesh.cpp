@@ -20,6 +20,13 @@
 // culled, in the approximate and then the conservative mode. --exact C checks the culls of the first C cameras against
 // exact sight lines (tin_visibility.hpp) at each culled triangle's
 // corners and centroid, printing the false-hidden triangles.
+//
+// --isa scalar,avx2,avx512 times the cull's forms (cull.hpp) in the same
+// run: each camera's queries go to every form in turn, so noise falls on
+// all alike; each form's median is printed with its ratio to the first
+// form's, and the forms' answers are checked equal (default: the CPU's
+// best form alone; a form the CPU lacks is refused). --view W gives each
+// camera a view W degrees wide facing a random way (default: all around).
 #include <algorithm>
 #include <chrono>
 #include <random>
@@ -36,6 +43,7 @@
 #include "horizon/mesh/tin_visibility.hpp"
 #include "horizon/mesh/tin_from_dem.hpp"
 #include "horizon/terrain/dem_reader.hpp"
+#include "common/simd_isa.hpp"  // core/src: the cull's instruction-set cap, for --isa
 
 namespace {
 
@@ -44,16 +52,30 @@ using Clock = std::chrono::steady_clock;
 [[noreturn]] void usage(const char* why) {
   std::fprintf(stderr,
                "bench_mesh: %s\nusage: bench_mesh --dem DEM.tif --vertices N [--sectors S/K ...] [--repeats R] "
-               "[--threads T] [--prepare [--seeds N] [--max-groups G] [--cameras C] [--cull-repeats R] [--exact C]]\n",
+               "[--threads T] [--prepare [--seeds N] [--max-groups G] [--cameras C] [--cull-repeats R] [--exact C] [--isa scalar,avx2,avx512] [--view W]]\n",
                why);
   std::exit(2);
 }
 
 double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
+using horizon::simd_isa::Isa;
+
+const char* isa_name(Isa isa) {
+  return isa == Isa::kScalar ? "scalar" : isa == Isa::kAvx2 ? "avx2" : "avx512";
+}
+
 struct CullBench {
   long seeds = 500, max_groups = 1000, cameras = 200, cull_repeats = 50, exact = 0;
+  std::vector<Isa> forms;  // empty: the CPU's best
+  double view = 0.0;       // degrees; 0: all around
 };
+
+bool same_answer(const horizon::mesh::CullAnswer& a, const horizon::mesh::CullAnswer& b) {
+  return a.visible_groups == b.visible_groups && a.groups_tested == b.groups_tested &&
+         a.groups_culled == b.groups_culled && a.frustum_culled == b.frustum_culled &&
+         a.triangles_culled == b.triangles_culled && a.triangles_visible == b.triangles_visible;
+}
 
 void prepare_and_cull(const horizon::mesh::Tin& tin, int s, int k, long threads, const CullBench& o) {
   using namespace horizon::mesh;
@@ -71,21 +93,38 @@ void prepare_and_cull(const horizon::mesh::Tin& tin, int s, int k, long threads,
               mesh->stats.wall_seconds, mesh->stats.leaf_groups, mesh->groups.size(), mesh->stats.levels, mesh->top_level.size(),
               mesh->stats.orphan_passes, mesh->always_visible_count);
   const TinVisibility vis(mesh->tin);
+  const std::vector<Isa> forms = o.forms.empty() ? std::vector<Isa>{horizon::simd_isa::cpu_isa()} : o.forms;
   for (CullMode mode : {CullMode::kApproximate, CullMode::kConservative}) {
   const char* mode_name = mode == CullMode::kApproximate ? "approximate" : "conservative";
   std::mt19937_64 rng(1);
   std::uniform_int_distribution<std::size_t> pick(0, tin.vertices.size() - 1);
-  std::vector<double> micros;
-  std::uint64_t tested = 0, culled = 0, triangles = 0;
+  std::uniform_real_distribution<double> facing(0.0, 360.0);
+  std::vector<std::vector<double>> micros(forms.size());
+  std::uint64_t tested = 0, culled = 0, triangles = 0, frustum = 0, disagree = 0;
   std::uint64_t checked = 0, false_hidden = 0;
   for (long c = 0; c < o.cameras; ++c) {
     TinVertex camera = tin.vertices[pick(rng)];
     camera.z += 2.0;
-    CullAnswer answer;
-    const auto at = Clock::now();
-    for (long r = 0; r < o.cull_repeats; ++r) answer = std::move(*cull(*mesh, {camera, {}, {}, mode}));
-    micros.push_back(seconds_since(at) / static_cast<double>(o.cull_repeats) * 1e6);
+    CullQuery query{camera, {}, {}, mode};
+    if (o.view > 0.0) {
+      query.azimuth_from = facing(rng);
+      query.azimuth_to = *query.azimuth_from + o.view;
+    }
+    CullAnswer answer, first;
+    for (std::size_t f = 0; f < forms.size(); ++f) {
+      horizon::simd_isa::isa_limit() = forms[f];
+      const auto at = Clock::now();
+      for (long r = 0; r < o.cull_repeats; ++r) answer = std::move(*cull(*mesh, query));
+      micros[f].push_back(seconds_since(at) / static_cast<double>(o.cull_repeats) * 1e6);
+      if (f == 0)
+        first = answer;
+      else if (!same_answer(first, answer))
+        ++disagree;
+    }
+    horizon::simd_isa::isa_limit() = Isa::kAvx512;
+    answer = std::move(first);
     tested += answer.groups_tested;
+    frustum += answer.frustum_culled;
     culled += answer.triangles_culled;
     triangles += mesh->tin.triangles.size();
     if (c >= o.exact) continue;
@@ -102,12 +141,24 @@ void prepare_and_cull(const horizon::mesh::Tin& tin, int s, int k, long threads,
         ++false_hidden;
     }
   }
-  std::sort(micros.begin(), micros.end());
-  std::printf("cull %d/%d %s: median %.2f us a query (p90 %.2f, max %.2f) over %ld cameras; %.1f groups tested; "
-              "%.2f %% of triangles culled",
-              s, k, mode_name, micros[micros.size() / 2], micros[micros.size() * 9 / 10], micros.back(), o.cameras,
+  double first_median = 0.0;
+  for (std::size_t f = 0; f < forms.size(); ++f) {
+    std::vector<double>& m = micros[f];
+    std::sort(m.begin(), m.end());
+    const double median = m[m.size() / 2];
+    if (f == 0) first_median = median;
+    std::printf("cull %d/%d %s [%s]: median %.2f us a query (p90 %.2f, max %.2f) over %ld cameras", s, k, mode_name,
+                isa_name(forms[f]), median, m[m.size() * 9 / 10], m.back(), o.cameras);
+    if (f > 0) std::printf(", %.2fx the %s median", first_median / median, isa_name(forms[0]));
+    std::printf("\n");
+  }
+  std::printf("cull %d/%d %s: %.1f groups tested; %.2f %% of triangles culled", s, k, mode_name,
               static_cast<double>(tested) / static_cast<double>(o.cameras),
               100.0 * static_cast<double>(culled) / static_cast<double>(triangles));
+  if (o.view > 0.0)
+    std::printf("; %.1f groups culled by the %.0f-degree view", static_cast<double>(frustum) / static_cast<double>(o.cameras),
+                o.view);
+  if (forms.size() > 1) std::printf("; forms disagreeing: %llu of %ld cameras", static_cast<unsigned long long>(disagree), o.cameras);
   if (o.exact > 0)
     std::printf("; exact check of %ld cameras: %llu of %llu culled triangles seen", std::min(o.exact, o.cameras),
                 static_cast<unsigned long long>(false_hidden), static_cast<unsigned long long>(checked));
@@ -149,6 +200,21 @@ int main(int argc, char** argv) {
       cull_bench.cull_repeats = std::strtol(value, nullptr, 10);
     } else if (flag == "--exact") {
       cull_bench.exact = std::strtol(value, nullptr, 10);
+    } else if (flag == "--view") {
+      cull_bench.view = std::strtod(value, nullptr);
+      if (!(cull_bench.view > 0.0 && cull_bench.view < 360.0)) usage("--view takes degrees in (0, 360)");
+    } else if (flag == "--isa") {
+      std::string list = value;
+      for (std::size_t at = 0; at <= list.size();) {
+        const std::size_t comma = std::min(list.find(',', at), list.size());
+        const std::string name = list.substr(at, comma - at);
+        const Isa isa = name == "scalar" ? Isa::kScalar : name == "avx2" ? Isa::kAvx2 : name == "avx512" ? Isa::kAvx512
+                                                                                               : static_cast<Isa>(-1);
+        if (static_cast<int>(isa) < 0) usage(("--isa takes scalar, avx2 and avx512, not '" + name + "'").c_str());
+        if (horizon::simd_isa::cpu_isa() < isa) usage(("this CPU does not run " + name).c_str());
+        cull_bench.forms.push_back(isa);
+        at = comma + 1;
+      }
     } else if (flag == "--sectors") {
       int s = 0, k = 0;
       if (std::sscanf(value, "%d/%d", &s, &k) != 2) usage("--sectors takes S/K, e.g. 16/4");

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "common/simd_isa.hpp"
+#include "mesh/cull_lanes.hpp"
 #include "mesh/walls.hpp"
 
 namespace horizon::mesh {
@@ -76,8 +78,74 @@ bool culled(const PreparedMesh& mesh, std::size_t g, const TinVertex& camera, Cu
   return mode == CullMode::kConservative ? walled(mesh, g, camera) : hidden(mesh, g, camera);
 }
 
-// Whether the circle lies wholly outside the view [from, from + width]
-// (math angles), seen from the camera.
+#ifdef HORIZON_SIMD_AVX2
+// The vector form's per-frame tables: each sector's t of the camera, as
+// hidden_in computes it, and the view's bisector and half width for the
+// frustum's lanes (cull_lanes.cpp).
+void set_frame_tables(const PreparedMesh& mesh, CullFrame& frame, std::vector<double>& sector_t) {
+  for (const auto& r : mesh.centre_directions) sector_t.push_back(r[0] * frame.camera.x + r[1] * frame.camera.y);
+  frame.sector_t = sector_t.data();
+  if (!frame.frustum) return;
+  const double half = frame.view_width / 2;
+  frame.bx = std::cos(frame.view_from + half);
+  frame.by = std::sin(frame.view_from + half);
+  frame.cos_half = std::cos(half);
+  frame.sin_half = std::sin(half);
+  frame.radius_limit = (half > std::numbers::pi / 2 ? frame.sin_half : 1.0) - 1e-8;
+}
+
+// The vector form: the hierarchy a level at a time (the top-level groups,
+// then the children of those opened, ...), each level's verdicts from the
+// lanes; the counts are sums, so they do not depend on the order, and the
+// visible leaves are put back in the scalar twin's depth-first order by
+// their ranks (GroupColumns).
+CullAnswer cull_by_levels(const PreparedMesh& mesh, const CullFrame& frame, simd_isa::Isa isa) {
+  constexpr std::size_t kWidth = 16;  // both kernels take whole sixteens
+  CullAnswer answer;
+  const GroupColumns& columns = mesh.columns;
+  std::vector<std::uint32_t> level(mesh.top_level), next;
+  std::vector<std::uint8_t> verdict;
+  std::vector<std::uint64_t> visible((columns.leaf_order.size() + 63) / 64, 0);
+  while (!level.empty()) {
+    const std::size_t n = level.size();
+    const std::uint32_t last = level.back();
+    level.resize((n + kWidth - 1) / kWidth * kWidth, last);  // padding lanes repeat a group
+    verdict.resize(level.size());
+    if (isa == simd_isa::Isa::kAvx512)
+      cull_lanes_avx512(frame, level.data(), level.size(), verdict.data());
+    else
+      cull_lanes_avx2(frame, level.data(), level.size(), verdict.data());
+    next.clear();
+    answer.groups_tested += static_cast<std::uint32_t>(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::uint32_t g = level[i];
+      const MeshGroup& group = mesh.groups[g];
+      if (verdict[i] != kOpen) {
+        ++answer.groups_culled;
+        answer.frustum_culled += verdict[i] == kFrustumCulled;
+        answer.triangles_culled += group.triangle_count;
+      } else if (group.leaf()) {
+        const std::uint32_t rank = columns.leaf_rank[g];
+        visible[rank / 64] |= std::uint64_t{1} << (rank % 64);
+        answer.triangles_visible += group.triangle_count;
+      } else {
+        next.push_back(static_cast<std::uint32_t>(group.children[0]));
+        next.push_back(static_cast<std::uint32_t>(group.children[1]));
+      }
+    }
+    level.swap(next);
+  }
+  for (std::size_t w = 0; w < visible.size(); ++w)
+    for (std::uint64_t bits = visible[w]; bits != 0; bits &= bits - 1)
+      answer.visible_groups.push_back(columns.leaf_order[w * 64 + static_cast<std::size_t>(__builtin_ctzll(bits))]);
+  answer.triangles_visible += mesh.always_visible_count;
+  return answer;
+}
+#endif
+
+}  // namespace
+
+// The scalar frustum test (cull_lanes.hpp).
 bool outside_view(const Circle& circle, const TinVertex& camera, double from, double width) {
   const double dx = circle.x - camera.x, dy = circle.y - camera.y;
   const double d = std::hypot(dx, dy);
@@ -88,8 +156,6 @@ bool outside_view(const Circle& circle, const TinVertex& camera, double from, do
   // that interval falls in the gap (width, 2π).
   return lo > width && lo + 2 * half < kTwoPi;
 }
-
-}  // namespace
 
 bool group_hidden(const PreparedMesh& mesh, std::size_t g, const TinVertex& camera, CullMode mode) {
   return culled(mesh, g, camera, mode);
@@ -120,6 +186,19 @@ Result<CullAnswer> cull(const PreparedMesh& mesh, const CullQuery& query) {
     }
   }
 
+#ifdef HORIZON_SIMD_AVX2
+  const simd_isa::Isa isa = simd_isa::kernel_isa();
+  const GroupColumns& columns = mesh.columns;
+  if (isa != simd_isa::Isa::kScalar && columns.usable && columns.x.size() == mesh.groups.size() &&
+      columns.leaf_rank.size() == mesh.groups.size()) {
+    std::vector<double> sector_t;
+    CullFrame frame{&mesh, camera, query.mode, nullptr, frustum, view_from, view_width};
+    set_frame_tables(mesh, frame, sector_t);
+    return cull_by_levels(mesh, frame, isa);
+  }
+#endif
+
+  // The scalar twin: depth first, one group at a time.
   CullAnswer answer;
   std::vector<std::uint32_t> stack;
   for (auto it = mesh.top_level.rbegin(); it != mesh.top_level.rend(); ++it) stack.push_back(*it);

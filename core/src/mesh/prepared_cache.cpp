@@ -260,6 +260,7 @@ Result<std::optional<PreparedMesh>> load_prepared(const std::string& path, const
   mesh.sectors = sectors;
   mesh.horizons.sectors = sectors;
   set_sector_tables(mesh);
+  set_group_columns(mesh);
   return std::optional<PreparedMesh>{std::move(mesh)};
 }
 

@@ -268,6 +268,43 @@ void set_sector_tables(PreparedMesh& mesh) {
   }
 }
 
+void set_group_columns(PreparedMesh& mesh) {
+  GroupColumns& c = mesh.columns;
+  c = {};
+  const std::size_t n = mesh.groups.size();
+  for (const MeshGroup& g : mesh.groups) {
+    c.x.push_back(g.circle.x);
+    c.y.push_back(g.circle.y);
+    c.radius.push_back(g.circle.radius);
+  }
+  // The scalar cull's order: roots in top_level order, each tree depth
+  // first, children[0] before children[1].
+  constexpr std::uint32_t kUnreached = ~0u;
+  c.leaf_rank.assign(n, kUnreached);
+  std::vector<bool> reached(n, false);
+  bool twice = false;
+  std::vector<std::uint32_t> stack;
+  for (auto it = mesh.top_level.rbegin(); it != mesh.top_level.rend(); ++it) stack.push_back(*it);
+  while (!stack.empty() && !twice) {
+    const std::uint32_t g = stack.back();
+    stack.pop_back();
+    if (reached[g]) twice = true;
+    reached[g] = true;
+    const MeshGroup& group = mesh.groups[g];
+    if (group.leaf()) {
+      c.leaf_rank[g] = static_cast<std::uint32_t>(c.leaf_order.size());
+      c.leaf_order.push_back(g);
+    } else {
+      stack.push_back(static_cast<std::uint32_t>(group.children[1]));
+      stack.push_back(static_cast<std::uint32_t>(group.children[0]));
+    }
+  }
+  constexpr std::size_t kIndexLimit = std::size_t{1} << 31;
+  const std::size_t chains = n * static_cast<std::size_t>(mesh.sectors);
+  c.usable = !twice && chains < kIndexLimit && mesh.corner_t.size() < kIndexLimit &&
+             mesh.wall_radius.size() < kIndexLimit;
+}
+
 Result<PreparedMesh> prepare_mesh(Tin tin, const PrepareOptions& options, const RunControl* control) {
   HORIZON_RETURN_IF_ERROR(check_options(options));
   PreparedMesh mesh;
@@ -309,6 +346,7 @@ Result<PreparedMesh> prepare_mesh(Tin tin, const PrepareOptions& options, const 
   start = Clock::now();
   build_walls(mesh, options.horizons.threads);
   mesh.stats.wall_seconds = seconds_since(start);
+  set_group_columns(mesh);
   report_progress(control, 1.0);
   return mesh;
 }

@@ -13,4 +13,7 @@ void flatten_regions(PreparedMesh& mesh);
 // centre_directions and sector_starts from sectors.
 void set_sector_tables(PreparedMesh& mesh);
 
+// columns from groups, top_level, sectors and the region and wall tables.
+void set_group_columns(PreparedMesh& mesh);
+
 }  // namespace horizon::mesh

@@ -3,10 +3,11 @@
 //
 // Each kernel of the sweep has a scalar loop and, on x86-64, an AVX2 form
 // (eight lanes) and an AVX-512 form (sixteen lanes, mask registers), chosen
-// at run time by kernel_isa(). They must give the scalar loops' bits, so
-// these helpers reproduce the scalar operations exactly, NaN and ties
-// included: min_of(a, b) is std::min(a, b) (`b < a ? b : a`), max_of(a, b)
-// is std::max(a, b) (`a < b ? b : a`). No helper fuses a multiply and an add,
+// at run time by kernel_isa() (common/simd_isa.hpp, shared with the TIN
+// cull). They must give the scalar loops' bits, so these helpers
+// reproduce the scalar operations exactly, NaN and ties included:
+// min_of(a, b) is std::min(a, b) (`b < a ? b : a`), max_of(a, b) is
+// std::max(a, b) (`a < b ? b : a`). No helper fuses a multiply and an add,
 // and the kernels' files are built with -ffp-contract=off, since AVX-512
 // targets carry FMA and GCC would otherwise fuse a * b + c. Functions using
 // AVX2 / AVX-512 carry HORIZON_AVX2 / HORIZON_AVX512; the rest of the engine
@@ -14,53 +15,17 @@
 // HORIZON_SIMD_AVX2 is not defined and only the scalar loops exist).
 #pragma once
 
-#include <atomic>
-
-#if defined(__x86_64__) && defined(__GNUC__)
-// GCC 12's AVX-512 headers trip -W(maybe-)uninitialized on their own
-// _mm512_undefined_* placeholders (GCC bug 105593, fixed in GCC 13).
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#pragma GCC diagnostic ignored "-Wuninitialized"
-#include <immintrin.h>
-#pragma GCC diagnostic pop
-#define HORIZON_SIMD_AVX2 1
-#define HORIZON_AVX2 __attribute__((target("avx2")))
-#define HORIZON_AVX512 __attribute__((target("avx2,avx512f")))
-#endif
-
+#include "../common/simd_isa.hpp"  // Isa, cpu_isa, isa_limit, kernel_isa, HORIZON_AVX2 / HORIZON_AVX512
 #include "sweep_samples.hpp"
 
 namespace horizon::visibility::sweep::simd {
 
-// The instruction sets a kernel may use, in increasing order.
-enum class Isa { kScalar = 0, kAvx2 = 1, kAvx512 = 2 };
-
-// The best the CPU runs (AVX-512 means AVX-512F).
-inline Isa cpu_isa() {
-#ifdef HORIZON_SIMD_AVX2
-  static const Isa isa = __builtin_cpu_supports("avx512f") ? Isa::kAvx512
-                         : __builtin_cpu_supports("avx2")  ? Isa::kAvx2
-                                                           : Isa::kScalar;
-  return isa;
-#else
-  return Isa::kScalar;
-#endif
-}
-
-// A process-wide ceiling on the kernels' instruction set, for the tests
-// (every form against the scalar loop) and benchmarks (one form against
-// another in the same run). Default: none.
-inline std::atomic<Isa>& isa_limit() {
-  static std::atomic<Isa> limit{Isa::kAvx512};
-  return limit;
-}
-
-// What the kernels use: the CPU's best, capped by isa_limit().
-inline Isa kernel_isa() {
-  const Isa limit = isa_limit().load(std::memory_order_relaxed);
-  return cpu_isa() < limit ? cpu_isa() : limit;
-}
+// The instruction-set choice is the engine's (common/simd_isa.hpp): one
+// ceiling for every module's kernels.
+using ::horizon::simd_isa::cpu_isa;
+using ::horizon::simd_isa::Isa;
+using ::horizon::simd_isa::isa_limit;
+using ::horizon::simd_isa::kernel_isa;
 
 #ifdef HORIZON_SIMD_AVX2
 

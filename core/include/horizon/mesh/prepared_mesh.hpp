@@ -62,6 +62,19 @@ struct MeshGroup {
   bool leaf() const { return children[0] < 0; }
 };
 
+// The groups again, as the cull's vector form reads them (cull.hpp):
+// derived from `groups` and `top_level` by prepare_mesh and by a cache
+// load, never stored.
+struct GroupColumns {
+  std::vector<double> x, y, radius;        // groups[g].circle, column by column
+  std::vector<std::uint32_t> leaf_order;   // the leaves reached from top_level, depth first (triangle order)
+  std::vector<std::uint32_t> leaf_rank;    // leaf g's place in leaf_order (~0u: unreached)
+  // False when the vector form cannot run on this mesh: a group reached
+  // twice through the hierarchy, or tables past 2^31 entries (its
+  // gathers take 32-bit indices). The cull is then scalar.
+  bool usable = false;
+};
+
 struct PrepareStats {
   double horizon_seconds = 0.0, grouping_seconds = 0.0, hierarchy_seconds = 0.0, wall_seconds = 0.0;
   int orphan_passes = 0;
@@ -94,6 +107,7 @@ struct PreparedMesh {
   std::vector<std::array<double, 2>> centre_directions;  // r_i of each sector
   std::vector<double> sector_starts;           // pseudo_angle of each sector's first edge, ascending
   double area = 0.0;                           // the mesh seen from above
+  GroupColumns columns;
   PrepareStats stats;
 
   // The sector holding direction (dx, dy), by pseudo_angle (below).
