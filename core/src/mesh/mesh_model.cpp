@@ -48,7 +48,8 @@ std::uint64_t memory_bytes(const PreparedMesh& m) {
                         bytes_of(m.regions) + bytes_of(m.chain_begin) + bytes_of(m.corner_t) + bytes_of(m.corner_z) +
                         bytes_of(m.chain_slope) + bytes_of(m.group_top) + bytes_of(m.wall_begin) +
                         bytes_of(m.wall_radius) + bytes_of(m.wall_slope) + bytes_of(m.centre_directions) +
-                        bytes_of(m.sector_starts);
+                        bytes_of(m.sector_starts) + bytes_of(m.columns.x) + bytes_of(m.columns.y) +
+                        bytes_of(m.columns.radius) + bytes_of(m.columns.leaf_order) + bytes_of(m.columns.leaf_rank);
   for (const OcclusionChain& chain : m.regions) bytes += bytes_of(chain.corners());
   return bytes;
 }

@@ -42,8 +42,9 @@
 //     atan2 and asin have no vector twin that rounds alike, so the lanes
 //     decide it by a test with no trigonometry where the answer is
 //     certain (by 10⁻⁸ rad, far beyond either form's rounding), and run
-//     the scalar test on the rest (a circle grazing the view's edge). The visible leaves are put back in depth-first
-//     order from their ranks (PreparedMesh::columns).
+//     the scalar test on the rest (a circle grazing the view's edge).
+//     The visible leaves are put back in depth-first order from their
+//     ranks (PreparedMesh::columns).
 // The form is chosen at run time: the engine's kernel_isa(), the CPU's
 // best capped by isa_limit() for tests and benchmarks
 // (src/common/simd_isa.hpp); a mesh whose columns are not usable
