@@ -1,8 +1,9 @@
 // load_horizond — a bounded, loopback load generator for horizond.
 //
-//   load_horizond --server 127.0.0.1:50051 --dataset everest --mode viewshed|cull|mixed
+//   load_horizond --server 127.0.0.1:50051 --dataset everest --mode viewshed|cull|mixed|mesh
 //                 --x X --y Y [--clients 2] [--requests 200 | --seconds S] [--max-distance 10000]
 //                 [--boxes 10000] [--scene-radius 3000] [--spread 500] [--seed 1] [--retry 1]
+//                 [--mesh NAME] [--conservative 1]
 //
 // viewshed: each request a 10 km (--max-distance) viewshed of the dataset,
 //   the raw uint8 raster streamed back, from a viewpoint drawn within
@@ -12,6 +13,9 @@
 //   within --scene-radius of X,Y, conservative flag off (fast OHF).
 // mixed: viewshed, cull and a LineOfSight of 10 lines (within --scene-radius)
 //   in turn.
+// mesh: each request a CullMesh of the mesh --mesh names from a new
+//   viewpoint within --scene-radius/2 of X,Y (its CRS), 2 m up, all round,
+//   approximate (--conservative 1: conservative); a simulator's frames.
 // --seconds: run for that long (at most 3600) instead of --requests calls.
 // --retry 1: the channel's service config retries UNAVAILABLE up to 4
 //   attempts (50 ms backoff doubling to 500 ms), as a client of replicas
@@ -35,6 +39,7 @@
 #include <grpcpp/support/channel_arguments.h>
 
 #include "horizon/v1/datasets.grpc.pb.h"
+#include "horizon/v1/mesh.grpc.pb.h"
 #include "horizon/v1/visibility.grpc.pb.h"
 
 namespace {
@@ -42,10 +47,10 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 struct Options {
-  std::string server = "127.0.0.1:50051", dataset = "everest", mode = "cull";
+  std::string server = "127.0.0.1:50051", dataset = "everest", mode = "cull", mesh;
   double x = 0, y = 0, max_distance = 10000, scene_radius = 3000, spread = 500, seconds = 0;
   int clients = 2, requests = 200, boxes = 10000;
-  bool retry = false;
+  bool retry = false, conservative = false;
   unsigned seed = 1;
 };
 
@@ -79,12 +84,20 @@ Options parse(int argc, char** argv) {
       o.seconds = std::clamp(std::atof(v.c_str()), 0.0, 3600.0);
     else if (k == "--retry")
       o.retry = v == "1";
+    else if (k == "--mesh")
+      o.mesh = v;
+    else if (k == "--conservative")
+      o.conservative = v == "1";
     else if (k == "--seed")
       o.seed = static_cast<unsigned>(std::atoi(v.c_str()));
     else {
       std::fprintf(stderr, "load_horizond: unknown flag %s\n", k.c_str());
       std::exit(2);
     }
+  }
+  if (o.mode == "mesh" && o.mesh.empty()) {
+    std::fprintf(stderr, "load_horizond: --mode mesh needs --mesh NAME\n");
+    std::exit(2);
   }
   return o;
 }
@@ -121,6 +134,7 @@ int main(int argc, char** argv) {
     threads.emplace_back([&, c] {
       auto channel = grpc::CreateCustomChannel(o.server, grpc::InsecureChannelCredentials(), args);
       auto stub = horizon::v1::VisibilityService::NewStub(channel);
+      auto meshes = horizon::v1::MeshService::NewStub(channel);
       std::mt19937 rng(o.seed * 1000 + static_cast<unsigned>(c));
       std::uniform_real_distribution<double> unit(-1.0, 1.0), size(5.0, 40.0), tall(5.0, 30.0), ground(4500.0, 6500.0);
       horizon::v1::CullBoxesRequest cull;
@@ -128,13 +142,19 @@ int main(int argc, char** argv) {
       for (int i;;) {
         i = next.fetch_add(1);
         if (o.seconds > 0 ? Clock::now() >= until : i >= o.requests) break;
-        const std::string kind =
-            o.mode != "mixed" ? o.mode : (i % 3 == 0 ? "viewshed" : i % 3 == 1 ? "cull" : "lines");
+        const std::string kind = o.mode != "mixed" ? o.mode : (i % 3 == 0 ? "viewshed" : i % 3 == 1 ? "cull" : "lines");
         auto t0 = Clock::now();
         grpc::ClientContext context;
         context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
         grpc::Status status;
-        if (kind == "lines") {
+        if (kind == "mesh") {
+          horizon::v1::CullMeshRequest r;
+          r.set_mesh(o.mesh);
+          *r.mutable_observer() = eye(o.x + o.scene_radius / 2 * unit(rng), o.y + o.scene_radius / 2 * unit(rng));
+          r.set_mode(o.conservative ? horizon::v1::CULL_MODE_CONSERVATIVE : horizon::v1::CULL_MODE_APPROXIMATE);
+          horizon::v1::CullMeshResponse response;
+          status = meshes->CullMesh(&context, r, &response);
+        } else if (kind == "lines") {
           horizon::v1::LineOfSightRequest r;
           r.set_dataset(o.dataset);
           for (int l = 0; l < 10; ++l) {
@@ -198,7 +218,6 @@ int main(int argc, char** argv) {
       "mode %s: %zu ok, %d errors, %d refused, %d clients, %.2f s: %.1f req/s; latency ms p50 %.2f p90 %.2f p99 %.2f "
       "max %.2f\n",
       o.mode.c_str(), all.size(), errors.load(), refusals.load(), o.clients, seconds,
-      static_cast<double>(all.size()) / seconds,
-      pct(0.50), pct(0.90), pct(0.99), all.empty() ? 0.0 : all.back());
+      static_cast<double>(all.size()) / seconds, pct(0.50), pct(0.90), pct(0.99), all.empty() ? 0.0 : all.back());
   return errors.load() == 0 ? 0 : 1;
 }
