@@ -46,7 +46,10 @@ constexpr FlagSpec kFlags[] = {
     {"--mesh", "", "", "Sweep TIN culling instead: sectors/subsectors x cull mode, against exact sight lines"},
     {"--vertices", "", "N", "--mesh: the TIN's vertices, greedy insertion (default 10000)"},
     {"--sectors", "", "LIST", "--mesh: sectors/subsectors shapes (default 8/1,8/4,16/4,32/2)"},
-    {"--cameras", "", "N", "--mesh: cameras above vertices drawn with a fixed seed (default 50)"},
+    {"--cameras", "", "N",
+     "--mesh: cameras above vertices drawn with a fixed seed, in turn in valleys, on slopes, on ridges and high "
+     "(default 50)"},
+    {"--high-eye", "", "M", "--mesh: how much higher the high cameras stand, metres (default 300)"},
     {"--exact", "", "N",
      "--mesh: of them, checked with exact sight lines over the TIN and R3 on the source DEM (default 5)"},
     // The from-region sweep (commands/bench_region.cpp).

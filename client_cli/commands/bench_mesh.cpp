@@ -49,6 +49,7 @@ evaluation::MeshBenchConfig parse_config(const Args& args) {
   if (auto n = args.non_negative_integer("--exact")) c.exact_cameras = static_cast<int>(*n);
   if (c.exact_cameras > c.cameras) throw UsageError("--exact: at most --cameras cameras can be checked");
   if (auto h = args.non_negative("--height")) c.height = *h;
+  if (auto h = args.non_negative("--high-eye")) c.high_eye = *h;
   c.threads = args.non_negative_integer("--threads").value_or(0);
   return c;
 }

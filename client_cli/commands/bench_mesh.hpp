@@ -9,7 +9,8 @@
 namespace horizon::cli {
 
 // Flags of the mesh sweep only.
-inline constexpr std::string_view kMeshOnlyFlags[] = {"--vertices", "--sectors", "--cameras", "--exact"};
+inline constexpr std::string_view kMeshOnlyFlags[] = {"--vertices", "--sectors", "--cameras", "--exact",
+                                                      "--high-eye"};
 
 int run_mesh_bench(const Args& args);
 

@@ -116,6 +116,7 @@ TEST_P(WallDem, TheBenchCountsWhatR3HidesCameraByCamera) {
   config.seeds = 8, config.max_groups = 20;
   config.cameras = 12, config.cull_repeats = 1, config.exact_cameras = 12;
   config.threads = 2;
+  config.high_eye = 0;  // every camera low: the hand count is for eyes `height` above the ground
 
   auto read = terrain::read_dem(path);
   ASSERT_TRUE(read.ok()) << read.error().message;
@@ -123,7 +124,10 @@ TEST_P(WallDem, TheBenchCountsWhatR3HidesCameraByCamera) {
   ASSERT_TRUE(tin.ok()) << tin.error().message;
   std::uint64_t hidden = 0;
   int sides[3] = {0, 0, 0};
-  for (std::uint32_t v : mesh_bench_cameras(tin->tin.vertices.size(), config.cameras)) {
+  std::vector<double> z;
+  for (const mesh::TinVertex& p : tin->tin.vertices) z.push_back(p.z);
+  for (const MeshBenchCamera& camera : mesh_bench_cameras(z, config.cameras, config.height, config.high_eye)) {
+    const std::uint32_t v = camera.vertex;
     const double col = read->georef.transform.col_at(tin->tin.vertices[v].x);
     const int c = static_cast<int>(std::lround(col));
     ASSERT_NEAR(col, c, 1e-6);  // vertices are cell centres
@@ -160,6 +164,41 @@ std::string frame_name(const ::testing::TestParamInfo<bool>& p) {
   return p.param ? "Geographic" : "Projected";
 }
 INSTANTIATE_TEST_SUITE_P(MeshR3, WallDem, ::testing::Values(false, true), frame_name);
+
+// The cameras come in turn from the valleys, the slopes, the ridges and
+// high above: each from its band of the vertices sorted by height.
+TEST(MeshBenchCameras, EachKindStandsInItsBand) {
+  std::vector<double> z(1000);
+  for (std::size_t v = 0; v < z.size(); ++v) z[v] = static_cast<double>((v * 7919) % 1000);  // a shuffle of 0..999
+  const auto cameras = mesh_bench_cameras(z, 400, 2.0, 300.0);
+  ASSERT_EQ(cameras.size(), 400u);
+  int high_below_median = 0;
+  for (std::size_t c = 0; c < cameras.size(); ++c) {
+    const MeshBenchCamera& cam = cameras[c];
+    const double h = z[cam.vertex];
+    ASSERT_EQ(static_cast<std::size_t>(cam.kind), c % 4);
+    switch (cam.kind) {
+      case CameraKind::kValley:
+        EXPECT_LT(h, 100.0);
+        break;
+      case CameraKind::kSlope:
+        EXPECT_GE(h, 300.0);
+        EXPECT_LT(h, 700.0);
+        break;
+      case CameraKind::kRidge:
+        EXPECT_GE(h, 900.0);
+        break;
+      case CameraKind::kHigh:
+        high_below_median += h < 500.0 ? 1 : 0;
+        break;
+    }
+    EXPECT_EQ(cam.height, cam.kind == CameraKind::kHigh ? 302.0 : 2.0);
+  }
+  EXPECT_GT(high_below_median, 20);  // the high cameras stand anywhere
+  EXPECT_LT(high_below_median, 80);
+  // Fixed seed: the same draw every time.
+  EXPECT_EQ(mesh_bench_cameras(z, 400, 2.0, 300.0)[37].vertex, cameras[37].vertex);
+}
 
 }  // namespace
 }  // namespace horizon::evaluation

@@ -31,6 +31,7 @@ Status check(const MeshBenchConfig& c) {
   if (c.cameras < 1 || c.cull_repeats < 1 || c.exact_cameras < 0 || c.exact_cameras > c.cameras)
     return bad("cameras and cull repeats must be >= 1, exact cameras 0 to cameras");
   if (!(c.height >= 0)) return bad("the camera height must be >= 0");
+  if (!(c.high_eye >= 0)) return bad("the high cameras' extra height must be >= 0");
   return Status::Ok();
 }
 
@@ -45,11 +46,43 @@ bool any_sample_seen(const mesh::TinVisibility& vis, const mesh::Tin& tin, const
 
 }  // namespace
 
-std::vector<std::uint32_t> mesh_bench_cameras(std::size_t vertices, int count) {
+const char* camera_kind_name(CameraKind kind) {
+  switch (kind) {
+    case CameraKind::kValley:
+      return "valley";
+    case CameraKind::kSlope:
+      return "slope";
+    case CameraKind::kRidge:
+      return "ridge";
+    case CameraKind::kHigh:
+      return "high";
+  }
+  return "?";
+}
+
+std::vector<MeshBenchCamera> mesh_bench_cameras(const std::vector<double>& z, int count, double height,
+                                                double high_eye) {
+  // The vertices by height (ties by index, so the draw is the same everywhere).
+  std::vector<std::uint32_t> by_height(z.size());
+  for (std::uint32_t v = 0; v < by_height.size(); ++v) by_height[v] = v;
+  std::sort(by_height.begin(), by_height.end(),
+            [&](std::uint32_t a, std::uint32_t b) { return z[a] < z[b] || (z[a] == z[b] && a < b); });
+  const std::size_t n = by_height.size();
+  // Each kind's band [lo, hi) of by_height, never empty.
+  auto band = [n](double from, double to) {
+    const std::size_t lo = std::min(n - 1, static_cast<std::size_t>(from * static_cast<double>(n)));
+    return std::pair{lo, std::max(lo + 1, static_cast<std::size_t>(to * static_cast<double>(n)))};
+  };
+  const std::pair<std::size_t, std::size_t> bands[4] = {band(0.0, 0.1), band(0.3, 0.7), band(0.9, 1.0),
+                                                        band(0.0, 1.0)};
   std::mt19937_64 rng(1);
-  std::uniform_int_distribution<std::size_t> pick(0, vertices - 1);
-  std::vector<std::uint32_t> out;
-  for (int c = 0; c < count; ++c) out.push_back(static_cast<std::uint32_t>(pick(rng)));
+  std::vector<MeshBenchCamera> out;
+  for (int c = 0; c < count; ++c) {
+    const auto kind = static_cast<CameraKind>(c % 4);
+    const auto [lo, hi] = bands[c % 4];
+    std::uniform_int_distribution<std::size_t> pick(lo, hi - 1);
+    out.push_back({by_height[pick(rng)], height + (kind == CameraKind::kHigh ? high_eye : 0.0), kind});
+  }
   return out;
 }
 
@@ -70,9 +103,12 @@ Result<MeshBenchReport> run_mesh_bench(const MeshBenchConfig& config, const RunC
     // The cameras, in the TIN's frame and in the DEM's CRS: the same vertex,
     // the same height above it.
     std::vector<mesh::TinVertex> cameras, crs_cameras;
-    for (std::uint32_t v : mesh_bench_cameras(tin.vertices.size(), config.cameras)) {
-      cameras.push_back({tin.vertices[v].x, tin.vertices[v].y, tin.vertices[v].z + config.height});
-      crs_cameras.push_back({crs_vertices[v].x, crs_vertices[v].y, crs_vertices[v].z + config.height});
+    std::vector<double> z;
+    for (const mesh::TinVertex& v : tin.vertices) z.push_back(v.z);
+    for (const MeshBenchCamera& cam : mesh_bench_cameras(z, config.cameras, config.height, config.high_eye)) {
+      const std::uint32_t v = cam.vertex;
+      cameras.push_back({tin.vertices[v].x, tin.vertices[v].y, tin.vertices[v].z + cam.height});
+      crs_cameras.push_back({crs_vertices[v].x, crs_vertices[v].y, crs_vertices[v].z + cam.height});
     }
     // R3 on the source DEM from each checked camera, once for every shape
     // and mode, read through the triangle over each cell (the input's

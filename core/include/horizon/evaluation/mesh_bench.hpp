@@ -4,8 +4,9 @@
 // For every DEM, a TIN of `vertices` vertices by greedy insertion (in the
 // DEM's metric frame); for every sectors/subsectors shape, prepare_mesh
 // timed once (its phases kept); then, in each cull mode, `cameras`
-// viewpoints 2 m (`height`) above vertices drawn with a fixed seed, each
-// culled `cull_repeats` times (the median microseconds a query kept). The
+// viewpoints above vertices drawn with a fixed seed (mesh_bench_cameras:
+// in valleys, on slopes, on ridges, and high), each culled
+// `cull_repeats` times (the median microseconds a query kept). The
 // first `exact_cameras` of them are checked against exact sight lines over
 // the TIN (tin_visibility.hpp) at each triangle's corners and centroid: how
 // many triangles no sample of which is seen ("exactly hidden", what a
@@ -22,7 +23,11 @@
 // references differ by the TIN's vertical error: the TIN-exact measure
 // judges the cull by the surface drawn, the R3 one by the terrain.
 //
-// Cameras: mesh_bench_cameras(), the same for every shape and mode.
+// Cameras: mesh_bench_cameras(), the same for every shape and mode, of
+// four kinds in turn (camera c is of kind c mod 4), each `height` above a
+// vertex drawn uniformly from a band of the vertices sorted by height:
+// valley (the lowest tenth), slope (the middle, 30 % to 70 %), ridge (the
+// highest tenth), and high (any vertex, `high_eye` metres higher still).
 //
 // Cost: DEMs x shapes x (one preparation + modes x cameras x cull_repeats
 // culls) plus modes x exact_cameras x triangles x 4 sight lines, plus
@@ -46,7 +51,8 @@ struct MeshBenchConfig {
   std::vector<std::pair<int, int>> shapes = {{8, 1}, {8, 4}, {16, 4}, {32, 2}};
   int seeds = 100, max_groups = 200;  // the thesis's settings for 10^4 vertices
   int cameras = 50, cull_repeats = 20, exact_cameras = 5;
-  double height = 2.0;  // metres above the vertex
+  double height = 2.0;      // metres above the vertex
+  double high_eye = 300.0;  // metres more for the high cameras, >= 0
   unsigned threads = 0;
 };
 
@@ -72,10 +78,20 @@ struct MeshBenchReport {
   std::string csv() const;
 };
 
-// The cameras' vertices: `count` indices into a TIN of `vertices` vertices
-// (> 0), drawn uniformly with a fixed seed (std::mt19937_64 seeded 1), so a
-// test can say where each camera stands.
-std::vector<std::uint32_t> mesh_bench_cameras(std::size_t vertices, int count);
+enum class CameraKind { kValley, kSlope, kRidge, kHigh };
+const char* camera_kind_name(CameraKind kind);
+
+struct MeshBenchCamera {
+  std::uint32_t vertex = 0;
+  double height = 0.0;  // above the vertex: config.height, plus config.high_eye for kHigh
+  CameraKind kind = CameraKind::kValley;
+};
+
+// The cameras over `z` (the TIN's vertex heights, > 0 of them): `count`
+// of the kinds above, drawn with a fixed seed (std::mt19937_64 seeded 1),
+// so that a test can say where each camera stands.
+std::vector<MeshBenchCamera> mesh_bench_cameras(const std::vector<double>& z, int count, double height,
+                                                double high_eye);
 
 // kInvalidArgument for a bad config; a DEM's read or TIN error as it is.
 Result<MeshBenchReport> run_mesh_bench(const MeshBenchConfig& config, const RunControl* control = nullptr);
