@@ -258,13 +258,15 @@ Status Daemon::start() {
   return Status::Ok();
 }
 
-Status Daemon::load_datasets() {
+Status Daemon::load_datasets(const CancelToken* cancel) {
   Impl& d = *impl_;
+  RunControl control;
+  control.cancel = cancel;
   const auto started = std::chrono::steady_clock::now();
   HORIZON_RETURN_IF_ERROR(d.datasets.load(d.config));
   const auto set = d.datasets.snapshot();
   // The meshes are prepared before the daemon says SERVING.
-  HORIZON_RETURN_IF_ERROR(d.meshes.load(d.config, *set));
+  HORIZON_RETURN_IF_ERROR(d.meshes.load(d.config, *set, &control));
   d.metrics.set_datasets(set->size());
   d.metrics.set_block_cache(d.cache.stats());
   d.metrics.set_memory_reserved(d.memory.reserved());
@@ -279,11 +281,13 @@ Status Daemon::load_datasets() {
   return Status::Ok();
 }
 
-Status Daemon::reload(const Config& config) {
+Status Daemon::reload(const Config& config, const CancelToken* cancel) {
   Impl& d = *impl_;
+  RunControl control;
+  control.cancel = cancel;
   HORIZON_RETURN_IF_ERROR(d.datasets.load(config));
   const auto set = d.datasets.snapshot();
-  HORIZON_RETURN_IF_ERROR(d.meshes.load(config, *set));
+  HORIZON_RETURN_IF_ERROR(d.meshes.load(config, *set, &control));
   d.metrics.set_datasets(set->size());
   d.metrics.set_block_cache(d.cache.stats());
   d.metrics.set_memory_reserved(d.memory.reserved());

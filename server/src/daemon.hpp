@@ -14,6 +14,7 @@
 #include <memory>
 
 #include "config.hpp"
+#include "horizon/common/control.hpp"
 #include "horizon/common/error.hpp"
 
 namespace horizon::server {
@@ -26,8 +27,10 @@ class Daemon {
   Daemon& operator=(const Daemon&) = delete;
 
   Status start();
-  Status load_datasets();
-  Status reload(const Config& config);
+  // `cancel` (may be null) stops a long preparation of the meshes: a
+  // SIGTERM while loading ends the load with kCancelled.
+  Status load_datasets(const CancelToken* cancel = nullptr);
+  Status reload(const Config& config, const CancelToken* cancel = nullptr);
   void shutdown();
 
   // The gRPC port actually bound (the configured one, or the one chosen for

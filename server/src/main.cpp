@@ -99,9 +99,12 @@ int serve(const Options& o) {
     return 1;
   }
   Events events;
+  // A stop while the meshes are being prepared (seconds to minutes) ends the preparation.
+  horizon::CancelToken loading;
   // Signals are watched before anything starts, so an early SIGTERM is a clean stop.
   SignalWatcher signals(
       [&] {
+        loading.cancel();
         std::lock_guard lock(events.mutex);
         events.stop = true;
         events.wake.notify_all();
@@ -117,7 +120,11 @@ int serve(const Options& o) {
     log_event("error", "start_failed", {{"message", s.error().message}, {"key", s.error().field}});
     return 1;
   }
-  if (auto s = daemon.load_datasets(); !s.ok()) {
+  if (auto s = daemon.load_datasets(&loading); !s.ok()) {
+    if (loading.cancelled()) {  // SIGTERM/SIGINT while loading: a clean stop
+      daemon.shutdown();
+      return 0;
+    }
     log_event("error", "datasets_rejected", {{"message", s.error().message}, {"key", s.error().field}});
     daemon.shutdown();
     return 1;
@@ -133,7 +140,7 @@ int serve(const Options& o) {
     auto next = load_config(o.config, o.overrides);
     if (!next.ok())
       log_event("warn", "reload_rejected", {{"message", next.error().message}, {"key", next.error().field}});
-    else if (auto s = daemon.reload(*next); !s.ok())
+    else if (auto s = daemon.reload(*next, &loading); !s.ok())
       log_event("warn", "reload_rejected", {{"message", s.error().message}, {"key", s.error().field}});
     lock.lock();
   }

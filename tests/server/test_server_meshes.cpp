@@ -99,6 +99,20 @@ TEST(ServerMeshes, AMeshThatDoesNotFitFailsTheLoadNamingIt) {
   EXPECT_EQ(refused.error().field, "meshes.bad") << refused.error().message;
   EXPECT_EQ(measure.snapshot()->size(), 1u);
 
+  // A stop while loading (SIGTERM: main.cpp cancels the load) ends the
+  // preparation; nothing is swapped in or held.
+  CancelToken stop;
+  stop.cancel();
+  RunControl control;
+  control.cancel = &stop;
+  MemoryBudget fresh(256ull << 20);
+  MeshRegistry stopped(fresh, nullptr, 1);
+  const Status cancelled = stopped.load(config, {}, &control);
+  ASSERT_FALSE(cancelled.ok());
+  EXPECT_EQ(cancelled.error().code, ErrorCode::kCancelled) << cancelled.error().message;
+  EXPECT_TRUE(stopped.snapshot()->empty());
+  EXPECT_EQ(fresh.reserved(), 0u);
+
   const Config missing = config_for(root, R"({"gone": {"file": "gone.obj"}})");
   const Status not_found = measure.load(missing, {});
   ASSERT_FALSE(not_found.ok());
