@@ -1,4 +1,5 @@
-// `horizon datasets --server HOST:PORT`: every dataset the daemon holds, page by page.
+// `horizon datasets --server HOST:PORT`: every dataset the daemon holds, page by page,
+// and every mesh it serves.
 #include <iostream>
 
 #include "commands/command.hpp"
@@ -21,6 +22,9 @@ int run_datasets(const Args& args, bool json) {
     for (const v1::Dataset& d : page.datasets()) all.push_back(d);
     request.set_page_token(page.next_page_token());
   } while (!request.page_token().empty());
+  v1::ListMeshesResponse meshes;
+  if (auto s = client.meshes().ListMeshes(client.context().get(), v1::ListMeshesRequest(), &meshes); !s.ok())
+    return report_status(s, client.address());
 
   if (json) {
     Json list = Json::array();
@@ -35,7 +39,15 @@ int run_datasets(const Args& args, bool json) {
                       {"elevation", d.has_elevation_min() ? Json{{"min", d.elevation_min()}, {"max", d.elevation_max()}}
                                                           : Json(nullptr)},
                       {"resident_bytes", d.resident_bytes()}});
-    print_json(Json{{"server", client.address()}, {"datasets", std::move(list)}});
+    Json mesh_list = Json::array();
+    for (const v1::MeshSummary& m : meshes.meshes())
+      mesh_list.push_back({{"name", m.name()},
+                           {"source", m.source()},
+                           {"vertices", m.vertices()},
+                           {"triangles", m.triangles()},
+                           {"groups", m.leaf_groups()},
+                           {"resident_bytes", m.resident_bytes()}});
+    print_json(Json{{"server", client.address()}, {"datasets", std::move(list)}, {"meshes", std::move(mesh_list)}});
     return kExitOk;
   }
   std::cout << all.size() << " datasets on " << client.address() << '\n';
@@ -46,6 +58,13 @@ int run_datasets(const Args& args, bool json) {
                                          : "'" + d.crs_name() + "'")
               << ", " << fixed(d.cell_size_x_m(), 1) << " m cells, " << with_separators(d.resident_bytes())
               << " bytes resident (" << d.source() << ")\n";
+  if (meshes.meshes_size() > 0) {
+    std::cout << meshes.meshes_size() << " meshes\n";
+    for (const v1::MeshSummary& m : meshes.meshes())
+      std::cout << "  " << m.name() << ": " << m.vertices() << " vertices, " << m.triangles() << " triangles, "
+                << m.leaf_groups() << " groups, " << with_separators(m.resident_bytes()) << " bytes resident ("
+                << m.source() << ")\n";
+  }
   return kExitOk;
 }
 

@@ -167,6 +167,31 @@ grpc::Status cull(CallScope& scope, const MeshSet& set, const v1::CullMeshReques
 
 }  // namespace
 
+grpc::ServerUnaryReactor* MeshService::ListMeshes(grpc::CallbackServerContext* context,
+                                                  const v1::ListMeshesRequest* /*request*/,
+                                                  v1::ListMeshesResponse* response) {
+  auto* reactor = context->DefaultReactor();
+  CallScope scope(env_, context, "ListMeshes");
+  grpc::Status status = grpc::Status::OK;
+  if (auto refused = scope.admit()) {
+    status = *refused;
+  } else {
+    for (const auto& [name, served] : *env_.meshes.snapshot()) {
+      const mesh::PreparedMesh& p = served->model.prepared();
+      v1::MeshSummary& out = *response->add_meshes();
+      out.set_name(name);
+      out.set_source(served->source);
+      out.set_vertices(static_cast<std::uint32_t>(p.tin.vertices.size()));
+      out.set_triangles(static_cast<std::uint32_t>(p.tin.triangles.size()));
+      out.set_leaf_groups(p.stats.leaf_groups);
+      out.set_resident_bytes(served->memory.bytes());
+    }
+  }
+  scope.finish(status);
+  reactor->Finish(status);
+  return reactor;
+}
+
 grpc::ServerUnaryReactor* MeshService::DescribeMesh(grpc::CallbackServerContext* context,
                                                     const v1::DescribeMeshRequest* request,
                                                     v1::DescribeMeshResponse* response) {

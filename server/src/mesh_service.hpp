@@ -1,9 +1,9 @@
 // mesh_service.hpp — horizon.v1.MeshService: per-frame culling of the TIN
 // meshes the daemon prepared at load (protos/horizon/v1/mesh.proto,
-// meshes.hpp). Both methods run on the worker pool as unary calls
+// meshes.hpp). DescribeMesh and CullMesh run on the worker pool as unary calls
 // (unary_call.hpp: admission, deadlines, the log line); the culling
 // itself is core's mesh/cull.hpp, read from the mesh's snapshot, which the
-// call holds to its end.
+// call holds to its end. ListMeshes answers at once from the snapshot.
 #pragma once
 
 #include "horizon/v1/mesh.grpc.pb.h"
@@ -19,6 +19,8 @@ class MeshService final : public v1::MeshService::CallbackService {
  public:
   explicit MeshService(ServerEnv& env) : env_(env) {}
 
+  grpc::ServerUnaryReactor* ListMeshes(grpc::CallbackServerContext* context, const v1::ListMeshesRequest* request,
+                                       v1::ListMeshesResponse* response) override;
   grpc::ServerUnaryReactor* DescribeMesh(grpc::CallbackServerContext* context, const v1::DescribeMeshRequest* request,
                                          v1::DescribeMeshResponse* response) override;
   grpc::ServerUnaryReactor* CullMesh(grpc::CallbackServerContext* context, const v1::CullMeshRequest* request,

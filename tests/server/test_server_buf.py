@@ -51,7 +51,8 @@ def run_checks(buf, address):
               "horizon.v1.VisibilityService/ComputeViewshed", "horizon.v1.VisibilityService/LineOfSight",
               "horizon.v1.VisibilityService/CullBoxes", "horizon.v1.VisibilityService/RegionVisibility",
               "horizon.v1.SessionService/Session", "horizon.v1.TraceService/TraceCamera",
-              "horizon.v1.MeshService/DescribeMesh", "horizon.v1.MeshService/CullMesh"]:
+              "horizon.v1.MeshService/ListMeshes", "horizon.v1.MeshService/DescribeMesh",
+              "horizon.v1.MeshService/CullMesh"]:
         assert m in methods, (m, methods)
     # Every listed service's methods are described (the health service's were not).
     for s in services:

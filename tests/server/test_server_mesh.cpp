@@ -287,6 +287,29 @@ TEST_F(ServerMesh, ASecondDaemonPreparesFromTheDiskCache) {
   EXPECT_EQ(response.source(), "file:crater.obj");
 }
 
+TEST_F(ServerMesh, ListMeshesNamesEveryMeshAndTheCliShowsThem) {
+  v1::ListMeshesResponse list;
+  ASSERT_TRUE(meshes_->ListMeshes(context_with_deadline().get(), v1::ListMeshesRequest(), &list).ok());
+  ASSERT_EQ(list.meshes_size(), 2);
+  EXPECT_EQ(list.meshes(0).name(), "andes_tin");  // in name order
+  EXPECT_EQ(list.meshes(0).source(), "dataset:andes");
+  EXPECT_EQ(list.meshes(0).vertices(), 3000u);
+  EXPECT_GT(list.meshes(0).leaf_groups(), 0u);
+  EXPECT_GT(list.meshes(0).resident_bytes(), 0u);
+  EXPECT_EQ(list.meshes(1).name(), "crater");
+  EXPECT_EQ(list.meshes(1).vertices(), 61u * 61u);
+  EXPECT_EQ(list.meshes(1).triangles(), 2u * 60u * 60u);
+
+  const CommandResult cli =
+      run_command(std::string(HORIZON_CLI_PATH) + " datasets --server " + daemon_->address() + " --json");
+  ASSERT_EQ(cli.exit_code, 0) << cli.output;
+  const auto j = nlohmann::json::parse(cli.output);
+  ASSERT_EQ(j["meshes"].size(), 2u);
+  EXPECT_EQ(j["meshes"][1]["name"], "crater");
+  EXPECT_EQ(j["meshes"][1]["source"], "file:crater.obj");
+  EXPECT_EQ(j["datasets"].size(), 1u);
+}
+
 // `horizon mesh cull MESH --server`: the same groups and counts as the CLI
 // culling its own TIN of the same DEM with the same knobs.
 TEST_F(ServerMesh, TheCliCullsTheDaemonsMeshAsItCullsItsOwn) {
