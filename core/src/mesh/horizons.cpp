@@ -53,7 +53,7 @@ struct Leaf {
 // bytes a leaf each, 384 KiB) stay in a core's L2 for its lowest levels.
 constexpr std::size_t kCacheBlock = 4096;
 // The levels below runs of this many leaves are done pair by pair.
-constexpr std::size_t kBottom = 8;
+constexpr std::size_t kBottom = 4;
 
 // p's best answer with the steepest point of `hull` from it.
 [[gnu::always_inline]] inline void answer(Leaf& p, const UpperHull& hull) {
@@ -109,13 +109,14 @@ void merge_level(std::vector<Leaf>& run, std::vector<Leaf>& merged, std::size_t 
 // A sweep's buffers, kept from one wedge to the next (a thread's wedges
 // are all of one size): fresh pages would cost a fault each.
 struct SweepBuffers {
-  explicit SweepBuffers(std::size_t n) : rank(n), best(n), run(n), merged(n), hull(n) {}
+  explicit SweepBuffers(std::size_t n) : rank(n), best(n), slope(n), run(n), merged(n), hull(n) {}
   std::vector<std::uint32_t> rank, best;
+  std::vector<double> slope;
   std::vector<Leaf> run, merged;
   UpperHull hull;
 };
 
-const std::vector<std::uint32_t>& sweep(const std::vector<Projected>& pts, const std::vector<std::uint32_t>& order,
+void sweep(const std::vector<Projected>& pts, const std::vector<std::uint32_t>& order,
                                         const std::vector<std::uint32_t>& leaves, SweepBuffers& buffers) {
   const std::size_t n = pts.size();
   std::vector<std::uint32_t>& rank = buffers.rank;
@@ -159,9 +160,12 @@ const std::vector<std::uint32_t>& sweep(const std::vector<Projected>& pts, const
     merge_level(run, merged, 0, n, width, hull);
     std::swap(run, merged);
   }
-  std::vector<std::uint32_t>& best = buffers.best;
-  for (const Leaf& leaf : run) best[leaf.index] = leaf.best;
-  return best;
+  // Each answer and its slope from p in this wedge's plane (what the
+  // subsectors compare), written by vertex.
+  for (const Leaf& leaf : run) {
+    buffers.best[leaf.index] = leaf.best;
+    buffers.slope[leaf.index] = leaf.best == kNoHorizon ? 0.0 : (leaf.best_z - leaf.z) / (leaf.best_t - leaf.t);
+  }
 }
 
 std::vector<std::uint32_t> brute_force(const std::vector<Projected>& pts) {
@@ -209,28 +213,24 @@ std::vector<Keyed> sorted_along(std::span<const TinVertex> points, const Wedge& 
   const std::size_t n = points.size();
   constexpr int kBits = 11, kPasses = 6;
   constexpr std::size_t kBuckets = std::size_t{1} << kBits;
-  std::vector<Keyed> out(n), other(n);
-  std::vector<std::uint64_t> bits(n), other_bits(n);
-  std::vector<std::size_t> count(kPasses * kBuckets, 0);
-  for (std::uint32_t i = 0; i < n; ++i) {
-    const double key = edge_lo.a(points[i]);
-    out[i] = {key, i};
+  auto digits = [](double key) {  // the key's bits, in the keys' order
     const auto u = std::bit_cast<std::uint64_t>(key + 0.0);
-    bits[i] = u >> 63 ? ~u : u | (std::uint64_t{1} << 63);
-    for (int pass = 0; pass < kPasses; ++pass) ++count[pass * kBuckets + ((bits[i] >> (pass * kBits)) & (kBuckets - 1))];
+    return u >> 63 ? ~u : u | (std::uint64_t{1} << 63);
+  };
+  std::vector<Keyed> out(n), other(n);
+  std::vector<std::uint32_t> count(kPasses * kBuckets, 0);
+  for (std::uint32_t i = 0; i < n; ++i) {
+    out[i] = {edge_lo.a(points[i]), i};
+    const std::uint64_t d = digits(out[i].key);
+    for (int pass = 0; pass < kPasses; ++pass) ++count[pass * kBuckets + ((d >> (pass * kBits)) & (kBuckets - 1))];
   }
   for (int pass = 0; pass < kPasses; ++pass) {
-    std::size_t* c = count.data() + pass * kBuckets;
-    if (n == 0 || c[(bits[0] >> (pass * kBits)) & (kBuckets - 1)] == n) continue;  // one digit: nothing moves
-    std::size_t sum = 0;
+    std::uint32_t* c = count.data() + pass * kBuckets;
+    if (n == 0 || c[(digits(out[0].key) >> (pass * kBits)) & (kBuckets - 1)] == n) continue;  // one digit: nothing moves
+    std::uint32_t sum = 0;
     for (std::size_t b = 0; b < kBuckets; ++b) sum += std::exchange(c[b], sum);
-    for (std::size_t i = 0; i < n; ++i) {
-      const std::size_t at = c[(bits[i] >> (pass * kBits)) & (kBuckets - 1)]++;
-      other[at] = out[i];
-      other_bits[at] = bits[i];
-    }
+    for (std::size_t i = 0; i < n; ++i) other[c[(digits(out[i].key) >> (pass * kBits)) & (kBuckets - 1)]++] = out[i];
     out.swap(other);
-    bits.swap(other_bits);
   }
   return out;
 }
@@ -257,17 +257,18 @@ class LowestOfSubsectors {
  public:
   explicit LowestOfSubsectors(std::size_t n) : chosen_(n, kNoHorizon), lowest_(n, 0.0) {}
 
-  void add(std::span<const TinVertex> points, int j, const Wedge& w, const std::vector<std::uint32_t>& h) {
+  // Subsector j's horizons h and their slopes (z_h - z_v) / (t_h - t_v)
+  // in its plane.
+  void add(int j, const std::vector<std::uint32_t>& h, const std::vector<double>& slope) {
     for (std::size_t v = 0; v < h.size(); ++v) {
       if (j > 0 && chosen_[v] == kNoHorizon) continue;  // a subsector before had none
       if (h[v] == kNoHorizon) {
         chosen_[v] = kNoHorizon;
         continue;
       }
-      const double slope = (points[h[v]].z - points[v].z) / (w.t(points[h[v]]) - w.t(points[v]));
-      if (j == 0 || slope < lowest_[v]) {
+      if (j == 0 || slope[v] < lowest_[v]) {
         chosen_[v] = h[v];
-        lowest_[v] = slope;
+        lowest_[v] = slope[v];
       }
     }
   }
@@ -326,7 +327,8 @@ Result<VertexHorizons> compute_horizons(std::span<const TinVertex> points, const
         in_order(edges[static_cast<std::size_t>(j) + 1], opposite, [&](std::uint32_t u, std::uint32_t v) {
           return pts[u].a > pts[v].a || (pts[u].a == pts[v].a && u < v);
         }, leaves);
-        lowest.add(points, j, w, sweep(pts, order, leaves, buffers));
+        sweep(pts, order, leaves, buffers);
+        lowest.add(j, buffers.best, buffers.slope);
       }
       lowest.store(i, *out);
     }
@@ -342,7 +344,12 @@ Result<VertexHorizons> brute_force_horizons(std::span<const TinVertex> points, c
     LowestOfSubsectors lowest(points.size());
     for (int j = 0; j < k; ++j) {
       const Wedge w = Wedge::sector(static_cast<int>(i), s, j, k);
-      lowest.add(points, j, w, brute_force(project(points, w)));
+      const std::vector<Projected> pts = project(points, w);
+      const std::vector<std::uint32_t> h = brute_force(pts);
+      std::vector<double> slope(h.size(), 0.0);
+      for (std::size_t v = 0; v < h.size(); ++v)
+        if (h[v] != kNoHorizon) slope[v] = (pts[h[v]].z - pts[v].z) / (pts[h[v]].t - pts[v].t);
+      lowest.add(j, h, slope);
     }
     lowest.store(static_cast<int>(i), *out);
   });
