@@ -123,6 +123,8 @@ struct Level {
   std::vector<std::uint8_t> whole;  // the cell lies wholly on the mesh
 };
 
+}  // namespace
+
 // The floor pyramid (see the comment at the top).
 class FloorPyramid {
  public:
@@ -252,6 +254,8 @@ class FloorPyramid {
   std::vector<Level> levels_;
 };
 
+namespace {
+
 struct Arc {
   double radius, slope;
 };
@@ -309,9 +313,15 @@ void bands_for(const FloorPyramid& floors, std::span<const AzimuthBin> azimuths,
 
 }  // namespace
 
+std::shared_ptr<const FloorPyramid> build_floors(const Tin& tin) { return std::make_shared<const FloorPyramid>(tin); }
+
 Walls build_walls(const Tin& tin, int sectors, std::span<const Circle> circles, std::span<const double> tops,
                   unsigned threads) {
-  const FloorPyramid floors(tin);
+  return build_walls(FloorPyramid(tin), sectors, circles, tops, threads);
+}
+
+Walls build_walls(const FloorPyramid& floors, int sectors, std::span<const Circle> circles, std::span<const double> tops,
+                  unsigned threads) {
   const std::size_t items = circles.size();
   const auto s = static_cast<std::size_t>(sectors);
   std::vector<std::vector<std::vector<Arc>>> bands(items);
@@ -333,7 +343,9 @@ Walls build_walls(const Tin& tin, int sectors, std::span<const Circle> circles, 
   return walls;
 }
 
-void build_walls(PreparedMesh& mesh, unsigned threads) {
+void build_walls(PreparedMesh& mesh, unsigned threads) { build_walls(mesh, FloorPyramid(mesh.tin), threads); }
+
+void build_walls(PreparedMesh& mesh, const FloorPyramid& floors, unsigned threads) {
   std::vector<Circle> circles;
   std::vector<double> tops;
   for (const MeshGroup& group : mesh.groups) {
@@ -343,7 +355,7 @@ void build_walls(PreparedMesh& mesh, unsigned threads) {
     circles.push_back(group.circle);
     tops.push_back(top);
   }
-  Walls walls = build_walls(mesh.tin, mesh.sectors, circles, tops, threads);
+  Walls walls = build_walls(floors, mesh.sectors, circles, tops, threads);
   mesh.group_top = std::move(walls.top);
   mesh.wall_begin = std::move(walls.begin);
   mesh.wall_radius = std::move(walls.radius);
