@@ -83,7 +83,8 @@ void merge_level(std::vector<Leaf>& run, std::vector<Leaf>& merged, std::size_t 
       ++j;
     }
     // What is left of either block meets nothing more at this node.
-    while (i < mid) merged[k++] = run[i++];
+    k = static_cast<std::size_t>(std::copy(run.begin() + static_cast<std::ptrdiff_t>(i), run.begin() + static_cast<std::ptrdiff_t>(mid),
+                                           merged.begin() + static_cast<std::ptrdiff_t>(k)) - merged.begin());
     while (j < hi) {
       Leaf& p = run[j++];
       if (hull.size() > 0) answer(p, hull);

@@ -97,8 +97,9 @@ class UpperHull {
   // of s in [1, m) with turn(p, h_[s], h_[s - 1]) not a left turn.
   //
   // The search runs without branches on the filtered determinant (its
-  // mispredictions cost more than its arithmetic); were any of its signs
-  // unproven it is run again with the exact predicate.
+  // mispredictions cost more than its arithmetic), on a short hull as a
+  // count over all its edges; were any of its signs unproven it is run
+  // again with the exact predicate.
   const Planar* steepest(const Planar& p) const {
     const std::size_t m = m_;
     if (m <= 1) return m ? &h_[0] : nullptr;
@@ -113,12 +114,18 @@ class UpperHull {
       unsure |= std::fabs(det) <= kOrientBound * (std::fabs(left) + std::fabs(right));
       return !(det > 0);
     };
-    while (n > 1) {
-      const std::size_t half = n / 2;
-      base = not_left(base + half) ? base + half : base;
-      n -= half;
+    if (n <= kLinear) {
+      // Short hulls (the usual ones): every pair at once, no chain of
+      // dependent loads; the prefix's length is the count.
+      for (std::size_t j = 0; j < n; ++j) base += not_left(j) ? 1 : 0;
+    } else {
+      while (n > 1) {
+        const std::size_t half = n / 2;
+        base = not_left(base + half) ? base + half : base;
+        n -= half;
+      }
+      base += not_left(base) ? 1 : 0;
     }
-    base += not_left(base) ? 1 : 0;
     if (!unsure) return &h[base];
     // The exact search, branching.
     std::size_t lo = 0, hi = m - 1;
@@ -133,6 +140,9 @@ class UpperHull {
   }
 
  private:
+  // Hulls of up to this many edges are searched by testing every edge.
+  static constexpr std::size_t kLinear = 8;
+
   // q with some point of t no greater: found by binary search.
   [[gnu::noinline]] void insert_inside(const Planar& q) {
     Planar* const h = h_.data();
