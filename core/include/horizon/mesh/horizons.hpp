@@ -48,15 +48,16 @@
 // cost is per operation: about log2 n of them per point and wedge, each an
 // insertion or a query. The hull is stored by decreasing t, the order the
 // points mostly arrive in, so most insertions are a step of Andrew's
-// monotone chain at its end; a query is a branch-free binary search on
-// the filtered determinant, repeated with exact branching when a sign was
+// monotone chain at its end; a query tests every edge of a short hull at
+// once, or binary-searches a long one, without branching on the filtered
+// determinant, and is repeated with exact branching when a sign was
 // unproven. Sectors run in parallel (threads), a sector and its opposite
-// together: their edges are the same lines, so k + 1 radix sorts of the
-// vertices along them serve 2k wedges. Memory: about 270 bytes a vertex a
-// thread at k = 4 (the sorts, two 48-byte leaf arrays, a hull buffer),
-// plus the answer's 4·s bytes a vertex. docs/benchmarks.md ("TIN horizons")
-// has the timings. brute_force_horizons is the O(s·k·n²) reference with
-// the same predicate and tie rule, for tests.
+// together when s is even: their edges are the same lines, so k + 1 radix
+// sorts of the vertices along them serve 2k wedges. Memory: about 270
+// bytes a vertex a thread at k = 4 (the sorts, two 48-byte leaf arrays, a
+// hull buffer), plus the answer's 4·s bytes a vertex. docs/benchmarks.md
+// ("TIN horizons") has the timings. brute_force_horizons is the
+// O(s·k·n²) reference with the same predicate and tie rule, for tests.
 #pragma once
 
 #include <cstdint>
