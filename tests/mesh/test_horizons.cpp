@@ -1,6 +1,7 @@
 // Tests for mesh/horizons.cpp: wedge membership against the angle test, the
 // tree sweep against the brute force (random TINs, lattices full of ties,
-// collinear and equal-projection sets), hand-built horizons, subsectors
+// collinear and equal-projection sets, a set larger than the sweep's
+// cache block), hand-built horizons, subsectors
 // keeping the lowest, and invariance under scaling z.
 #include <gtest/gtest.h>
 
@@ -114,6 +115,19 @@ TEST(Horizons, SweepEqualsBruteForceOnCollinearAndEqualProjectionSets) {
   for (const auto* set : {&line, &rows})
     for (auto [s, k] : {std::pair(4, 1), std::pair(3, 1), std::pair(8, 2)})
       EXPECT_EQ(swept(*set, s, k).horizon, brute(*set, s, k).horizon) << s << "/" << k;
+}
+
+TEST(Horizons, SweepEqualsBruteForceAboveTheSweepsCacheBlock) {
+  // More points than a cache block of the sweep (4096 leaves), so its
+  // levels run both block by block and over the whole array.
+  std::vector<TinVertex> points;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> jitter(-0.3, 0.3), z(0.0, 50.0);
+  for (int r = 0; r < 70; ++r)
+    for (int c = 0; c < 70; ++c) points.push_back({c + jitter(rng), r + jitter(rng), z(rng) + 0.5 * r});
+  ASSERT_GT(points.size(), 4096u);
+  for (auto [s, k] : {std::pair(4, 1), std::pair(3, 1)})
+    EXPECT_EQ(swept(points, s, k).horizon, brute(points, s, k).horizon) << s << "/" << k;
 }
 
 TEST(Horizons, AHandBuiltHorizon) {

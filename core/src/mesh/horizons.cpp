@@ -2,20 +2,23 @@
 // after Stewart 1998) and its brute-force reference. See horizons.hpp.
 #include "horizon/mesh/horizons.hpp"
 
-#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <numbers>
 #include <numeric>
 #include <string>
+#include <utility>
 
 #include "horizon/common/parallel.hpp"
+#include "mesh/upper_hull.hpp"
 
 namespace horizon::mesh {
 namespace {
 
-using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+using hull::Planar;
+using hull::steeper;
+using hull::UpperHull;
 
 // A point as one wedge sees it: its edge coordinates and its projection
 // (t, z) onto the wedge's centre plane.
@@ -23,88 +26,72 @@ struct Projected {
   double a, b, t, z;
 };
 
-std::vector<Projected> project(std::span<const TinVertex> points, const Wedge& w) {
-  std::vector<Projected> out(points.size());
+void project(std::span<const TinVertex> points, const Wedge& w, std::vector<Projected>& out) {
+  out.resize(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) out[i] = {w.a(points[i]), w.b(points[i]), w.t(points[i]), points[i].z};
+}
+
+std::vector<Projected> project(std::span<const TinVertex> points, const Wedge& w) {
+  std::vector<Projected> out;
+  project(points, w, out);
   return out;
 }
 
-// A point projected on the wedge's centre plane, with its vertex index.
-struct Planar {
-  double t, z;
-  std::uint32_t index;
+// A leaf of the tree: a point, its processing rank, and the best answer
+// found for it so far (best == kNoHorizon: none yet). 48 bytes, moved at
+// every level.
+struct Leaf {
+  double t, z, best_t, best_z;
+  std::uint32_t index, rank, best;
+
+  Planar at() const { return {t, z, index}; }
+  Planar best_at() const { return {best_t, best_z, best}; }
 };
 
-// The orientation of (u, v, w) in the (t, z) plane, exactly: the double
-// determinant where Shewchuk's error bound for it ("Adaptive precision
-// floating-point arithmetic and fast robust geometric predicates", 1997,
-// orient2d's first stage) proves its sign, CGAL's exact predicate where not.
-CGAL::Orientation turn(const Planar& u, const Planar& v, const Planar& w) {
-  const double left = (u.t - w.t) * (v.z - w.z), right = (u.z - w.z) * (v.t - w.t), det = left - right;
-  constexpr double kBound = (3.0 + 16.0 * 0x1p-53) * 0x1p-53;  // Shewchuk's ccwerrboundA
-  const double bound = kBound * (std::fabs(left) + std::fabs(right));
-  if (det > bound) return CGAL::LEFT_TURN;
-  if (-det > bound) return CGAL::RIGHT_TURN;
-  return CGAL::orientation(Kernel::Point_2(u.t, u.z), Kernel::Point_2(v.t, v.z), Kernel::Point_2(w.t, w.z));
+// Leaves merged bottom-up within blocks of this many before the levels
+// above run over the whole array: a block's run and merged copies (48
+// bytes a leaf each, 384 KiB) stay in a core's L2 for its lowest levels.
+constexpr std::size_t kCacheBlock = 4096;
+// The levels below runs of this many leaves are done pair by pair.
+constexpr std::size_t kBottom = 4;
+
+// p's best answer with the steepest point of `hull` from it.
+[[gnu::always_inline]] inline void answer(Leaf& p, const UpperHull& hull) {
+  const Planar here = p.at();
+  const Planar* q = hull.steepest(here);
+  if (p.best == kNoHorizon || steeper(here, *q, p.best_at())) p.best_t = q->t, p.best_z = q->z, p.best = q->index;
 }
 
-// Whether q1 is a better horizon for p than q2: the steeper from p
-// (exactly), then the nearer (smaller t), then the smaller index. Both have
-// t > p's t.
-bool steeper(const Planar& p, const Planar& q1, const Planar& q2) {
-  switch (turn(p, q2, q1)) {
-    case CGAL::LEFT_TURN:  // q1 above the line from p through q2
-      return true;
-    case CGAL::RIGHT_TURN:
-      return false;
-    default:
-      return q1.t < q2.t || (q1.t == q2.t && q1.index < q2.index);
+// One level: blocks of `width` in run[from, to) merged pairwise by rank
+// into merged[from, to), each right block's points asking the hull of the
+// left block's points before them.
+void merge_level(std::vector<Leaf>& run, std::vector<Leaf>& merged, std::size_t from, std::size_t to,
+                 std::size_t width, UpperHull& hull) {
+  for (std::size_t lo = from; lo < to; lo += 2 * width) {
+    const std::size_t mid = std::min(lo + width, to), hi = std::min(lo + 2 * width, to);
+    hull.clear();
+    std::size_t i = lo, j = mid, k = lo;
+    while (i < mid && j < hi) {
+      if (run[i].rank < run[j].rank) {
+        hull.insert(run[i].at());  // left block: a candidate for what follows
+        merged[k++] = run[i++];
+        continue;
+      }
+      Leaf& p = run[j];  // right block: asks the left block's points before it
+      if (hull.size() > 0) answer(p, hull);
+      merged[k++] = p;
+      ++j;
+    }
+    // What is left of either block meets nothing more at this node.
+    k = static_cast<std::size_t>(std::copy(run.begin() + static_cast<std::ptrdiff_t>(i), run.begin() + static_cast<std::ptrdiff_t>(mid),
+                                           merged.begin() + static_cast<std::ptrdiff_t>(k)) - merged.begin());
+    while (j < hi) {
+      Leaf& p = run[j++];
+      if (hull.size() > 0) answer(p, hull);
+      merged[k++] = p;
+    }
   }
 }
-
-// The upper convex hull of the points inserted into one tree node, sorted by
-// t, holding only the points that can be some query's answer: extreme
-// points; of equal t the highest (then the smaller index); none strictly
-// inside a hull edge. The points are held by value: a query's binary search
-// reads one contiguous array.
-class UpperHull {
- public:
-  void clear() { h_.clear(); }
-
-  void insert(const Planar& q) {
-    auto at = std::lower_bound(h_.begin(), h_.end(), q.t, [](const Planar& u, double t) { return u.t < t; });
-    if (at != h_.end() && at->t == q.t) {
-      if (at->z > q.z || (at->z == q.z && at->index < q.index)) return;  // q is never the better answer
-      at = h_.erase(at);
-    }
-    // Below or on the hull between its neighbours: never the unique answer.
-    if (at != h_.begin() && at != h_.end() && turn(*(at - 1), *at, q) != CGAL::LEFT_TURN) return;
-    at = h_.insert(at, q);
-    // Neighbours no longer extreme: on or under the new edges.
-    auto left = at;
-    while (left - h_.begin() >= 2 && turn(*(left - 2), *(left - 1), q) != CGAL::RIGHT_TURN) left = h_.erase(left - 1);
-    auto right = left + 1;
-    while (h_.end() - right >= 2 && turn(q, *right, *(right + 1)) != CGAL::RIGHT_TURN) right = h_.erase(right);
-  }
-
-  // The steepest point of the hull from p (null when empty): slopes from a
-  // point left of the hull rise, then fall, along it.
-  const Planar* steepest(const Planar& p) const {
-    if (h_.empty()) return nullptr;
-    std::size_t lo = 0, hi = h_.size() - 1;
-    while (lo < hi) {
-      const std::size_t mid = (lo + hi) / 2;
-      if (steeper(p, h_[mid + 1], h_[mid]))
-        lo = mid + 1;
-      else
-        hi = mid;
-    }
-    return &h_[lo];
-  }
-
- private:
-  std::vector<Planar> h_;
-};
 
 // One wedge's horizons for every point, by the sweep over the tree.
 //
@@ -115,46 +102,71 @@ class UpperHull {
 // order, one hull at a time. Each point still meets every node it would
 // have, in the same order, so the answers are the same; but a node's hull
 // is built and read in one go, in cache, and the tree's levels are the
-// passes of a bottom-up merge sort of the leaves by processing rank.
-std::vector<std::uint32_t> sweep(const std::vector<Projected>& pts, const std::vector<std::uint32_t>& order,
-                                 const std::vector<std::uint32_t>& leaves) {
+// passes of a bottom-up merge sort of the leaves by processing rank. The
+// lowest levels run block by block (kCacheBlock), the rest over the whole
+// array; every node is merged exactly as before, only the nodes' order
+// changes, and each node's answers depend on its own points alone.
+//
+// A sweep's buffers, kept from one wedge to the next (a thread's wedges
+// are all of one size): fresh pages would cost a fault each.
+struct SweepBuffers {
+  explicit SweepBuffers(std::size_t n) : rank(n), best(n), slope(n), run(n), merged(n), hull(n) {}
+  std::vector<std::uint32_t> rank, best;
+  std::vector<double> slope;
+  std::vector<Leaf> run, merged;
+  UpperHull hull;
+};
+
+void sweep(const std::vector<Projected>& pts, const std::vector<std::uint32_t>& order,
+                                        const std::vector<std::uint32_t>& leaves, SweepBuffers& buffers) {
   const std::size_t n = pts.size();
-  std::vector<std::uint32_t> rank(n);
+  std::vector<std::uint32_t>& rank = buffers.rank;
   for (std::size_t i = 0; i < n; ++i) rank[order[i]] = static_cast<std::uint32_t>(i);
-  // `run` holds the leaves, each block of `width` sorted by processing rank;
-  // each carries its best answer so far, so the merge reads only in order.
-  struct Leaf {
-    Planar at, best;  // best.index == kNoHorizon: none yet
-    std::uint32_t rank;
-  };
-  std::vector<Leaf> run(n), merged(n);
+  std::vector<Leaf>&run = buffers.run, &merged = buffers.merged;
   for (std::size_t i = 0; i < n; ++i) {
     const std::uint32_t v = leaves[i];
-    run[i] = {{pts[v].t, pts[v].z, v}, {0.0, 0.0, kNoHorizon}, rank[v]};
+    run[i] = {pts[v].t, pts[v].z, 0.0, 0.0, v, rank[v], kNoHorizon};
   }
-  UpperHull hull;
-  for (std::size_t width = 1; width < n; width *= 2) {
-    for (std::size_t lo = 0; lo < n; lo += 2 * width) {
-      const std::size_t mid = std::min(lo + width, n), hi = std::min(lo + 2 * width, n);
-      hull.clear();
-      std::size_t i = lo, j = mid, k = lo;
-      while (i < mid || j < hi) {
-        if (j >= hi || (i < mid && run[i].rank < run[j].rank)) {
-          hull.insert(run[i].at);  // left block: a candidate for what follows
-          merged[k++] = run[i++];
-          continue;
-        }
-        Leaf& p = run[j];  // right block: asks the left block's points before it
-        if (const Planar* q = hull.steepest(p.at); q && (p.best.index == kNoHorizon || steeper(p.at, *q, p.best)))
-          p.best = *q;
-        merged[k++] = run[j++];
-      }
+  // The lowest levels, pair by pair: in a run of kBottom leaves every
+  // point is a candidate for each one after it of higher rank (the pairs
+  // the nodes within the run would meet), and the run is then sorted by
+  // rank, as those levels' merges would leave it.
+  for (std::size_t lo = 0; lo < n; lo += kBottom) {
+    const std::size_t hi = std::min(lo + kBottom, n);
+    for (std::size_t i = lo + 1; i < hi; ++i) {
+      Leaf& p = run[i];
+      const Planar here = p.at();
+      for (std::size_t j = lo; j < i; ++j)
+        if (run[j].rank < p.rank && (p.best == kNoHorizon || steeper(here, run[j].at(), p.best_at())))
+          p.best_t = run[j].t, p.best_z = run[j].z, p.best = run[j].index;
     }
+    for (std::size_t i = lo + 1; i < hi; ++i)
+      for (std::size_t j = i; j > lo && run[j - 1].rank > run[j].rank; --j) std::swap(run[j - 1], run[j]);
+  }
+  UpperHull& hull = buffers.hull;
+  std::size_t width = kBottom;
+  if (n > kBottom) {
+    const std::size_t block = std::min(kCacheBlock, std::bit_ceil(n));
+    for (std::size_t from = 0; from < n; from += block) {
+      const std::size_t to = std::min(from + block, n);
+      bool in_run = true;  // which array holds this block's leaves now
+      for (std::size_t w = kBottom; w < block; w *= 2, in_run = !in_run)
+        in_run ? merge_level(run, merged, from, to, w, hull) : merge_level(merged, run, from, to, w, hull);
+    }
+    // Every block ran the same number of levels, so they all end in the same array.
+    for (std::size_t w = kBottom; w < block; w *= 2) std::swap(run, merged);
+    width = std::max(block, kBottom);
+  }
+  for (; width < n; width *= 2) {
+    merge_level(run, merged, 0, n, width, hull);
     std::swap(run, merged);
   }
-  std::vector<std::uint32_t> best(n);
-  for (const Leaf& leaf : run) best[leaf.at.index] = leaf.best.index;
-  return best;
+  // Each answer and its slope from p in this wedge's plane (what the
+  // subsectors compare), written by vertex.
+  for (const Leaf& leaf : run) {
+    buffers.best[leaf.index] = leaf.best;
+    buffers.slope[leaf.index] = leaf.best == kNoHorizon ? 0.0 : (leaf.best_z - leaf.z) / (leaf.best_t - leaf.t);
+  }
 }
 
 std::vector<std::uint32_t> brute_force(const std::vector<Projected>& pts) {
@@ -193,22 +205,44 @@ struct Keyed {
   std::uint32_t index;
 };
 
-// The vertices ascending by (n · v, index) for edge m's normal n.
+// The vertices ascending by (n · v, index) for edge m's normal n: a stable
+// least-significant-digit radix sort (11 bits a pass, passes whose digit
+// is the same for every key skipped) of the keys' bits mapped to unsigned
+// integers of the same order; the input is in index order, so equal keys
+// stay in it. -0.0 is first made +0.0, the two being equal keys.
 std::vector<Keyed> sorted_along(std::span<const TinVertex> points, const Wedge& edge_lo) {
-  std::vector<Keyed> out(points.size());
-  for (std::uint32_t i = 0; i < points.size(); ++i) out[i] = {edge_lo.a(points[i]), i};
-  std::sort(out.begin(), out.end(),
-            [](const Keyed& u, const Keyed& v) { return u.key < v.key || (u.key == v.key && u.index < v.index); });
+  const std::size_t n = points.size();
+  constexpr int kBits = 11, kPasses = 6;
+  constexpr std::size_t kBuckets = std::size_t{1} << kBits;
+  auto digits = [](double key) {  // the key's bits, in the keys' order
+    const auto u = std::bit_cast<std::uint64_t>(key + 0.0);
+    return u >> 63 ? ~u : u | (std::uint64_t{1} << 63);
+  };
+  std::vector<Keyed> out(n), other(n);
+  std::vector<std::uint32_t> count(kPasses * kBuckets, 0);
+  for (std::uint32_t i = 0; i < n; ++i) {
+    out[i] = {edge_lo.a(points[i]), i};
+    const std::uint64_t d = digits(out[i].key);
+    for (int pass = 0; pass < kPasses; ++pass) ++count[pass * kBuckets + ((d >> (pass * kBits)) & (kBuckets - 1))];
+  }
+  for (int pass = 0; pass < kPasses; ++pass) {
+    std::uint32_t* c = count.data() + pass * kBuckets;
+    if (n == 0 || c[(digits(out[0].key) >> (pass * kBits)) & (kBuckets - 1)] == n) continue;  // one digit: nothing moves
+    std::uint32_t sum = 0;
+    for (std::size_t b = 0; b < kBuckets; ++b) sum += std::exchange(c[b], sum);
+    for (std::size_t i = 0; i < n; ++i) other[c[(digits(out[i].key) >> (pass * kBits)) & (kBuckets - 1)]++] = out[i];
+    out.swap(other);
+  }
   return out;
 }
 
 // The indices of `sorted` by its key ascending, or descending, each run of
 // equal keys put in `tie`'s order.
 template <class Tie>
-std::vector<std::uint32_t> in_order(const std::vector<Keyed>& sorted, bool descending, Tie tie) {
+void in_order(const std::vector<Keyed>& sorted, bool descending, Tie tie, std::vector<std::uint32_t>& out) {
   const std::size_t n = sorted.size();
   auto at = [&](std::size_t i) -> const Keyed& { return sorted[descending ? n - 1 - i : i]; };
-  std::vector<std::uint32_t> out(n);
+  out.resize(n);
   for (std::size_t i = 0; i < n; ++i) out[i] = at(i).index;
   for (std::size_t i = 0; i < n;) {
     std::size_t j = i + 1;
@@ -216,7 +250,6 @@ std::vector<std::uint32_t> in_order(const std::vector<Keyed>& sorted, bool desce
     if (j - i > 1) std::sort(out.begin() + static_cast<std::ptrdiff_t>(i), out.begin() + static_cast<std::ptrdiff_t>(j), tie);
     i = j;
   }
-  return out;
 }
 
 // Each vertex's lowest subsector horizon of one sector, by that horizon's
@@ -225,17 +258,18 @@ class LowestOfSubsectors {
  public:
   explicit LowestOfSubsectors(std::size_t n) : chosen_(n, kNoHorizon), lowest_(n, 0.0) {}
 
-  void add(std::span<const TinVertex> points, int j, const Wedge& w, const std::vector<std::uint32_t>& h) {
+  // Subsector j's horizons h and their slopes (z_h - z_v) / (t_h - t_v)
+  // in its plane.
+  void add(int j, const std::vector<std::uint32_t>& h, const std::vector<double>& slope) {
     for (std::size_t v = 0; v < h.size(); ++v) {
       if (j > 0 && chosen_[v] == kNoHorizon) continue;  // a subsector before had none
       if (h[v] == kNoHorizon) {
         chosen_[v] = kNoHorizon;
         continue;
       }
-      const double slope = (points[h[v]].z - points[v].z) / (w.t(points[h[v]]) - w.t(points[v]));
-      if (j == 0 || slope < lowest_[v]) {
+      if (j == 0 || slope[v] < lowest_[v]) {
         chosen_[v] = h[v];
-        lowest_[v] = slope;
+        lowest_[v] = slope[v];
       }
     }
   }
@@ -274,24 +308,28 @@ Result<VertexHorizons> compute_horizons(std::span<const TinVertex> points, const
     std::vector<std::vector<Keyed>> edges;  // edge j of the sector: its lo edge of subsector j
     for (int j = 0; j <= k; ++j)
       edges.push_back(sorted_along(points, j < k ? Wedge::sector(sector, s, j, k) : Wedge::sector(sector + 1, s, 0, k)));
+    std::vector<Projected> pts;
+    std::vector<std::uint32_t> order, leaves;
+    SweepBuffers buffers(points.size());
     for (int opposite = 0; opposite <= (s % 2 == 0 ? 1 : 0); ++opposite) {
       const int i = sector + opposite * s / 2;
       LowestOfSubsectors lowest(points.size());
       for (int j = 0; j < k; ++j) {
         const Wedge w = Wedge::sector(i, s, j, k);
-        const std::vector<Projected> pts = project(points, w);
+        project(points, w, pts);
         // Processing: decreasing A (ties: increasing B, then index). Leaves:
         // increasing B (ties: decreasing A, then index). Then q is p's
         // candidate exactly when it comes before p in both orders (the test
         // of horizons.hpp). For the opposite sector A and B are the shared
         // keys negated.
-        const auto order = in_order(edges[static_cast<std::size_t>(j)], !opposite, [&](std::uint32_t u, std::uint32_t v) {
+        in_order(edges[static_cast<std::size_t>(j)], !opposite, [&](std::uint32_t u, std::uint32_t v) {
           return pts[u].b < pts[v].b || (pts[u].b == pts[v].b && u < v);
-        });
-        const auto leaves = in_order(edges[static_cast<std::size_t>(j) + 1], opposite, [&](std::uint32_t u, std::uint32_t v) {
+        }, order);
+        in_order(edges[static_cast<std::size_t>(j) + 1], opposite, [&](std::uint32_t u, std::uint32_t v) {
           return pts[u].a > pts[v].a || (pts[u].a == pts[v].a && u < v);
-        });
-        lowest.add(points, j, w, sweep(pts, order, leaves));
+        }, leaves);
+        sweep(pts, order, leaves, buffers);
+        lowest.add(j, buffers.best, buffers.slope);
       }
       lowest.store(i, *out);
     }
@@ -307,7 +345,12 @@ Result<VertexHorizons> brute_force_horizons(std::span<const TinVertex> points, c
     LowestOfSubsectors lowest(points.size());
     for (int j = 0; j < k; ++j) {
       const Wedge w = Wedge::sector(static_cast<int>(i), s, j, k);
-      lowest.add(points, j, w, brute_force(project(points, w)));
+      const std::vector<Projected> pts = project(points, w);
+      const std::vector<std::uint32_t> h = brute_force(pts);
+      std::vector<double> slope(h.size(), 0.0);
+      for (std::size_t v = 0; v < h.size(); ++v)
+        if (h[v] != kNoHorizon) slope[v] = (pts[h[v]].z - pts[v].z) / (pts[h[v]].t - pts[v].t);
+      lowest.add(j, h, slope);
     }
     lowest.store(static_cast<int>(i), *out);
   });

@@ -8,8 +8,10 @@
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <numbers>
 
+#include "horizon/common/parallel.hpp"
 #include "mesh/sector_frame.hpp"
 #include "mesh/prepared_parts.hpp"
 #include "mesh/walls.hpp"
@@ -73,20 +75,26 @@ class Builder {
  public:
   Builder(PreparedMesh& mesh, const PrepareOptions& options) : mesh_(mesh), options_(options) {}
 
-  // Leaves from the crystals, then the hierarchy over them.
+  // Leaves from the crystals, then the hierarchy over them. The leaves
+  // are independent of one another and built in parallel (each into its
+  // own slots), then appended in order.
   void build(const Crystals& crystals, std::vector<std::vector<std::uint32_t>>& faces_of) {
     const SectorFrame frame(mesh_.tin.vertices, mesh_.horizons);
     const int s = mesh_.sectors;
+    const auto sectors = static_cast<std::size_t>(s);
     faces_of = crystals.groups;
-    for (const auto& faces : crystals.groups) {
+    const std::size_t leaves = crystals.groups.size();
+    std::vector<MeshGroup> leaf_groups(leaves);
+    std::vector<OcclusionChain> leaf_regions(leaves * sectors);
+    parallel_for(leaves, options_.horizons.threads, [&](std::size_t g) {
+      const auto& faces = crystals.groups[g];
       std::vector<std::uint32_t> vertices;
       for (std::uint32_t f : faces) vertices.insert(vertices.end(), mesh_.tin.triangles[f].begin(), mesh_.tin.triangles[f].end());
       std::sort(vertices.begin(), vertices.end());
       vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
-      MeshGroup group;
+      MeshGroup& group = leaf_groups[g];
       group.triangle_count = static_cast<std::uint32_t>(faces.size());
       group.circle = min_circle(mesh_.tin.vertices, vertices);
-      mesh_.groups.push_back(group);
       std::vector<OcclusionChain::Ray> rays;
       for (int i = 0; i < s; ++i) {
         // The vertices' rays at once; a vertex with no horizon empties it.
@@ -99,10 +107,13 @@ class Builder {
           }
           rays.push_back(*ray);
         }
-        mesh_.regions.push_back(
-            OcclusionChain::lower_envelope(rays).simplified(static_cast<std::size_t>(options_.max_chain_corners)));
+        leaf_regions[g * sectors + static_cast<std::size_t>(i)] =
+            OcclusionChain::lower_envelope(rays).simplified(static_cast<std::size_t>(options_.max_chain_corners));
       }
-    }
+    });
+    mesh_.groups.insert(mesh_.groups.end(), leaf_groups.begin(), leaf_groups.end());
+    mesh_.regions.insert(mesh_.regions.end(), std::make_move_iterator(leaf_regions.begin()),
+                         std::make_move_iterator(leaf_regions.end()));
     mesh_.stats.leaf_groups = static_cast<std::uint32_t>(mesh_.groups.size());
     met_.resize(mesh_.groups.size());
     for (std::size_t g = 0; g < crystals.collisions.size(); ++g)
@@ -329,7 +340,17 @@ Result<PreparedMesh> prepare_mesh(Tin tin, const PrepareOptions& options, const 
 
   HORIZON_RETURN_IF_ERROR(check_control(control));
   start = Clock::now();
-  const Crystals crystals = grow_crystals(mesh.tin, mesh.horizons, options.crystals);
+  // The crystals grow one face at a time on one thread; the walls' floor
+  // pyramid needs only the TIN, so it is built meanwhile on another (when
+  // there is one). Its time counts towards the grouping's.
+  Crystals crystals;
+  std::shared_ptr<const FloorPyramid> floors;
+  parallel_for(2, options.horizons.threads, [&](std::size_t job) {
+    if (job == 0)
+      crystals = grow_crystals(mesh.tin, mesh.horizons, options.crystals);
+    else
+      floors = build_floors(mesh.tin);
+  });
   mesh.stats.orphan_passes = crystals.orphan_passes;
   mesh.stats.grouping_seconds = seconds_since(start);
   report_progress(control, 0.85);
@@ -344,7 +365,7 @@ Result<PreparedMesh> prepare_mesh(Tin tin, const PrepareOptions& options, const 
   report_progress(control, 0.9);
   HORIZON_RETURN_IF_ERROR(check_control(control));
   start = Clock::now();
-  build_walls(mesh, options.horizons.threads);
+  build_walls(mesh, *floors, options.horizons.threads);
   mesh.stats.wall_seconds = seconds_since(start);
   set_group_columns(mesh);
   report_progress(control, 1.0);

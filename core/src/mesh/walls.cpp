@@ -98,12 +98,32 @@ double lowest_in_box(const TinVertex& a, const TinVertex& b, const TinVertex& c,
   return std::max(low, std::min({a.z, b.z, c.z})) - 1e-6;
 }
 
+// A direction's cosine and sine.
+struct Direction {
+  double cos, sin;
+  explicit Direction(double angle) : cos(std::cos(angle)), sin(std::sin(angle)) {}
+};
+
+// The azimuths [lo, lo + width] of a polar cell: its edges' directions and
+// those of the axes it crosses, whose trigonometry every group's cells in
+// that bin share (so it is worked out once a bin, not once a cell).
+struct AzimuthBin {
+  Direction lo, hi;
+  std::vector<Direction> axes;
+  AzimuthBin(double from, double width) : lo(from), hi(from + width) {
+    for (int quarter = static_cast<int>(std::ceil(from / (kTwoPi / 4))); quarter * (kTwoPi / 4) <= from + width; ++quarter)
+      axes.emplace_back(quarter * (kTwoPi / 4));
+  }
+};
+
 struct Level {
   int nx = 0, ny = 0;
   double cell = 0;
   std::vector<double> floor;        // lowest surface height in the cell
   std::vector<std::uint8_t> whole;  // the cell lies wholly on the mesh
 };
+
+}  // namespace
 
 // The floor pyramid (see the comment at the top).
 class FloorPyramid {
@@ -200,17 +220,16 @@ class FloorPyramid {
   // pyramid cells its box covers, on the finest level whose cells are at
   // least half as wide as the box (so 3 x 3 of them at most); −∞ when one
   // of them is not wholly on the mesh.
-  double polar_floor(double mx, double my, double r0, double r1, double lo, double width) const {
+  double polar_floor(double mx, double my, double r0, double r1, const AzimuthBin& bin) const {
     // The box: the four corners, and the outer arc's extremes where it
     // crosses an axis.
     double bx0 = INFINITY, by0 = INFINITY, bx1 = -INFINITY, by1 = -INFINITY;
-    auto take = [&](double r, double a) {
-      const double x = mx + r * std::cos(a), y = my + r * std::sin(a);
+    auto take = [&](double r, const Direction& d) {
+      const double x = mx + r * d.cos, y = my + r * d.sin;
       bx0 = std::min(bx0, x), by0 = std::min(by0, y), bx1 = std::max(bx1, x), by1 = std::max(by1, y);
     };
-    take(r0, lo), take(r0, lo + width), take(r1, lo), take(r1, lo + width);
-    for (int quarter = static_cast<int>(std::ceil(lo / (kTwoPi / 4))); quarter * (kTwoPi / 4) <= lo + width; ++quarter)
-      take(r1, quarter * (kTwoPi / 4));
+    take(r0, bin.lo), take(r0, bin.hi), take(r1, bin.lo), take(r1, bin.hi);
+    for (const Direction& d : bin.axes) take(r1, d);
     const double size = std::max(bx1 - bx0, by1 - by0);
     std::size_t l = 0;
     while (l + 1 < levels_.size() && levels_[l].cell < size / 2) ++l;
@@ -235,6 +254,8 @@ class FloorPyramid {
   std::vector<Level> levels_;
 };
 
+namespace {
+
 struct Arc {
   double radius, slope;
 };
@@ -244,8 +265,8 @@ constexpr int kRadialBins = 6;
 
 // The bands of one item (a group, a box) inside `circle`, no point of it
 // higher than `top`, per sector.
-void bands_for(const FloorPyramid& floors, const Circle& circle, double top, int s,
-               std::vector<std::vector<Arc>>& walls) {
+void bands_for(const FloorPyramid& floors, std::span<const AzimuthBin> azimuths, const Circle& circle, double top,
+               int s, std::vector<std::vector<Arc>>& walls) {
   walls.assign(static_cast<std::size_t>(s), {});
   const int bins = s * kBinsPerSector;
   const double bin = kTwoPi / bins;
@@ -257,7 +278,7 @@ void bands_for(const FloorPyramid& floors, const Circle& circle, double top, int
       for (int b = 0; b < kRadialBins; ++b)
         floor[static_cast<std::size_t>(a * kRadialBins + b)] =
             floors.polar_floor(circle.x, circle.y, r0 + (r1 - r0) * b / kRadialBins, r0 + (r1 - r0) * (b + 1) / kRadialBins,
-                               bin * a, bin);
+                               azimuths[static_cast<std::size_t>(a)]);
     const double widen = std::asin(circle.radius / r0) + 1e-9;
     const int reach = static_cast<int>(std::ceil(widen / bin));  // bins the widening adds either side
     for (int i = 0; i < s; ++i) {
@@ -292,13 +313,22 @@ void bands_for(const FloorPyramid& floors, const Circle& circle, double top, int
 
 }  // namespace
 
+std::shared_ptr<const FloorPyramid> build_floors(const Tin& tin) { return std::make_shared<const FloorPyramid>(tin); }
+
 Walls build_walls(const Tin& tin, int sectors, std::span<const Circle> circles, std::span<const double> tops,
                   unsigned threads) {
-  const FloorPyramid floors(tin);
+  return build_walls(FloorPyramid(tin), sectors, circles, tops, threads);
+}
+
+Walls build_walls(const FloorPyramid& floors, int sectors, std::span<const Circle> circles, std::span<const double> tops,
+                  unsigned threads) {
   const std::size_t items = circles.size();
   const auto s = static_cast<std::size_t>(sectors);
   std::vector<std::vector<std::vector<Arc>>> bands(items);
-  parallel_for(items, threads, [&](std::size_t k) { bands_for(floors, circles[k], tops[k], sectors, bands[k]); });
+  std::vector<AzimuthBin> azimuths;
+  const int bins = sectors * kBinsPerSector;
+  for (int a = 0; a < bins; ++a) azimuths.emplace_back(kTwoPi / bins * a, kTwoPi / bins);
+  parallel_for(items, threads, [&](std::size_t k) { bands_for(floors, azimuths, circles[k], tops[k], sectors, bands[k]); });
   Walls walls;
   walls.top.assign(tops.begin(), tops.end());
   walls.begin.assign(1, 0);
@@ -313,7 +343,9 @@ Walls build_walls(const Tin& tin, int sectors, std::span<const Circle> circles, 
   return walls;
 }
 
-void build_walls(PreparedMesh& mesh, unsigned threads) {
+void build_walls(PreparedMesh& mesh, unsigned threads) { build_walls(mesh, FloorPyramid(mesh.tin), threads); }
+
+void build_walls(PreparedMesh& mesh, const FloorPyramid& floors, unsigned threads) {
   std::vector<Circle> circles;
   std::vector<double> tops;
   for (const MeshGroup& group : mesh.groups) {
@@ -323,7 +355,7 @@ void build_walls(PreparedMesh& mesh, unsigned threads) {
     circles.push_back(group.circle);
     tops.push_back(top);
   }
-  Walls walls = build_walls(mesh.tin, mesh.sectors, circles, tops, threads);
+  Walls walls = build_walls(floors, mesh.sectors, circles, tops, threads);
   mesh.group_top = std::move(walls.top);
   mesh.wall_begin = std::move(walls.begin);
   mesh.wall_radius = std::move(walls.radius);

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cmath>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -22,6 +23,15 @@ struct Walls {
 };
 
 // The walls of items inside `circles`, none higher than `tops`, over `tin`.
+// The lower bounds of a TIN's surface the walls are built from (the floor
+// pyramid of walls.cpp). It depends only on the vertices and on the set of
+// triangles, not their order, so it can be built while the groups are
+// still growing.
+class FloorPyramid;
+std::shared_ptr<const FloorPyramid> build_floors(const Tin& tin);
+
+Walls build_walls(const FloorPyramid& floors, int sectors, std::span<const Circle> circles, std::span<const double> tops,
+                  unsigned threads);
 Walls build_walls(const Tin& tin, int sectors, std::span<const Circle> circles, std::span<const double> tops,
                   unsigned threads);
 
@@ -40,5 +50,6 @@ inline bool behind_wall(const Circle& circle, double top, const std::uint32_t* b
 // Fills mesh.group_top, mesh.wall_begin, mesh.wall_radius and
 // mesh.wall_slope for every group, after the triangles are in group order.
 void build_walls(PreparedMesh& mesh, unsigned threads);
+void build_walls(PreparedMesh& mesh, const FloorPyramid& floors, unsigned threads);
 
 }  // namespace horizon::mesh

@@ -30,15 +30,34 @@
 // subsectors has no horizon has none.
 //
 // Cost. compute_horizons sweeps each of the s·k wedges once over a static
-// binary tree of upper convex hulls: points in order of decreasing A, each
-// querying the hulls of the tree nodes left of its leaf (leaves ordered by
-// B) for the steepest tangent, then inserted into the hulls on its path:
-// O(n log n · log h) a wedge, h the hulls' sizes, plus the O(h) moves of
-// an insertion into a hull kept as a sorted array (terrain's hulls are
-// short). Sectors run in parallel (threads), a sector and its opposite
-// together (they share their edges' sorts), each tracing its subsectors in
-// turn. brute_force_horizons is the O(s·k·n²) reference with
-// the same predicate and tie rule, for tests.
+// binary tree of upper convex hulls (Stewart): points in order of
+// decreasing A, each querying the hulls of the tree nodes left of its leaf
+// (leaves ordered by B) for the steepest tangent, then inserted into the
+// hulls on its path. It runs node by node instead of point by point: a
+// node's left child's points are inserted and its right child's points
+// query, in processing order, so each node's hull is built and read in one
+// go and the tree's levels are the passes of a bottom-up merge sort of the
+// leaves by processing rank (the lowest levels block by block, in cache;
+// runs of 4 leaves at the bottom pair by pair). Every pair still meets at
+// its one node under the same exact, total order, so the answer does not
+// depend on that schedule.
+//
+// O(n log n · log h) a wedge, h the hulls' sizes, plus the moves of
+// insertions into a hull kept as an array. Terrain's hulls are short
+// (about 5 points at a query, Rainier at 100 000 vertices, 16/4), so the
+// cost is per operation: about log2 n of them per point and wedge, each an
+// insertion or a query. The hull is stored by decreasing t, the order the
+// points mostly arrive in, so most insertions are a step of Andrew's
+// monotone chain at its end; a query tests every edge of a short hull at
+// once, or binary-searches a long one, without branching on the filtered
+// determinant, and is repeated with exact branching when a sign was
+// unproven. Sectors run in parallel (threads), a sector and its opposite
+// together when s is even: their edges are the same lines, so k + 1 radix
+// sorts of the vertices along them serve 2k wedges. Memory: about 270
+// bytes a vertex a thread at k = 4 (the sorts, two 48-byte leaf arrays, a
+// hull buffer), plus the answer's 4·s bytes a vertex. docs/benchmarks.md
+// ("TIN horizons") has the timings. brute_force_horizons is the
+// O(s·k·n²) reference with the same predicate and tie rule, for tests.
 #pragma once
 
 #include <cstdint>

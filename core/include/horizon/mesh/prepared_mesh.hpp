@@ -75,6 +75,9 @@ struct GroupColumns {
   bool usable = false;
 };
 
+// Wall-clock seconds of each phase. The walls' floor pyramid is built
+// on a second thread while the crystals grow, so grouping_seconds covers
+// both and wall_seconds the walls' bands alone.
 struct PrepareStats {
   double horizon_seconds = 0.0, grouping_seconds = 0.0, hierarchy_seconds = 0.0, wall_seconds = 0.0;
   int orphan_passes = 0;
