@@ -210,6 +210,18 @@ TEST(CullMesh, TheSameSeedGivesTheSameGroupsAndScalingZChangesNothing) {
   EXPECT_EQ(a.source_triangle, b.source_triangle);
   EXPECT_EQ(a.top_level, b.top_level);
   EXPECT_EQ(a.regions, b.regions);
+  // The circles (CGAL's Min_circle_2 shuffles its points) and so the walls,
+  // bit for bit.
+  ASSERT_EQ(a.groups.size(), b.groups.size());
+  for (std::size_t g = 0; g < a.groups.size(); ++g) {
+    EXPECT_EQ(a.groups[g].circle.x, b.groups[g].circle.x) << g;
+    EXPECT_EQ(a.groups[g].circle.y, b.groups[g].circle.y) << g;
+    EXPECT_EQ(a.groups[g].circle.radius, b.groups[g].circle.radius) << g;
+  }
+  EXPECT_EQ(a.group_top, b.group_top);
+  EXPECT_EQ(a.wall_begin, b.wall_begin);
+  EXPECT_EQ(a.wall_radius, b.wall_radius);
+  EXPECT_EQ(a.wall_slope, b.wall_slope);
 
   Tin tall = andes_tin();
   for (TinVertex& v : tall.vertices) v.z *= 3.0;

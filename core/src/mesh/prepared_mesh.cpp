@@ -2,6 +2,7 @@
 
 #include <CGAL/Min_circle_2.h>
 #include <CGAL/Min_circle_2_traits_2.h>
+#include <CGAL/Random.h>
 #include <CGAL/Simple_cartesian.h>
 
 #include <algorithm>
@@ -51,7 +52,12 @@ Circle min_circle(const std::vector<TinVertex>& vertices, const std::vector<std:
   std::vector<K::Point_2> points;
   points.reserve(ids.size());
   for (std::uint32_t v : ids) points.emplace_back(vertices[v].x, vertices[v].y);
-  CGAL::Min_circle_2<CGAL::Min_circle_2_traits_2<K>> circle(points.begin(), points.end(), true);
+  // Welzl's algorithm wants the points shuffled (expected linear time), and
+  // CGAL's default generator is seeded from the clock: a fixed seed, one
+  // generator a call (calls run on several threads), so that the same TIN
+  // and knobs give the same circles, and so the same walls and culls.
+  CGAL::Random random(0x5eed);
+  CGAL::Min_circle_2<CGAL::Min_circle_2_traits_2<K>> circle(points.begin(), points.end(), true, random);
   const auto& c = circle.circle();
   Circle out{c.center().x(), c.center().y(), std::sqrt(c.squared_radius())};
   // Rounding in the construction must not leave a vertex outside.
