@@ -40,6 +40,10 @@ std::string file_signature(const std::filesystem::path& path) {
   return std::to_string(size) + ":" + std::to_string(time);
 }
 
+// A DEM cell read whole for its TIN: the elevation (4 bytes), the greedy
+// insertion's per-cell marks and the cell's place in the Delaunay walk.
+constexpr std::uint64_t kBytesPerDemCell = 8;
+
 std::string mib(std::uint64_t bytes) {
   return std::to_string((bytes + (1u << 20) - 1) >> 20) + " MiB";
 }
@@ -75,6 +79,24 @@ Result<std::shared_ptr<const ServedMesh>> MeshRegistry::prepare(const Config& co
     log_event("info", "mesh_progress", {{"mesh", entry.name}, {"fraction", std::to_string(quarter * 0.25), true}});
   };
 
+  // The working memory, held until the mesh is prepared: the DEM and the
+  // insertion's per-cell tables, then the preparation's peak, each reserved
+  // before the work that needs it.
+  Reservation reading, preparing;
+  const auto refuse = [&](std::uint64_t bytes, const std::string& what) {
+    return make_error(ErrorCode::kResourceExhausted,
+                      "config '" + config.source + "': " + key + ": " + what + " needs about " + mib(bytes) +
+                          ", more than memory_budget_mb = " + std::to_string(config.memory_budget_bytes >> 20) +
+                          " has left beside the block cache, the receive buffers and the other meshes",
+                      key);
+  };
+  options.before_prepare = [&](const mesh::Tin& tin) -> Status {
+    const std::uint64_t bytes = mesh::preparation_bytes(tin.vertices.size(), options.prepare, threads_);
+    if (!memory_.try_reserve(bytes, preparing))
+      return refuse(bytes, "preparing its " + std::to_string(tin.vertices.size()) + " vertices");
+    return Status::Ok();
+  };
+
   std::shared_ptr<const Dataset> dataset;
   std::string signature, source;
   std::optional<Result<mesh::MeshModel>> model;
@@ -99,6 +121,8 @@ Result<std::shared_ptr<const ServedMesh>> MeshRegistry::prepare(const Config& co
                             " (a TIN is built from the whole DEM: crop it, or build the TIN offline with "
                             "`horizon mesh prepare --mesh-out` and configure the file)",
                         key + ".dataset");
+    if (const std::uint64_t bytes = cells * kBytesPerDemCell; !memory_.try_reserve(bytes, reading))
+      return refuse(bytes, "reading '" + entry.dataset + "' whole for its TIN");
     auto dem = dataset->source->read({0, 0, h.width, h.height}, cache_, control);
     if (!dem.ok()) return in_config(dem.error(), key + ".dataset");
     model = mesh::MeshModel::from_dem(std::move(*dem), options, &progress);
@@ -109,10 +133,15 @@ Result<std::shared_ptr<const ServedMesh>> MeshRegistry::prepare(const Config& co
     signature = file_signature(*path);
     model = mesh::MeshModel::from_file(path->string(), options, &progress);
   }
-  if (!model->ok()) return in_config(model->error(), key);
+  if (!model->ok()) {
+    if (model->error().code == ErrorCode::kResourceExhausted && model->error().field == key) return model->error();
+    return in_config(model->error(), key);
+  }
   if (!entry.boxes.empty())
     if (auto s = (*model)->register_boxes(entry.boxes, threads_); !s.ok()) return in_config(s.error(), key + ".boxes");
 
+  reading.release();
+  preparing.release();
   const std::uint64_t bytes = (*model)->memory_bytes();
   Reservation memory;
   if (!memory_.try_reserve(bytes, memory))

@@ -5,9 +5,12 @@
 // cache (refused when it has more than limits.max_cells cells) and made a
 // TIN by greedy insertion, or the OBJ/PLY file is read; the TIN is
 // prepared (mesh/mesh_model.hpp), through the disk cache when
-// mesh_cache_dir is set; the configured boxes are registered. What the
-// model holds is then reserved in the memory budget for as long as the mesh
-// is served; a mesh that does not fit fails the load, naming it. Progress
+// mesh_cache_dir is set; the configured boxes are registered. Each step's
+// working memory is reserved in the memory budget before the step starts
+// (the DEM read whole, kBytesPerDemCell a cell; the preparation's peak,
+// mesh::preparation_bytes, once the TIN's size is known), and what the
+// model holds is reserved for as long as the mesh is served; a mesh that
+// does not fit fails the load, naming it and what did not fit. Progress
 // is logged ("mesh_progress", each quarter) and the result too
 // ("mesh_prepared": seconds, groups, whether the disk cache answered, bytes).
 //

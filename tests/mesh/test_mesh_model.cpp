@@ -163,5 +163,36 @@ TEST(MeshModel, AMeshFilesViewpointStandsOnItsSurface) {
   EXPECT_EQ(refused.error().field, "boxes");
 }
 
+// The hook a server reserves memory in sees the TIN before any preparing,
+// and its refusal stops the model there; the bound grows with the knobs
+// and the threads that cost memory.
+TEST(MeshModel, BeforePrepareSeesTheTinAndMayRefuse) {
+  auto dem = terrain::read_dem(testing::bundled_dem("ecuador_andes_utm17s_10m_383x415.tif"));
+  ASSERT_TRUE(dem.ok());
+  MeshModelOptions options = small(1500);
+  std::size_t seen = 0;
+  options.before_prepare = [&](const Tin& tin) {
+    seen = tin.vertices.size();
+    return Status(make_error(ErrorCode::kResourceExhausted, "no room", "budget"));
+  };
+  auto refused = MeshModel::from_dem(*dem, options);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ErrorCode::kResourceExhausted);
+  EXPECT_EQ(refused.error().field, "budget");
+  EXPECT_EQ(seen, 1500u);
+
+  options.before_prepare = [&](const Tin&) { return Status::Ok(); };
+  auto model = MeshModel::from_dem(*dem, options);
+  ASSERT_TRUE(model.ok()) << model.error().message;
+  const std::uint64_t bound = preparation_bytes(1500, options.prepare, 2);
+  EXPECT_GT(bound, model->memory_bytes());  // the peak holds at least what is kept
+  PrepareOptions wider = options.prepare;
+  wider.horizons.sectors = 32;
+  EXPECT_GT(preparation_bytes(1500, wider, 2), bound);
+  EXPECT_GT(preparation_bytes(1500, options.prepare, 4), bound);
+  // Linear in the vertices beyond the groups' part.
+  EXPECT_EQ(preparation_bytes(3000, options.prepare, 2) - bound, bound - preparation_bytes(0, options.prepare, 2));
+}
+
 }  // namespace
 }  // namespace horizon::mesh

@@ -89,6 +89,22 @@ TEST(ServerMeshes, AMeshThatDoesNotFitFailsTheLoadNamingIt) {
   EXPECT_TRUE(registry.snapshot()->empty());
   EXPECT_EQ(tight.reserved(), 0u);
 
+  // Room for the prepared mesh but not for preparing it: refused before the
+  // preparation starts, naming what did not fit.
+  const std::uint64_t working = mesh::preparation_bytes(30 * 30, config.meshes[0].prepare, 1);
+  ASSERT_GT(working, bytes);
+  MemoryBudget no_room_to_work(MemoryBudget::kBaseBytes + working - 1);
+  MeshRegistry cramped(no_room_to_work, nullptr, 1);
+  const Status preparing = cramped.load(config, {});
+  ASSERT_FALSE(preparing.ok());
+  EXPECT_EQ(preparing.error().code, ErrorCode::kResourceExhausted);
+  EXPECT_EQ(preparing.error().field, "meshes.ridge");
+  EXPECT_NE(preparing.error().message.find("preparing its 900 vertices needs about"), std::string::npos)
+      << preparing.error().message;
+  EXPECT_EQ(preparing.error().message.find("config 'meshes.json': meshes.ridge: config"), std::string::npos)
+      << preparing.error().message;  // said once
+  EXPECT_EQ(no_room_to_work.reserved(), 0u);
+
   // A bad mesh file fails the load naming the mesh, and the set stays as it was.
   std::ofstream(root.file("bad.obj")) << "v 0 0 0\nv 1 0 0\nv 0 1 nan\nf 1 2 3\n";
   ASSERT_TRUE(measure.load(config, {}).ok());

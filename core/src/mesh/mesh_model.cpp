@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <thread>
 #include <utility>
 
 #include "horizon/mesh/tin_io.hpp"
@@ -33,6 +34,7 @@ std::uint64_t bytes_of(const std::vector<T>& v) {
 // named; `seconds` gets the wall time.
 Result<PreparedMesh> prepare(Tin tin, const MeshModelOptions& options, const RunControl* control, CacheUse& use,
                              double& seconds) {
+  if (options.before_prepare) HORIZON_RETURN_IF_ERROR(options.before_prepare(tin));
   const auto started = std::chrono::steady_clock::now();
   auto prepared = options.cache_dir.empty() ? prepare_mesh(std::move(tin), options.prepare, control)
                                             : prepare_cached(tin, options.prepare, options.cache_dir, &use, control);
@@ -41,6 +43,19 @@ Result<PreparedMesh> prepare(Tin tin, const MeshModelOptions& options, const Run
 }
 
 }  // namespace
+
+std::uint64_t preparation_bytes(std::uint64_t vertices, const PrepareOptions& options, unsigned threads) {
+  const std::uint64_t t = threads ? threads : std::max(1u, std::thread::hardware_concurrency());
+  const auto s = static_cast<std::uint64_t>(std::max(options.horizons.sectors, 1));
+  const auto k = static_cast<std::uint64_t>(std::max(options.horizons.subsectors, 1));
+  // A vertex: 300 bytes of TIN, triangulation, groups, regions and walls,
+  // 8·s of horizons and their slopes, and per thread 200 bytes of leaf
+  // arrays and hull plus 16·(k + 1) of sorts. A group (at most the cap,
+  // parents as many again): its chains and walls in every sector.
+  const auto groups = static_cast<std::uint64_t>(std::max(options.crystals.max_groups, 1)) * 2;
+  const auto corners = static_cast<std::uint64_t>(std::max(options.max_chain_corners, 2));
+  return vertices * (300 + 8 * s + t * (200 + 16 * (k + 1))) + groups * s * (corners * 24 + 96);
+}
 
 std::uint64_t memory_bytes(const PreparedMesh& m) {
   std::uint64_t bytes = bytes_of(m.tin.vertices) + bytes_of(m.tin.triangles) + bytes_of(m.source_triangle) +
