@@ -19,6 +19,7 @@
 #include "horizon/mesh/tin_from_dem.hpp"
 #include "horizon/terrain/dem_reader.hpp"
 #include "mesh/prepared_parts.hpp"  // core/src: set_group_columns
+#include "andes_tin.hpp"
 #include "test_support.hpp"
 
 namespace horizon::mesh {
@@ -26,16 +27,7 @@ namespace {
 
 using simd_isa::Isa;
 
-const Tin& andes_tin() {
-  static const Tin tin = [] {
-    auto dem = terrain::read_dem(testing::bundled_dem("ecuador_andes_utm17s_10m_383x415.tif"));
-    EXPECT_TRUE(dem.ok()) << dem.error().message;
-    auto built = tin_from_dem(*dem, {3000, 0.0});
-    EXPECT_TRUE(built.ok()) << built.error().message;
-    return built->tin;
-  }();
-  return tin;
-}
+using testing_tins::andes_tin;
 
 PreparedMesh prepare(int sectors, int subsectors) {
   PrepareOptions o;

@@ -20,21 +20,13 @@
 #include "horizon/mesh/tin_from_dem.hpp"
 #include "horizon/mesh/tin_visibility.hpp"
 #include "horizon/terrain/dem_reader.hpp"
+#include "andes_tin.hpp"
 #include "test_support.hpp"
 
 namespace horizon::mesh {
 namespace {
 
-const Tin& andes_tin() {
-  static const Tin tin = [] {
-    auto dem = terrain::read_dem(testing::bundled_dem("ecuador_andes_utm17s_10m_383x415.tif"));
-    EXPECT_TRUE(dem.ok()) << dem.error().message;
-    auto built = tin_from_dem(*dem, {3000, 0.0});
-    EXPECT_TRUE(built.ok()) << built.error().message;
-    return built->tin;
-  }();
-  return tin;
-}
+using testing_tins::andes_tin;
 
 PrepareOptions small_options() {
   PrepareOptions o;
