@@ -9,6 +9,7 @@
 #include <string>
 
 #include "config.hpp"
+#include "datasets.hpp"
 #include "meshes.hpp"
 #include "test_support.hpp"
 
@@ -134,6 +135,39 @@ TEST(ServerMeshes, AMeshThatDoesNotFitFailsTheLoadNamingIt) {
   ASSERT_FALSE(not_found.ok());
   EXPECT_EQ(not_found.error().code, ErrorCode::kNotFound);
   EXPECT_EQ(not_found.error().field, "meshes.gone.file");
+}
+
+// A dataset's TIN reads the whole DEM: a dataset over limits.max_cells is
+// refused before any cell is read; under it, the TIN is built and held.
+TEST(ServerMeshes, ADatasetsTinIsBoundedByMaxCells) {
+  testing::TempDir root;
+  std::filesystem::copy_file(testing::bundled_dem("olinda_coast_utm25s_111x111.tif"), root.file("olinda.tif"));
+  for (const std::uint64_t max_cells : {12'000u, 13'000u}) {  // the DEM has 111 x 111 = 12 321 cells
+    auto c = parse_config(R"({"listen": "127.0.0.1:0", "plaintext": true, "data_root": ")" + root.path().string() +
+                              R"(", "datasets": {"olinda": "olinda.tif"}, "memory_budget_mb": 64,
+                                 "limits": {"max_cells": )" +
+                              std::to_string(max_cells) + R"(},
+                                 "meshes": {"tin": {"dataset": "olinda", "vertices": 500}}})",
+                          "cells.json", root.path());
+    ASSERT_TRUE(c.ok()) << c.error().message;
+    DatasetRegistry datasets(nullptr, 1);
+    ASSERT_TRUE(datasets.load(*c).ok());
+    MemoryBudget memory(256ull << 20);
+    MeshRegistry meshes(memory, nullptr, 1);
+    const Status s = meshes.load(*c, *datasets.snapshot());
+    if (max_cells < 12'321) {
+      ASSERT_FALSE(s.ok());
+      EXPECT_EQ(s.error().code, ErrorCode::kResourceExhausted);
+      EXPECT_EQ(s.error().field, "meshes.tin.dataset");
+      EXPECT_NE(s.error().message.find("12321 cells, more than limits.max_cells = 12000"), std::string::npos)
+          << s.error().message;
+      EXPECT_EQ(memory.reserved(), 0u);
+    } else {
+      ASSERT_TRUE(s.ok()) << s.error().message;
+      EXPECT_EQ(meshes.snapshot()->at("tin")->model.prepared().tin.vertices.size(), 500u);
+      EXPECT_EQ(memory.reserved(), meshes.snapshot()->at("tin")->memory.bytes());
+    }
+  }
 }
 
 }  // namespace
