@@ -2,9 +2,9 @@
 // report -> CSV, Markdown and a table on stdout.
 #include "commands/bench_mesh.hpp"
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <cstdio>
 #include <iostream>
 #include <sstream>
 
@@ -26,6 +26,9 @@ evaluation::MeshBenchConfig parse_config(const Args& args) {
     if (f != "--height" && args.has(f)) throw UsageError(std::string(f) + ": not a flag of the mesh sweep (--mesh)");
   for (std::string_view f : kRegionOnlyFlags)
     if (args.has(f)) throw UsageError(std::string(f) + ": not a flag of the mesh sweep (--mesh)");
+  if (args.has("--curvature"))
+    throw UsageError(
+        "--curvature: the mesh sweep reads R3 on a flat earth, as the TIN's local frame is (docs/accuracy.md)");
   evaluation::MeshBenchConfig c;
   c.dems = args.positionals();
   if (c.dems.empty()) throw UsageError("missing DEM operand (one or more DEM files)");
@@ -87,10 +90,10 @@ int run_mesh_bench(const Args& args) {
   for (const auto& r : report->rows)
     if (r.mode == "conservative") unsound += r.false_hidden;
   // The conservative mode culling a visible triangle is a bug, not a setting.
-  return unsound == 0 ? kExitOk
-                      : report_error(make_error(ErrorCode::kInternal,
-                                                std::to_string(unsound) + " triangles culled conservatively are seen",
-                                                "mesh"));
+  return unsound == 0
+             ? kExitOk
+             : report_error(make_error(ErrorCode::kInternal,
+                                       std::to_string(unsound) + " triangles culled conservatively are seen", "mesh"));
 }
 
 }  // namespace horizon::cli

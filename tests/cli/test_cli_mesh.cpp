@@ -221,6 +221,10 @@ TEST(CliMesh, BenchSweepsShapesAndModesAgainstExactSight) {
   const auto stray = horizon({"bench", bundled_dem(kAndes), "--vertices", "10", "--out", dir.path().string()});
   EXPECT_EQ(stray.exit_code, 2) << stray.output;
   EXPECT_NE(stray.output.find("--vertices: a flag of the mesh sweep; add --mesh"), std::string::npos) << stray.output;
+  const auto flat =
+      horizon({"bench", "--mesh", bundled_dem(kAndes), "--curvature", "0.5", "--out", dir.path().string()});
+  EXPECT_EQ(flat.exit_code, 2) << flat.output;
+  EXPECT_NE(flat.output.find("--curvature: the mesh sweep reads R3 on a flat earth"), std::string::npos) << flat.output;
 }
 
 TEST(CliMesh, GeographicDemsArePreparedInMetres) {
