@@ -12,11 +12,6 @@
 
 namespace horizon::server {
 
-namespace {
-
-// What a reload compares: for a file its size and modification time, for a
-// folder those of every entry in it (a tile added, removed or rewritten
-// changes it).
 std::string signature_of(const std::filesystem::path& path) {
   namespace fs = std::filesystem;
   std::error_code ec;
@@ -33,8 +28,6 @@ std::string signature_of(const std::filesystem::path& path) {
   for (const auto& e : entries) all += e;
   return all;
 }
-
-}  // namespace
 
 Result<std::shared_ptr<const Dataset>> load_dataset(const Config& config, const DatasetConfig& entry,
                                                     terrain::BlockCache* cache, unsigned scan_threads) {

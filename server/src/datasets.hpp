@@ -74,6 +74,11 @@ class DatasetRegistry {
   bool loaded_ = false;
 };
 
+// What a reload compares: for a file its name, size and modification time,
+// for a folder those of every entry in it (a tile added, removed or
+// rewritten changes it). Meshes read from files use it too (meshes.hpp).
+std::string signature_of(const std::filesystem::path& path);
+
 // Loads one dataset: resolve inside the data root, open, scan, describe.
 Result<std::shared_ptr<const Dataset>> load_dataset(const Config& config, const DatasetConfig& entry,
                                                     terrain::BlockCache* cache, unsigned scan_threads);

@@ -33,13 +33,6 @@ bool same_config(const MeshConfig& a, const MeshConfig& b) {
          p.merge_cutoff == q.merge_cutoff && p.max_chain_corners == q.max_chain_corners && same_boxes(a.boxes, b.boxes);
 }
 
-std::string file_signature(const std::filesystem::path& path) {
-  std::error_code ec;
-  const auto size = std::filesystem::file_size(path, ec);
-  const auto time = std::filesystem::last_write_time(path, ec).time_since_epoch().count();
-  return std::to_string(size) + ":" + std::to_string(time);
-}
-
 // A DEM cell read whole for its TIN: the elevation (4 bytes), the greedy
 // insertion's per-cell marks and the cell's place in the Delaunay walk.
 constexpr std::uint64_t kBytesPerDemCell = 8;
@@ -130,7 +123,7 @@ Result<std::shared_ptr<const ServedMesh>> MeshRegistry::prepare(const Config& co
     auto path = resolve_mesh_file(config, entry);
     if (!path.ok()) return path.error();
     source = "file:" + entry.file;
-    signature = file_signature(*path);
+    signature = signature_of(*path);
     model = mesh::MeshModel::from_file(path->string(), options, &progress);
   }
   if (!model->ok()) {
@@ -178,7 +171,7 @@ Status MeshRegistry::load(const Config& config, const DatasetSet& datasets, cons
         const auto d = datasets.find(entry.dataset);
         same_source = d != datasets.end() && d->second == have.dataset;
       } else if (auto path = resolve_mesh_file(config, entry); path.ok()) {
-        same_source = entry.file == have.config.file && file_signature(*path) == have.signature;
+        same_source = entry.file == have.config.file && signature_of(*path) == have.signature;
       }
       if (same_source && same_config(entry, have.config)) {
         (*next)[entry.name] = it->second;
