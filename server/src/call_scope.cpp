@@ -1,6 +1,5 @@
 #include "call_scope.hpp"
 
-
 #include "auth.hpp"
 #include "grpc_status.hpp"
 
@@ -83,12 +82,12 @@ std::optional<grpc::Status> CallScope::admission(std::uint64_t message_bytes) {
   // What has arrived is already in memory; a call that cannot also hold its
   // answer is refused now rather than queued, and frees its request at once.
   if (message_bytes > 0 && !env_.memory.try_reserve(message_bytes, messages_))
-    return to_grpc_status(make_error(
-        ErrorCode::kResourceExhausted,
-        "this request's messages need about " + std::to_string((message_bytes + (1 << 20) - 1) >> 20) +
-            " MiB while it waits and runs, more than memory_budget_mb leaves free now (" +
-            std::to_string(env_.memory.reserved() >> 20) + " MiB held); retry later or split the request",
-        "memory_budget_mb"));
+    return to_grpc_status(
+        make_error(ErrorCode::kResourceExhausted,
+                   "this request's messages need about " + std::to_string((message_bytes + (1 << 20) - 1) >> 20) +
+                       " MiB while it waits and runs, more than memory_budget_mb leaves free now (" +
+                       std::to_string(env_.memory.reserved() >> 20) + " MiB held); retry later or split the request",
+                   "memory_budget_mb"));
   if (message_bytes > 0) env_.metrics.set_memory_reserved(env_.memory.reserved());
   datasets_ = env_.datasets.snapshot();
   return std::nullopt;
@@ -96,23 +95,14 @@ std::optional<grpc::Status> CallScope::admission(std::uint64_t message_bytes) {
 
 Result<std::shared_ptr<const Dataset>> CallScope::dataset(const std::string& name) {
   record_.dataset = name.substr(0, kMaxDatasetName);
-  if (name.empty()) return make_error(ErrorCode::kInvalidArgument, "dataset: a dataset name is required", "dataset");
-  if (name.size() > kMaxDatasetName)  // no such name can be configured; the message does not echo it
-    return make_error(ErrorCode::kInvalidArgument,
-                      "dataset: a dataset name is at most " + std::to_string(kMaxDatasetName) + " bytes, got " +
-                          std::to_string(name.size()),
-                      "dataset");
   if (!datasets_) datasets_ = env_.datasets.snapshot();
-  const auto it = datasets_->find(name);
-  if (it == datasets_->end())
-    return make_error(ErrorCode::kNotFound, "dataset '" + name + "' is not held by this daemon", "dataset");
-  return it->second;
+  return find_by_name(*datasets_, name, "dataset");
 }
 
 std::string planned_work(const std::string& what, const visibility::Cost& cost, double ray_spacing) {
   if (cost.sweep_bytes * 2 <= cost.bytes) return what;
-  return what + " (" + std::to_string(cost.sweep_rays) + " sweep rays at options.ray_spacing = " +
-         number_text(ray_spacing) + " cells)";
+  return what + " (" + std::to_string(cost.sweep_rays) +
+         " sweep rays at options.ray_spacing = " + number_text(ray_spacing) + " cells)";
 }
 
 Status CallScope::reserve(std::uint64_t bytes, const std::string& what) {

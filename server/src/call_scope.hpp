@@ -54,6 +54,24 @@ Error without_server_paths(Error error, const std::filesystem::path& data_root, 
 // rays and the ray_spacing behind them when those are most of the cost.
 std::string planned_work(const std::string& what, const visibility::Cost& cost, double ray_spacing);
 
+// `name` in `set` (the datasets', or the meshes'), `kind` naming both the
+// field and the thing ("dataset", "mesh"): kInvalidArgument for an empty
+// name or one longer than any that can be configured (not echoed),
+// kNotFound for an unknown one.
+template <class Set>
+Result<typename Set::mapped_type> find_by_name(const Set& set, const std::string& name, const std::string& kind) {
+  if (name.empty()) return make_error(ErrorCode::kInvalidArgument, kind + ": a " + kind + " name is required", kind);
+  if (name.size() > kMaxDatasetName)
+    return make_error(ErrorCode::kInvalidArgument,
+                      kind + ": a " + kind + " name is at most " + std::to_string(kMaxDatasetName) + " bytes, got " +
+                          std::to_string(name.size()),
+                      kind);
+  const auto it = set.find(name);
+  if (it == set.end())
+    return make_error(ErrorCode::kNotFound, kind + " '" + name + "' is not held by this daemon", kind);
+  return it->second;
+}
+
 // Whether a call without a deadline of its own gets default_deadline_ms
 // (requests) or none (sessions, which end by idleness or the client).
 enum class DefaultDeadline { kApply, kNone };

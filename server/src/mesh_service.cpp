@@ -26,16 +26,7 @@ constexpr std::uint64_t kBytesPerTriangle = 48;
 Result<std::shared_ptr<const ServedMesh>> find_mesh(const MeshSet& set, const std::string& name,
                                                     RequestRecord& record) {
   record.dataset = name.substr(0, kMaxDatasetName);
-  if (name.empty()) return make_error(ErrorCode::kInvalidArgument, "mesh: a mesh name is required", "mesh");
-  if (name.size() > kMaxDatasetName)
-    return make_error(ErrorCode::kInvalidArgument,
-                      "mesh: a mesh name is at most " + std::to_string(kMaxDatasetName) + " bytes, got " +
-                          std::to_string(name.size()),
-                      "mesh");
-  const auto it = set.find(name);
-  if (it == set.end())
-    return make_error(ErrorCode::kNotFound, "mesh '" + name + "' is not held by this daemon", "mesh");
-  return it->second;
+  return find_by_name(set, name, "mesh");
 }
 
 void fill_run(std::uint32_t first, std::uint32_t count, v1::TriangleRun& out) {
