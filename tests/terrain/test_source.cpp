@@ -3,6 +3,8 @@
 // mismatched and corrupt tiles named in errors.
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -234,6 +236,31 @@ TEST(ElevationSource, ACorruptTileFailsTheReadNamingTheFileAndBlock) {
   EXPECT_TRUE((*source)->read({0, 0, 250, 300}, &cache).ok());  // the west tile is fine
 }
 
+TEST(ElevationSource, ImplausibleCheckNamesTheFirstBadCellInRowOrderOnAnyThreads) {
+  // The check runs over bands of rows on several threads: whichever finds
+  // one first, the error names the first bad cell in reading order, and a
+  // void (NaN) is never one.
+  TempDir dir;
+  Dem dem = georeferenced_terrain(40, 400, 8);
+  dem.elevation.at(5, 300) = -3.0e38f;
+  dem.elevation.at(33, 70) = 1.0e20f;
+  dem.elevation.at(2, 70) = std::numeric_limits<float>::quiet_NaN();
+  dem.elevation.at(39, 399) = 2.0e30f;
+  const auto tiles = testing::write_tiles(dem, 1, 1, dir.path().string());
+  auto source = ElevationSource::open(tiles[0]);
+  ASSERT_TRUE(source.ok()) << source.error().message;
+  for (unsigned threads : {1u, 2u, 4u}) {
+    auto got = (*source)->read({0, 0, 40, 400}, nullptr, nullptr, nullptr, threads);
+    ASSERT_FALSE(got.ok());
+    EXPECT_NE(got.error().message.find("cell (col 33, row 70) holds 1e+20"), std::string::npos)
+        << threads << ": " << got.error().message;
+  }
+  auto below = (*source)->read({0, 71, 40, 400}, nullptr, nullptr, nullptr, 2);
+  ASSERT_FALSE(below.ok());
+  EXPECT_NE(below.error().message.find("cell (col 5, row 300)"), std::string::npos) << below.error().message;
+  EXPECT_TRUE((*source)->read({0, 0, 40, 69}, nullptr, nullptr, nullptr, 2).ok());  // NaN passes
+}
+
 TEST(ElevationSource, ImplausibleElevationsFailTheReadNamingFileBlockAndCell) {
   TempDir dir;
   Dem dem = georeferenced_terrain(200, 100, 8);
@@ -255,7 +282,7 @@ TEST(ElevationSource, ImplausibleElevationsFailTheReadNamingFileBlockAndCell) {
     }
     EXPECT_TRUE((*source)->read({0, 0, 100, 100}, c).ok());  // the west tile is fine
   }
-  EXPECT_GE(cache.stats().failures, 1u);  // the corrupt block was not kept
+  EXPECT_GE(cache.stats().failures, 1u);      // the corrupt block was not kept
   auto scanned = (*source)->scan(1, &cache);  // the load-time check refuses it too
   ASSERT_FALSE(scanned.ok());
   EXPECT_NE(scanned.error().message.find("tile_0_1.tif"), std::string::npos) << scanned.error().message;

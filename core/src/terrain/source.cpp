@@ -78,12 +78,32 @@ std::string describe_cells(const Window& w) {
          ".." + std::to_string(w.row1 - 1);
 }
 
+// Whether every cell of a row lies in [lo, hi] or is a void (NaN). No early
+// exit and no short-circuit, so the compiler turns it into vector compares.
+bool row_plausible(const float* row, int n, float lo, float hi) {
+  unsigned char outside = 0;
+  for (int c = 0; c < n; ++c) outside |= static_cast<unsigned char>((row[c] < lo) | (row[c] > hi));
+  return outside == 0;
+}
+
 // Cells outside the plausible range (NaN passes), as an error naming `file`
-// and where the cells lie; `at` places `cells` in the source's grid.
+// and where the first such cell lies; `at` places `cells` in the source's
+// grid. Rows are checked on `threads` threads; a whole DEM read at once is
+// tens of millions of cells.
 Status check_plausible(const Grid<float>& cells, const Window& at, const SourceOptions& o, const std::string& file,
-                       const std::string& where) {
+                       const std::string& where, unsigned threads = 1) {
   const float lo = static_cast<float>(o.valid_min), hi = static_cast<float>(o.valid_max);
-  for (int r = 0; r < cells.height(); ++r) {
+  constexpr int kRowsPerTask = 64;
+  const std::size_t tasks = (static_cast<std::size_t>(cells.height()) + kRowsPerTask - 1) / kRowsPerTask;
+  std::vector<unsigned char> bad(tasks, 0);
+  parallel_for(tasks, tasks > 1 ? threads : 1, [&](std::size_t t) {
+    const int r1 = std::min(cells.height(), static_cast<int>(t + 1) * kRowsPerTask);
+    for (int r = static_cast<int>(t) * kRowsPerTask; r < r1 && !bad[t]; ++r)
+      bad[t] = !row_plausible(cells.row(r), cells.width(), lo, hi);
+  });
+  const auto first = std::find(bad.begin(), bad.end(), 1);
+  if (first == bad.end()) return Status::Ok();
+  for (int r = static_cast<int>(first - bad.begin()) * kRowsPerTask; r < cells.height(); ++r) {
     const float* row = cells.row(r);
     for (int c = 0; c < cells.width(); ++c) {
       if (!(row[c] < lo || row[c] > hi)) continue;  // in range, or a void
@@ -91,8 +111,7 @@ Status check_plausible(const Grid<float>& cells, const Window& at, const SourceO
                           "cell (col " + std::to_string(at.col0 + c) + ", row " + std::to_string(at.row0 + r) +
                               ") holds " + number_text(row[c]) + ", outside the plausible elevations [" +
                               number_text(o.valid_min) + ", " + number_text(o.valid_max) + "]" +
-                              ": the file is corrupt (" + where +
-                              "), or its units need a wider valid range");
+                              ": the file is corrupt (" + where + "), or its units need a wider valid range");
     }
   }
   return Status::Ok();
@@ -291,8 +310,8 @@ Result<Grid<float>> ElevationSource::load_block(std::uint64_t block) const {
     e.message += " (block " + std::to_string(block) + ": " + describe_cells(cells) + " of '" + header_.source + "')";
     return e;
   }
-  HORIZON_RETURN_IF_ERROR(check_plausible(*got, cells, options_, f.path,
-                                          "block " + std::to_string(block) + ": " + describe_cells(cells)));
+  HORIZON_RETURN_IF_ERROR(
+      check_plausible(*got, cells, options_, f.path, "block " + std::to_string(block) + ": " + describe_cells(cells)));
   return got;
 }
 
@@ -335,7 +354,7 @@ Result<Dem> ElevationSource::read(const Window& requested, BlockCache* cache, co
       const SourceFile& f = *under.front();
       auto cells = f.raster->read_cells(shifted(window, -f.cells.col0, -f.cells.row0), threads, &local.file);
       if (!cells.ok()) return cells.error();
-      HORIZON_RETURN_IF_ERROR(check_plausible(*cells, window, options_, f.path, describe_cells(window)));
+      HORIZON_RETURN_IF_ERROR(check_plausible(*cells, window, options_, f.path, describe_cells(window), threads));
       dem.elevation = std::move(*cells);
       local.cells_decoded = local.file.cells_decoded;
     } else {
@@ -351,7 +370,7 @@ Result<Dem> ElevationSource::read(const Window& requested, BlockCache* cache, co
           if (options_.missing_as_nodata && !std::filesystem::exists(f.path, ec)) continue;
           return cells.error();
         }
-        HORIZON_RETURN_IF_ERROR(check_plausible(*cells, part, options_, f.path, describe_cells(part)));
+        HORIZON_RETURN_IF_ERROR(check_plausible(*cells, part, options_, f.path, describe_cells(part), threads));
         copy_into(dem.elevation, *cells, part);
         local.cells_decoded += read.cells_decoded;
       }
