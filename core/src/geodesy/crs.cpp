@@ -49,6 +49,7 @@
 #include <vector>
 
 #include "proj_support.hpp"
+#include "wgs84_utm.hpp"
 
 namespace horizon::geodesy {
 namespace detail {
@@ -122,12 +123,17 @@ struct ProjSet {
 };
 
 struct CrsData {
-  std::string definition, name, horizontal_name, vertical_name, projection, unit_name, wkt;
+  std::string definition, name, horizontal_name, vertical_name, projection, unit_name;
   int epsg = 0, horizontal_epsg = 0, vertical_epsg = 0;
   bool geographic = false;
   double unit_size = 1.0;  // metres (projected) or degrees (geographic) per unit
   double a = kEarthRadiusMetres, e2 = 0.0;
   std::optional<GeographicLib::Ellipsoid> ellipsoid;  // set with a and e2
+  // WGS 84 or a WGS 84 / UTM zone, described without PROJ (wgs84_utm.hpp):
+  // its WKT is PROJ's, made on first use.
+  std::optional<Wgs84Crs> wgs84;
+  mutable std::once_flag wkt_once;
+  mutable std::string wkt;
 
   mutable std::mutex mutex;
   mutable std::vector<std::unique_ptr<ProjSet>> idle;  // sets not in use
@@ -399,6 +405,23 @@ Registry& registry() {
   return *r;
 }
 
+// The facts of WGS 84 or a WGS 84 / UTM zone, as PROJ gives them; no PROJ
+// object is made until a call needs one.
+void describe_wgs84(const detail::Wgs84Crs& crs, CrsData& d) {
+  constexpr double kWgs84InverseFlattening = 298.257223563;
+  d.wgs84 = crs;
+  d.geographic = crs.geographic;
+  d.name = d.horizontal_name = detail::wgs84_crs_name(crs);
+  d.epsg = d.horizontal_epsg = crs.epsg;
+  d.unit_name = crs.geographic ? "degree" : "metre";
+  d.unit_size = 1.0;
+  d.projection = crs.geographic ? "" : "Transverse Mercator";
+  const double f = 1.0 / kWgs84InverseFlattening;
+  d.a = kEarthRadiusMetres;
+  d.e2 = f * (2.0 - f);
+  d.ellipsoid.emplace(d.a, f);
+}
+
 Result<std::shared_ptr<const CrsData>> describe(const std::string& definition) {
   Registry& r = registry();
   {
@@ -407,9 +430,13 @@ Result<std::shared_ptr<const CrsData>> describe(const std::string& definition) {
   }
   auto data = std::make_shared<CrsData>();
   data->definition = definition;
-  auto set = build_set(definition, data.get());  // outside the lock: a database query
-  if (!set.ok()) return set.error();
-  data->idle.push_back(std::move(*set));
+  if (auto wgs84 = detail::wgs84_crs(definition)) {
+    describe_wgs84(*wgs84, *data);
+  } else {
+    auto set = build_set(definition, data.get());  // outside the lock: a database query
+    if (!set.ok()) return set.error();
+    data->idle.push_back(std::move(*set));
+  }
   std::lock_guard lock(r.mutex);
   if (auto it = r.by_definition.find(definition); it != r.by_definition.end()) return it->second;
   if (r.by_definition.size() < kMaxRegistered) r.by_definition.emplace(definition, data);
@@ -502,13 +529,23 @@ double Crs::unit_size() const {
   return data_->unit_size;
 }
 const std::string& Crs::wkt() const {
-  return data_->wkt;
+  const CrsData& d = *data_;
+  if (d.wgs84)
+    std::call_once(d.wkt_once, [&d] {
+      CrsData full;
+      if (build_set(d.definition, &full).ok()) d.wkt = std::move(full.wkt);
+    });
+  return d.wkt;
 }
 
 Result<XY> Crs::from_lonlat(LonLat p) const {
   const std::string& name = data_->name;
   if (!std::isfinite(p.lon) || !std::isfinite(p.lat) || std::abs(p.lat) > 90.0)
     return out_of_range(name, "position (" + format_lonlat(p) + ") is not a valid longitude/latitude");
+  if (const auto& wgs84 = data_->wgs84) {
+    if (wgs84->geographic) return XY{p.lon, p.lat};
+    if (auto xy = detail::utm_from_lonlat(*wgs84, p)) return *xy;
+  }
   Lease lease(*data_);
   ProjSet* set = lease.get();
   if (!set) return make_error(ErrorCode::kInternal, name + ": PROJ could not set up its transformation");
@@ -535,6 +572,10 @@ Result<LonLat> Crs::to_lonlat(XY p) const {
     return out_of_range(d.name, "position (" + format_xy(p) + ") is not finite");
   if (d.geographic && std::abs(p.y * d.unit_size) > 90.0)
     return out_of_range(d.name, "position (" + format_xy(p) + ") has a latitude beyond 90 degrees");
+  if (d.wgs84) {
+    if (d.wgs84->geographic) return LonLat{GeographicLib::Math::AngNormalize(p.x), p.y};
+    if (auto ll = detail::utm_to_lonlat(*d.wgs84, p)) return ll->lonlat;
+  }
   Lease lease(d);
   ProjSet* set = lease.get();
   if (!set) return make_error(ErrorCode::kInternal, d.name + ": PROJ could not set up its transformation");
@@ -571,6 +612,8 @@ GroundScale Crs::ground_scale(XY p) const {
   }
   const GroundScale nominal{d.unit_size, d.unit_size};
   if (!std::isfinite(p.x) || !std::isfinite(p.y)) return nominal;
+  if (d.wgs84)  // UTM is conformal: one scale k both ways
+    if (auto ll = detail::utm_to_lonlat(*d.wgs84, p)) return GroundScale{1.0 / ll->k, 1.0 / ll->k};
   Lease lease(d);
   ProjSet* set = lease.get();
   if (!set) return nominal;

@@ -1,0 +1,146 @@
+// WGS 84 and its UTM zones are described without PROJ's database
+// (core/src/geodesy/wgs84_utm.hpp). These tests hold that description to
+// PROJ's own: "EPSG:n" takes the built-in path, "epsg:n" (the same CRS
+// spelled so the built-in path does not match it) goes through PROJ, and
+// both must say and compute the same, for all 121 codes.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "horizon/geodesy/crs.hpp"
+
+namespace horizon::geodesy {
+namespace {
+
+std::vector<int> builtin_codes() {
+  std::vector<int> codes{4326};
+  for (int zone = 1; zone <= 60; ++zone) {
+    codes.push_back(32600 + zone);
+    codes.push_back(32700 + zone);
+  }
+  return codes;
+}
+
+struct Pair {
+  Crs builtin, proj;
+};
+
+Pair pair_of(int epsg) {
+  auto builtin = Crs::from_definition("EPSG:" + std::to_string(epsg));
+  auto proj = Crs::from_definition("epsg:" + std::to_string(epsg));
+  EXPECT_TRUE(builtin.ok()) << epsg;
+  EXPECT_TRUE(proj.ok()) << epsg << ": " << (proj.ok() ? "" : proj.error().message);
+  return Pair{builtin.value(), proj.value()};
+}
+
+TEST(CrsBuiltin, DescribesEveryCodeAsProjDoes) {
+  for (int epsg : builtin_codes()) {
+    const Pair p = pair_of(epsg);
+    SCOPED_TRACE(epsg);
+    EXPECT_EQ(p.builtin.name(), p.proj.name());
+    EXPECT_EQ(p.builtin.horizontal_name(), p.proj.horizontal_name());
+    EXPECT_EQ(p.builtin.vertical_name(), p.proj.vertical_name());
+    EXPECT_EQ(p.builtin.epsg(), p.proj.epsg());
+    EXPECT_EQ(p.builtin.horizontal_epsg(), p.proj.horizontal_epsg());
+    EXPECT_EQ(p.builtin.vertical_epsg(), p.proj.vertical_epsg());
+    EXPECT_EQ(p.builtin.is_geographic(), p.proj.is_geographic());
+    EXPECT_EQ(p.builtin.projection(), p.proj.projection());
+    EXPECT_EQ(p.builtin.unit_name(), p.proj.unit_name());
+    EXPECT_EQ(p.builtin.unit_size(), p.proj.unit_size());
+    EXPECT_EQ(p.builtin.wkt(), p.proj.wkt());  // made through PROJ on first use
+    EXPECT_FALSE(p.builtin.wkt().empty());
+    EXPECT_TRUE(p.builtin.equivalent_to(p.proj));
+  }
+}
+
+TEST(CrsBuiltin, UtmConvertsAndScalesAsProjDoes) {
+  // Positions across each zone and beyond it: up to 29 degrees of longitude
+  // from the central meridian the built-in series answers, further PROJ.
+  const double lats[] = {-83.0, -60.0, -33.3, -1.0, 0.0, 0.5, 27.9, 47.0, 71.0, 84.0};
+  const double offsets[] = {-29.0, -3.0, -0.4, 0.0, 1.7, 3.0, 8.0, 29.0, 31.0, 45.0};
+  int compared = 0;
+  for (int epsg : builtin_codes()) {
+    if (epsg == 4326) continue;
+    const Pair p = pair_of(epsg);
+    const int zone = epsg % 100;
+    const double lon0 = 6.0 * zone - 183.0;
+    for (double lat : lats)
+      for (double offset : offsets) {
+        double lon = lon0 + offset;
+        lon -= 360.0 * std::floor((lon + 180.0) / 360.0);
+        SCOPED_TRACE(std::to_string(epsg) + " lon " + std::to_string(lon) + " lat " + std::to_string(lat));
+        const auto a = p.builtin.from_lonlat({lon, lat});
+        const auto b = p.proj.from_lonlat({lon, lat});
+        ASSERT_EQ(a.ok(), b.ok());
+        if (!a.ok()) continue;
+        EXPECT_NEAR(a->x, b->x, 1e-6);
+        EXPECT_NEAR(a->y, b->y, 1e-6);
+        const auto la = p.builtin.to_lonlat(*a);
+        const auto lb = p.proj.to_lonlat(*b);
+        ASSERT_TRUE(la.ok());
+        ASSERT_TRUE(lb.ok());
+        EXPECT_NEAR(std::remainder(la->lon - lb->lon, 360.0), 0.0, 1e-11);
+        EXPECT_NEAR(la->lat, lb->lat, 1e-11);
+        const GroundScale sa = p.builtin.ground_scale(*a), sb = p.proj.ground_scale(*b);
+        // PROJ's scale comes from numerical derivatives (good to ~1e-10 near
+        // the poles), the built-in one from the series' own k.
+        EXPECT_NEAR(sa.metres_per_x / sb.metres_per_x, 1.0, 1e-9);
+        EXPECT_NEAR(sa.metres_per_y / sb.metres_per_y, 1.0, 1e-9);
+        ++compared;
+      }
+  }
+  EXPECT_GT(compared, 120 * 80);  // nearly every position converts
+}
+
+TEST(CrsBuiltin, RefusesWhatProjRefuses) {
+  const Pair p = pair_of(32633);
+  for (const LonLat bad : {LonLat{15.0 + 89.0, 10.0}, LonLat{0.0, 90.5}, LonLat{std::nan(""), 0.0}}) {
+    const auto a = p.builtin.from_lonlat(bad);
+    ASSERT_FALSE(a.ok());
+    EXPECT_EQ(a.error().code, p.proj.from_lonlat(bad).error().code);
+    EXPECT_NE(a.error().message.find("WGS 84 / UTM zone 33N"), std::string::npos) << a.error().message;
+  }
+  const auto far = p.builtin.to_lonlat({5.0e7, 0.0});
+  ASSERT_FALSE(far.ok());
+  EXPECT_EQ(far.error().code, ErrorCode::kOutOfRange);
+}
+
+TEST(CrsBuiltin, GeographicIsTheIdentityAsInProj) {
+  const Pair p = pair_of(4326);
+  for (const LonLat ll : {LonLat{-121.76, 46.853}, LonLat{179.999, -89.0}, LonLat{-180.0, 0.0}}) {
+    const auto a = p.builtin.from_lonlat(ll);
+    const auto b = p.proj.from_lonlat(ll);
+    ASSERT_TRUE(a.ok());
+    ASSERT_TRUE(b.ok());
+    EXPECT_EQ(a->x, b->x);
+    EXPECT_EQ(a->y, b->y);
+  }
+  for (const XY xy : {XY{-121.76, 46.853}, XY{190.0, 10.0}, XY{-540.0, -90.0}}) {
+    const auto a = p.builtin.to_lonlat(xy);
+    const auto b = p.proj.to_lonlat(xy);
+    ASSERT_TRUE(a.ok());
+    ASSERT_TRUE(b.ok());
+    EXPECT_EQ(a->lon, b->lon);
+    EXPECT_EQ(a->lat, b->lat);
+    const GroundScale sa = p.builtin.ground_scale(xy), sb = p.proj.ground_scale(xy);
+    EXPECT_EQ(sa.metres_per_x, sb.metres_per_x);
+    EXPECT_EQ(sa.metres_per_y, sb.metres_per_y);
+  }
+  EXPECT_FALSE(p.builtin.to_lonlat({0.0, 91.0}).ok());
+}
+
+TEST(CrsBuiltin, OnlyTheExactSpellingIsBuiltIn) {
+  // Codes next to the built-in ranges go to PROJ and are what PROJ says.
+  auto zone61 = Crs::from_epsg(32661);  // UPS North, in PROJ's database
+  ASSERT_TRUE(zone61.ok());
+  EXPECT_EQ(zone61->projection(), "Polar Stereographic (variant A)");
+  auto compound = Crs::from_definition("EPSG:32633+5773");
+  ASSERT_TRUE(compound.ok());
+  EXPECT_EQ(compound->horizontal_epsg(), 32633);
+  EXPECT_EQ(compound->vertical_epsg(), 5773);
+}
+
+}  // namespace
+}  // namespace horizon::geodesy
