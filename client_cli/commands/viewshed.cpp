@@ -206,7 +206,8 @@ Status write_output(const Request& r, const terrain::Dem& dem, const visibility:
   if (visibility::is_code_raster(raster.output)) {
     const visibility::ValueCodes& codes = raster.codes;
     std::optional<terrain::Grid<std::uint8_t>> recoded;
-    if (codes != visibility::ValueCodes{}) recoded = visibility::visibility_codes(result, r.options.target_height, codes);
+    if (codes != visibility::ValueCodes{})
+      recoded = visibility::visibility_codes(result, r.options.target_height, codes, r.options.threads);
     const terrain::Grid<std::uint8_t>& values = recoded ? *recoded : mask;
     phases.mask += seconds_since(at);
     at = std::chrono::steady_clock::now();
@@ -314,7 +315,8 @@ int run_viewshed(const Args& args) {
   phases.compute = result->stats.seconds;
   // The default codes, for the counts and the picture (whatever codes the file has).
   const auto masking = std::chrono::steady_clock::now();
-  const terrain::Grid<std::uint8_t> mask = visibility::visibility_mask(*result, r.options.target_height);
+  const terrain::Grid<std::uint8_t> mask =
+      visibility::visibility_mask(*result, r.options.target_height, r.options.threads);
   phases.mask = seconds_since(masking);
   if (auto s = write_output(r, *dem, *run, mask, phases); !s.ok()) return report_error(s.error());
   if (r.png_path) {
@@ -389,8 +391,8 @@ int run_viewshed(const Args& args) {
                    {"mask", phases.mask},
                    {"encode", phases.encode},
                    {"preview", r.png_path ? Json(phases.preview) : Json(nullptr)},
-                   {"other", total_seconds - phases.open - phases.read - phases.compute - phases.mask -
-                                 phases.encode - phases.preview}};
+                   {"other", total_seconds - phases.open - phases.read - phases.compute - phases.mask - phases.encode -
+                                 phases.preview}};
     print_json(j);
     return kExitOk;
   }

@@ -17,8 +17,8 @@
 #include "horizon/visibility/viewshed_preview.hpp"
 #include "raster_files.hpp"
 #include "translate.hpp"
-#include "viewshed_output.hpp"
 #include "viewshed_many_call.hpp"
+#include "viewshed_output.hpp"
 
 namespace horizon::server {
 namespace {
@@ -192,8 +192,8 @@ grpc::Status ViewshedCall::compute() {
                        " cells, more than limits.max_cells = " + std::to_string(env.config.limits.max_cells) +
                        "; give a smaller max_distance",
                    "options.max_distance"));
-  const bool laid_out = out.geotiff.format == terrain::TiffFormat::kCog ||
-                        out.geotiff.compression == terrain::TiffCompression::kNone;
+  const bool laid_out =
+      out.geotiff.format == terrain::TiffFormat::kCog || out.geotiff.compression == terrain::TiffCompression::kNone;
   const std::uint64_t per_cell =
       MemoryBudget::kEncodingBytesPerCell + (laid_out ? MemoryBudget::kLayoutBytesPerCell : 0);
   if (auto s = scope_.reserve(plan->cost.bytes + cells * per_cell,
@@ -217,7 +217,7 @@ grpc::Status ViewshedCall::compute() {
   terrain::Grid<float> values;
   terrain::Grid<std::uint8_t> codes;
   if (is_mask) {
-    codes = visibility::visibility_codes(*result, options->target_height, out.codes);
+    codes = visibility::visibility_codes(*result, options->target_height, out.codes, options->threads);
     nodata = static_cast<double>(out.codes.nodata);
   } else {
     values = visibility::float_raster(*result, out.output, options->target_height);

@@ -92,8 +92,9 @@ inline float min_target_height_at(float ohf, float ground) {
 // Output rasters, all window-sized.
 inline constexpr std::uint8_t kVisible = 1, kHidden = 0, kNoAnswer = 255;
 
-// 1 visible / 0 hidden / 255 no answer (out of range, void target).
-terrain::Grid<std::uint8_t> visibility_mask(const ViewshedResult& result, double target_height);
+// 1 visible / 0 hidden / 255 no answer (out of range, void target); rows
+// on `threads` threads (0 = all hardware threads).
+terrain::Grid<std::uint8_t> visibility_mask(const ViewshedResult& result, double target_height, unsigned threads = 1);
 // Minimum target height above ground that is visible, metres, >= 0; NaN for no answer.
 terrain::Grid<float> min_target_height(const ViewshedResult& result);
 // OHF floored at the terrain (equal to the terrain where the ground is visible); NaN for no answer.
