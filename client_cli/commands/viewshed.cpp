@@ -9,6 +9,7 @@
 #include "commands/viewshed_flags.hpp"
 #include "commands/viewshed_many.hpp"
 #include "commands/viewshed_raster.hpp"
+#include "horizon/common/kernels.hpp"
 #include "horizon/gpu/context_pool.hpp"
 #include "horizon/imageio/imageio.hpp"
 #include "horizon/terrain/dem_reader.hpp"
@@ -73,6 +74,9 @@ constexpr FlagSpec kFlags[] = {
     {"--gpu-propagation", "", "P",
      "On the GPU: 'log-step' (shift doubling, log2 N passes, default) or 'one-step' (N one-cell passes); same result"},
     {"--threads", "", "N", "Worker threads (default 0 = all cores)"},
+    {"--isa", "", "SET",
+     "Cap the CPU's SIMD kernels at 'scalar', 'avx2' or 'avx512' (default: the best it has); same answers, "
+     "other times"},
     {"--output", "-om", "KIND",
      "Raster written: 'visible' (default), 'boolean', 'ohf', 'min-target-height', 'vertical-angle' or "
      "'elevation-difference' (gdal_viewshed's NORMAL, DEM, GROUND: visible, ohf, min-target-height)"},
@@ -109,6 +113,16 @@ constexpr std::string_view kAlgorithms[] = {"fast", "exact", "conservative", "r3
 constexpr std::string_view kBackends[] = {"auto", "cpu", "gpu"};
 constexpr std::string_view kGpuMethods[] = {"fragment", "compute"};
 constexpr std::string_view kGpuPropagations[] = {"log-step", "one-step"};
+constexpr std::string_view kKernelSets[] = {"scalar", "avx2", "avx512"};
+
+// --isa caps this process's kernels (common/kernels.hpp). With --server the
+// daemon computes, on its own machine's kernels.
+void apply_kernel_cap(const Args& args) {
+  const auto isa = args.choice("--isa", kKernelSets);
+  if (!isa) return;
+  if (args.has("--server")) throw UsageError("--isa caps this machine's kernels; with --server the daemon computes");
+  limit_kernel_set(*parse_kernel_set(*isa));
+}
 
 struct Request {
   std::string dem_path;
@@ -263,6 +277,7 @@ Gpu open_gpu(const visibility::ViewshedOptions& o) {
 }
 
 int run_viewshed(const Args& args) {
+  apply_kernel_cap(args);
   if (wants_many_observers(args)) return run_many_observers(args);
   refuse_many_flags(args);
   const Request r = parse_request(args);
@@ -375,6 +390,7 @@ int run_viewshed(const Args& args) {
     j["visible_area_km2"] = area_km2;
     j["visible_percent"] = percent;
     j["stats"] = to_json(stats);
+    j["kernels"] = std::string(kernel_set_name(kernel_set()));
     j["preview_seconds"] = r.png_path ? Json(phases.preview) : Json(nullptr);
     j["read"] = {{"window", to_json(read.window)},
                  {"block", block_kind},

@@ -14,9 +14,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cli_run.hpp"
 #include "horizon/terrain/dem_reader.hpp"
 #include "horizon/visibility/many_observers.hpp"
-#include "cli_run.hpp"
 #include "test_support.hpp"
 
 namespace horizon::testing {
@@ -130,6 +130,33 @@ TEST(CliViewshedOptions, MaxDistanceZeroOrNoneIsNoLimit) {
     EXPECT_EQ(j["visible_cells"], all["visible_cells"]) << none;
     EXPECT_TRUE(read_bytes(out) == read_bytes(dir.file("all.tif"))) << none;
   }
+}
+
+// --isa caps the kernels: each set this CPU has writes the same bytes, and
+// the summary names the set that ran (a cap above the CPU's best runs its best).
+TEST(CliViewshedOptions, IsaCapChangesTheKernelsNotTheRaster) {
+  TempDir dir;
+  const Json best = viewshed(kEye, dir.file("best.tif"));
+  const std::string cpu = best["kernels"];
+  for (const char* isa : {"scalar", "avx2", "avx512"}) {
+    const std::string out = dir.file(std::string(isa) + ".tif");
+    const Json j = viewshed(concat(kEye, {"--isa", isa}), out);
+    const std::string want =
+        std::string(isa) == "avx512" || (std::string(isa) == "avx2" && cpu == "scalar") ? cpu : isa;
+    EXPECT_EQ(j["kernels"], want) << isa;
+    EXPECT_EQ(j["visible_cells"], best["visible_cells"]) << isa;
+    EXPECT_TRUE(read_bytes(out) == read_bytes(dir.file("best.tif"))) << isa;
+  }
+  const auto bad = horizon(
+      {"viewshed", bundled_dem(kAndes), "--observer", "713900,9558950", "--isa", "sse2", "-o", dir.file("bad.tif")});
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.output.find("--isa: expected one of scalar, avx2, avx512, got 'sse2'"), std::string::npos)
+      << bad.output;
+  const auto remote = horizon({"viewshed", "rainier", "--server", "127.0.0.1:1", "--observer", "1,1", "--isa", "avx2",
+                               "-o", dir.file("remote.tif")});
+  EXPECT_EQ(remote.exit_code, 2);
+  EXPECT_NE(remote.output.find("--isa caps this machine's kernels"), std::string::npos) << remote.output;
+  EXPECT_FALSE(fs::exists(dir.file("bad.tif")));
 }
 
 // GRASS's refraction coefficient k is GDAL's curvature 1 - k; one of the two.
@@ -498,16 +525,15 @@ TEST(CliViewshedOptions, AgreesWithRViewshedOnItsRasters) {
       << "v() { r.viewshed -c -r refraction_coeff=0.14286 input=dem coordinates=713900,9558950 "
          "observer_elevation=10 target_elevation=2 max_distance=2000 --quiet --overwrite \"$@\"; }\n"
       << "v output=angle\nv -e output=difference\nv -b output=all\nv -b output=wedge direction_range=30,150\n"
-      << "for m in angle difference all wedge; do r.out.gdal -f input=$m output="
-      << shell_quote(dir.file("grass_")) << "$m.tif type=Float32 nodata=-9999 --quiet --overwrite; done\n";
+      << "for m in angle difference all wedge; do r.out.gdal -f input=$m output=" << shell_quote(dir.file("grass_"))
+      << "$m.tif type=Float32 nodata=-9999 --quiet --overwrite; done\n";
   const auto grass = run_command("grass --tmp-location " + shell_quote(dem) + " --exec bash " +
                                  shell_quote(dir.file("grass.sh")) + " 2>&1");
   ASSERT_EQ(grass.exit_code, 0) << grass.output;
 
-  const std::vector<std::string> flags = {"-ox", "713900", "-oy",          "9558950",         "-oz",
-                                          "10",  "-tz",    "2",            "-md",             "2000",
-                                          "--refraction",  "0.14286",      "--observer-ground", "cell",
-                                          "--algorithm",   "exact"};
+  const std::vector<std::string> flags = {
+      "-ox",  "713900",       "-oy",     "9558950",           "-oz",  "10",          "-tz",  "2", "-md",
+      "2000", "--refraction", "0.14286", "--observer-ground", "cell", "--algorithm", "exact"};
   viewshed(concat(flags, {"--output", "boolean"}), dir.file("all.tif"));
   viewshed(concat(flags, {"--output", "boolean", "--azimuth", "300,60"}), dir.file("wedge.tif"));
   viewshed(concat(flags, {"--output", "vertical-angle"}), dir.file("angle.tif"));
