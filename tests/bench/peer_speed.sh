@@ -4,7 +4,7 @@
 # default's accuracy against R3 beside each line (docs/benchmarks.md, "Whole
 # process against gdal_viewshed").
 #
-#   tests/bench/peer_speed.sh [--repeats N] [--observers N] DEM...
+#   tests/bench/peer_speed.sh [--repeats N] [--observers N] [--isa SET,...] DEM...
 #   tests/bench/peer_speed.sh --short      # CI: the bundled DEMs, printed only
 #
 # For each DEM the observers are `horizon bench`'s deterministic picks
@@ -13,7 +13,10 @@
 # of processes (gdal_viewshed, then `horizon viewshed` with its defaults,
 # both writing a GeoTIFF) runs --repeats times (default 5) in turn; a line
 # gives both medians and gdal's over Horizon's (above 1: Horizon is faster).
-# The last line is the geometric mean of the ratios. The IoU is the default
+# --isa avx512,avx2 times `horizon viewshed --isa SET` for each set named
+# (scalar, avx2, avx512), each in its own column, all in the same interleaved
+# loop: the AVX2 kernels' whole-process time on an AVX-512 machine. Without
+# it, one column: the CPU's best. The last lines are the geometric means. The IoU is the default
 # setting's against R3, from `horizon bench` (which runs R3 untimed: seconds
 # on a 1201 x 1201 DEM, minutes on 12 M cells). Prints Markdown; never fails
 # on a slow run, only when a tool is missing or a run fails.
@@ -25,11 +28,13 @@ cd "$(dirname "${BASH_SOURCE[0]}")/../.."
 
 repeats=5
 observers=3
+isas=()
 dems=()
 while (($#)); do
   case "$1" in
     --repeats) repeats=${2:-}; shift $(($# > 1 ? 2 : 1)) ;;
     --observers) observers=${2:-}; shift $(($# > 1 ? 2 : 1)) ;;
+    --isa) IFS=, read -ra isas <<<"${2:-}"; shift $(($# > 1 ? 2 : 1)) ;;
     --short) repeats=3; observers=1; dems+=(data/dem/*.tif); shift ;;
     -h | --help) sed -n '2,22p' "$0"; exit 0 ;;
     -*) echo "peer_speed: unknown flag '$1' (see --help)" >&2; exit 2 ;;
@@ -39,6 +44,12 @@ done
 [[ "$repeats" =~ ^[1-9][0-9]*$ ]] || { echo "peer_speed: --repeats: expected a whole number from 1, got '$repeats'" >&2; exit 2; }
 [[ "$observers" =~ ^[1-9][0-9]*$ ]] || { echo "peer_speed: --observers: expected a whole number from 1, got '$observers'" >&2; exit 2; }
 ((${#dems[@]})) || { echo "peer_speed: no DEM given (see --help)" >&2; exit 2; }
+for set in "${isas[@]}"; do
+  [[ "$set" =~ ^(scalar|avx2|avx512)$ ]] || { echo "peer_speed: --isa: expected scalar, avx2 or avx512, got '$set'" >&2; exit 2; }
+done
+# The horizon columns: one per --isa set, or the CPU's best ("").
+columns=("${isas[@]}")
+((${#columns[@]})) || columns=("")
 for dem in "${dems[@]}"; do
   [[ -f "$dem" ]] || { echo "peer_speed: '$dem': no such file" >&2; exit 2; }
 done
@@ -66,10 +77,18 @@ isa=scalar
 echo "Machine: $(nproc) CPUs, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), $isa;" \
   "$(gdalinfo --version 2>/dev/null | cut -d, -f1); $(date -u '+%F %H:%M') UTC; median of $repeats"
 echo
-echo "| DEM | observer | cells | gdal_viewshed | horizon | gdal / horizon | IoU vs R3 |"
-echo "|---|---|---:|---:|---:|---:|---:|"
+header="| DEM | observer | cells | gdal_viewshed |"
+rule="|---|---|---:|---:|"
+for set in "${columns[@]}"; do
+  label=${set:+horizon --isa $set}
+  header+=" ${label:-horizon} | gdal / horizon |"
+  rule+="---:|---:|"
+done
+echo "$header IoU vs R3 |"
+echo "$rule---:|"
 
-log_sum=0
+declare -a log_sum
+for c in "${!columns[@]}"; do log_sum[c]=0; done
 pairs=0
 for dem in "${dems[@]}"; do
   name=$(basename "$dem")
@@ -89,19 +108,33 @@ with open(sys.argv[1]) as f:
 EOF
   while read -r observer x y cells iou; do
     gdal_runs=()
-    horizon_runs=()
+    declare -A horizon_runs=()
     for ((i = 0; i < repeats; i++)); do
       gdal_runs+=("$(seconds gdal_viewshed -q -ox "$x" -oy "$y" -oz 2 -cc 0.85714 "$dem" "$work/gdal.tif")")
-      horizon_runs+=("$(seconds "$horizon" viewshed "$dem" --observer "$x,$y" --height 2 -o "$work/hz.tif")")
-      rm -f "$work/gdal.tif" "$work/hz.tif"
+      for c in "${!columns[@]}"; do
+        set=${columns[c]}
+        horizon_runs[$c]+="$(seconds "$horizon" viewshed "$dem" --observer "$x,$y" --height 2 ${set:+--isa "$set"} \
+          -o "$work/hz.tif") "
+        rm -f "$work/hz.tif"
+      done
+      rm -f "$work/gdal.tif"
     done
     g=$(printf '%s\n' "${gdal_runs[@]}" | median)
-    h=$(printf '%s\n' "${horizon_runs[@]}" | median)
-    ratio=$(echo "scale=6; $g / $h" | bc)
-    log_sum=$(echo "scale=9; $log_sum + l($ratio)" | bc -l)
+    line=$(printf '| %s | %s | %s | %.3f s |' "$name" "$observer" "$cells" "$g")
+    for c in "${!columns[@]}"; do
+      h=$(printf '%s\n' ${horizon_runs[$c]} | median)
+      ratio=$(echo "scale=6; $g / $h" | bc)
+      log_sum[c]=$(echo "scale=9; ${log_sum[c]} + l($ratio)" | bc -l)
+      line+=$(printf ' %.3f s | %.2fx |' "$h" "$ratio")
+    done
+    unset horizon_runs
     pairs=$((pairs + 1))
-    printf '| %s | %s | %s | %.3f s | %.3f s | %.2fx | %s |\n' "$name" "$observer" "$cells" "$g" "$h" "$ratio" "${iou//_/ }"
+    echo "$line ${iou//_/ } |"
   done <"$work/picks"
 done
 echo
-printf 'Geometric mean of gdal / horizon over %d runs: %.2fx\n' "$pairs" "$(echo "scale=6; e($log_sum / $pairs)" | bc -l)"
+for c in "${!columns[@]}"; do
+  set=${columns[c]}
+  printf 'Geometric mean of gdal / horizon%s over %d runs: %.2fx\n' "${set:+ --isa $set}" "$pairs" \
+    "$(echo "scale=6; e(${log_sum[c]} / $pairs)" | bc -l)"
+done
