@@ -5,7 +5,7 @@
 #include "commands/command.hpp"
 #include "commands/cull.hpp"
 #include "remote/client.hpp"
-#include "remote/remote.hpp"
+#include "remote/module_abi.hpp"
 
 namespace horizon::cli::remote {
 namespace {
@@ -29,9 +29,9 @@ visibility::Visibility box_state(const v1::BoxVisibility& b) {
 
 }  // namespace
 
-int run_cull(const Args& args, const std::string& dataset, const geodesy::PointSpec& observer,
-             const std::vector<visibility::BoxSpec>& boxes, const std::vector<std::uint64_t>& ids,
-             const visibility::CullOptions& options, bool json) {
+int impl::run_cull(const Args& args, const std::string& dataset, const geodesy::PointSpec& observer,
+                   const std::vector<visibility::BoxSpec>& boxes, const std::vector<std::uint64_t>& ids,
+                   const visibility::CullOptions& options, bool json) {
   Client client(args);
   const auto started = std::chrono::steady_clock::now();
   v1::Dataset d;

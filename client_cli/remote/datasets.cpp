@@ -5,11 +5,11 @@
 #include "commands/command.hpp"
 #include "output.hpp"
 #include "remote/client.hpp"
-#include "remote/remote.hpp"
+#include "remote/module_abi.hpp"
 
 namespace horizon::cli::remote {
 
-int run_datasets(const Args& args, bool json) {
+int impl::run_datasets(const Args& args, bool json) {
   Client client(args);
   const int page_size = args.positive_integer("--page-size").value_or(100);
   std::vector<v1::Dataset> all;

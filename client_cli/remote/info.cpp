@@ -6,11 +6,11 @@
 #include "commands/command.hpp"
 #include "output.hpp"
 #include "remote/client.hpp"
-#include "remote/remote.hpp"
+#include "remote/module_abi.hpp"
 
 namespace horizon::cli::remote {
 
-int run_info(const Args& args, const std::string& name, bool json) {
+int impl::run_info(const Args& args, const std::string& name, bool json) {
   Client client(args);
   v1::Dataset d;
   if (auto s = client.get_dataset(name, d); !s.ok()) return report_status(s, client.address());

@@ -6,7 +6,7 @@
 #include "commands/command.hpp"
 #include "output.hpp"
 #include "remote/client.hpp"
-#include "remote/remote.hpp"
+#include "remote/module_abi.hpp"
 
 namespace horizon::cli::remote {
 namespace {
@@ -17,8 +17,8 @@ visibility::ProfileSample to_sample(const v1::ProfileSample& s) {
 
 }  // namespace
 
-int run_los(const Args& args, const std::string& dataset, const geodesy::PointSpec& from_spec,
-            const geodesy::PointSpec& to_spec, const visibility::LosOptions& options, bool json) {
+int impl::run_los(const Args& args, const std::string& dataset, const geodesy::PointSpec& from_spec,
+                  const geodesy::PointSpec& to_spec, const visibility::LosOptions& options, bool json) {
   Client client(args);
   v1::Dataset d;
   if (auto s = client.get_dataset(dataset, d); !s.ok()) return report_status(s, client.address());

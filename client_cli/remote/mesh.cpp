@@ -7,11 +7,11 @@
 #include "commands/command.hpp"
 #include "output.hpp"
 #include "remote/client.hpp"
-#include "remote/remote.hpp"
+#include "remote/module_abi.hpp"
 
 namespace horizon::cli::remote {
 
-int run_mesh_cull(const Args& args, const MeshCullInputs& inputs) {
+int impl::run_mesh_cull(const Args& args, const MeshCullInputs& inputs) {
   Client client(args);
   const auto started = std::chrono::steady_clock::now();
   v1::DescribeMeshRequest describe;

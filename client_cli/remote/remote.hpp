@@ -3,7 +3,10 @@
 // parses and checks its flags exactly as in embedded mode, then hands the
 // parsed request here; the output (files, text, JSON) is the same as
 // embedded mode's, and the GeoTIFF byte-identical for the same algorithm.
-// gRPC stays inside client_cli/remote/.
+// gRPC stays inside client_cli/remote/, which is built as the plugin
+// libhorizon_remote.so: the run_* below are the executable's forwarders
+// (remote_loader.cpp), which open it on first use (module_abi.hpp says why
+// and how; HORIZON_REMOTE_PLUGIN names the module's path explicitly).
 #pragma once
 
 #include <cstdint>

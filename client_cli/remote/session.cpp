@@ -7,7 +7,7 @@
 #include "commands/command.hpp"
 #include "commands/session.hpp"
 #include "remote/client.hpp"
-#include "remote/remote.hpp"
+#include "remote/module_abi.hpp"
 
 namespace horizon::cli::remote {
 namespace {
@@ -49,7 +49,7 @@ PoseLine to_line(const v1::SessionResponse& r) {
 
 }  // namespace
 
-int run_session(const Args& args, const SessionPlayback& playback, bool json, bool every_pose) {
+int impl::run_session(const Args& args, const SessionPlayback& playback, bool json, bool every_pose) {
   Client client(args);
   const auto started = std::chrono::steady_clock::now();
   const clipmap::SessionOptions& o = playback.options;

@@ -15,7 +15,7 @@
 #include "output.hpp"
 #include "remote/client.hpp"
 #include "remote/files.hpp"
-#include "remote/remote.hpp"
+#include "remote/module_abi.hpp"
 
 namespace horizon::cli::remote {
 namespace {
@@ -94,7 +94,7 @@ terrain::Grid<float> band(const std::string& data, int width, int height, std::s
 
 }  // namespace
 
-int run_trace(const Args& args, const TraceInputs& in) {
+int impl::run_trace(const Args& args, const TraceInputs& in) {
   Client client(args);
   const auto started = std::chrono::steady_clock::now();
   v1::Dataset dataset;

@@ -13,11 +13,11 @@
 #include "progress.hpp"
 #include "remote/client.hpp"
 #include "remote/files.hpp"
-#include "remote/remote.hpp"
+#include "remote/module_abi.hpp"
 
 namespace horizon::cli::remote {
 
-int run_viewshed(const Args& args, const ViewshedInputs& in) {
+int impl::run_viewshed(const Args& args, const ViewshedInputs& in) {
   Client client(args);
   const auto started = std::chrono::steady_clock::now();
 

@@ -16,7 +16,7 @@
 #include "progress.hpp"
 #include "remote/client.hpp"
 #include "remote/files.hpp"
-#include "remote/remote.hpp"
+#include "remote/module_abi.hpp"
 
 namespace horizon::cli::remote {
 namespace {
@@ -29,7 +29,7 @@ grpc::Status in_user_words(const grpc::Status& status, const std::vector<NamedOb
 
 }  // namespace
 
-int run_viewshed_many(const Args& args, const ManyViewshedInputs& in) {
+int impl::run_viewshed_many(const Args& args, const ManyViewshedInputs& in) {
   Client client(args);
   const auto started = std::chrono::steady_clock::now();
 
