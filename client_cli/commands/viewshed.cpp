@@ -369,7 +369,12 @@ int run_viewshed(const Args& args) {
   const int block_height = one_file ? read.file.block_height : (*source)->files().front().block_height;
   const double area_km2 = static_cast<double>(visible) * f.metres_per_col * f.metres_per_row / 1e6;
   const double percent = evaluated ? 100.0 * static_cast<double>(visible) / static_cast<double>(evaluated) : 0.0;
-  const auto observer_lonlat = lonlat_of(*dem, observer.x, observer.y);
+  // Where the JSON or the text (a projected DEM's) shows the observer in
+  // WGS 84; a geographic DEM's text needs no conversion, and converting is
+  // the first use of the CRS's transformation (crs.hpp: milliseconds).
+  const bool geographic = is_geographic(*dem);
+  const auto observer_lonlat =
+      r.json || !geographic ? lonlat_of(*dem, observer.x, observer.y) : std::optional<geodesy::LonLat>();
 
   if (r.json) {
     Json j;
@@ -413,7 +418,6 @@ int run_viewshed(const Args& args) {
     return kExitOk;
   }
 
-  const bool geographic = is_geographic(*dem);
   std::cout << "Viewshed of " << r.dem_path << '\n'
             << "  observer:   x " << coordinate(observer.x, geographic) << ", y " << coordinate(observer.y, geographic);
   if (observer_lonlat && !geographic)

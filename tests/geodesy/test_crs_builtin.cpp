@@ -1,11 +1,12 @@
 // WGS 84 and its UTM zones are described without PROJ's database
-// (core/src/geodesy/wgs84_utm.hpp). These tests hold that description to
+// (core/src/geodesy/wgs84_crs.hpp). These tests hold that description to
 // PROJ's own: "EPSG:n" takes the built-in path, "epsg:n" (the same CRS
 // spelled so the built-in path does not match it) goes through PROJ, and
-// both must say and compute the same, for all 121 codes.
+// both must say and compute the same, for all 122 codes.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -15,7 +16,7 @@ namespace horizon::geodesy {
 namespace {
 
 std::vector<int> builtin_codes() {
-  std::vector<int> codes{4326};
+  std::vector<int> codes{4326, 3857};
   for (int zone = 1; zone <= 60; ++zone) {
     codes.push_back(32600 + zone);
     codes.push_back(32700 + zone);
@@ -62,7 +63,7 @@ TEST(CrsBuiltin, UtmConvertsAndScalesAsProjDoes) {
   const double offsets[] = {-29.0, -3.0, -0.4, 0.0, 1.7, 3.0, 8.0, 29.0, 31.0, 45.0};
   int compared = 0;
   for (int epsg : builtin_codes()) {
-    if (epsg == 4326) continue;
+    if (epsg == 4326 || epsg == 3857) continue;
     const Pair p = pair_of(epsg);
     const int zone = epsg % 100;
     const double lon0 = 6.0 * zone - 183.0;
@@ -129,6 +130,42 @@ TEST(CrsBuiltin, GeographicIsTheIdentityAsInProj) {
     EXPECT_EQ(sa.metres_per_y, sb.metres_per_y);
   }
   EXPECT_FALSE(p.builtin.to_lonlat({0.0, 91.0}).ok());
+}
+
+TEST(CrsBuiltin, WebMercatorConvertsAndScalesAsProjDoes) {
+  // Across the map's square and beyond its latitude limit (85.0511), where PROJ answers.
+  const Pair p = pair_of(3857);
+  int compared = 0;
+  for (double lat : {-89.0, -85.0, -60.0, -12.5, 0.0, 0.001, 33.3, 46.853, 71.0, 85.05, 85.2, 89.5})
+    for (double lon : {-180.0, -179.9, -121.76, -3.0, 0.0, 17.25, 138.73, 179.99}) {
+      SCOPED_TRACE("lon " + std::to_string(lon) + " lat " + std::to_string(lat));
+      const auto a = p.builtin.from_lonlat({lon, lat});
+      const auto b = p.proj.from_lonlat({lon, lat});
+      ASSERT_EQ(a.ok(), b.ok());
+      if (!a.ok()) continue;
+      EXPECT_NEAR(a->x, b->x, 1e-6);
+      EXPECT_NEAR(a->y, b->y, 1e-6);
+      const auto la = p.builtin.to_lonlat(*a);
+      const auto lb = p.proj.to_lonlat(*b);
+      ASSERT_TRUE(la.ok());
+      ASSERT_TRUE(lb.ok());
+      EXPECT_NEAR(std::remainder(la->lon - lb->lon, 360.0), 0.0, 1e-11);
+      EXPECT_NEAR(la->lat, lb->lat, 1e-11);
+      // PROJ's numerical derivatives drift near the map's edge (4e-9 at 85 degrees).
+      const GroundScale sa = p.builtin.ground_scale(*a), sb = p.proj.ground_scale(*b);
+      EXPECT_NEAR(sa.metres_per_x / sb.metres_per_x, 1.0, 1e-8);
+      EXPECT_NEAR(sa.metres_per_y / sb.metres_per_y, 1.0, 1e-8);
+      ++compared;
+    }
+  EXPECT_GE(compared, 12 * 8 - 8);
+  // The square's corner and beyond it.
+  EXPECT_TRUE(p.builtin.to_lonlat({std::numbers::pi * 6378137.0, std::numbers::pi * 6378137.0}).ok());
+  const auto beyond = p.builtin.to_lonlat({4.0e7, 0.0});
+  const auto beyond_proj = p.proj.to_lonlat({4.0e7, 0.0});
+  ASSERT_EQ(beyond.ok(), beyond_proj.ok());
+  if (beyond.ok()) {
+    EXPECT_EQ(beyond->lon, beyond_proj->lon);
+  }
 }
 
 TEST(CrsBuiltin, OnlyTheExactSpellingIsBuiltIn) {

@@ -49,7 +49,7 @@
 #include <vector>
 
 #include "proj_support.hpp"
-#include "wgs84_utm.hpp"
+#include "wgs84_crs.hpp"
 
 namespace horizon::geodesy {
 namespace detail {
@@ -117,7 +117,8 @@ std::string quote_definition(const std::string& definition) {
 // Members die in reverse order: the PJs before their context.
 struct ProjSet {
   ProjContext context;
-  PjPtr to_wgs84;    // horizontal CRS (GIS order, CRS units) -> EPSG:4326 (lon, lat degrees)
+  PjPtr bound;       // the horizontal CRS as it goes to WGS 84, until to_wgs84 is made from it
+  PjPtr to_wgs84;    // horizontal CRS (GIS order, CRS units) -> EPSG:4326 (lon, lat degrees); see wgs84_operation
   PjPtr projection;  // projected only: base CRS (lon, lat radians) -> projected (x, y metres, GIS order)
   bool projection_is_pipeline = false;
 };
@@ -129,7 +130,7 @@ struct CrsData {
   double unit_size = 1.0;  // metres (projected) or degrees (geographic) per unit
   double a = kEarthRadiusMetres, e2 = 0.0;
   std::optional<GeographicLib::Ellipsoid> ellipsoid;  // set with a and e2
-  // WGS 84 or a WGS 84 / UTM zone, described without PROJ (wgs84_utm.hpp):
+  // WGS 84 or a WGS 84 / UTM zone, described without PROJ (wgs84_crs.hpp):
   // its WKT is PROJ's, made on first use.
   std::optional<Wgs84Crs> wgs84;
   mutable std::once_flag wkt_once;
@@ -293,11 +294,16 @@ Result<std::unique_ptr<ProjSet>> build_set(const std::string& definition, CrsDat
   if (!h.ok()) return h.error();
   const bool geographic = proj_get_type(h->plain.get()) == PJ_TYPE_GEOGRAPHIC_2D_CRS;
 
-  PjPtr wgs84(proj_create(ctx, "EPSG:4326"));
-  PjPtr op(proj_create_crs_to_crs_from_pj(ctx, h->bound.get(), wgs84.get(), nullptr, nullptr));
-  if (!op) return unsupported(label + ": PROJ knows no way from it to WGS 84 (" + context.take_error() + ")");
-  set->to_wgs84.reset(proj_normalize_for_visualization(ctx, op.get()));
-  if (!set->to_wgs84) return unsupported(label + ": PROJ cannot order its axes east, north");
+  // The transformation to WGS 84 is searched for when a position is first
+  // converted (wgs84_operation); PROJ finds one (a "ballpark" one at worst)
+  // for every CRS on the Earth, so only another body is refused here.
+  {
+    const char* body = proj_get_celestial_body_name(ctx, h->plain.get());
+    if (body && std::strcmp(body, "Earth") != 0)
+      return unsupported(label + ": PROJ knows no way from it to WGS 84 (it lies on " + body + ", not the Earth)");
+    context.take_error();
+  }
+  set->bound = std::move(h->bound);
 
   if (!geographic) {
     PjPtr gis(proj_normalize_for_visualization(ctx, h->plain.get()));
@@ -367,6 +373,24 @@ Result<std::unique_ptr<ProjSet>> build_set(const std::string& definition, CrsDat
   return set;
 }
 
+// The set's transformation to WGS 84, made on first use: PROJ's search of
+// its database for it costs 3-15 ms (NAD83: 14 ms), which a viewshed that
+// never converts a position does not pay. Null, with the reason in `why`,
+// when PROJ finds none.
+PJ* wgs84_operation(ProjSet& set, std::string& why) {
+  if (!set.to_wgs84 && set.bound) {
+    PJ_CONTEXT* ctx = set.context.get();
+    PjPtr wgs84(proj_create(ctx, "EPSG:4326"));
+    PjPtr op(wgs84 ? proj_create_crs_to_crs_from_pj(ctx, set.bound.get(), wgs84.get(), nullptr, nullptr) : nullptr);
+    if (op) set.to_wgs84.reset(proj_normalize_for_visualization(ctx, op.get()));
+    why = op ? "PROJ cannot order its axes east, north"
+             : "PROJ knows no way from it to WGS 84 (" + set.context.take_error() + ")";
+    set.context.take_error();
+    if (set.to_wgs84) set.bound.reset();
+  }
+  return set.to_wgs84.get();
+}
+
 // Borrows a ProjSet of `data` for one call, building one when none is idle.
 class Lease {
  public:
@@ -415,7 +439,9 @@ void describe_wgs84(const detail::Wgs84Crs& crs, CrsData& d) {
   d.epsg = d.horizontal_epsg = crs.epsg;
   d.unit_name = crs.geographic ? "degree" : "metre";
   d.unit_size = 1.0;
-  d.projection = crs.geographic ? "" : "Transverse Mercator";
+  d.projection = crs.geographic     ? ""
+                 : crs.web_mercator ? "Popular Visualisation Pseudo Mercator"
+                                    : "Transverse Mercator";
   const double f = 1.0 / kWgs84InverseFlattening;
   d.a = kEarthRadiusMetres;
   d.e2 = f * (2.0 - f);
@@ -544,12 +570,15 @@ Result<XY> Crs::from_lonlat(LonLat p) const {
     return out_of_range(name, "position (" + format_lonlat(p) + ") is not a valid longitude/latitude");
   if (const auto& wgs84 = data_->wgs84) {
     if (wgs84->geographic) return XY{p.lon, p.lat};
-    if (auto xy = detail::utm_from_lonlat(*wgs84, p)) return *xy;
+    if (auto xy = wgs84->web_mercator ? detail::web_mercator_from_lonlat(p) : detail::utm_from_lonlat(*wgs84, p))
+      return *xy;
   }
   Lease lease(*data_);
   ProjSet* set = lease.get();
   if (!set) return make_error(ErrorCode::kInternal, name + ": PROJ could not set up its transformation");
-  PJ* op = set->to_wgs84.get();
+  std::string why;
+  PJ* op = wgs84_operation(*set, why);
+  if (!op) return unsupported(name + ": " + why);
   const PJ_COORD in = proj_coord(p.lon, p.lat, 0.0, HUGE_VAL);
   const auto same_place = [&](const PJ_COORD& back) {
     return finite(back) && std::abs(std::remainder(back.lp.lam - p.lon, 360.0)) <= kRoundTripDegrees &&
@@ -574,12 +603,18 @@ Result<LonLat> Crs::to_lonlat(XY p) const {
     return out_of_range(d.name, "position (" + format_xy(p) + ") has a latitude beyond 90 degrees");
   if (d.wgs84) {
     if (d.wgs84->geographic) return LonLat{GeographicLib::Math::AngNormalize(p.x), p.y};
-    if (auto ll = detail::utm_to_lonlat(*d.wgs84, p)) return ll->lonlat;
+    if (d.wgs84->web_mercator) {
+      if (auto ll = detail::web_mercator_to_lonlat(p)) return ll->lonlat;
+    } else if (auto ll = detail::utm_to_lonlat(*d.wgs84, p)) {
+      return ll->lonlat;
+    }
   }
   Lease lease(d);
   ProjSet* set = lease.get();
   if (!set) return make_error(ErrorCode::kInternal, d.name + ": PROJ could not set up its transformation");
-  PJ* op = set->to_wgs84.get();
+  std::string why;
+  PJ* op = wgs84_operation(*set, why);
+  if (!op) return unsupported(d.name + ": " + why);
   const PJ_COORD in = proj_coord(p.x, p.y, 0.0, HUGE_VAL);
   // The differences in degrees (geographic) or metres (projected).
   const auto same_place = [&](const PJ_COORD& back) {
@@ -612,8 +647,11 @@ GroundScale Crs::ground_scale(XY p) const {
   }
   const GroundScale nominal{d.unit_size, d.unit_size};
   if (!std::isfinite(p.x) || !std::isfinite(p.y)) return nominal;
-  if (d.wgs84)  // UTM is conformal: one scale k both ways
+  if (d.wgs84 && d.wgs84->web_mercator) {
+    if (auto ll = detail::web_mercator_to_lonlat(p)) return ll->scale;
+  } else if (d.wgs84) {  // UTM is conformal: one scale k both ways
     if (auto ll = detail::utm_to_lonlat(*d.wgs84, p)) return GroundScale{1.0 / ll->k, 1.0 / ll->k};
+  }
   Lease lease(d);
   ProjSet* set = lease.get();
   if (!set) return nominal;

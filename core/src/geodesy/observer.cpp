@@ -129,8 +129,8 @@ Result<GridPoint> locate_point(const terrain::Georeference& georef, int width, i
         wgs84 ? fmt(" at lon %.9g, lat %.9g", spec.x, spec.y) + fmt(" (x %.10g, y %.10g)", point.x, point.y)
               : fmt(" at x %.10g, y %.10g", point.x, point.y);
     return make_error(ErrorCode::kOutOfRange,
-                      name + where + fmt(" [col %.2f, row %.2f]", point.col, point.row) + " is outside " +
-                          dem_label + fmt(" (x %.10g .. %.10g", std::fmin(x0, x1), std::fmax(x0, x1)) +
+                      name + where + fmt(" [col %.2f, row %.2f]", point.col, point.row) + " is outside " + dem_label +
+                          fmt(" (x %.10g .. %.10g", std::fmin(x0, x1), std::fmax(x0, x1)) +
                           fmt(", y %.10g .. %.10g)", std::fmin(y0, y1), std::fmax(y0, y1)),
                       name);
   }
@@ -149,7 +149,8 @@ Result<GridPoint> place_on_ground(const terrain::Dem& dem, GridPoint point, cons
   if (spec.height_mode == HeightMode::kAboveGround) {
     if (std::isnan(point.ground))
       return make_error(ErrorCode::kDataError,
-                        name + " is on a no-data cell" + fmt(" (col %.2f, row %.2f)", point.col + col_offset, point.row + row_offset) + " of " +
+                        name + " is on a no-data cell" +
+                            fmt(" (col %.2f, row %.2f)", point.col + col_offset, point.row + row_offset) + " of " +
                             dem_name(dem) + "; give an absolute height or move it",
                         name);
     point.elevation = point.ground + spec.height;
@@ -161,7 +162,8 @@ Result<GridPoint> place_on_ground(const terrain::Dem& dem, GridPoint point, cons
 
 terrain::Window cells_within(const terrain::Georeference& georef, int width, int height, const GridPoint& point,
                              double radius_metres, int margin) {
-  if (!std::isfinite(radius_metres) || width <= 0 || height <= 0) return {0, 0, std::max(width, 0), std::max(height, 0)};
+  if (!std::isfinite(radius_metres) || width <= 0 || height <= 0)
+    return {0, 0, std::max(width, 0), std::max(height, 0)};
   GroundScale scale;  // metres per CRS unit; 1 without a CRS (as make_view_frame)
   if (georef.has_crs())
     if (auto crs = Crs::of(georef); crs.ok()) scale = crs->ground_scale({point.x, point.y});

@@ -8,7 +8,10 @@
 // (elevations are metres everywhere). Refused (kUnsupported, the message
 // saying what): geocentric, engineering (local) and vertical-only CRSs,
 // rotated-pole (derived geographic) CRSs, a CRS whose two horizontal axes
-// have different units, and one PROJ finds no way to WGS 84 for.
+// have different units. One PROJ finds no way to WGS 84 for is refused by
+// its first from_lonlat/to_lonlat (kUnsupported, saying so): the search for
+// that transformation costs milliseconds, made only when a position is
+// converted.
 //
 // Frames and units. Coordinates are in the CRS's own units (metres, feet,
 // degrees, ...) in "GIS order": x east(ing) or longitude, y north(ing) or
