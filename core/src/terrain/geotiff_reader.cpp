@@ -47,9 +47,9 @@
 #include <filesystem>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
-#include <thread>
 #include <type_traits>
 #include <vector>
 
@@ -555,97 +555,139 @@ std::optional<std::string> truncation(std::uint64_t file_size, TIFF* tif, std::u
          " (a copy or download that stopped early?)";
 }
 
+// One libtiff handle and its decode buffer, lent to one block at a time
+// (a handle is not thread-safe). libtiff writes every byte it reports, so
+// the buffer is left uninitialised, and grown only as far as the blocks
+// read need: a strip is decoded down to the window's last row in it and no
+// further (a 256-row window at the top of a one-strip file of 65 000 rows
+// decodes 256 rows, and touches no more memory).
+struct Reader {
+  TiffMessages messages;
+  TiffPtr tif;
+  std::unique_ptr<unsigned char[]> block;
+  std::uint64_t capacity = 0;
+};
+
+// The readers of one read: as many as blocks run at once, each opened on
+// first need and kept for the next block.
+class ReaderPool {
+ public:
+  ReaderPool(const std::string& path, std::uint64_t max_block_bytes) : path_(path), limit_(max_block_bytes) {}
+  // A reader, or one whose `tif` is null (its messages say why).
+  std::unique_ptr<Reader> take() {
+    {
+      std::lock_guard lock(mutex_);
+      if (!idle_.empty()) {
+        auto r = std::move(idle_.back());
+        idle_.pop_back();
+        return r;
+      }
+    }
+    auto r = std::make_unique<Reader>();
+    r->tif = detail::open_tiff(path_, "r", r->messages, libtiff_alloc_limit(limit_));
+    return r;
+  }
+  void give_back(std::unique_ptr<Reader> r) {
+    std::lock_guard lock(mutex_);
+    idle_.push_back(std::move(r));
+  }
+
+ private:
+  const std::string& path_;
+  std::uint64_t limit_;
+  std::mutex mutex_;
+  std::vector<std::unique_ptr<Reader>> idle_;
+};
+
 // Decodes only the blocks (tiles or strips) of one channel that intersect
 // `window`, straight through libtiff, and converts them into `out` (window-
-// sized float elevations, nodata as NaN) on the same thread, block by block.
-// Counts the blocks it decodes. libtiff undoes the compression, the
+// sized float elevations, nodata as NaN). Each block is one task on
+// `threads` threads (a handle from ReaderPool each), so the work is shared
+// evenly whatever the blocks' layout; each block writes its own cells of
+// `out`. Counts the blocks it decodes. libtiff undoes the compression, the
 // predictor and the byte order, exactly as for a full read. The caller has
 // checked the blocks' cost (check_block_cost); `max_block_bytes` also bounds
-// each allocation libtiff makes (libtiff_alloc_limit).
+// each allocation libtiff makes (libtiff_alloc_limit). Every block is
+// decoded even after one fails, so the error is always the first failing
+// block's in the file's order.
 Status read_window_with_libtiff(const std::string& path, const TiffFacts& f, const Window& window, unsigned threads,
                                 std::uint64_t max_block_bytes, Grid<float>& out, ReadStats& stats) {
   const std::size_t stride = pixel_stride(f);
   const std::size_t offset = f.planar_separate ? 0 : pixel_type_size(f.type) * static_cast<std::size_t>(f.channel);
   const std::uint16_t plane = f.planar_separate ? static_cast<std::uint16_t>(f.channel) : 0;
   const int bw = f.block_width, bh = f.block_height;
-  const int first_row = window.row0 / bh * bh;
-  const int block_rows = (window.row1 - first_row + bh - 1) / bh;
   std::error_code size_error;
   const std::uint64_t file_size = std::filesystem::file_size(path, size_error);
   if (size_error) return dem_error(ErrorCode::kIoError, path, "cannot read its size: " + size_error.message());
-  // Rows of blocks are shared out in contiguous runs, one libtiff handle per
-  // run (a handle is not thread-safe); each run writes its own rows of `out`.
-  const unsigned hw = threads ? threads : std::max(1u, std::thread::hardware_concurrency());
-  const int runs = std::max(1, std::min(block_rows, static_cast<int>(hw)));
-  std::vector<Status> status(static_cast<std::size_t>(runs), Status::Ok());
-  std::vector<std::uint64_t> blocks(static_cast<std::size_t>(runs), 0), cells(static_cast<std::size_t>(runs), 0);
-  parallel_for(static_cast<std::size_t>(runs), static_cast<unsigned>(runs), [&](std::size_t run) {
-    TiffMessages messages;
-    TiffPtr tif = detail::open_tiff(path, "r", messages, libtiff_alloc_limit(max_block_bytes));
-    if (!tif) {
-      status[run] = dem_error(ErrorCode::kDataError, path, "cannot reopen (" + messages.errors + ")");
-      return;
-    }
-    // libtiff writes every byte it reports, so the buffer is left
-    // uninitialised, and grown only as far as the blocks read need: a strip
-    // is decoded down to the window's last row in it and no further (a
-    // 256-row window at the top of a one-strip file of 65 000 rows decodes
-    // 256 rows, and touches no more memory).
-    std::unique_ptr<unsigned char[]> block;
-    std::uint64_t capacity = 0;
-    const int row_lo = static_cast<int>(run * block_rows / runs),
-              row_hi = static_cast<int>((run + 1) * block_rows / runs);
-    for (int by = first_row + row_lo * bh; by < first_row + row_hi * bh && by < window.row1; by += bh) {
-      for (int bx = window.col0 / bw * bw; bx < window.col1; bx += bw) {
-        // The rows and columns of this block inside the window; a strip's rows
-        // are the image width long, a tile's the tile width.
-        const int r0 = std::max(by, window.row0), r1 = std::min({by + bh, window.row1, f.height});
-        const int c0 = std::max(bx, window.col0), c1 = std::min({bx + bw, window.col1, f.width});
-        const std::size_t row_pitch = static_cast<std::size_t>(bw) * stride;
-        const std::uint64_t wanted = f.tiled ? f.block_bytes : strip_top_bytes(f.block_bytes, row_pitch, r1 - by);
-        assert(max_block_bytes == 0 || wanted <= max_block_bytes);  // check_block_cost
-        if (wanted > capacity) {
-          block.reset(new unsigned char[static_cast<std::size_t>(wanted)]);
-          capacity = wanted;
-        }
-        const std::uint32_t index = f.tiled ? TIFFComputeTile(tif.get(), static_cast<std::uint32_t>(bx),
-                                                              static_cast<std::uint32_t>(by), 0, plane)
-                                            : TIFFComputeStrip(tif.get(), static_cast<std::uint32_t>(by), plane);
-        const std::string block_name =
-            std::string(f.tiled ? "tile" : "strip") + " at col " + std::to_string(bx) + ", row " + std::to_string(by);
-        if (auto cut = truncation(file_size, tif.get(), index, block_name)) {
-          status[run] = dem_error(ErrorCode::kDataError, path, *cut);
-          return;
-        }
-        const tmsize_t got = f.tiled
-                                 ? TIFFReadEncodedTile(tif.get(), index, block.get(), static_cast<tmsize_t>(wanted))
-                                 : TIFFReadEncodedStrip(tif.get(), index, block.get(), static_cast<tmsize_t>(wanted));
-        if (got < 0) {
-          status[run] = dem_error(
-              ErrorCode::kDataError, path,
-              "cannot decode " + block_name + (messages.errors.empty() ? std::string() : " (" + messages.errors + ")"));
-          return;
-        }
-        ++blocks[run];
-        cells[run] += static_cast<std::uint64_t>(bw) * static_cast<std::uint64_t>(f.tiled ? bh : r1 - by);
-        if (static_cast<std::size_t>(got) <
-            static_cast<std::size_t>(r1 - by - 1) * row_pitch + static_cast<std::size_t>(c1 - bx) * stride) {
-          status[run] = dem_error(ErrorCode::kDataError, path, "a block decodes shorter than its layout says");
-          return;
-        }
-        for (int r = r0; r < r1; ++r) {
-          const unsigned char* src = block.get() + static_cast<std::size_t>(r - by) * row_pitch + offset +
-                                     static_cast<std::size_t>(c0 - bx) * stride;
-          float* dst = out.row(r - window.row0) + (c0 - window.col0);
-          convert_any(f.type, src, stride, c1 - c0, dst, f.nodata);
-        }
+  // The blocks under the window, in the file's order (rows of blocks, then columns).
+  struct Block {
+    int bx, by;
+  };
+  std::vector<Block> blocks;
+  for (int by = window.row0 / bh * bh; by < window.row1; by += bh)
+    for (int bx = window.col0 / bw * bw; bx < window.col1; bx += bw) blocks.push_back({bx, by});
+  std::vector<Status> status(blocks.size(), Status::Ok());
+  std::vector<std::uint64_t> cells(blocks.size(), 0);
+  ReaderPool pool(path, max_block_bytes);
+  parallel_for(blocks.size(), threads, [&](std::size_t i) {
+    auto reader = pool.take();
+    Status& st = status[i];
+    const int bx = blocks[i].bx, by = blocks[i].by;
+    [&] {
+      if (!reader->tif) {
+        st = dem_error(ErrorCode::kDataError, path, "cannot reopen (" + reader->messages.errors + ")");
+        return;
       }
-    }
+      TIFF* tif = reader->tif.get();
+      // The rows and columns of this block inside the window; a strip's rows
+      // are the image width long, a tile's the tile width.
+      const int r0 = std::max(by, window.row0), r1 = std::min({by + bh, window.row1, f.height});
+      const int c0 = std::max(bx, window.col0), c1 = std::min({bx + bw, window.col1, f.width});
+      const std::size_t row_pitch = static_cast<std::size_t>(bw) * stride;
+      const std::uint64_t wanted = f.tiled ? f.block_bytes : strip_top_bytes(f.block_bytes, row_pitch, r1 - by);
+      assert(max_block_bytes == 0 || wanted <= max_block_bytes);  // check_block_cost
+      if (wanted > reader->capacity) {
+        reader->block.reset(new unsigned char[static_cast<std::size_t>(wanted)]);
+        reader->capacity = wanted;
+      }
+      const std::uint32_t index =
+          f.tiled ? TIFFComputeTile(tif, static_cast<std::uint32_t>(bx), static_cast<std::uint32_t>(by), 0, plane)
+                  : TIFFComputeStrip(tif, static_cast<std::uint32_t>(by), plane);
+      const std::string block_name =
+          std::string(f.tiled ? "tile" : "strip") + " at col " + std::to_string(bx) + ", row " + std::to_string(by);
+      if (auto cut = truncation(file_size, tif, index, block_name)) {
+        st = dem_error(ErrorCode::kDataError, path, *cut);
+        return;
+      }
+      unsigned char* block = reader->block.get();
+      const tmsize_t got = f.tiled ? TIFFReadEncodedTile(tif, index, block, static_cast<tmsize_t>(wanted))
+                                   : TIFFReadEncodedStrip(tif, index, block, static_cast<tmsize_t>(wanted));
+      if (got < 0) {
+        st = dem_error(ErrorCode::kDataError, path,
+                       "cannot decode " + block_name +
+                           (reader->messages.errors.empty() ? std::string() : " (" + reader->messages.errors + ")"));
+        reader->messages.errors.clear();
+        return;
+      }
+      cells[i] = static_cast<std::uint64_t>(bw) * static_cast<std::uint64_t>(f.tiled ? bh : r1 - by);
+      if (static_cast<std::size_t>(got) <
+          static_cast<std::size_t>(r1 - by - 1) * row_pitch + static_cast<std::size_t>(c1 - bx) * stride) {
+        st = dem_error(ErrorCode::kDataError, path, "a block decodes shorter than its layout says");
+        return;
+      }
+      for (int r = r0; r < r1; ++r) {
+        const unsigned char* src =
+            block + static_cast<std::size_t>(r - by) * row_pitch + offset + static_cast<std::size_t>(c0 - bx) * stride;
+        float* dst = out.row(r - window.row0) + (c0 - window.col0);
+        convert_any(f.type, src, stride, c1 - c0, dst, f.nodata);
+      }
+    }();
+    pool.give_back(std::move(reader));
   });
-  for (std::size_t run = 0; run < status.size(); ++run) {
-    HORIZON_RETURN_IF_ERROR(status[run]);
-    stats.blocks_read += blocks[run];
-    stats.cells_decoded += cells[run];
+  for (std::size_t i = 0; i < blocks.size(); ++i) HORIZON_RETURN_IF_ERROR(status[i]);
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    stats.blocks_read += cells[i] > 0;
+    stats.cells_decoded += cells[i];
   }
   return Status::Ok();
 }
