@@ -14,7 +14,7 @@ packages=(
   libboost-dev nlohmann-json3-dev libgeographiclib-dev
   libopenimageio-dev
   openimageio-tools  # OpenImageIO's CMake package refuses to load without its tools (/usr/bin/iconvert)
-  libgeotiff-dev libtiff-dev libdeflate-dev  # libdeflate: the GeoTIFF writer deflates tiles on every core
+  libgeotiff-dev libtiff-dev libdeflate-dev zlib1g-dev  # the GeoTIFF writer deflates tiles on every core (libdeflate; zlib for 8-bit codes)
   libproj-dev proj-data  # CRSs and their transformations (PROJ 9.1); proj-data holds proj.db and the datum grids
   libcgal-dev  # TINs: exact predicates, Delaunay triangulation, OBJ/PLY readers (header-only; brings GMP, MPFR)
   # GPU path (EGL, headless Mesa)
