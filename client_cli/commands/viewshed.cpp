@@ -1,15 +1,20 @@
 // `horizon viewshed DEM ...`: flags -> ViewshedOptions, result -> GeoTIFF, PNG, summary.
+#include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <cstdint>
 #include <iostream>
 #include <memory>
 #include <optional>
 #include <string_view>
+#include <vector>
 
 #include "commands/command.hpp"
 #include "commands/viewshed_flags.hpp"
 #include "commands/viewshed_many.hpp"
 #include "commands/viewshed_raster.hpp"
 #include "horizon/common/kernels.hpp"
+#include "horizon/common/parallel.hpp"
 #include "horizon/gpu/context_pool.hpp"
 #include "horizon/imageio/imageio.hpp"
 #include "horizon/terrain/dem_reader.hpp"
@@ -196,10 +201,34 @@ struct Phases {
   double open = 0.0;     // the DEM's header opened and the request planned on it
   double read = 0.0;     // the planned blocks decoded (the engine's SourceReadStats)
   double compute = 0.0;  // the algorithm (WorkStats::seconds)
-  double mask = 0.0;     // the output raster's values (and the counts' codes) made from the result
+  double mask = 0.0;     // the output raster's values (and the counts' codes) made from the result;
+                         // 0 for a code raster with no preview, coded tile by tile in `encode`
   double encode = 0.0;   // the GeoTIFF (and COG overviews) encoded and written, its style beside it
   double preview = 0.0;  // the PNG, when asked for
 };
+
+// The visible and hidden cells of a mask in the default codes, counted in
+// chunks on `threads` threads (a 12 M-cell mask is 12 MB to scan).
+visibility::CodeCounts count_codes(const terrain::Grid<std::uint8_t>& mask, unsigned threads) {
+  constexpr std::size_t kChunk = std::size_t{1} << 20;
+  const std::size_t n = mask.size(), chunks = (n + kChunk - 1) / kChunk;
+  std::vector<visibility::CodeCounts> part(chunks);
+  parallel_for(chunks, chunks > 1 ? threads : 1, [&](std::size_t k) {
+    const std::uint8_t* v = mask.data();
+    std::uint64_t visible = 0, hidden = 0;
+    for (std::size_t i = k * kChunk, end = std::min(n, i + kChunk); i < end; ++i) {
+      visible += v[i] == visibility::kVisible;
+      hidden += v[i] == visibility::kHidden;
+    }
+    part[k] = {visible, hidden};
+  });
+  visibility::CodeCounts all;
+  for (const visibility::CodeCounts& c : part) {
+    all.visible += c.visible;
+    all.hidden += c.hidden;
+  }
+  return all;
+}
 
 double seconds_since(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
@@ -209,20 +238,38 @@ double seconds_since(std::chrono::steady_clock::time_point since) {
 // QGIS style beside it (OUT.qml): codes with the previews' colour table in
 // the file, or a ramp over the values written. `mask` is the result in the
 // default codes (visibility_mask), written as it is when those are the
-// codes asked for.
+// codes asked for; without one (no preview wants it) the codes are made
+// tile by tile as the GeoTIFF is written, and counted into `counts`.
 Status write_output(const Request& r, const terrain::Dem& dem, const visibility::ViewshedRun& run,
-                    const terrain::Grid<std::uint8_t>& mask, Phases& phases) {
+                    const terrain::Grid<std::uint8_t>* mask, visibility::CodeCounts& counts, Phases& phases) {
   const visibility::ViewshedResult& result = run.result;
   const terrain::Georeference& georef = run.georef;
   const std::string style_path = terrain::qml_path_for(r.out_path);
   const RasterFlags& raster = r.raster;
   auto at = std::chrono::steady_clock::now();
+  if (visibility::is_code_raster(raster.output) && !mask) {
+    const visibility::ValueCodes& codes = raster.codes;
+    std::atomic<std::uint64_t> visible{0}, hidden{0};
+    const auto cells = [&](int row, int col0, int count, std::uint8_t* out) {
+      const visibility::CodeCounts c =
+          visibility::code_cells(result, r.options.target_height, codes, row, col0, count, out);
+      visible.fetch_add(c.visible, std::memory_order_relaxed);
+      hidden.fetch_add(c.hidden, std::memory_order_relaxed);
+    };
+    HORIZON_RETURN_IF_ERROR(terrain::write_geotiff(r.out_path, result.ohf.width(), result.ohf.height(), cells, georef,
+                                                   static_cast<double>(codes.nodata),
+                                                   visibility::code_colour_table(codes), r.geotiff.options));
+    counts = {visible.load(), hidden.load()};
+    HORIZON_RETURN_IF_ERROR(terrain::write_text_file(style_path, visibility::visibility_style(codes)));
+    phases.encode = seconds_since(at);
+    return Status::Ok();
+  }
   if (visibility::is_code_raster(raster.output)) {
     const visibility::ValueCodes& codes = raster.codes;
     std::optional<terrain::Grid<std::uint8_t>> recoded;
     if (codes != visibility::ValueCodes{})
       recoded = visibility::visibility_codes(result, r.options.target_height, codes, r.options.threads);
-    const terrain::Grid<std::uint8_t>& values = recoded ? *recoded : mask;
+    const terrain::Grid<std::uint8_t>& values = recoded ? *recoded : *mask;
     phases.mask += seconds_since(at);
     at = std::chrono::steady_clock::now();
     HORIZON_RETURN_IF_ERROR(terrain::write_geotiff(r.out_path, values, georef, static_cast<double>(codes.nodata),
@@ -328,12 +375,18 @@ int run_viewshed(const Args& args) {
 
   phases.read = read.seconds;
   phases.compute = result->stats.seconds;
-  // The default codes, for the counts and the picture (whatever codes the file has).
-  const auto masking = std::chrono::steady_clock::now();
-  const terrain::Grid<std::uint8_t> mask =
-      visibility::visibility_mask(*result, r.options.target_height, r.options.threads);
-  phases.mask = seconds_since(masking);
-  if (auto s = write_output(r, *dem, *run, mask, phases); !s.ok()) return report_error(s.error());
+  // The default codes, for the counts and the picture (whatever codes the
+  // file has); a code raster with no picture is coded as it is written.
+  visibility::CodeCounts counts;
+  std::optional<terrain::Grid<std::uint8_t>> mask;
+  if (r.png_path || !visibility::is_code_raster(r.raster.output)) {
+    const auto masking = std::chrono::steady_clock::now();
+    mask = visibility::visibility_mask(*result, r.options.target_height, r.options.threads);
+    counts = count_codes(*mask, r.options.threads);
+    phases.mask = seconds_since(masking);
+  }
+  if (auto s = write_output(r, *dem, *run, mask ? &*mask : nullptr, counts, phases); !s.ok())
+    return report_error(s.error());
   if (r.png_path) {
     const auto drawing = std::chrono::steady_clock::now();
     const auto crs = geodesy::Crs::of(dem->georef);  // none: grid coordinates
@@ -344,18 +397,14 @@ int run_viewshed(const Args& args) {
                                              .y = observer.y,
                                              .ground = observer.ground};
     if (auto s = visibility::write_viewshed_picture(*r.png_path, *result, visibility::preview_raster(r.raster.output),
-                                                    mask, caption);
+                                                    *mask, caption);
         !s.ok())
       return report_error(s.error());
     phases.preview = seconds_since(drawing);
   }
   const double total_seconds = seconds_since(started);
 
-  std::uint64_t visible = 0, hidden = 0;
-  for (std::uint8_t v : mask.values()) {
-    visible += v == visibility::kVisible;
-    hidden += v == visibility::kHidden;
-  }
+  const std::uint64_t visible = counts.visible, hidden = counts.hidden;
   const std::uint64_t evaluated = visible + hidden;
   const visibility::ViewFrame& f = result->frame;
   const visibility::WorkStats& stats = result->stats;

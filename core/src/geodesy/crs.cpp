@@ -130,8 +130,8 @@ struct CrsData {
   double unit_size = 1.0;  // metres (projected) or degrees (geographic) per unit
   double a = kEarthRadiusMetres, e2 = 0.0;
   std::optional<GeographicLib::Ellipsoid> ellipsoid;  // set with a and e2
-  // WGS 84 or a WGS 84 / UTM zone, described without PROJ (wgs84_crs.hpp):
-  // its WKT is PROJ's, made on first use.
+  // WGS 84, a WGS 84 / UTM zone or web Mercator, described without PROJ
+  // (wgs84_crs.hpp): its WKT is PROJ's, made on first use.
   std::optional<Wgs84Crs> wgs84;
   mutable std::once_flag wkt_once;
   mutable std::string wkt;
@@ -429,8 +429,8 @@ Registry& registry() {
   return *r;
 }
 
-// The facts of WGS 84 or a WGS 84 / UTM zone, as PROJ gives them; no PROJ
-// object is made until a call needs one.
+// The facts of WGS 84, a WGS 84 / UTM zone or web Mercator, as PROJ gives
+// them; no PROJ object is made until a call needs one.
 void describe_wgs84(const detail::Wgs84Crs& crs, CrsData& d) {
   constexpr double kWgs84InverseFlattening = 298.257223563;
   d.wgs84 = crs;

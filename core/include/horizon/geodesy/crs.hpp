@@ -47,9 +47,15 @@
 // are bound to a PROJ context, which is not thread-safe: each description
 // keeps a pool of per-context transformation sets, and a call borrows one
 // for its duration (a thread that finds none free builds its own, once:
-// milliseconds to tens of milliseconds, a PROJ database query). Every member
-// function is therefore safe to call from any number of threads at once.
-// Point conversions cost a few microseconds.
+// milliseconds to tens of milliseconds, a PROJ database query). Every
+// member function is therefore safe to call from any number of threads at
+// once. Point conversions cost a few microseconds.
+//
+// WGS 84, its UTM zones and web Mercator (EPSG:4326, 32601-32660,
+// 32701-32760, 3857: most DEMs) are described and converted without PROJ's
+// database (opening it costs a process 5-20 ms); PROJ's objects are built
+// for them only for a WKT, an equivalence test or a position far outside
+// the projection's usual range.
 #pragma once
 
 #include <memory>
