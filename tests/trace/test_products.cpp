@@ -236,6 +236,27 @@ TEST(TracePlan, ReadsOnlyTheWedgeAndAnswersAsTheWholeDem) {
   EXPECT_LE(different, hits / 200);
 }
 
+TEST(TracePlan, AHugeYawIsPlannedAsTheSameTurnOfTheCompass) {
+  // Regression (fuzz_requests, 2026-12-06): a yaw of 1e20 degrees is finite,
+  // but adding a quarter turn to it changes nothing, and the wedge's walk
+  // over the compass points it spans never ended. A whole number of turns
+  // added to a yaw reads the same wedge (to the rounding of the angle).
+  terrain::Dem dem = horizon::testing::make_random_terrain(200, 200, 8, 400.0, 30.0);
+  dem.georef.epsg = 32633;
+  dem.georef.transform = {500000.0, 30.0, 5000000.0, -30.0};
+  SourceFile file(dem);
+  auto base = plan_trace(*file.source, query_at(dem, 100.0, 100.0, 30.0, spec_of(45.0, -2.0, 40.0, 96, 64)));
+  ASSERT_TRUE(base.ok()) << base.error().message;
+  auto turned = plan_trace(*file.source, query_at(dem, 100.0, 100.0, 30.0, spec_of(45.0 + 3600.0, -2.0, 40.0, 96, 64)));
+  ASSERT_TRUE(turned.ok()) << turned.error().message;
+  EXPECT_EQ(turned->read, base->read);
+  auto huge = plan_trace(*file.source, query_at(dem, 100.0, 100.0, 30.0, spec_of(1e20, -2.0, 40.0, 96, 64)));
+  ASSERT_TRUE(huge.ok()) << huge.error().message;
+  EXPECT_GE(huge->read.col0, 0);
+  EXPECT_LE(huge->read.col1, 200);
+  EXPECT_GT(huge->cost.read_cells, 0u);
+}
+
 TEST(TracePlan, AnEditShowsInTheNextFrameWithNothingRebuilt) {
   const terrain::Dem dem = horizon::testing::make_dem(
       100, 300, [](int, int) { return 0.0; }, 10.0);

@@ -46,9 +46,12 @@ void wedge_box(const geodesy::GridPoint& eye, double a0, double a1, double reach
   }
   take(a0);
   take(a1);
-  // The compass points the wedge spans are its extremes.
+  // The compass points the wedge spans are its extremes: at most four in a
+  // wedge narrower than a turn. Counted, not only compared, since a yaw of
+  // 1e20 degrees is finite but adding a quarter turn to it changes nothing.
   const double quarter = std::numbers::pi / 2.0;
-  for (double q = std::ceil(a0 / quarter) * quarter; q < a1; q += quarter) take(q);
+  int points = 0;
+  for (double q = std::ceil(a0 / quarter) * quarter; q < a1 && points < 4; q += quarter, ++points) take(q);
 }
 
 }  // namespace
