@@ -1,6 +1,5 @@
 // `horizon viewshed DEM ...`: flags -> ViewshedOptions, result -> GeoTIFF, PNG, summary.
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <iostream>
@@ -201,18 +200,20 @@ struct Phases {
   double open = 0.0;     // the DEM's header opened and the request planned on it
   double read = 0.0;     // the planned blocks decoded (the engine's SourceReadStats)
   double compute = 0.0;  // the algorithm (WorkStats::seconds)
-  double mask = 0.0;     // the output raster's values (and the counts' codes) made from the result;
-                         // 0 for a code raster with no preview, coded tile by tile in `encode`
+  double mask = 0.0;     // the output raster's values (and the counts' codes) made from the result
   double encode = 0.0;   // the GeoTIFF (and COG overviews) encoded and written, its style beside it
   double preview = 0.0;  // the PNG, when asked for
 };
 
 // The visible and hidden cells of a mask in the default codes, counted in
 // chunks on `threads` threads (a 12 M-cell mask is 12 MB to scan).
-visibility::CodeCounts count_codes(const terrain::Grid<std::uint8_t>& mask, unsigned threads) {
+struct CodeCounts {
+  std::uint64_t visible = 0, hidden = 0;
+};
+CodeCounts count_codes(const terrain::Grid<std::uint8_t>& mask, unsigned threads) {
   constexpr std::size_t kChunk = std::size_t{1} << 20;
   const std::size_t n = mask.size(), chunks = (n + kChunk - 1) / kChunk;
-  std::vector<visibility::CodeCounts> part(chunks);
+  std::vector<CodeCounts> part(chunks);
   parallel_for(chunks, chunks > 1 ? threads : 1, [&](std::size_t k) {
     const std::uint8_t* v = mask.data();
     std::uint64_t visible = 0, hidden = 0;
@@ -222,8 +223,8 @@ visibility::CodeCounts count_codes(const terrain::Grid<std::uint8_t>& mask, unsi
     }
     part[k] = {visible, hidden};
   });
-  visibility::CodeCounts all;
-  for (const visibility::CodeCounts& c : part) {
+  CodeCounts all;
+  for (const CodeCounts& c : part) {
     all.visible += c.visible;
     all.hidden += c.hidden;
   }
@@ -238,38 +239,20 @@ double seconds_since(std::chrono::steady_clock::time_point since) {
 // QGIS style beside it (OUT.qml): codes with the previews' colour table in
 // the file, or a ramp over the values written. `mask` is the result in the
 // default codes (visibility_mask), written as it is when those are the
-// codes asked for; without one (no preview wants it) the codes are made
-// tile by tile as the GeoTIFF is written, and counted into `counts`.
+// codes asked for.
 Status write_output(const Request& r, const terrain::Dem& dem, const visibility::ViewshedRun& run,
-                    const terrain::Grid<std::uint8_t>* mask, visibility::CodeCounts& counts, Phases& phases) {
+                    const terrain::Grid<std::uint8_t>& mask, Phases& phases) {
   const visibility::ViewshedResult& result = run.result;
   const terrain::Georeference& georef = run.georef;
   const std::string style_path = terrain::qml_path_for(r.out_path);
   const RasterFlags& raster = r.raster;
   auto at = std::chrono::steady_clock::now();
-  if (visibility::is_code_raster(raster.output) && !mask) {
-    const visibility::ValueCodes& codes = raster.codes;
-    std::atomic<std::uint64_t> visible{0}, hidden{0};
-    const auto cells = [&](int row, int col0, int count, std::uint8_t* out) {
-      const visibility::CodeCounts c =
-          visibility::code_cells(result, r.options.target_height, codes, row, col0, count, out);
-      visible.fetch_add(c.visible, std::memory_order_relaxed);
-      hidden.fetch_add(c.hidden, std::memory_order_relaxed);
-    };
-    HORIZON_RETURN_IF_ERROR(terrain::write_geotiff(r.out_path, result.ohf.width(), result.ohf.height(), cells, georef,
-                                                   static_cast<double>(codes.nodata),
-                                                   visibility::code_colour_table(codes), r.geotiff.options));
-    counts = {visible.load(), hidden.load()};
-    HORIZON_RETURN_IF_ERROR(terrain::write_text_file(style_path, visibility::visibility_style(codes)));
-    phases.encode = seconds_since(at);
-    return Status::Ok();
-  }
   if (visibility::is_code_raster(raster.output)) {
     const visibility::ValueCodes& codes = raster.codes;
     std::optional<terrain::Grid<std::uint8_t>> recoded;
     if (codes != visibility::ValueCodes{})
       recoded = visibility::visibility_codes(result, r.options.target_height, codes, r.options.threads);
-    const terrain::Grid<std::uint8_t>& values = recoded ? *recoded : *mask;
+    const terrain::Grid<std::uint8_t>& values = recoded ? *recoded : mask;
     phases.mask += seconds_since(at);
     at = std::chrono::steady_clock::now();
     HORIZON_RETURN_IF_ERROR(terrain::write_geotiff(r.out_path, values, georef, static_cast<double>(codes.nodata),
@@ -375,18 +358,13 @@ int run_viewshed(const Args& args) {
 
   phases.read = read.seconds;
   phases.compute = result->stats.seconds;
-  // The default codes, for the counts and the picture (whatever codes the
-  // file has); a code raster with no picture is coded as it is written.
-  visibility::CodeCounts counts;
-  std::optional<terrain::Grid<std::uint8_t>> mask;
-  if (r.png_path || !visibility::is_code_raster(r.raster.output)) {
-    const auto masking = std::chrono::steady_clock::now();
-    mask = visibility::visibility_mask(*result, r.options.target_height, r.options.threads);
-    counts = count_codes(*mask, r.options.threads);
-    phases.mask = seconds_since(masking);
-  }
-  if (auto s = write_output(r, *dem, *run, mask ? &*mask : nullptr, counts, phases); !s.ok())
-    return report_error(s.error());
+  // The default codes, for the counts and the picture (whatever codes the file has).
+  const auto masking = std::chrono::steady_clock::now();
+  const terrain::Grid<std::uint8_t> mask =
+      visibility::visibility_mask(*result, r.options.target_height, r.options.threads);
+  const CodeCounts counts = count_codes(mask, r.options.threads);
+  phases.mask = seconds_since(masking);
+  if (auto s = write_output(r, *dem, *run, mask, phases); !s.ok()) return report_error(s.error());
   if (r.png_path) {
     const auto drawing = std::chrono::steady_clock::now();
     const auto crs = geodesy::Crs::of(dem->georef);  // none: grid coordinates
@@ -397,7 +375,7 @@ int run_viewshed(const Args& args) {
                                              .y = observer.y,
                                              .ground = observer.ground};
     if (auto s = visibility::write_viewshed_picture(*r.png_path, *result, visibility::preview_raster(r.raster.output),
-                                                    *mask, caption);
+                                                    mask, caption);
         !s.ok())
       return report_error(s.error());
     phases.preview = seconds_since(drawing);

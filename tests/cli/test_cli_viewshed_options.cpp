@@ -159,32 +159,6 @@ TEST(CliViewshedOptions, IsaCapChangesTheKernelsNotTheRaster) {
   EXPECT_FALSE(fs::exists(dir.file("bad.tif")));
 }
 
-// Without a preview the codes are made tile by tile as the GeoTIFF is
-// written; with one, from the whole mask first. Both write the same bytes
-// and count the same cells, whatever the codes, layout and codec.
-TEST(CliViewshedOptions, CodesMadeAsWrittenAreTheMasksBytes) {
-  TempDir dir;
-  for (const std::vector<std::string>& flags :
-       std::vector<std::vector<std::string>>{{},
-                                             {"-vv", "255", "-iv", "0", "-ov", "0", "-a_nodata", "64"},
-                                             {"--output", "boolean"},
-                                             {"-f", "COG"},
-                                             {"--co", "COMPRESS=NONE"},
-                                             {"--co", "TILED=NO"},
-                                             {"-md", "1500"}}) {
-    std::string what;
-    for (const std::string& f : flags) what += f + " ";
-    const Json fused = viewshed(concat(kEye, flags), dir.file("fused.tif"));
-    const Json whole = viewshed(concat(concat(kEye, flags), {"--png", dir.file("whole.png")}), dir.file("whole.tif"));
-    EXPECT_EQ(fused["phases"]["mask"], 0.0) << what;
-    EXPECT_GT(whole["phases"]["mask"].get<double>(), 0.0) << what;
-    EXPECT_EQ(fused["visible_cells"], whole["visible_cells"]) << what;
-    EXPECT_EQ(fused["hidden_cells"], whole["hidden_cells"]) << what;
-    EXPECT_GT(fused["visible_cells"].get<std::uint64_t>(), 1000u) << what;
-    EXPECT_TRUE(read_bytes(dir.file("fused.tif")) == read_bytes(dir.file("whole.tif"))) << what;
-  }
-}
-
 // GRASS's refraction coefficient k is GDAL's curvature 1 - k; one of the two.
 TEST(CliViewshedOptions, RefractionIsOneMinusCurvature) {
   TempDir dir;

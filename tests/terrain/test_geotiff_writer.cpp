@@ -5,7 +5,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -14,10 +13,8 @@
 #include <limits>
 #include <string>
 #include <utility>
-#include <vector>
 
 #include "horizon/terrain/dem_reader.hpp"
-#include "horizon/terrain/geotiff_options.hpp"
 #include "horizon/terrain/geotiff_writer.hpp"
 #include "test_support.hpp"
 
@@ -134,56 +131,6 @@ TEST(GeoTiffWriter, UInt32RoundTripKeepsCountsBeyondUInt16) {
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.error().message.find("UInt32"), std::string::npos) << s.error().message;
   EXPECT_FALSE(std::filesystem::exists(bad));
-}
-
-TEST(GeoTiffWriter, CellsMadeAsWrittenGiveTheGridsBytes) {
-  // A code raster made by a callback, block by block on every core, is the
-  // file the same cells in a grid give, in every layout and codec; each
-  // cell is asked for once.
-  TempDir dir;
-  Grid<std::uint8_t> grid(300, 270);
-  for (int r = 0; r < grid.height(); ++r)
-    for (int c = 0; c < grid.width(); ++c)
-      grid.at(c, r) = static_cast<std::uint8_t>((c / 7 + r / 5) % 4 == 3 ? 255 : (c * r) % 3);
-  const Georeference geo = utm_georef();
-  ColourTable colours{};
-  colours[1] = {0, 200, 0};
-  const std::vector<std::pair<TiffFormat, std::vector<std::string>>> layouts = {
-      {TiffFormat::kGTiff, {}},
-      {TiffFormat::kGTiff, {"COMPRESS=NONE"}},
-      {TiffFormat::kGTiff, {"TILED=NO"}},
-      {TiffFormat::kGTiff, {"COMPRESS=ZSTD"}},
-      {TiffFormat::kGTiff, {"ZLEVEL=9"}},
-      {TiffFormat::kGTiff, {"BLOCKXSIZE=128", "BLOCKYSIZE=64"}},
-      {TiffFormat::kCog, {}},
-      {TiffFormat::kCog, {"LEVEL=9", "BLOCKSIZE=128"}},
-  };
-  for (const auto& [format, items] : layouts) {
-    auto options = parse_creation_options(format, items);
-    ASSERT_TRUE(options.ok()) << options.error().message;
-    std::string what = format == TiffFormat::kCog ? "COG" : "GTiff";
-    for (const std::string& item : items) what += " " + item;
-    ASSERT_TRUE(write_geotiff(dir.file("grid.tif"), grid, geo, 255.0, colours, *options).ok()) << what;
-    std::atomic<std::uint64_t> asked{0};
-    std::vector<std::atomic<int>> times(grid.size());
-    const ByteCells cells = [&](int row, int col0, int count, std::uint8_t* out) {
-      for (int c = 0; c < count; ++c) {
-        out[c] = grid.at(col0 + c, row);
-        ++times[static_cast<std::size_t>(row) * grid.width() + col0 + c];
-      }
-      asked += static_cast<std::uint64_t>(count);
-    };
-    ASSERT_TRUE(
-        write_geotiff(dir.file("cells.tif"), grid.width(), grid.height(), cells, geo, 255.0, colours, *options).ok())
-        << what;
-    EXPECT_EQ(testing::read_bytes(dir.file("cells.tif")), testing::read_bytes(dir.file("grid.tif"))) << what;
-    EXPECT_EQ(asked.load(), grid.size()) << what;
-    for (const auto& n : times) ASSERT_EQ(n.load(), 1) << what;
-  }
-  const ByteCells none = [](int, int, int, std::uint8_t*) {};
-  EXPECT_EQ(write_geotiff(dir.file("empty.tif"), 0, 5, none, geo, 255.0, colours).error().code,
-            ErrorCode::kInvalidArgument);
-  EXPECT_FALSE(fs::exists(dir.file("empty.tif")));
 }
 
 TEST(GeoTiffWriter, SouthUpRoundTripUsesTransformationMatrix) {

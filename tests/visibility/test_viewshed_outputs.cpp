@@ -4,10 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <cstdint>
 #include <limits>
 #include <numbers>
-#include <utility>
 
 #include "horizon/visibility/viewshed_outputs.hpp"
 #include "visibility_test_util.hpp"
@@ -23,9 +21,9 @@ using visibility::ViewshedOutput;
 constexpr double kDegrees = 180.0 / std::numbers::pi;
 
 TEST(ViewshedOutputs, NamesRoundTrip) {
-  for (ViewshedOutput o :
-       {ViewshedOutput::kVisibility, ViewshedOutput::kBoolean, ViewshedOutput::kOhf, ViewshedOutput::kMinTargetHeight,
-        ViewshedOutput::kVerticalAngle, ViewshedOutput::kElevationDifference})
+  for (ViewshedOutput o : {ViewshedOutput::kVisibility, ViewshedOutput::kBoolean, ViewshedOutput::kOhf,
+                           ViewshedOutput::kMinTargetHeight, ViewshedOutput::kVerticalAngle,
+                           ViewshedOutput::kElevationDifference})
     EXPECT_EQ(visibility::parse_output(visibility::output_name(o)), o);
   EXPECT_FALSE(visibility::parse_output("angle").has_value());
 }
@@ -74,33 +72,6 @@ TEST(ViewshedOutputs, CodesClassifyVoidThenOutOfRangeThenVisibility) {
   for (std::size_t i = 0; i < plain.size(); ++i) ASSERT_EQ(defaults.values()[i], plain.values()[i]);
 }
 
-TEST(ViewshedOutputs, CodeCellsAreTheRastersCellsAndCountTheClasses) {
-  // Any run of a row, in codes where hidden shares out-of-range's value:
-  // the raster's cells, and the visible and hidden cells by class, not by code.
-  const Scene s;
-  const ValueCodes codes{.visible = 7, .hidden = 9, .out_of_range = 9, .nodata = 200};
-  const auto coded = visibility::visibility_codes(s.result, 0.0, codes);
-  const auto plain = visibility::visibility_mask(s.result, 0.0);
-  std::uint64_t visible = 0, hidden = 0;
-  for (std::uint8_t v : plain.values()) {
-    visible += v == visibility::kVisible;
-    hidden += v == visibility::kHidden;
-  }
-  ASSERT_GT(visible, 20u);
-  ASSERT_GT(hidden, 0u);
-  visibility::CodeCounts total;
-  for (int r = 0; r < 9; ++r)
-    for (const auto& [col0, count] : {std::pair{0, 4}, std::pair{4, 1}, std::pair{5, 4}}) {
-      std::uint8_t out[9] = {};
-      const auto c = visibility::code_cells(s.result, 0.0, codes, r, col0, count, out);
-      for (int i = 0; i < count; ++i) EXPECT_EQ(out[i], coded.at(col0 + i, r)) << col0 + i << "," << r;
-      total.visible += c.visible;
-      total.hidden += c.hidden;
-    }
-  EXPECT_EQ(total.visible, visible);
-  EXPECT_EQ(total.hidden, hidden);
-}
-
 TEST(ViewshedOutputs, BooleanCodesAreRViewshedsMinusB) {
   const Scene s;
   const auto b = visibility::visibility_codes(s.result, 0.0, visibility::kBooleanCodes);
@@ -141,8 +112,7 @@ TEST(ViewshedOutputs, VerticalAngleByHand) {
 
 TEST(ViewshedOutputs, VerticalAngleCountsTheCurvature) {
   // 30 km over a flat sea with an eye 1000 m up: the far cell sinks d^2 * c / 2R.
-  const terrain::Dem sea = grid_dem(
-      31, 3, [](int, int) { return 0.0; }, 1000.0);
+  const terrain::Dem sea = grid_dem(31, 3, [](int, int) { return 0.0; }, 1000.0);
   visibility::ViewshedOptions o;
   o.algorithm = visibility::Algorithm::kR3;
   auto v = visibility::compute_viewshed(sea, eye_at(sea, 0, 1, 1000.0), o);
@@ -174,8 +144,7 @@ TEST(ViewshedOutputs, TheFieldOfViewReachesEveryOutput) {
   o.field_of_view.azimuth_end = 135;
   auto v = visibility::compute_viewshed(s.dem, eye_at(s.dem, 4, 4, 10.0), o);
   ASSERT_TRUE(v.ok());
-  const auto codes =
-      visibility::visibility_codes(*v, 0.0, {.visible = 1, .hidden = 0, .out_of_range = 9, .nodata = 200});
+  const auto codes = visibility::visibility_codes(*v, 0.0, {.visible = 1, .hidden = 0, .out_of_range = 9, .nodata = 200});
   const auto angle = visibility::vertical_angle_raster(*v, 0.0);
   EXPECT_EQ(codes.at(5, 4), 1);
   EXPECT_EQ(codes.at(3, 4), 9);  // west: out of view

@@ -36,7 +36,6 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
-#include <functional>
 #include <limits>
 #include <memory>
 #include <mutex>
@@ -148,25 +147,6 @@ void predict_floating_point(float* block, std::size_t width, std::size_t rows, s
 struct CompressorDeleter {
   void operator()(libdeflate_compressor* c) const { libdeflate_free_compressor(c); }
 };
-
-// Where a band's cells come from: `cells(row, col0, count, out)` writes
-// `count` cells of `row` from column `col0` to `out`; called from several
-// threads at once, each call for cells of its own.
-template <class T>
-using CellSource = std::function<void(int row, int col0, int count, T* out)>;
-
-// A grid's cells; NaN written as `fill` when `nan_to_fill`.
-template <class T>
-CellSource<T> grid_cells(const Grid<T>& grid, T fill, bool nan_to_fill) {
-  return [&grid, fill, nan_to_fill](int row, int col0, int count, T* out) {
-    const T* src = grid.row(row) + col0;
-    if constexpr (std::is_floating_point_v<T>) {
-      for (int c = 0; c < count; ++c) out[c] = (nan_to_fill && std::isnan(src[c])) ? fill : src[c];
-    } else {
-      std::copy_n(src, count, out);
-    }
-  };
-}
 
 // zlib's deflate with the run-length strategy, its state reused block after
 // block (deflateReset), for 8-bit code rasters.
@@ -337,20 +317,29 @@ void set_image_tags(TIFF* t, int width, int height, int bands, const Layout& l, 
 // blocks handed to libtiff raw; the other codecs are libtiff's own, on one
 // thread. Tiles are padded with `fill`; strips are cut to the image.
 template <class T>
-Status write_band(TIFF* t, const std::string& path, int width, int height, const CellSource<T>& cells, int band_index,
-                  const Layout& l, T fill, TiffMessages& messages) {
+Status write_band(TIFF* t, const std::string& path, const Grid<T>& grid, int band_index, const Layout& l, T fill,
+                  bool nan_to_fill, TiffMessages& messages) {
   constexpr bool kFloat = std::is_floating_point_v<T>;
   const std::uint32_t bw = l.block_width, bh = l.block_height;
-  const int blocks_x = l.tiled ? static_cast<int>((width + bw - 1) / bw) : 1;
-  const int blocks_y = static_cast<int>((height + bh - 1) / bh);
-  // The block at (bx, by), padded with `fill`, its cells from `cells`.
+  const int blocks_x = l.tiled ? static_cast<int>((grid.width() + bw - 1) / bw) : 1;
+  const int blocks_y = static_cast<int>((grid.height() + bh - 1) / bh);
+  // The block at (bx, by), predicted when this writer encodes it.
   const auto fill_block = [&](int bx, int by, std::vector<T>& block, std::size_t& rows_out) {
     const int x0 = bx * static_cast<int>(bw), y0 = by * static_cast<int>(bh);
-    const int rows = std::min<int>(static_cast<int>(bh), height - y0);
-    const int cols = std::min<int>(static_cast<int>(bw), width - x0);
+    const int rows = std::min<int>(static_cast<int>(bh), grid.height() - y0);
+    const int cols = std::min<int>(static_cast<int>(bw), grid.width() - x0);
     rows_out = l.tiled ? bh : static_cast<std::size_t>(rows);
     block.assign(static_cast<std::size_t>(bw) * rows_out, fill);
-    for (int r = 0; r < rows; ++r) cells(y0 + r, x0, cols, block.data() + static_cast<std::size_t>(r) * bw);
+    for (int r = 0; r < rows; ++r) {
+      const T* src = grid.row(y0 + r) + x0;
+      T* dst = block.data() + static_cast<std::size_t>(r) * bw;
+      for (int c = 0; c < cols; ++c) {
+        if constexpr (kFloat)
+          dst[c] = (nan_to_fill && std::isnan(src[c])) ? fill : src[c];
+        else
+          dst[c] = src[c];
+      }
+    }
   };
   const auto block_index = [&](int bx, int by) -> std::uint32_t {
     if (l.tiled)
@@ -444,57 +433,46 @@ Status write_band(TIFF* t, const std::string& path, int width, int height, const
   return Status::Ok();
 }
 
-// Refuses a nodata value the sample type cannot hold.
+// Writes `bands` (one or more grids of one size) as one file, band after
+// band (planar configuration "separate"); georeferenced when `georef` is
+// given, a plain image otherwise. A COG is written with its overviews first
+// to a scratch file beside `path`, then laid out (cog_layout.hpp).
 template <class T>
-Status check_nodata(const std::string& path, std::optional<double> nodata) {
-  if (!nodata) return Status::Ok();
-  if constexpr (std::is_floating_point_v<T>) {
-    if (std::isinf(*nodata) || (std::isfinite(*nodata) && std::abs(*nodata) > std::numeric_limits<float>::max()))
-      return write_error(ErrorCode::kInvalidArgument, path,
-                         "nodata " + nodata_text(*nodata) + " is not representable as float32");
-  } else {
-    constexpr double kMax = static_cast<double>(std::numeric_limits<T>::max());
-    if (!(*nodata >= 0.0 && *nodata <= kMax && std::floor(*nodata) == *nodata))
-      return write_error(ErrorCode::kInvalidArgument, path,
-                         "nodata " + nodata_text(*nodata) + " is not a " + (sizeof(T) == 1 ? "UInt8" : "UInt32") +
-                             " value (0.." + nodata_text(kMax) + ")");
-  }
-  return Status::Ok();
-}
-
-// What NaN cells become, and what pads the edge tiles (nodata checked).
-template <class T>
-T fill_of(std::optional<double> nodata) {
-  return nodata ? static_cast<T>(*nodata) : T{};
-}
-
-// Writes `bands` (one or more sources of width x height cells) as one file,
-// band after band (planar configuration "separate"); georeferenced when
-// `georef` is given, a plain image otherwise. A COG is written with its
-// overviews (made from `first_grid`, the first band as a grid) first to a
-// scratch file beside `path`, then laid out (cog_layout.hpp).
-template <class T>
-Status write_impl(const std::string& path, int width, int height, std::span<const CellSource<T>> bands,
-                  const Grid<T>* first_grid, const Georeference* georef, std::optional<double> nodata,
-                  const ColourTable* colours, const GeoTiffOptions& options) {
-  if (bands.empty() || width <= 0 || height <= 0)
-    return write_error(ErrorCode::kInvalidArgument, path, "grid is empty");
+Status write_impl(const std::string& path, std::span<const Grid<T>* const> bands, const Georeference* georef,
+                  std::optional<double> nodata, const ColourTable* colours = nullptr,
+                  const GeoTiffOptions& options = {}) {
+  constexpr bool kFloat = std::is_floating_point_v<T>;
+  if (bands.empty() || bands[0]->empty()) return write_error(ErrorCode::kInvalidArgument, path, "grid is empty");
+  const Grid<T>& first_band = *bands[0];
+  for (const Grid<T>* b : bands)
+    if (b->width() != first_band.width() || b->height() != first_band.height())
+      return write_error(ErrorCode::kInvalidArgument, path, "bands differ in size");
   if (georef) HORIZON_RETURN_IF_ERROR(check_georef(path, *georef));
-  HORIZON_RETURN_IF_ERROR(check_nodata<T>(path, nodata));
+  if (nodata) {
+    if constexpr (kFloat) {
+      if (std::isinf(*nodata) || (std::isfinite(*nodata) && std::abs(*nodata) > std::numeric_limits<float>::max()))
+        return write_error(ErrorCode::kInvalidArgument, path,
+                           "nodata " + nodata_text(*nodata) + " is not representable as float32");
+    } else {
+      constexpr double kMax = static_cast<double>(std::numeric_limits<T>::max());
+      if (!(*nodata >= 0.0 && *nodata <= kMax && std::floor(*nodata) == *nodata))
+        return write_error(ErrorCode::kInvalidArgument, path,
+                           "nodata " + nodata_text(*nodata) + " is not a " + (sizeof(T) == 1 ? "UInt8" : "UInt32") +
+                               " value (0.." + nodata_text(kMax) + ")");
+    }
+  }
   if (options.format == TiffFormat::kCog && bands.size() > 1)
     return write_error(ErrorCode::kInvalidArgument, path, "a COG is written for one band");
-  const T fill = fill_of<T>(nodata);
-  const std::uint64_t bytes =
-      static_cast<std::uint64_t>(width) * static_cast<std::uint64_t>(height) * sizeof(T) * bands.size();
-  auto layout = layout_for<T>(path, options, width, bytes);
+  // What NaN cells become, and what pads the edge tiles.
+  const T fill = nodata ? static_cast<T>(*nodata) : T{};
+  const std::uint64_t bytes = static_cast<std::uint64_t>(first_band.size()) * sizeof(T) * bands.size();
+  auto layout = layout_for<T>(path, options, first_band.width(), bytes);
   if (!layout.ok()) return layout.error();
   const Layout& l = *layout;
   std::vector<Grid<T>> overviews;
-  if (l.overviews) {
-    if (!first_grid) return write_error(ErrorCode::kInternal, path, "overviews need the raster as a grid");
-    overviews = detail::build_overviews(*first_grid, static_cast<int>(std::max(l.block_width, l.block_height)),
+  if (l.overviews)
+    overviews = detail::build_overviews(first_band, static_cast<int>(std::max(l.block_width, l.block_height)),
                                         l.resampling, nodata);
-  }
 
   detail::AtomicFile file(path);
   HORIZON_RETURN_IF_ERROR(file.create("geotiff"));
@@ -512,17 +490,17 @@ Status write_impl(const std::string& path, int width, int height, std::span<cons
       return write_error(ErrorCode::kIoError, path, "cannot create '" + written + "' (" + messages.errors + ")");
 
     TIFF* t = tif.get();
-    set_image_tags<T>(t, width, height, static_cast<int>(bands.size()), l, nodata, colours, false);
+    set_image_tags<T>(t, first_band.width(), first_band.height(), static_cast<int>(bands.size()), l, nodata, colours,
+                      false);
     if (georef) HORIZON_RETURN_IF_ERROR(write_georef(path, t, *georef));
     for (std::size_t band_index = 0; band_index < bands.size(); ++band_index)
       HORIZON_RETURN_IF_ERROR(
-          write_band<T>(t, path, width, height, bands[band_index], static_cast<int>(band_index), l, fill, messages));
+          write_band(t, path, *bands[band_index], static_cast<int>(band_index), l, fill, nodata.has_value(), messages));
     for (const Grid<T>& level : overviews) {
       if (!TIFFWriteDirectory(t))
         return write_error(ErrorCode::kIoError, path, "cannot finish an image (" + messages.errors + ")");
       set_image_tags<T>(t, level.width(), level.height(), 1, l, nodata, colours, true);
-      HORIZON_RETURN_IF_ERROR(write_band<T>(t, path, level.width(), level.height(),
-                                            grid_cells(level, fill, nodata.has_value()), 0, l, fill, messages));
+      HORIZON_RETURN_IF_ERROR(write_band(t, path, level, 0, l, fill, nodata.has_value(), messages));
     }
     if (TIFFFlush(t) != 1 || !messages.errors.empty())
       return write_error(ErrorCode::kIoError, path, "cannot finish the file (" + messages.errors + ")");
@@ -534,64 +512,34 @@ Status write_impl(const std::string& path, int width, int height, std::span<cons
   return file.commit("geotiff");
 }
 
-// Writes `grids` (one or more of one size): write_impl with each grid's cells.
-template <class T>
-Status write_grids(const std::string& path, std::span<const Grid<T>* const> grids, const Georeference* georef,
-                   std::optional<double> nodata, const ColourTable* colours = nullptr,
-                   const GeoTiffOptions& options = {}) {
-  if (grids.empty() || grids[0]->empty()) return write_error(ErrorCode::kInvalidArgument, path, "grid is empty");
-  const Grid<T>& first = *grids[0];
-  for (const Grid<T>* g : grids)
-    if (g->width() != first.width() || g->height() != first.height())
-      return write_error(ErrorCode::kInvalidArgument, path, "bands differ in size");
-  HORIZON_RETURN_IF_ERROR(check_nodata<T>(path, nodata));
-  std::vector<CellSource<T>> sources;
-  for (const Grid<T>* g : grids) sources.push_back(grid_cells(*g, fill_of<T>(nodata), nodata.has_value()));
-  return write_impl<T>(path, first.width(), first.height(), sources, &first, georef, nodata, colours, options);
-}
-
 }  // namespace
 
 Status write_geotiff(const std::string& path, const Grid<float>& grid, const Georeference& georef,
                      std::optional<double> nodata, const GeoTiffOptions& options) {
   const Grid<float>* band = &grid;
-  return write_grids<float>(path, {&band, 1}, &georef, nodata, nullptr, options);
+  return write_impl<float>(path, {&band, 1}, &georef, nodata, nullptr, options);
 }
 
 Status write_geotiff(const std::string& path, const Grid<std::uint8_t>& grid, const Georeference& georef,
                      std::optional<double> nodata, const GeoTiffOptions& options) {
   const Grid<std::uint8_t>* band = &grid;
-  return write_grids<std::uint8_t>(path, {&band, 1}, &georef, nodata, nullptr, options);
+  return write_impl<std::uint8_t>(path, {&band, 1}, &georef, nodata, nullptr, options);
 }
 
 Status write_geotiff(const std::string& path, const Grid<std::uint8_t>& grid, const Georeference& georef,
                      std::optional<double> nodata, const ColourTable& colours, const GeoTiffOptions& options) {
   const Grid<std::uint8_t>* band = &grid;
-  return write_grids<std::uint8_t>(path, {&band, 1}, &georef, nodata, &colours, options);
+  return write_impl<std::uint8_t>(path, {&band, 1}, &georef, nodata, &colours, options);
 }
 
 Status write_geotiff(const std::string& path, const Grid<std::uint32_t>& grid, const Georeference& georef,
                      std::optional<double> nodata, const GeoTiffOptions& options) {
   const Grid<std::uint32_t>* band = &grid;
-  return write_grids<std::uint32_t>(path, {&band, 1}, &georef, nodata, nullptr, options);
+  return write_impl<std::uint32_t>(path, {&band, 1}, &georef, nodata, nullptr, options);
 }
 
 Status write_tiff_image(const std::string& path, std::span<const Grid<float>* const> bands) {
-  return write_grids<float>(path, bands, nullptr, std::nullopt);
-}
-
-Status write_geotiff(const std::string& path, int width, int height, const ByteCells& cells, const Georeference& georef,
-                     std::optional<double> nodata, const ColourTable& colours, const GeoTiffOptions& options) {
-  if (options.format != TiffFormat::kCog) {
-    const CellSource<std::uint8_t> band = cells;
-    return write_impl<std::uint8_t>(path, width, height, {&band, 1}, nullptr, &georef, nodata, &colours, options);
-  }
-  // A COG's overviews are made from the whole raster.
-  if (width <= 0 || height <= 0) return write_error(ErrorCode::kInvalidArgument, path, "grid is empty");
-  Grid<std::uint8_t> grid(width, height, kUninitialized);
-  parallel_for(static_cast<std::size_t>(height), 0,
-               [&](std::size_t row) { cells(static_cast<int>(row), 0, width, grid.row(static_cast<int>(row))); });
-  return write_geotiff(path, grid, georef, nodata, colours, options);
+  return write_impl<float>(path, bands, nullptr, std::nullopt);
 }
 
 }  // namespace horizon::terrain

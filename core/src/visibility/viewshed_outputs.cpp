@@ -80,40 +80,26 @@ Status validate_value_codes(const ValueCodes& codes) {
   return clash(codes.nodata, "nodata");
 }
 
-CodeCounts code_cells(const ViewshedResult& result, double target_height, const ValueCodes& codes, int row, int col0,
-                      int count, std::uint8_t* out) {
-  const float th = static_cast<float>(target_height);
-  const std::size_t at =
-      static_cast<std::size_t>(row) * static_cast<std::size_t>(result.ohf.width()) + static_cast<std::size_t>(col0);
-  const float* __restrict o = result.ohf.data() + at;
-  const float* __restrict g = result.terrain.data() + at;
-  std::uint8_t* __restrict d = out;
-  std::uint64_t visible = 0, hidden = 0;
-  // Branch-free (every answer computed, one kept) so that it vectorises.
-  for (int i = 0; i < count; ++i) {
-    const bool seen = th >= min_target_height_at(o[i], g[i]);
-    const bool answered = !std::isnan(o[i]) && !std::isnan(g[i]);
-    visible += answered && seen;
-    hidden += answered && !seen;
-    const std::uint8_t code = seen ? codes.visible : codes.hidden;
-    const std::uint8_t or_range = std::isnan(o[i]) ? codes.out_of_range : code;
-    d[i] = std::isnan(g[i]) ? codes.nodata : or_range;
-  }
-  return {visible, hidden};
-}
-
 terrain::Grid<std::uint8_t> visibility_codes(const ViewshedResult& result, double target_height,
                                              const ValueCodes& codes, unsigned threads) {
-  const int width = result.ohf.width(), height = result.ohf.height();
-  terrain::Grid<std::uint8_t> out(width, height, terrain::kUninitialized);
-  // Bands of rows of ~256 Ki cells (~2 MB read, 256 KB written): a 12 M-cell
-  // raster is ~47 items, a small one a single item on the calling thread.
-  const int rows = std::max(1, static_cast<int>((std::size_t{1} << 18) / static_cast<std::size_t>(std::max(width, 1))));
-  const std::size_t bands = (static_cast<std::size_t>(height) + rows - 1) / rows;
-  parallel_for(bands, bands > 1 ? threads : 1, [&](std::size_t b) {
-    const int r1 = std::min(height, static_cast<int>(b + 1) * rows);
-    for (int r = static_cast<int>(b) * rows; r < r1; ++r)
-      code_cells(result, target_height, codes, r, 0, width, out.row(r));
+  terrain::Grid<std::uint8_t> out(result.ohf.width(), result.ohf.height(), terrain::kUninitialized);
+  const float th = static_cast<float>(target_height);
+  const std::size_t n = out.size();
+  // Chunks of 256 Ki cells (~2 MB read, 256 KB written): a 12 M-cell raster
+  // is 47 items, a small one a single item on the calling thread.
+  constexpr std::size_t kChunk = std::size_t{1} << 18;
+  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  parallel_for(chunks, chunks > 1 ? threads : 1, [&](std::size_t k) {
+    const std::size_t begin = k * kChunk, end = std::min(n, begin + kChunk);
+    const float* __restrict o = result.ohf.data();
+    const float* __restrict g = result.terrain.data();
+    std::uint8_t* __restrict d = out.data();
+    // Branch-free (every answer computed, one kept) so that it vectorises.
+    for (std::size_t i = begin; i < end; ++i) {
+      const std::uint8_t seen = th >= min_target_height_at(o[i], g[i]) ? codes.visible : codes.hidden;
+      const std::uint8_t answered = std::isnan(o[i]) ? codes.out_of_range : seen;
+      d[i] = std::isnan(g[i]) ? codes.nodata : answered;
+    }
   });
   return out;
 }

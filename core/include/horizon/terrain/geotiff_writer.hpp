@@ -17,7 +17,6 @@
 
 #include <array>
 #include <cstdint>
-#include <functional>
 #include <optional>
 #include <span>
 #include <string>
@@ -45,18 +44,6 @@ using ColourTable = std::array<std::array<std::uint8_t, 3>, 256>;
 // ColorMap tag): gdalinfo lists the "Color Table", and GIS software (QGIS,
 // GDAL's tools) draws the codes in those colours without a style.
 Status write_geotiff(const std::string& path, const Grid<std::uint8_t>& grid, const Georeference& georef,
-                     std::optional<double> nodata, const ColourTable& colours, const GeoTiffOptions& options = {});
-
-// A UInt8 raster with a colour table whose cells are made as they are
-// written, block by block on every core: `cells(row, col0, count, out)`
-// writes `count` cells of row `row` from column `col0` to `out`, and is
-// called from several threads at once, each call for cells of its own, each
-// cell once. For a raster derived cell by cell from others (a viewshed's
-// codes from its heights) this skips making the whole raster first; the
-// bytes are those the same cells in a grid give. A COG, whose overviews need
-// the whole raster, is made through a grid.
-using ByteCells = std::function<void(int row, int col0, int count, std::uint8_t* out)>;
-Status write_geotiff(const std::string& path, int width, int height, const ByteCells& cells, const Georeference& georef,
                      std::optional<double> nodata, const ColourTable& colours, const GeoTiffOptions& options = {});
 
 // A Float32 image with no georeference (a camera's depth image, its hits):

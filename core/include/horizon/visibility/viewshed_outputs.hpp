@@ -62,16 +62,6 @@ Status validate_value_codes(const ValueCodes& codes);
 terrain::Grid<std::uint8_t> visibility_codes(const ViewshedResult& result, double target_height,
                                              const ValueCodes& codes, unsigned threads = 1);
 
-// The same codes for `count` cells of window row `row` from window column
-// `col0`, written to `out` (for a writer that makes a raster as it writes
-// it: terrain::write_geotiff's ByteCells); returns how many of them are
-// visible and how many hidden (whatever codes those are written as).
-struct CodeCounts {
-  std::uint64_t visible = 0, hidden = 0;
-};
-CodeCounts code_cells(const ViewshedResult& result, double target_height, const ValueCodes& codes, int row, int col0,
-                      int count, std::uint8_t* out);
-
 // r.viewshed's vertical angle to each visible target, degrees from straight
 // down: 0 straight down, 90 level, 180 straight up, i.e.
 //   90 + atan2(z + target_height - curvature * d^2 - eye, d)
