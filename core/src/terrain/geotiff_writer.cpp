@@ -365,7 +365,10 @@ Status write_band(TIFF* t, const std::string& path, const Grid<T>& grid, int ban
   // Deflate: every block encoded as its own task on every core (a raster
   // of a few block rows still shares out evenly), then written in order.
   // Each task borrows a compressor and a block buffer from `idle`.
-  const bool run_length = sizeof(T) == 1 && !l.level;
+  // zlib counts a call's bytes in 32 bits: a block beyond that (a single
+  // strip of a > 4 GB raster) takes libdeflate.
+  const bool run_length =
+      sizeof(T) == 1 && !l.level && static_cast<std::uint64_t>(bw) * bh < std::numeric_limits<uInt>::max() / 2;
   const int level = l.level.value_or(6);
   std::vector<std::vector<std::uint8_t>> encoded(static_cast<std::size_t>(blocks_x) * blocks_y);
   std::vector<char> failed(encoded.size(), 0);
