@@ -545,12 +545,14 @@ Status check_block_cost(const std::string& path, const TiffFacts& f, const Windo
 // When a block's bytes, as the file's own offsets and counts place them, run
 // past the end of the file: the file is cut short (a copy or a download that
 // stopped). Checked before each block is decoded, whatever the codec, so such
-// a block is refused before libtiff sizes anything from it.
+// a block is refused before libtiff sizes anything from it. `block_name()`
+// names the block, made only for the message.
+template <class BlockName>
 std::optional<std::string> truncation(std::uint64_t file_size, TIFF* tif, std::uint32_t index,
-                                      const std::string& block_name) {
+                                      const BlockName& block_name) {
   const std::uint64_t start = TIFFGetStrileOffset(tif, index), count = TIFFGetStrileByteCount(tif, index);
   if (count <= file_size && start <= file_size - count) return std::nullopt;
-  return "the file is truncated: it has " + std::to_string(file_size) + " bytes, but the " + block_name +
+  return "the file is truncated: it has " + std::to_string(file_size) + " bytes, but the " + block_name() +
          " lies at bytes " + std::to_string(start) + ".." + std::to_string(start + count) +
          " (a copy or download that stopped early?)";
 }
@@ -629,59 +631,69 @@ Status read_window_with_libtiff(const std::string& path, const TiffFacts& f, con
   std::vector<Status> status(blocks.size(), Status::Ok());
   std::vector<std::uint64_t> cells(blocks.size(), 0);
   ReaderPool pool(path, max_block_bytes);
-  parallel_for(blocks.size(), threads, [&](std::size_t i) {
+  // Tasks of consecutive blocks, ~256 KB decoded each: a tiled file's task
+  // is a tile or two, a file of one-row strips' some forty strips.
+  constexpr std::uint64_t kTaskBytes = 256 * 1024;
+  const std::size_t per_task =
+      static_cast<std::size_t>(std::max<std::uint64_t>(1, kTaskBytes / std::max<std::uint64_t>(f.block_bytes, 1)));
+  const std::size_t tasks = (blocks.size() + per_task - 1) / per_task;
+  parallel_for(tasks, threads, [&](std::size_t task) {
     auto reader = pool.take();
-    Status& st = status[i];
-    const int bx = blocks[i].bx, by = blocks[i].by;
-    [&] {
-      if (!reader->tif) {
-        st = dem_error(ErrorCode::kDataError, path, "cannot reopen (" + reader->messages.errors + ")");
-        return;
-      }
-      TIFF* tif = reader->tif.get();
-      // The rows and columns of this block inside the window; a strip's rows
-      // are the image width long, a tile's the tile width.
-      const int r0 = std::max(by, window.row0), r1 = std::min({by + bh, window.row1, f.height});
-      const int c0 = std::max(bx, window.col0), c1 = std::min({bx + bw, window.col1, f.width});
-      const std::size_t row_pitch = static_cast<std::size_t>(bw) * stride;
-      const std::uint64_t wanted = f.tiled ? f.block_bytes : strip_top_bytes(f.block_bytes, row_pitch, r1 - by);
-      assert(max_block_bytes == 0 || wanted <= max_block_bytes);  // check_block_cost
-      if (wanted > reader->capacity) {
-        reader->block.reset(new unsigned char[static_cast<std::size_t>(wanted)]);
-        reader->capacity = wanted;
-      }
-      const std::uint32_t index =
-          f.tiled ? TIFFComputeTile(tif, static_cast<std::uint32_t>(bx), static_cast<std::uint32_t>(by), 0, plane)
-                  : TIFFComputeStrip(tif, static_cast<std::uint32_t>(by), plane);
-      const std::string block_name =
-          std::string(f.tiled ? "tile" : "strip") + " at col " + std::to_string(bx) + ", row " + std::to_string(by);
-      if (auto cut = truncation(file_size, tif, index, block_name)) {
-        st = dem_error(ErrorCode::kDataError, path, *cut);
-        return;
-      }
-      unsigned char* block = reader->block.get();
-      const tmsize_t got = f.tiled ? TIFFReadEncodedTile(tif, index, block, static_cast<tmsize_t>(wanted))
-                                   : TIFFReadEncodedStrip(tif, index, block, static_cast<tmsize_t>(wanted));
-      if (got < 0) {
-        st = dem_error(ErrorCode::kDataError, path,
-                       "cannot decode " + block_name +
-                           (reader->messages.errors.empty() ? std::string() : " (" + reader->messages.errors + ")"));
-        reader->messages.errors.clear();
-        return;
-      }
-      cells[i] = static_cast<std::uint64_t>(bw) * static_cast<std::uint64_t>(f.tiled ? bh : r1 - by);
-      if (static_cast<std::size_t>(got) <
-          static_cast<std::size_t>(r1 - by - 1) * row_pitch + static_cast<std::size_t>(c1 - bx) * stride) {
-        st = dem_error(ErrorCode::kDataError, path, "a block decodes shorter than its layout says");
-        return;
-      }
-      for (int r = r0; r < r1; ++r) {
-        const unsigned char* src =
-            block + static_cast<std::size_t>(r - by) * row_pitch + offset + static_cast<std::size_t>(c0 - bx) * stride;
-        float* dst = out.row(r - window.row0) + (c0 - window.col0);
-        convert_any(f.type, src, stride, c1 - c0, dst, f.nodata);
-      }
-    }();
+    for (std::size_t i = task * per_task, end = std::min(blocks.size(), i + per_task); i < end; ++i) {
+      Status& st = status[i];
+      const int bx = blocks[i].bx, by = blocks[i].by;
+      [&] {
+        if (!reader->tif) {
+          st = dem_error(ErrorCode::kDataError, path, "cannot reopen (" + reader->messages.errors + ")");
+          return;
+        }
+        TIFF* tif = reader->tif.get();
+        // The rows and columns of this block inside the window; a strip's rows
+        // are the image width long, a tile's the tile width.
+        const int r0 = std::max(by, window.row0), r1 = std::min({by + bh, window.row1, f.height});
+        const int c0 = std::max(bx, window.col0), c1 = std::min({bx + bw, window.col1, f.width});
+        const std::size_t row_pitch = static_cast<std::size_t>(bw) * stride;
+        const std::uint64_t wanted = f.tiled ? f.block_bytes : strip_top_bytes(f.block_bytes, row_pitch, r1 - by);
+        assert(max_block_bytes == 0 || wanted <= max_block_bytes);  // check_block_cost
+        if (wanted > reader->capacity) {
+          reader->block.reset(new unsigned char[static_cast<std::size_t>(wanted)]);
+          reader->capacity = wanted;
+        }
+        const std::uint32_t index =
+            f.tiled ? TIFFComputeTile(tif, static_cast<std::uint32_t>(bx), static_cast<std::uint32_t>(by), 0, plane)
+                    : TIFFComputeStrip(tif, static_cast<std::uint32_t>(by), plane);
+        const auto block_name = [&] {
+          return std::string(f.tiled ? "tile" : "strip") + " at col " + std::to_string(bx) + ", row " +
+                 std::to_string(by);
+        };
+        if (auto cut = truncation(file_size, tif, index, block_name)) {
+          st = dem_error(ErrorCode::kDataError, path, *cut);
+          return;
+        }
+        unsigned char* block = reader->block.get();
+        const tmsize_t got = f.tiled ? TIFFReadEncodedTile(tif, index, block, static_cast<tmsize_t>(wanted))
+                                     : TIFFReadEncodedStrip(tif, index, block, static_cast<tmsize_t>(wanted));
+        if (got < 0) {
+          st = dem_error(ErrorCode::kDataError, path,
+                         "cannot decode " + block_name() +
+                             (reader->messages.errors.empty() ? std::string() : " (" + reader->messages.errors + ")"));
+          reader->messages.errors.clear();
+          return;
+        }
+        cells[i] = static_cast<std::uint64_t>(bw) * static_cast<std::uint64_t>(f.tiled ? bh : r1 - by);
+        if (static_cast<std::size_t>(got) <
+            static_cast<std::size_t>(r1 - by - 1) * row_pitch + static_cast<std::size_t>(c1 - bx) * stride) {
+          st = dem_error(ErrorCode::kDataError, path, "a block decodes shorter than its layout says");
+          return;
+        }
+        for (int r = r0; r < r1; ++r) {
+          const unsigned char* src = block + static_cast<std::size_t>(r - by) * row_pitch + offset +
+                                     static_cast<std::size_t>(c0 - bx) * stride;
+          float* dst = out.row(r - window.row0) + (c0 - window.col0);
+          convert_any(f.type, src, stride, c1 - c0, dst, f.nodata);
+        }
+      }();
+    }
     pool.give_back(std::move(reader));
   });
   for (std::size_t i = 0; i < blocks.size(); ++i) HORIZON_RETURN_IF_ERROR(status[i]);
