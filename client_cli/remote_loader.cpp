@@ -2,25 +2,22 @@
 // opens libhorizon_remote.so on first use and calls its implementation
 // (module_abi.hpp), so that gRPC is loaded only by a command given --server.
 //
-// Where the module is looked for, first found wins:
-//   1. $HORIZON_REMOTE_PLUGIN, when set and not empty (then nothing else);
-//   2. libhorizon_remote.so beside the executable;
-//   3. ../lib/horizon/libhorizon_remote.so from the executable's directory
-//      (the installed layout: bin/horizon, lib/horizon/);
-//   4. where this build put it (<build>/lib/), so that every build directory
-//      (Release, ASan, TSan) runs its own module.
+// The module is looked for where every plugin is
+// (horizon/common/plugin_paths.hpp): $HORIZON_REMOTE_PLUGIN alone when set,
+// else beside the executable, in ../lib/horizon/, and where this build put
+// it (<build>/lib/), so that every build directory runs its own module.
 // A module that is absent, does not load (dlerror), or is not this build's
 // gives "horizon: error: --server needs ..." naming every path tried, and exit
 // status 1.
 #include <dlfcn.h>
 
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <string>
 #include <vector>
 
 #include "commands/command.hpp"
+#include "horizon/common/plugin_paths.hpp"
 #include "remote/module_abi.hpp"
 
 #ifndef HORIZON_VERSION
@@ -37,28 +34,17 @@ struct Loaded {
   std::string error;  // why it was not loaded
 };
 
-std::vector<std::string> candidates() {
-  if (const char* env = std::getenv("HORIZON_REMOTE_PLUGIN"); env && *env) return {env};
-  std::vector<std::string> paths;
-  std::error_code ec;
-  const auto exe = std::filesystem::read_symlink("/proc/self/exe", ec);
-  if (!ec) {
-    const auto dir = exe.parent_path();
-    paths.push_back((dir / kModule).string());
-    paths.push_back((dir / ".." / "lib" / "horizon" / kModule).lexically_normal().string());
-  }
-#ifdef HORIZON_REMOTE_BUILD_PATH
-  paths.push_back(HORIZON_REMOTE_BUILD_PATH);
-#endif
-  return paths;
-}
-
 Loaded load() {
   std::string tried;
   const auto note = [&tried](const std::string& path, const std::string& why) {
     tried += (tried.empty() ? "" : "; ") + path + " (" + why + ")";
   };
-  for (const std::string& path : candidates()) {
+#ifdef HORIZON_REMOTE_BUILD_PATH
+  const char* build_path = HORIZON_REMOTE_BUILD_PATH;
+#else
+  const char* build_path = nullptr;
+#endif
+  for (const std::string& path : plugin_candidates("HORIZON_REMOTE_PLUGIN", kModule, build_path)) {
     std::error_code ec;
     if (!std::filesystem::exists(path, ec)) {
       note(path, "absent");
@@ -97,54 +83,53 @@ const ModuleAbi* module() {
   return loaded.abi;
 }
 
+// Calls the module's `entry`, or gives kExitFailure after printing why
+// there is no module.
+template <class Entry, class... Params>
+int call(Entry ModuleAbi::*entry, const Params&... params) {
+  const ModuleAbi* m = module();
+  return m ? (m->*entry)(params...) : kExitFailure;
+}
+
 }  // namespace
 
 int run_info(const Args& args, const std::string& dataset, bool json) {
-  const ModuleAbi* m = module();
-  return m ? m->run_info(args, dataset, json) : kExitFailure;
+  return call(&ModuleAbi::run_info, args, dataset, json);
 }
 
 int run_viewshed_many(const Args& args, const ManyViewshedInputs& inputs) {
-  const ModuleAbi* m = module();
-  return m ? m->run_viewshed_many(args, inputs) : kExitFailure;
+  return call(&ModuleAbi::run_viewshed_many, args, inputs);
 }
 
 int run_viewshed(const Args& args, const ViewshedInputs& inputs) {
-  const ModuleAbi* m = module();
-  return m ? m->run_viewshed(args, inputs) : kExitFailure;
+  return call(&ModuleAbi::run_viewshed, args, inputs);
 }
 
 int run_los(const Args& args, const std::string& dataset, const geodesy::PointSpec& from, const geodesy::PointSpec& to,
             const visibility::LosOptions& options, bool json) {
-  const ModuleAbi* m = module();
-  return m ? m->run_los(args, dataset, from, to, options, json) : kExitFailure;
+  return call(&ModuleAbi::run_los, args, dataset, from, to, options, json);
 }
 
 int run_cull(const Args& args, const std::string& dataset, const geodesy::PointSpec& observer,
              const std::vector<visibility::BoxSpec>& boxes, const std::vector<std::uint64_t>& ids,
              const visibility::CullOptions& options, bool json) {
-  const ModuleAbi* m = module();
-  return m ? m->run_cull(args, dataset, observer, boxes, ids, options, json) : kExitFailure;
+  return call(&ModuleAbi::run_cull, args, dataset, observer, boxes, ids, options, json);
 }
 
 int run_datasets(const Args& args, bool json) {
-  const ModuleAbi* m = module();
-  return m ? m->run_datasets(args, json) : kExitFailure;
+  return call(&ModuleAbi::run_datasets, args, json);
 }
 
 int run_mesh_cull(const Args& args, const MeshCullInputs& inputs) {
-  const ModuleAbi* m = module();
-  return m ? m->run_mesh_cull(args, inputs) : kExitFailure;
+  return call(&ModuleAbi::run_mesh_cull, args, inputs);
 }
 
 int run_trace(const Args& args, const TraceInputs& inputs) {
-  const ModuleAbi* m = module();
-  return m ? m->run_trace(args, inputs) : kExitFailure;
+  return call(&ModuleAbi::run_trace, args, inputs);
 }
 
 int run_session(const Args& args, const SessionPlayback& playback, bool json, bool every_pose) {
-  const ModuleAbi* m = module();
-  return m ? m->run_session(args, playback, json, every_pose) : kExitFailure;
+  return call(&ModuleAbi::run_session, args, playback, json, every_pose);
 }
 
 }  // namespace horizon::cli::remote

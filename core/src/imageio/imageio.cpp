@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <mutex>
 
+#include "horizon/common/plugin_paths.hpp"
 #include "plugin_abi.hpp"
 
 namespace horizon::imageio {
@@ -23,25 +24,13 @@ struct Loaded {
   std::string error;  // why it was not
 };
 
-std::filesystem::path executable_dir() {
-  std::error_code ec;
-  const auto exe = std::filesystem::read_symlink("/proc/self/exe", ec);
-  return ec ? std::filesystem::path() : exe.parent_path();
-}
-
 Loaded load() {
-  std::vector<std::string> candidates;
-  if (const char* env = std::getenv("HORIZON_IMAGEIO_PLUGIN"); env && *env) {
-    candidates.push_back(env);
-  } else {
-    if (const auto dir = executable_dir(); !dir.empty()) {
-      candidates.push_back((dir / kModule).string());
-      candidates.push_back((dir / ".." / "lib" / "horizon" / kModule).lexically_normal().string());
-    }
 #ifdef HORIZON_IMAGEIO_BUILD_PATH
-    candidates.push_back(HORIZON_IMAGEIO_BUILD_PATH);
+  const char* build_path = HORIZON_IMAGEIO_BUILD_PATH;
+#else
+  const char* build_path = nullptr;
 #endif
-  }
+  const std::vector<std::string> candidates = plugin_candidates("HORIZON_IMAGEIO_PLUGIN", kModule, build_path);
   Loaded loaded;
   std::string tried;
   for (const std::string& path : candidates) {
