@@ -39,6 +39,7 @@
 
 #include "geodesy/proj_support.hpp"
 #include "horizon/geodesy/crs.hpp"
+#include "tiff_support.hpp"
 
 namespace horizon::terrain::detail {
 namespace {
@@ -272,22 +273,13 @@ std::string number(double v) {
   return buf;
 }
 
-std::optional<std::string> ascii_key(GTIF* gtif, geokey_t key) {
-  int size = 0;
-  tagtype_t type = TYPE_UNKNOWN;
-  const int count = GTIFKeyInfo(gtif, key, &size, &type);
-  if (count <= 0 || type != TYPE_ASCII) return std::nullopt;
-  std::vector<char> buf(static_cast<std::size_t>(count) + 2, '\0');
-  if (GTIFKeyGetASCII(gtif, key, buf.data(), static_cast<int>(buf.size())) <= 0) return std::nullopt;
-  std::string s(buf.data());
+// An ASCII key's text up to its first NUL, trailing '|' and spaces cut.
+std::optional<std::string> ascii_key(const GeoKeys& keys, geokey_t key) {
+  auto text = keys.ascii(key);
+  if (!text) return std::nullopt;
+  std::string s(text->c_str());
   while (!s.empty() && (s.back() == '|' || s.back() == ' ')) s.pop_back();
   return s;
-}
-
-std::optional<int> short_key(GTIF* gtif, geokey_t key) {
-  geocode_t v = 0;
-  if (GTIFKeyGet(gtif, key, &v, 0, 1) != 1) return std::nullopt;
-  return static_cast<int>(v);
 }
 
 Error unsupported(const std::string& what) {
@@ -407,13 +399,13 @@ std::optional<std::string> database_name(PJ_CONTEXT* ctx, int code, PJ_CATEGORY 
 // = ...|Datum = ...|Ellipsoid = ...|Primem = ...|", the EPSG names of any
 // codes), so that it reads as the same CRS gdalinfo reports. Longitude and
 // latitude in degrees.
-Result<PjPtr> base_geographic(PJ_CONTEXT* ctx, GTIF* gtif, const GTIFDefn& defn) {
+Result<PjPtr> base_geographic(PJ_CONTEXT* ctx, const GeoKeys& keys, const GTIFDefn& defn) {
   if (is_code(defn.GCS)) {
     PjPtr base = from_database(ctx, defn.GCS, PJ_CATEGORY_CRS);
     if (!base) return unsupported("on geographic CRS EPSG:" + std::to_string(defn.GCS) + ", unknown to PROJ");
     return base;
   }
-  const auto citation = ascii_key(gtif, GeogCitationGeoKey);
+  const auto citation = ascii_key(keys, GeogCitationGeoKey);
   const std::string name = citation_field(citation, "GCS Name").value_or(citation_name(citation).value_or("unknown"));
   PjPtr cs(proj_create_ellipsoidal_2D_cs(ctx, PJ_ELLPS2D_LATITUDE_LONGITUDE, nullptr, 0));
   if (!cs) return unsupported("on a geographic CRS PROJ cannot build");
@@ -460,7 +452,7 @@ PjPtr with_base(PJ_CONTEXT* ctx, const PJ* crs, const PJ* base, const char* name
   return PjPtr(proj_crs_create_bound_crs(ctx, altered.get(), hub.get(), shift.get()));
 }
 
-Result<std::string> user_defined_crs(GTIF* gtif, int model, int vertical) {
+Result<std::string> user_defined_crs(const GeoKeys& keys, TIFF* tif, int model, int vertical) {
   ProjContext& context = geodesy::detail::thread_context();
   PJ_CONTEXT* ctx = context.get();
   const auto fail = [&](const std::string& what) {
@@ -470,7 +462,7 @@ Result<std::string> user_defined_crs(GTIF* gtif, int model, int vertical) {
   PjPtr horizontal;
   // An ESRI PE string (WKT) in a citation says it all.
   for (geokey_t key : {PCSCitationGeoKey, GTCitationGeoKey}) {
-    auto citation = ascii_key(gtif, key);
+    auto citation = ascii_key(keys, key);
     if (!citation || !citation->starts_with(kEsriPrefix)) continue;
     horizontal.reset(proj_create(ctx, citation->c_str() + std::strlen(kEsriPrefix)));
     if (!horizontal) return fail("in an ESRI PE string PROJ cannot read (" + context.take_error() + ")");
@@ -478,11 +470,15 @@ Result<std::string> user_defined_crs(GTIF* gtif, int model, int vertical) {
   }
 
   if (!horizontal) {
+    // libgeotiff normalises the keys (codes resolved through PROJ's database).
+    GtifPtr owned_gtif(GTIFNew(tif));
+    std::unique_ptr<GTIFDefn, DefnFreer> owned(owned_gtif ? GTIFAllocDefn() : nullptr);
+    if (!owned_gtif || !owned) return fail("whose keys libgeotiff cannot read");
+    GTIF* gtif = owned_gtif.get();
     GTIFAttachPROJContext(gtif, ctx);
-    std::unique_ptr<GTIFDefn, DefnFreer> owned(GTIFAllocDefn());
     GTIFDefn& defn = *owned;
     if (!GTIFGetDefn(gtif, &defn)) return fail("whose keys libgeotiff cannot read");
-    auto base = base_geographic(ctx, gtif, defn);
+    auto base = base_geographic(ctx, keys, defn);
     if (!base.ok()) return fail(base.error().message);
     // A TOWGS84 shift makes the CRS a BoundCRS: PROJ builds that from a PROJ
     // string (geodetic_terms), whose geographic CRS `base` then replaces.
@@ -521,7 +517,7 @@ Result<std::string> user_defined_crs(GTIF* gtif, int model, int vertical) {
       if (!horizontal) return fail("PROJ cannot build from '" + s + "' (" + context.take_error() + ")");
       std::optional<std::string> name;
       for (geokey_t key : {PCSCitationGeoKey, GTCitationGeoKey})
-        if ((name = citation_name(ascii_key(gtif, key)))) break;
+        if ((name = citation_name(ascii_key(keys, key)))) break;
       horizontal = with_base(ctx, horizontal.get(), base->get(), name ? name->c_str() : nullptr);
       if (!horizontal) return fail("PROJ cannot set its geographic CRS (" + context.take_error() + ")");
     }
@@ -564,35 +560,23 @@ std::map<int, double> conversion_params(PJ_CONTEXT* ctx, const PJ* conversion) {
   return out;
 }
 
-void set_double(GTIF* gtif, int key, double v) {
-  GTIFKeySet(gtif, static_cast<geokey_t>(key), TYPE_DOUBLE, 1, v);
-}
-
-void set_short(GTIF* gtif, geokey_t key, int v) {
-  GTIFKeySet(gtif, key, TYPE_SHORT, 1, v);
-}
-
-void set_ascii(GTIF* gtif, geokey_t key, const std::string& s) {
-  GTIFKeySet(gtif, key, TYPE_ASCII, 0, s.c_str());
-}
-
 // The linear unit key for `metres` per unit: a code, or user-defined with its size.
-void set_linear_unit(GTIF* gtif, double metres) {
+void set_linear_unit(GeoKeys& keys, double metres) {
   if (std::abs(metres - 1.0) < 1e-15)
-    set_short(gtif, ProjLinearUnitsGeoKey, Linear_Meter);
+    keys.set_short(ProjLinearUnitsGeoKey, Linear_Meter);
   else if (std::abs(metres - 0.3048) < 1e-15)
-    set_short(gtif, ProjLinearUnitsGeoKey, Linear_Foot);
+    keys.set_short(ProjLinearUnitsGeoKey, Linear_Foot);
   else if (std::abs(metres - kUsSurveyFoot) < 1e-15)
-    set_short(gtif, ProjLinearUnitsGeoKey, Linear_Foot_US_Survey);
+    keys.set_short(ProjLinearUnitsGeoKey, Linear_Foot_US_Survey);
   else {
-    set_short(gtif, ProjLinearUnitsGeoKey, KvUserDefined);
-    set_double(gtif, ProjLinearUnitSizeGeoKey, metres);
+    keys.set_short(ProjLinearUnitsGeoKey, KvUserDefined);
+    keys.set_double(ProjLinearUnitSizeGeoKey, metres);
   }
 }
 
-Status write_geographic(GTIF* gtif, PJ_CONTEXT* ctx, const PJ* base, const std::vector<double>& towgs84) {
+Status write_geographic(GeoKeys& keys, PJ_CONTEXT* ctx, const PJ* base, const std::vector<double>& towgs84) {
   if (const int code = epsg_code_of(base); code != 0 && towgs84.empty()) {
-    set_short(gtif, GeographicTypeGeoKey, code);
+    keys.set_short(GeographicTypeGeoKey, code);
     return Status::Ok();
   }
   PjPtr datum(proj_crs_get_datum_forced(ctx, base));
@@ -604,28 +588,27 @@ Status write_geographic(GTIF* gtif, PJ_CONTEXT* ctx, const PJ* base, const std::
       !proj_ellipsoid_get_parameters(ctx, ellipsoid.get(), &a, &b, &b_computed, &inv_f) ||
       !proj_prime_meridian_get_parameters(ctx, meridian.get(), &pm, &pm_factor, nullptr))
     return unsupported("its geographic CRS '" + text(proj_get_name(base)) + "' has no readable datum");
-  set_short(gtif, GeographicTypeGeoKey, KvUserDefined);
-  set_ascii(gtif, GeogCitationGeoKey,
-            "GCS Name = " + text(proj_get_name(base)) + "|Datum = " + text(proj_get_name(datum.get())) +
-                "|Ellipsoid = " + text(proj_get_name(ellipsoid.get())) +
-                "|Primem = " + text(proj_get_name(meridian.get())) + "|");
+  keys.set_short(GeographicTypeGeoKey, KvUserDefined);
+  keys.set_ascii(GeogCitationGeoKey, "GCS Name = " + text(proj_get_name(base)) +
+                                         "|Datum = " + text(proj_get_name(datum.get())) +
+                                         "|Ellipsoid = " + text(proj_get_name(ellipsoid.get())) +
+                                         "|Primem = " + text(proj_get_name(meridian.get())) + "|");
   const int datum_code = towgs84.empty() ? epsg_code_of(datum.get()) : 0;
-  set_short(gtif, GeogGeodeticDatumGeoKey, datum_code ? datum_code : KvUserDefined);
+  keys.set_short(GeogGeodeticDatumGeoKey, datum_code ? datum_code : KvUserDefined);
   const int ellipsoid_code = epsg_code_of(ellipsoid.get());
-  set_short(gtif, GeogEllipsoidGeoKey, ellipsoid_code ? ellipsoid_code : KvUserDefined);
-  set_double(gtif, GeogSemiMajorAxisGeoKey, a);
+  keys.set_short(GeogEllipsoidGeoKey, ellipsoid_code ? ellipsoid_code : KvUserDefined);
+  keys.set_double(GeogSemiMajorAxisGeoKey, a);
   if (inv_f > 0)
-    set_double(gtif, GeogInvFlatteningGeoKey, inv_f);
+    keys.set_double(GeogInvFlatteningGeoKey, inv_f);
   else
-    set_double(gtif, GeogSemiMinorAxisGeoKey, b);
+    keys.set_double(GeogSemiMinorAxisGeoKey, b);
   const double pm_degrees = pm * pm_factor / kDegree;
   if (const int pm_code = epsg_code_of(meridian.get()); pm_code != 0 && pm_code != 8901)
-    set_short(gtif, GeogPrimeMeridianGeoKey, pm_code);
+    keys.set_short(GeogPrimeMeridianGeoKey, pm_code);
   else if (pm_degrees != 0.0)
-    set_double(gtif, GeogPrimeMeridianLongGeoKey, pm_degrees);
-  set_short(gtif, GeogAngularUnitsGeoKey, Angular_Degree);
-  if (!towgs84.empty())
-    GTIFKeySet(gtif, GeogTOWGS84GeoKey, TYPE_DOUBLE, static_cast<int>(towgs84.size()), towgs84.data());
+    keys.set_double(GeogPrimeMeridianLongGeoKey, pm_degrees);
+  keys.set_short(GeogAngularUnitsGeoKey, Angular_Degree);
+  if (!towgs84.empty()) keys.set_doubles(GeogTOWGS84GeoKey, towgs84);
   return Status::Ok();
 }
 
@@ -640,7 +623,7 @@ const Method* method_for_conversion(const std::string& name, int code) {
   return nullptr;
 }
 
-Status write_user_defined(GTIF* gtif, const geodesy::Crs& crs) {
+Status write_user_defined(GeoKeys& keys, const geodesy::Crs& crs) {
   ProjContext& context = geodesy::detail::thread_context();
   PJ_CONTEXT* ctx = context.get();
   const std::string label = "CRS '" + crs.name() + "'";
@@ -668,8 +651,8 @@ Status write_user_defined(GTIF* gtif, const geodesy::Crs& crs) {
     if (std::abs(crs.unit_size() - 1.0) > 1e-12)
       return unsupported(label + ": a user-defined geographic CRS in " + crs.unit_name() +
                          " cannot be written as GeoTIFF keys (degrees only)");
-    set_short(gtif, GTModelTypeGeoKey, ModelTypeGeographic);
-    return write_geographic(gtif, ctx, plain.get(), towgs84);
+    keys.set_short(GTModelTypeGeoKey, ModelTypeGeographic);
+    return write_geographic(keys, ctx, plain.get(), towgs84);
   }
 
   PjPtr conversion(proj_crs_get_coordoperation(ctx, plain.get()));
@@ -683,13 +666,13 @@ Status write_user_defined(GTIF* gtif, const geodesy::Crs& crs) {
     return unsupported(label + " uses the " + text(method_name) +
                        " projection, which Horizon cannot write as GeoTIFF keys (it writes: " + method_list() +
                        "; or any CRS with an EPSG code)");
-  set_short(gtif, GTModelTypeGeoKey, ModelTypeProjected);
-  set_ascii(gtif, GTCitationGeoKey, crs.horizontal_name());
-  HORIZON_RETURN_IF_ERROR(write_geographic(gtif, ctx, base.get(), towgs84));
-  set_short(gtif, ProjectedCSTypeGeoKey, KvUserDefined);
-  set_short(gtif, ProjectionGeoKey, KvUserDefined);
-  set_short(gtif, ProjCoordTransGeoKey, method->ct);
-  set_linear_unit(gtif, crs.unit_size());
+  keys.set_short(GTModelTypeGeoKey, ModelTypeProjected);
+  keys.set_ascii(GTCitationGeoKey, crs.horizontal_name());
+  HORIZON_RETURN_IF_ERROR(write_geographic(keys, ctx, base.get(), towgs84));
+  keys.set_short(ProjectedCSTypeGeoKey, KvUserDefined);
+  keys.set_short(ProjectionGeoKey, KvUserDefined);
+  keys.set_short(ProjCoordTransGeoKey, method->ct);
+  set_linear_unit(keys, crs.unit_size());
   const std::map<int, double> values = conversion_params(ctx, conversion.get());
   // PROJ 9.1 describes Equidistant Conic by its natural origin (8801, 8802,
   // 8806, 8807); EPSG's method 1119 by its false origin (8821, 8822, 8826, 8827).
@@ -705,21 +688,21 @@ Status write_user_defined(GTIF* gtif, const geodesy::Crs& crs) {
     if (p.write_key == 0) continue;
     double v = value_of(p.epsg).value_or(p.fallback);
     if (p.kind == Kind::kLength) v /= crs.unit_size();  // keys are in ProjLinearUnits
-    set_double(gtif, p.write_key, v);
+    keys.set_double(p.write_key, v);
   }
-  if (method->epsg[0] == 9829) set_double(gtif, ProjScaleAtNatOriginGeoKey, 1.0);  // as GDAL writes variant B
+  if (method->epsg[0] == 9829) keys.set_double(ProjScaleAtNatOriginGeoKey, 1.0);  // as GDAL writes variant B
   context.take_error();
   return Status::Ok();
 }
 
 }  // namespace
 
-CrsKeys read_crs_keys(GTIF* gtif) {
+CrsKeys read_crs_keys(const GeoKeys& geokeys, TIFF* tif) {
   CrsKeys keys;
-  const auto model = short_key(gtif, GTModelTypeGeoKey);
+  const auto model = geokeys.short_value(GTModelTypeGeoKey);
   if (!model) {
     // GDAL writes a local (engineering) CRS as a citation and units alone.
-    if (auto name = citation_name(ascii_key(gtif, GTCitationGeoKey))) {
+    if (auto name = citation_name(ascii_key(geokeys, GTCitationGeoKey))) {
       keys.problem =
           "CRS '" + *name + "' has no GTModelTypeGeoKey: a local (engineering) CRS, which has no place on the Earth";
       return keys;
@@ -730,8 +713,8 @@ CrsKeys read_crs_keys(GTIF* gtif) {
   }
   if (*model == ModelTypeGeocentric) {
     // GDAL writes a geocentric CRS as this model over its geographic CRS's code.
-    const auto code = short_key(gtif, GeographicTypeGeoKey);
-    const auto name = citation_name(ascii_key(gtif, GTCitationGeoKey));
+    const auto code = geokeys.short_value(GeographicTypeGeoKey);
+    const auto name = citation_name(ascii_key(geokeys, GTCitationGeoKey));
     keys.problem = "CRS " + (name ? "'" + *name + "' " : std::string()) +
                    (code && is_code(*code) ? "(on EPSG:" + std::to_string(*code) + ") " : std::string()) +
                    "is geocentric (X, Y, Z from the Earth's centre), not a map's";
@@ -742,12 +725,13 @@ CrsKeys read_crs_keys(GTIF* gtif) {
                    ", neither projected (1) nor geographic (2)";
     return keys;
   }
-  const auto code = short_key(gtif, *model == ModelTypeProjected ? ProjectedCSTypeGeoKey : GeographicTypeGeoKey);
+  const auto code = geokeys.short_value(*model == ModelTypeProjected ? ProjectedCSTypeGeoKey : GeographicTypeGeoKey);
   const int horizontal = code && is_code(*code) ? *code : 0;
-  const auto vertical_key = short_key(gtif, VerticalCSTypeGeoKey);
+  const auto vertical_key = geokeys.short_value(VerticalCSTypeGeoKey);
   const int vertical = vertical_key && is_code(*vertical_key) ? *vertical_key : 0;
   if (!vertical)
-    if (const auto units = short_key(gtif, VerticalUnitsGeoKey); units && is_code(*units) && *units != Linear_Meter) {
+    if (const auto units = geokeys.short_value(VerticalUnitsGeoKey);
+        units && is_code(*units) && *units != Linear_Meter) {
       // The unit's EPSG name ("foot", "US survey foot"), as PROJ knows it.
       const char* name = nullptr;
       const std::string unit = std::to_string(*units);
@@ -771,7 +755,7 @@ CrsKeys read_crs_keys(GTIF* gtif) {
     if (vertical) keys.crs = named;
     return keys;
   }
-  auto wkt = user_defined_crs(gtif, *model, vertical);
+  auto wkt = user_defined_crs(geokeys, tif, *model, vertical);
   if (!wkt.ok()) {
     keys.problem = wkt.error().message;
     return keys;
@@ -787,31 +771,30 @@ CrsKeys read_crs_keys(GTIF* gtif) {
   return keys;
 }
 
-Status write_crs_keys(GTIF* gtif, const Georeference& georef) {
+Status write_crs_keys(GeoKeys& keys, const Georeference& georef) {
   if (!georef.has_crs()) return Status::Ok();
   auto crs = geodesy::Crs::of(georef);
   if (!crs.ok()) return crs.error();
   if (const int code = crs->horizontal_epsg(); code != 0) {
     if (crs->is_geographic()) {
-      set_short(gtif, GTModelTypeGeoKey, ModelTypeGeographic);
-      set_short(gtif, GeographicTypeGeoKey, code);
-      if (std::abs(crs->unit_size() - 1.0) < 1e-12) set_short(gtif, GeogAngularUnitsGeoKey, Angular_Degree);
+      keys.set_short(GTModelTypeGeoKey, ModelTypeGeographic);
+      keys.set_short(GeographicTypeGeoKey, code);
+      if (std::abs(crs->unit_size() - 1.0) < 1e-12) keys.set_short(GeogAngularUnitsGeoKey, Angular_Degree);
     } else {
-      set_short(gtif, GTModelTypeGeoKey, ModelTypeProjected);
-      set_short(gtif, ProjectedCSTypeGeoKey, code);
-      set_linear_unit(gtif, crs->unit_size());
+      keys.set_short(GTModelTypeGeoKey, ModelTypeProjected);
+      keys.set_short(ProjectedCSTypeGeoKey, code);
+      set_linear_unit(keys, crs->unit_size());
     }
   } else {
-    HORIZON_RETURN_IF_ERROR(write_user_defined(gtif, *crs));
+    HORIZON_RETURN_IF_ERROR(write_user_defined(keys, *crs));
   }
   if (crs->vertical_epsg() != 0) {
     // GeoTIFF 1.1 (key revision 1.1), as GDAL writes a compound CRS: GDAL
     // reads a vertical CRS from 1.1 files only.
-    GTIFSetVersionNumbers(gtif, GEOTIFF_SPEC_1_1_VERSION, GEOTIFF_SPEC_1_1_KEY_REVISION,
-                          GEOTIFF_SPEC_1_1_MINOR_REVISION);
-    set_short(gtif, VerticalCSTypeGeoKey, crs->vertical_epsg());
-    set_short(gtif, VerticalUnitsGeoKey, Linear_Meter);
-    if (crs->horizontal_epsg() != 0) set_ascii(gtif, GTCitationGeoKey, crs->name());
+    keys.set_revision(GEOTIFF_SPEC_1_1_KEY_REVISION, GEOTIFF_SPEC_1_1_MINOR_REVISION);
+    keys.set_short(VerticalCSTypeGeoKey, crs->vertical_epsg());
+    keys.set_short(VerticalUnitsGeoKey, Linear_Meter);
+    if (crs->horizontal_epsg() != 0) keys.set_ascii(GTCitationGeoKey, crs->name());
   }
   return Status::Ok();
 }

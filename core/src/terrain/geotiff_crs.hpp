@@ -24,10 +24,11 @@
 // is named in `problem`.
 #pragma once
 
-#include <geotiffio.h>
+#include <tiffio.h>
 
 #include <string>
 
+#include "geokeys.hpp"
 #include "horizon/common/error.hpp"
 #include "horizon/terrain/georef.hpp"
 
@@ -40,13 +41,14 @@ struct CrsKeys {
   bool absent = false;  // the file names no CRS at all (no GTModelTypeGeoKey)
 };
 
-// The CRS the keys describe, checked with geodesy::Crs; `problem` set when
-// there is none or it cannot be used.
-CrsKeys read_crs_keys(GTIF* gtif);
+// The CRS the keys of `tif` describe, checked with geodesy::Crs; `problem`
+// set when there is none or it cannot be used. Only a user-defined CRS
+// calls libgeotiff, on `tif`.
+CrsKeys read_crs_keys(const GeoKeys& keys, TIFF* tif);
 
 // Sets the keys of `georef`'s CRS (nothing without one): GTModelTypeGeoKey
 // and the CRS's codes or user-defined keys. kUnsupported when a
 // user-defined CRS's projection is not among those above.
-Status write_crs_keys(GTIF* gtif, const Georeference& georef);
+Status write_crs_keys(GeoKeys& keys, const Georeference& georef);
 
 }  // namespace horizon::terrain::detail

@@ -53,6 +53,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "geokeys.hpp"
 #include "geotiff_crs.hpp"
 #include "horizon/common/parallel.hpp"
 #include "horizon/terrain/dem_reader.hpp"
@@ -62,7 +63,6 @@ namespace horizon::terrain {
 namespace {
 
 using detail::CrsKeys;
-using detail::GtifPtr;
 using detail::read_crs_keys;
 using detail::TiffMessages;
 using detail::TiffPtr;
@@ -117,25 +117,6 @@ std::string compression_name(std::uint16_t c) {
     default:
       return "compression " + std::to_string(c);
   }
-}
-
-// The values of a TIFF tag holding doubles; empty when absent. The count's C
-// type depends on how the tag was registered (uint16 for TIFF_VARIABLE,
-// uint32 for TIFF_VARIABLE2), so ask libtiff rather than assume.
-std::vector<double> get_doubles(TIFF* tif, ttag_t tag) {
-  const TIFFField* field = TIFFFindField(tif, tag, TIFF_ANY);
-  if (!field) return {};
-  double* values = nullptr;
-  std::uint32_t count = 0;
-  if (TIFFFieldReadCount(field) == TIFF_VARIABLE2) {
-    if (TIFFGetField(tif, tag, &count, &values) != 1) return {};
-  } else {
-    std::uint16_t count16 = 0;
-    if (TIFFGetField(tif, tag, &count16, &values) != 1) return {};
-    count = count16;
-  }
-  if (!values) return {};
-  return std::vector<double>(values, values + count);
 }
 
 std::optional<double> parse_nodata(const char* text) {
@@ -332,9 +313,9 @@ Result<TiffFacts> read_tiff_facts(const std::string& path, const ReadOptions& op
   }
 
   // --- Geotransform -----------------------------------------------------
-  const std::vector<double> scale = get_doubles(tif.get(), TIFFTAG_GEOPIXELSCALE);
-  const std::vector<double> ties = get_doubles(tif.get(), TIFFTAG_GEOTIEPOINTS);
-  const std::vector<double> matrix = get_doubles(tif.get(), TIFFTAG_GEOTRANSMATRIX);
+  const std::vector<double> scale = detail::tiff_doubles(tif.get(), detail::kTagModelPixelScale);
+  const std::vector<double> ties = detail::tiff_doubles(tif.get(), detail::kTagModelTiepoint);
+  const std::vector<double> matrix = detail::tiff_doubles(tif.get(), detail::kTagModelTransformation);
   GeoTransform& t = facts.georef.transform;
   bool has_transform = false;
   if (scale.size() >= 2 && ties.size() >= 6) {
@@ -370,15 +351,14 @@ Result<TiffFacts> read_tiff_facts(const std::string& path, const ReadOptions& op
   }
 
   // --- GeoKeys ----------------------------------------------------------
-  GtifPtr gtif(GTIFNew(tif.get()));
-  if (!gtif) return dem_error(ErrorCode::kDataError, path, "GeoKeyDirectory is corrupt");
-  geocode_t raster_type = 0;
-  if (GTIFKeyGet(gtif.get(), GTRasterTypeGeoKey, &raster_type, 0, 1) == 1 && raster_type == RasterPixelIsPoint &&
-      has_transform) {
+  auto geokeys = detail::GeoKeys::read(tif.get());
+  if (!geokeys.ok())
+    return dem_error(ErrorCode::kDataError, path, "GeoKeyDirectory is corrupt (" + geokeys.error().message + ")");
+  if (geokeys->short_value(GTRasterTypeGeoKey) == RasterPixelIsPoint && has_transform) {
     t.origin_x -= 0.5 * t.pixel_width;
     t.origin_y -= 0.5 * t.pixel_height;
   }
-  const CrsKeys crs = read_crs_keys(gtif.get());
+  const CrsKeys crs = read_crs_keys(*geokeys, tif.get());
   if (!has_transform && !options.allow_missing_crs)
     return dem_error(ErrorCode::kDataError, path,
                      "has no georeferencing (no ModelPixelScale/ModelTiepoint or ModelTransformation tags); "

@@ -49,6 +49,7 @@
 
 #include "atomic_file.hpp"
 #include "cog_layout.hpp"
+#include "geokeys.hpp"
 #include "geotiff_crs.hpp"
 #include "horizon/common/parallel.hpp"
 #include "horizon/geodesy/crs.hpp"
@@ -58,7 +59,6 @@
 namespace horizon::terrain {
 namespace {
 
-using detail::GtifPtr;
 using detail::TiffMessages;
 using detail::TiffPtr;
 
@@ -97,20 +97,19 @@ Status write_georef(const std::string& path, TIFF* tif, const Georeference& geor
   if (t.pixel_height < 0.0) {
     double scale[3] = {t.pixel_width, -t.pixel_height, 0.0};
     double tie[6] = {0.0, 0.0, 0.0, t.origin_x, t.origin_y, 0.0};
-    TIFFSetField(tif, TIFFTAG_GEOPIXELSCALE, 3, scale);
-    TIFFSetField(tif, TIFFTAG_GEOTIEPOINTS, 6, tie);
+    TIFFSetField(tif, detail::kTagModelPixelScale, 3, scale);
+    TIFFSetField(tif, detail::kTagModelTiepoint, 6, tie);
   } else {
     // South-up: pixel scale cannot carry a positive y step, the matrix can.
     double m[16] = {t.pixel_width, 0, 0, t.origin_x, 0, t.pixel_height, 0, t.origin_y, 0, 0, 0, 0, 0, 0, 0, 1};
-    TIFFSetField(tif, TIFFTAG_GEOTRANSMATRIX, 16, m);
+    TIFFSetField(tif, detail::kTagModelTransformation, 16, m);
   }
 
-  GtifPtr gtif(GTIFNew(tif));
-  if (!gtif) return write_error(ErrorCode::kInternal, path, "libgeotiff could not attach to the file");
-  GTIFKeySet(gtif.get(), GTRasterTypeGeoKey, TYPE_SHORT, 1, RasterPixelIsArea);
-  if (Status keys = detail::write_crs_keys(gtif.get(), georef); !keys.ok())
-    return write_error(keys.error().code, path, keys.error().message);
-  if (!GTIFWriteKeys(gtif.get())) return write_error(ErrorCode::kInternal, path, "libgeotiff could not write GeoKeys");
+  detail::GeoKeys keys;
+  keys.set_short(GTRasterTypeGeoKey, RasterPixelIsArea);
+  if (Status crs = detail::write_crs_keys(keys, georef); !crs.ok())
+    return write_error(crs.error().code, path, crs.error().message);
+  if (!keys.write(tif)) return write_error(ErrorCode::kInternal, path, "libtiff could not set the GeoKey tags");
   return Status::Ok();
 }
 

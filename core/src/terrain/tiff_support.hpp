@@ -1,10 +1,12 @@
 // tiff_support.hpp — private glue between libtiff, libgeotiff and Horizon.
 //
-// * Registers the GeoTIFF tags (libgeotiff's XTIFF extender: ModelPixelScale
-//   33550, ModelTiepoint 33922, ModelTransformation 34264, GeoKeyDirectory
-//   34735, GeoDoubleParams 34736, GeoAsciiParams 34737) and GDAL's ASCII
-//   GDAL_NODATA tag (42113, see https://gdal.org/drivers/raster/gtiff.html)
-//   once per process, for every TIFF handle opened afterwards.
+// * Registers the GeoTIFF tags (ModelPixelScale 33550, the old Intergraph
+//   matrix 33920, ModelTiepoint 33922, ModelTransformation 34264,
+//   GeoKeyDirectory 34735, GeoDoubleParams 34736, GeoAsciiParams 34737,
+//   each as libgeotiff's XTIFF extender registers it, so that libgeotiff
+//   reads them from a handle opened here) and GDAL's ASCII GDAL_NODATA tag
+//   (42113, see https://gdal.org/drivers/raster/gtiff.html) once per
+//   process, for every TIFF handle opened afterwards.
 // * Opens files with per-handle error/warning handlers (libtiff >= 4.5
 //   TIFFOpenExt), so messages land in the Error we return instead of stderr,
 //   and concurrent readers do not share a global handler.
@@ -21,7 +23,6 @@
 
 #include <geotiffio.h>
 #include <tiffio.h>
-#include <xtiffio.h>
 
 #include <algorithm>
 #include <cstdarg>
@@ -34,6 +35,14 @@
 
 namespace horizon::terrain::detail {
 
+// The GeoTIFF tags (OGC 19-008r4, section 7) and GDAL's nodata tag.
+inline constexpr ttag_t kTagModelPixelScale = 33550;
+inline constexpr ttag_t kTagIntergraphMatrix = 33920;  // ModelTransformation's old number
+inline constexpr ttag_t kTagModelTiepoint = 33922;
+inline constexpr ttag_t kTagModelTransformation = 34264;
+inline constexpr ttag_t kTagGeoKeyDirectory = 34735;
+inline constexpr ttag_t kTagGeoDoubleParams = 34736;
+inline constexpr ttag_t kTagGeoAsciiParams = 34737;
 inline constexpr ttag_t kTagGdalNodata = 42113;
 
 inline TIFFExtendProc& previous_tag_extender() {
@@ -42,7 +51,17 @@ inline TIFFExtendProc& previous_tag_extender() {
 }
 
 inline void horizon_tag_extender(TIFF* tif) {
+  // {tag, read count, write count, type, bit, ok to change, pass count, name}:
+  // -1 counts (TIFF_VARIABLE) pass a uint16 count, as libgeotiff expects.
   static const TIFFFieldInfo kFields[] = {
+      {kTagModelPixelScale, -1, -1, TIFF_DOUBLE, FIELD_CUSTOM, 1, 1, const_cast<char*>("GeoPixelScale")},
+      {kTagIntergraphMatrix, -1, -1, TIFF_DOUBLE, FIELD_CUSTOM, 1, 1,
+       const_cast<char*>("Intergraph TransformationMatrix")},
+      {kTagModelTransformation, -1, -1, TIFF_DOUBLE, FIELD_CUSTOM, 1, 1, const_cast<char*>("GeoTransformationMatrix")},
+      {kTagModelTiepoint, -1, -1, TIFF_DOUBLE, FIELD_CUSTOM, 1, 1, const_cast<char*>("GeoTiePoints")},
+      {kTagGeoKeyDirectory, -1, -1, TIFF_SHORT, FIELD_CUSTOM, 1, 1, const_cast<char*>("GeoKeyDirectory")},
+      {kTagGeoDoubleParams, -1, -1, TIFF_DOUBLE, FIELD_CUSTOM, 1, 1, const_cast<char*>("GeoDoubleParams")},
+      {kTagGeoAsciiParams, -1, -1, TIFF_ASCII, FIELD_CUSTOM, 1, 0, const_cast<char*>("GeoASCIIParams")},
       {kTagGdalNodata, -1, -1, TIFF_ASCII, FIELD_CUSTOM, 1, 0, const_cast<char*>("GDAL_NODATA")},
   };
   TIFFMergeFieldInfo(tif, kFields, sizeof kFields / sizeof kFields[0]);
@@ -52,10 +71,7 @@ inline void horizon_tag_extender(TIFF* tif) {
 // Idempotent and thread-safe; call before opening any TIFF.
 inline void register_tiff_tags() {
   static std::once_flag once;
-  std::call_once(once, [] {
-    XTIFFInitialize();  // installs libgeotiff's extender (it chains any earlier one)
-    previous_tag_extender() = TIFFSetTagExtender(horizon_tag_extender);
-  });
+  std::call_once(once, [] { previous_tag_extender() = TIFFSetTagExtender(horizon_tag_extender); });
 }
 
 struct TiffCloser {
