@@ -57,7 +57,7 @@ namespace detail {
 // ---------------------------------------------------------------- PROJ context
 
 ProjContext::ProjContext() : ctx_(proj_context_create()) {
-  proj_log_func(ctx_, this, &ProjContext::log);
+  if (ctx_) proj_log_func(ctx_, this, &ProjContext::log);
 }
 
 ProjContext::~ProjContext() {
@@ -72,6 +72,7 @@ void ProjContext::log(void* self, int level, const char* message) {
 std::string ProjContext::take_error() {
   std::string message = without_directories(last_);
   last_.clear();
+  if (message.empty()) message = without_directories(proj_runtime_error());
   return message.empty() ? std::string("no reason given") : message;
 }
 

@@ -10,6 +10,10 @@
 //   thread-safe and a PJ stays bound to the context it was made with, so a
 //   PJ made with it must stay on this thread and die before it.
 // * PjPtr: RAII owner of a PJ.
+// * proj_runtime_error(): why PROJ cannot be used, empty when it can. PROJ
+//   is opened with dlopen on its first call (proj_runtime.cpp); should that
+//   fail, every PROJ function returns its failure value and take_error()
+//   gives this reason.
 #pragma once
 
 #include <proj.h>
@@ -45,6 +49,8 @@ class ProjContext {
 };
 
 ProjContext& thread_context();
+
+std::string proj_runtime_error();
 
 // `text` with every absolute path cut to its file name: PROJ's messages may
 // name files under its data directory ("/usr/share/proj/proj.db"), which a

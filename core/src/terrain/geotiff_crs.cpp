@@ -38,6 +38,7 @@
 #include <vector>
 
 #include "geodesy/proj_support.hpp"
+#include "geotiff_runtime.hpp"
 #include "horizon/geodesy/crs.hpp"
 #include "tiff_support.hpp"
 
@@ -473,7 +474,10 @@ Result<std::string> user_defined_crs(const GeoKeys& keys, TIFF* tif, int model, 
     // libgeotiff normalises the keys (codes resolved through PROJ's database).
     GtifPtr owned_gtif(GTIFNew(tif));
     std::unique_ptr<GTIFDefn, DefnFreer> owned(owned_gtif ? GTIFAllocDefn() : nullptr);
-    if (!owned_gtif || !owned) return fail("whose keys libgeotiff cannot read");
+    if (!owned_gtif || !owned) {
+      const std::string why = geotiff_runtime_error();
+      return fail("whose keys libgeotiff cannot read" + (why.empty() ? std::string() : " (" + why + ")"));
+    }
     GTIF* gtif = owned_gtif.get();
     GTIFAttachPROJContext(gtif, ctx);
     GTIFDefn& defn = *owned;

@@ -43,7 +43,7 @@ struct CrsKeys {
 
 // The CRS the keys of `tif` describe, checked with geodesy::Crs; `problem`
 // set when there is none or it cannot be used. Only a user-defined CRS
-// calls libgeotiff, on `tif`.
+// calls libgeotiff, on `tif` (geotiff_runtime.hpp).
 CrsKeys read_crs_keys(const GeoKeys& keys, TIFF* tif);
 
 // Sets the keys of `georef`'s CRS (nothing without one): GTModelTypeGeoKey
