@@ -57,6 +57,7 @@
 #include "geotiff_crs.hpp"
 #include "horizon/common/parallel.hpp"
 #include "horizon/terrain/dem_reader.hpp"
+#include "tiff_predictor.hpp"
 #include "tiff_support.hpp"
 
 namespace horizon::terrain {
@@ -188,10 +189,26 @@ struct TiffFacts {
   std::uint64_t blocks_per_plane = 0;
   std::uint16_t compression = COMPRESSION_NONE;
   std::uint64_t block_bytes = 0;  // one whole tile or strip of one plane, decoded (libtiff's count)
+  std::uint16_t predictor = PREDICTOR_NONE;
+  bool own_predictor = false;  // undone by tiff_predictor.hpp rather than by libtiff
   // What ReadOptions asked for, checked against the layout.
   int channel = 0;  // 0-based sample of the chosen band
   PixelType type = PixelType::kUInt8;
 };
+
+// Codecs that may carry a predictor (libtiff registers TIFFTAG_PREDICTOR for them).
+bool takes_predictor(std::uint16_t compression) {
+  switch (compression) {
+    case COMPRESSION_LZW:
+    case COMPRESSION_ADOBE_DEFLATE:
+    case COMPRESSION_DEFLATE:
+    case COMPRESSION_LZMA:
+    case COMPRESSION_ZSTD:
+      return true;
+    default:
+      return false;
+  }
+}
 
 Result<int> channel_of(const ReadOptions& options, int bands, const std::string& path);
 Result<PixelType> pixel_type_of(const TiffFacts& f, const std::string& path);
@@ -294,6 +311,11 @@ Result<TiffFacts> read_tiff_facts(const std::string& path, const ReadOptions& op
   TIFFGetFieldDefaulted(tif.get(), TIFFTAG_COMPRESSION, &facts.compression);
   facts.block_bytes = facts.tiled ? TIFFTileSize64(tif.get()) : TIFFStripSize64(tif.get());
   if (facts.block_bytes == 0) return dem_error(ErrorCode::kDataError, path, "inconsistent block layout");
+  // Only these codecs register the predictor tag (asking another codec for
+  // it would read its state as a predictor's).
+  if (takes_predictor(facts.compression)) TIFFGetField(tif.get(), TIFFTAG_PREDICTOR, &facts.predictor);
+  facts.own_predictor = detail::predictor_is_ours(facts.predictor, facts.bits, facts.planar_separate ? 1 : samples,
+                                                  TIFFIsByteSwapped(tif.get()) != 0);
   facts.layout = compression_name(facts.compression);
   if (TIFFIsTiled(tif.get())) {
     std::uint32_t tw = 0, th = 0;
@@ -548,13 +570,17 @@ struct Reader {
   TiffPtr tif;
   std::unique_ptr<unsigned char[]> block;
   std::uint64_t capacity = 0;
+  std::vector<unsigned char> samples;  // a row's samples, floating-point predictor undone
 };
 
 // The readers of one read: as many as blocks run at once, each opened on
 // first need and kept for the next block.
 class ReaderPool {
  public:
-  ReaderPool(const std::string& path, std::uint64_t max_block_bytes) : path_(path), limit_(max_block_bytes) {}
+  // `own_predictor`: libtiff's predictor is turned off on each handle
+  // (TiffFacts::own_predictor), the reader undoing it.
+  ReaderPool(const std::string& path, std::uint64_t max_block_bytes, bool own_predictor)
+      : path_(path), limit_(max_block_bytes), own_predictor_(own_predictor) {}
   // A reader, or one whose `tif` is null (its messages say why).
   std::unique_ptr<Reader> take() {
     {
@@ -567,6 +593,8 @@ class ReaderPool {
     }
     auto r = std::make_unique<Reader>();
     r->tif = detail::open_tiff(path_, "r", r->messages, libtiff_alloc_limit(limit_));
+    // Before the first decode, which sets libtiff's predictor up.
+    if (r->tif && own_predictor_) TIFFSetField(r->tif.get(), TIFFTAG_PREDICTOR, PREDICTOR_NONE);
     return r;
   }
   void give_back(std::unique_ptr<Reader> r) {
@@ -577,6 +605,7 @@ class ReaderPool {
  private:
   const std::string& path_;
   std::uint64_t limit_;
+  bool own_predictor_;
   std::mutex mutex_;
   std::vector<std::unique_ptr<Reader>> idle_;
 };
@@ -586,8 +615,9 @@ class ReaderPool {
 // sized float elevations, nodata as NaN). Each block is one task on
 // `threads` threads (a handle from ReaderPool each), so the work is shared
 // evenly whatever the blocks' layout; each block writes its own cells of
-// `out`. Counts the blocks it decodes. libtiff undoes the compression, the
-// predictor and the byte order, exactly as for a full read. The caller has
+// `out`. Counts the blocks it decodes. libtiff undoes the compression and
+// the byte order, and the predictor unless the reader does
+// (TiffFacts::own_predictor), exactly as for a full read. The caller has
 // checked the blocks' cost (check_block_cost); `max_block_bytes` also bounds
 // each allocation libtiff makes (libtiff_alloc_limit). Every block is
 // decoded even after one fails, so the error is always the first failing
@@ -610,7 +640,8 @@ Status read_window_with_libtiff(const std::string& path, const TiffFacts& f, con
     for (int bx = window.col0 / bw * bw; bx < window.col1; bx += bw) blocks.push_back({bx, by});
   std::vector<Status> status(blocks.size(), Status::Ok());
   std::vector<std::uint64_t> cells(blocks.size(), 0);
-  ReaderPool pool(path, max_block_bytes);
+  ReaderPool pool(path, max_block_bytes, f.own_predictor);
+  const int sample_bytes = static_cast<int>(pixel_type_size(f.type));
   // Tasks of consecutive blocks, ~256 KB decoded each: a tiled file's task
   // is a tile or two, a file of one-row strips' some forty strips.
   constexpr std::uint64_t kTaskBytes = 256 * 1024;
@@ -661,14 +692,28 @@ Status read_window_with_libtiff(const std::string& path, const TiffFacts& f, con
           return;
         }
         cells[i] = static_cast<std::uint64_t>(bw) * static_cast<std::uint64_t>(f.tiled ? bh : r1 - by);
-        if (static_cast<std::size_t>(got) <
-            static_cast<std::size_t>(r1 - by - 1) * row_pitch + static_cast<std::size_t>(c1 - bx) * stride) {
+        // A predictor runs over whole block rows; without one, a row is read
+        // only as far as the window's last column.
+        const std::size_t needed = f.own_predictor ? static_cast<std::size_t>(r1 - by) * row_pitch
+                                                   : static_cast<std::size_t>(r1 - by - 1) * row_pitch +
+                                                         static_cast<std::size_t>(c1 - bx) * stride;
+        if (static_cast<std::size_t>(got) < needed) {
           st = dem_error(ErrorCode::kDataError, path, "a block decodes shorter than its layout says");
           return;
         }
+        const auto count = static_cast<std::size_t>(c1 - c0);
+        if (f.own_predictor && f.predictor == PREDICTOR_FLOATINGPOINT)
+          reader->samples.resize(count * static_cast<std::size_t>(sample_bytes));
         for (int r = r0; r < r1; ++r) {
-          const unsigned char* src = block + static_cast<std::size_t>(r - by) * row_pitch + offset +
-                                     static_cast<std::size_t>(c0 - bx) * stride;
+          unsigned char* row = block + static_cast<std::size_t>(r - by) * row_pitch;
+          const unsigned char* src = row + offset + static_cast<std::size_t>(c0 - bx) * stride;
+          if (f.own_predictor && f.predictor == PREDICTOR_HORIZONTAL) {
+            detail::undo_horizontal(row, static_cast<std::size_t>(bw), sample_bytes);
+          } else if (f.own_predictor && f.predictor == PREDICTOR_FLOATINGPOINT) {
+            detail::undo_floating_point(row, static_cast<std::size_t>(bw), sample_bytes,
+                                        static_cast<std::size_t>(c0 - bx), count, reader->samples.data());
+            src = reader->samples.data();
+          }
           float* dst = out.row(r - window.row0) + (c0 - window.col0);
           convert_any(f.type, src, stride, c1 - c0, dst, f.nodata);
         }
