@@ -306,8 +306,12 @@ Result<TiffFacts> read_tiff_facts(const std::string& path, const ReadOptions& op
     facts.block_width = facts.width;
     facts.block_height = static_cast<int>(std::clamp<std::uint32_t>(rows_per_strip, 1, height));
   }
-  facts.blocks_per_plane = static_cast<std::uint64_t>((facts.width + facts.block_width - 1) / facts.block_width) *
-                           static_cast<std::uint64_t>((facts.height + facts.block_height - 1) / facts.block_height);
+  // In 64 bits: a width and a block width near 2^31 overflow an int.
+  const auto blocks_along = [](std::int64_t cells, std::int64_t block) {
+    return static_cast<std::uint64_t>((cells + block - 1) / block);
+  };
+  facts.blocks_per_plane =
+      blocks_along(facts.width, facts.block_width) * blocks_along(facts.height, facts.block_height);
   TIFFGetFieldDefaulted(tif.get(), TIFFTAG_COMPRESSION, &facts.compression);
   facts.block_bytes = facts.tiled ? TIFFTileSize64(tif.get()) : TIFFStripSize64(tif.get());
   if (facts.block_bytes == 0) return dem_error(ErrorCode::kDataError, path, "inconsistent block layout");
@@ -636,8 +640,10 @@ Status read_window_with_libtiff(const std::string& path, const TiffFacts& f, con
     int bx, by;
   };
   std::vector<Block> blocks;
-  for (int by = window.row0 / bh * bh; by < window.row1; by += bh)
-    for (int bx = window.col0 / bw * bw; bx < window.col1; bx += bw) blocks.push_back({bx, by});
+  // Stepped in 64 bits: the step past the last block may pass 2^31.
+  for (std::int64_t by = window.row0 / bh * bh; by < window.row1; by += bh)
+    for (std::int64_t bx = window.col0 / bw * bw; bx < window.col1; bx += bw)
+      blocks.push_back({static_cast<int>(bx), static_cast<int>(by)});
   std::vector<Status> status(blocks.size(), Status::Ok());
   std::vector<std::uint64_t> cells(blocks.size(), 0);
   ReaderPool pool(path, max_block_bytes, f.own_predictor);
@@ -661,8 +667,9 @@ Status read_window_with_libtiff(const std::string& path, const TiffFacts& f, con
         TIFF* tif = reader->tif.get();
         // The rows and columns of this block inside the window; a strip's rows
         // are the image width long, a tile's the tile width.
-        const int r0 = std::max(by, window.row0), r1 = std::min({by + bh, window.row1, f.height});
-        const int c0 = std::max(bx, window.col0), c1 = std::min({bx + bw, window.col1, f.width});
+        const int r0 = std::max(by, window.row0), c0 = std::max(bx, window.col0);
+        const int r1 = static_cast<int>(std::min<std::int64_t>({std::int64_t{by} + bh, window.row1, f.height}));
+        const int c1 = static_cast<int>(std::min<std::int64_t>({std::int64_t{bx} + bw, window.col1, f.width}));
         const std::size_t row_pitch = static_cast<std::size_t>(bw) * stride;
         const std::uint64_t wanted = f.tiled ? f.block_bytes : strip_top_bytes(f.block_bytes, row_pitch, r1 - by);
         assert(max_block_bytes == 0 || wanted <= max_block_bytes);  // check_block_cost

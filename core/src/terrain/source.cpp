@@ -10,6 +10,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <limits>
@@ -69,8 +70,9 @@ void lay_out_blocks(SourceFile& f, std::uint64_t target) {
   }
   f.block_width = bw;
   f.block_height = bh;
-  f.blocks_x = (h.width + bw - 1) / bw;
-  f.blocks_y = (h.height + bh - 1) / bh;
+  // In 64 bits: a width and a block width near 2^31 overflow an int.
+  f.blocks_x = static_cast<int>((std::int64_t{h.width} + bw - 1) / bw);
+  f.blocks_y = static_cast<int>((std::int64_t{h.height} + bh - 1) / bh);
 }
 
 std::string describe_cells(const Window& w) {
