@@ -19,4 +19,20 @@ inline CommandResult horizon(const std::vector<std::string>& args) {
   return run_command(command);
 }
 
+// Runs `NAME=value EXE ARGS...`: the environment variable `name` set for
+// the built `horizon` (or `exe`).
+inline CommandResult horizon_with_env(const std::string& name, const std::string& value,
+                                      const std::vector<std::string>& args, const std::string& exe = HORIZON_CLI_PATH) {
+  std::string command = name;
+  command += '=';
+  command += shell_quote(value);
+  command += ' ';
+  command += shell_quote(exe);
+  for (const std::string& a : args) {
+    command += ' ';
+    command += shell_quote(a);
+  }
+  return run_command(command);
+}
+
 }  // namespace horizon::testing

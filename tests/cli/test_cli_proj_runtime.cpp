@@ -20,18 +20,17 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// `NAME=value horizon ARGS...`.
-CommandResult horizon_with(const std::string& env, const std::string& value, const std::vector<std::string>& args) {
-  std::string command = env;
-  command += '=';
-  command += shell_quote(value);
-  command += ' ';
-  command += shell_quote(HORIZON_CLI_PATH);
-  for (const std::string& a : args) {
-    command += ' ';
-    command += shell_quote(a);
-  }
-  return run_command(command);
+// A 16 x 16 crop of the bundled Rainier DEM in a transverse Mercator CRS
+// with no EPSG code (user-defined GeoKeys), made with gdal_translate; "" if
+// that fails.
+std::string user_defined_crs_dem(const TempDir& dir) {
+  const std::string path = dir.file("tmerc.tif");
+  const auto made = run_command(
+      "gdal_translate -q -srcwin 0 0 16 16 -a_srs '+proj=tmerc +lat_0=0 +lon_0=-121 +k=0.9996 "
+      "+x_0=500000 +y_0=0 +ellps=GRS80 +units=m +no_defs' -a_ullr 500000 5200000 500480 5199520 " +
+      shell_quote(bundled_dem("rainier_summit_srtm3_400x400.tif")) + " " + shell_quote(path));
+  EXPECT_EQ(made.exit_code, 0) << made.output;
+  return made.exit_code == 0 ? path : std::string();
 }
 
 bool loaded(const CommandResult& r, const std::string& soname) {
@@ -48,7 +47,7 @@ TEST(CliProjRuntime, BuiltInCrsLoadsNeitherProjNorGeotiff) {
        dir.file("v.tif")},
   };
   for (const auto& args : runs) {
-    const auto r = horizon_with("LD_DEBUG", "files", args);
+    const auto r = horizon_with_env("LD_DEBUG", "files", args);
     ASSERT_EQ(r.exit_code, 0) << r.output;
     ASSERT_TRUE(loaded(r, "libtiff")) << "LD_DEBUG gave no list:\n" << r.output;
     EXPECT_FALSE(loaded(r, HORIZON_PROJ_SONAME)) << args[0] << " loaded PROJ";
@@ -59,7 +58,7 @@ TEST(CliProjRuntime, BuiltInCrsLoadsNeitherProjNorGeotiff) {
 
 TEST(CliProjRuntime, OtherCrsLoadsProjWhenRead) {
   // SIRGAS 2000 / UTM zone 25S is not built in.
-  const auto r = horizon_with("LD_DEBUG", "files", {"info", bundled_dem("olinda_coast_utm25s_111x111.tif")});
+  const auto r = horizon_with_env("LD_DEBUG", "files", {"info", bundled_dem("olinda_coast_utm25s_111x111.tif")});
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_TRUE(loaded(r, HORIZON_PROJ_SONAME)) << r.output;
   EXPECT_FALSE(loaded(r, HORIZON_GEOTIFF_SONAME)) << "an EPSG code needs no libgeotiff";
@@ -69,13 +68,9 @@ TEST(CliProjRuntime, OtherCrsLoadsProjWhenRead) {
 TEST(CliProjRuntime, UserDefinedCrsLoadsGeotiff) {
   if (!have_gdal()) GTEST_SKIP() << "gdal-bin is not installed (scripts/setup.sh installs it)";
   TempDir dir;
-  const std::string path = dir.file("tmerc.tif");
-  const auto made = run_command(
-      "gdal_translate -q -srcwin 0 0 16 16 -a_srs '+proj=tmerc +lat_0=0 +lon_0=-121 +k=0.9996 "
-      "+x_0=500000 +y_0=0 +ellps=GRS80 +units=m +no_defs' -a_ullr 500000 5200000 500480 5199520 " +
-      shell_quote(bundled_dem("rainier_summit_srtm3_400x400.tif")) + " " + shell_quote(path));
-  ASSERT_EQ(made.exit_code, 0) << made.output;
-  const auto r = horizon_with("LD_DEBUG", "files", {"info", path});
+  const std::string path = user_defined_crs_dem(dir);
+  ASSERT_FALSE(path.empty());
+  const auto r = horizon_with_env("LD_DEBUG", "files", {"info", path});
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_TRUE(loaded(r, HORIZON_GEOTIFF_SONAME)) << r.output;
   EXPECT_NE(r.output.find("projected (Transverse Mercator)"), std::string::npos) << r.output;
@@ -96,21 +91,21 @@ TEST(CliProjRuntime, UnloadableProjIsNamed) {
   const fs::path libs = broken_library(dir, HORIZON_PROJ_SONAME);
 
   // Built-in CRSs need neither.
-  const auto v = horizon_with("LD_LIBRARY_PATH", libs.string(),
-                              {"viewshed", bundled_dem("rainier_summit_srtm3_400x400.tif"), "--observer",
-                               "-121.76,46.85", "-o", dir.file("v.tif")});
+  const auto v = horizon_with_env("LD_LIBRARY_PATH", libs.string(),
+                                  {"viewshed", bundled_dem("rainier_summit_srtm3_400x400.tif"), "--observer",
+                                   "-121.76,46.85", "-o", dir.file("v.tif")});
   EXPECT_EQ(v.exit_code, 0) << v.output;
 
   const auto info =
-      horizon_with("LD_LIBRARY_PATH", libs.string(), {"info", bundled_dem("olinda_coast_utm25s_111x111.tif")});
+      horizon_with_env("LD_LIBRARY_PATH", libs.string(), {"info", bundled_dem("olinda_coast_utm25s_111x111.tif")});
   ASSERT_EQ(info.exit_code, 0) << info.output;
   EXPECT_NE(info.output.find("CRS:         cannot be used: "), std::string::npos) << info.output;
   // dlerror()'s reason, its directory cut as in every PROJ message.
   EXPECT_NE(info.output.find("PROJ cannot be loaded (" HORIZON_PROJ_SONAME ": "), std::string::npos) << info.output;
 
-  const auto refused = horizon_with("LD_LIBRARY_PATH", libs.string(),
-                                    {"viewshed", bundled_dem("olinda_coast_utm25s_111x111.tif"), "--observer",
-                                     "293770,9115766", "-o", dir.file("o.tif")});
+  const auto refused = horizon_with_env("LD_LIBRARY_PATH", libs.string(),
+                                        {"viewshed", bundled_dem("olinda_coast_utm25s_111x111.tif"), "--observer",
+                                         "293770,9115766", "-o", dir.file("o.tif")});
   EXPECT_EQ(refused.exit_code, 1) << refused.output;
   EXPECT_NE(refused.output.find("PROJ cannot be loaded"), std::string::npos) << refused.output;
   EXPECT_FALSE(fs::exists(dir.file("o.tif")));
@@ -119,14 +114,10 @@ TEST(CliProjRuntime, UnloadableProjIsNamed) {
 TEST(CliProjRuntime, UnloadableGeotiffIsNamed) {
   if (!have_gdal()) GTEST_SKIP() << "gdal-bin is not installed (scripts/setup.sh installs it)";
   TempDir dir;
-  const std::string path = dir.file("tmerc.tif");
-  const auto made = run_command(
-      "gdal_translate -q -srcwin 0 0 16 16 -a_srs '+proj=tmerc +lon_0=-121 +k=0.9996 +x_0=500000 "
-      "+ellps=GRS80 +units=m +no_defs' -a_ullr 500000 5200000 500480 5199520 " +
-      shell_quote(bundled_dem("rainier_summit_srtm3_400x400.tif")) + " " + shell_quote(path));
-  ASSERT_EQ(made.exit_code, 0) << made.output;
+  const std::string path = user_defined_crs_dem(dir);
+  ASSERT_FALSE(path.empty());
   const fs::path libs = broken_library(dir, HORIZON_GEOTIFF_SONAME);
-  const auto info = horizon_with("LD_LIBRARY_PATH", libs.string(), {"info", path});
+  const auto info = horizon_with_env("LD_LIBRARY_PATH", libs.string(), {"info", path});
   ASSERT_EQ(info.exit_code, 0) << info.output;
   EXPECT_NE(info.output.find("CRS:         cannot be used: a user-defined CRS whose keys libgeotiff cannot read "
                              "(libgeotiff cannot be loaded ("),
@@ -134,7 +125,7 @@ TEST(CliProjRuntime, UnloadableGeotiffIsNamed) {
       << info.output;
   // An EPSG code needs no libgeotiff.
   const auto olinda =
-      horizon_with("LD_LIBRARY_PATH", libs.string(), {"info", bundled_dem("olinda_coast_utm25s_111x111.tif")});
+      horizon_with_env("LD_LIBRARY_PATH", libs.string(), {"info", bundled_dem("olinda_coast_utm25s_111x111.tif")});
   EXPECT_NE(olinda.output.find("CRS:         EPSG:31985"), std::string::npos) << olinda.output;
 }
 

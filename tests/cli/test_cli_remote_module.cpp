@@ -19,21 +19,6 @@ namespace fs = std::filesystem;
 
 const std::string kNoModule = "--server needs the remote module";
 
-// `horizon ARGS...` with `env` (NAME=value, quoted here) set for it.
-CommandResult horizon_with(const std::string& env_name, const std::string& env_value, const std::string& exe,
-                           const std::vector<std::string>& args) {
-  std::string command = env_name;
-  command += '=';
-  command += shell_quote(env_value);
-  command += ' ';
-  command += shell_quote(exe);
-  for (const std::string& a : args) {
-    command += ' ';
-    command += shell_quote(a);
-  }
-  return run_command(command);
-}
-
 // The module the build made (<build>/lib, beside libhorizon_imageio.so).
 fs::path built_module() {
   return fs::path(HORIZON_CLI_PATH).parent_path().parent_path() / "lib" / "libhorizon_remote.so";
@@ -56,14 +41,14 @@ TEST(CliRemoteModule, EmbeddedModeLoadsNoGrpc) {
   for (const std::vector<std::string>& args :
        {std::vector<std::string>{"--version"},
         std::vector<std::string>{"info", bundled_dem("rainier_summit_srtm3_400x400.tif")}}) {
-    const auto r = horizon_with("LD_DEBUG", "files", HORIZON_CLI_PATH, args);
+    const auto r = horizon_with_env("LD_DEBUG", "files", args);
     ASSERT_EQ(r.exit_code, 0) << r.output;
     ASSERT_NE(r.output.find("file=libstdc++"), std::string::npos) << "LD_DEBUG gave no list:\n" << r.output;
     for (const char* library : {"libgrpc", "libgpr", "libprotobuf", "libabsl", "libhorizon_remote"})
       EXPECT_EQ(r.output.find(library), std::string::npos) << args[0] << " loaded " << library;
   }
   // While --server does load them.
-  const auto r = horizon_with("LD_DEBUG", "files", HORIZON_CLI_PATH, kUnreachable);
+  const auto r = horizon_with_env("LD_DEBUG", "files", kUnreachable);
   EXPECT_NE(r.output.find("libhorizon_remote.so"), std::string::npos);
   EXPECT_NE(r.output.find("libgrpc++"), std::string::npos);
 }
@@ -71,13 +56,13 @@ TEST(CliRemoteModule, EmbeddedModeLoadsNoGrpc) {
 TEST(CliRemoteModule, MissingModuleNamesThePathTried) {
   TempDir dir;
   const std::string missing = dir.file("nowhere/libhorizon_remote.so");
-  const auto r = horizon_with("HORIZON_REMOTE_PLUGIN", missing, HORIZON_CLI_PATH, kUnreachable);
+  const auto r = horizon_with_env("HORIZON_REMOTE_PLUGIN", missing, kUnreachable);
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find("horizon: error: " + kNoModule), std::string::npos) << r.output;
   EXPECT_NE(r.output.find(missing + " (absent)"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("HORIZON_REMOTE_PLUGIN"), std::string::npos) << r.output;
   // Embedded mode does not need the module at all.
-  const auto v = horizon_with("HORIZON_REMOTE_PLUGIN", missing, HORIZON_CLI_PATH, {"--version"});
+  const auto v = horizon_with_env("HORIZON_REMOTE_PLUGIN", missing, {"--version"});
   EXPECT_EQ(v.exit_code, 0) << v.output;
 }
 
@@ -85,7 +70,7 @@ TEST(CliRemoteModule, UnloadableModuleGivesDlerror) {
   TempDir dir;
   const std::string not_elf = dir.file("libhorizon_remote.so");
   std::ofstream(not_elf) << "not a shared object\n";
-  const auto r = horizon_with("HORIZON_REMOTE_PLUGIN", not_elf, HORIZON_CLI_PATH, kUnreachable);
+  const auto r = horizon_with_env("HORIZON_REMOTE_PLUGIN", not_elf, kUnreachable);
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find(kNoModule), std::string::npos) << r.output;
   // dlerror() names the file and what is wrong with it.
@@ -95,7 +80,7 @@ TEST(CliRemoteModule, UnloadableModuleGivesDlerror) {
 TEST(CliRemoteModule, ALibraryWithoutTheEntryPointIsRefused) {
   const fs::path other = built_module().parent_path() / "libhorizon_imageio.so";
   ASSERT_TRUE(fs::exists(other)) << other;
-  const auto r = horizon_with("HORIZON_REMOTE_PLUGIN", other.string(), HORIZON_CLI_PATH, kUnreachable);
+  const auto r = horizon_with_env("HORIZON_REMOTE_PLUGIN", other.string(), kUnreachable);
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find(other.string() + " (no horizon_remote_module())"), std::string::npos) << r.output;
 }
@@ -109,7 +94,7 @@ TEST(CliRemoteModule, InstalledLayoutFindsLibHorizon) {
   const fs::path module = dir.path() / "lib" / "horizon" / "libhorizon_remote.so";
   fs::copy_file(HORIZON_CLI_PATH, exe);
   fs::copy_file(built_module(), module);
-  const auto r = horizon_with("LD_DEBUG", "files", exe.string(), kUnreachable);
+  const auto r = horizon_with_env("LD_DEBUG", "files", kUnreachable, exe.string());
   EXPECT_NE(r.output.find("(UNAVAILABLE from 127.0.0.1:1)"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("file=" + module.string()), std::string::npos) << r.output;
   EXPECT_EQ(r.output.find("file=" + built_module().string()), std::string::npos) << r.output;

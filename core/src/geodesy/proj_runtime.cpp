@@ -18,13 +18,12 @@
 //
 // A function not in the list below is reported by the linker as undefined:
 // add it here.
-#include <dlfcn.h>
 #include <proj.h>
 #include <proj_experimental.h>
 
 #include <string>
-#include <type_traits>
 
+#include "common/shared_library.hpp"
 #include "proj_support.hpp"
 
 #ifndef HORIZON_PROJ_SONAME
@@ -154,22 +153,13 @@ struct ProjLibrary {
 
 ProjLibrary open_library() {
   ProjLibrary lib;
-  // Never closed: PJs and contexts may live until the process exits.
-  void* handle = dlopen(HORIZON_PROJ_SONAME, RTLD_NOW | RTLD_LOCAL);
-  if (!handle) {
-    const char* why = dlerror();
-    lib.error = "PROJ cannot be loaded (" + std::string(why ? why : HORIZON_PROJ_SONAME) + ")";
-    return lib;
-  }
-  std::string missing;
-#define HORIZON_PROJ_RESOLVE(ret, name, params, args)                    \
-  lib.name = reinterpret_cast<decltype(lib.name)>(dlsym(handle, #name)); \
-  if (!lib.name) missing += (missing.empty() ? "" : ", ") + std::string(#name);
+  horizon::detail::SharedLibrary so(HORIZON_PROJ_SONAME, "PROJ");
+#define HORIZON_PROJ_RESOLVE(ret, name, params, args) lib.name = so.function<decltype(lib.name)>(#name);
   HORIZON_PROJ_FUNCTIONS(HORIZON_PROJ_RESOLVE)
 #undef HORIZON_PROJ_RESOLVE
-  if (!missing.empty()) {
+  if (!so.ok()) {
     ProjLibrary none;
-    none.error = "PROJ (" HORIZON_PROJ_SONAME ") lacks " + missing;
+    none.error = so.error();
     return none;
   }
   return lib;
@@ -180,11 +170,6 @@ const ProjLibrary& library() {
   return lib;
 }
 
-template <class T>
-T zero() {
-  if constexpr (!std::is_void_v<T>) return T{};
-}
-
 }  // namespace
 
 std::string proj_runtime_error() {
@@ -193,10 +178,10 @@ std::string proj_runtime_error() {
 
 }  // namespace horizon::geodesy::detail
 
-#define HORIZON_PROJ_FORWARD(ret, name, params, args)                        \
-  extern "C" ret name params {                                               \
-    const auto& lib = horizon::geodesy::detail::library();                   \
-    return lib.name ? lib.name args : horizon::geodesy::detail::zero<ret>(); \
+#define HORIZON_PROJ_FORWARD(ret, name, params, args)                     \
+  extern "C" ret name params {                                            \
+    const auto& lib = horizon::geodesy::detail::library();                \
+    return lib.name ? lib.name args : horizon::detail::zero_value<ret>(); \
   }
 HORIZON_PROJ_FUNCTIONS(HORIZON_PROJ_FORWARD)
 #undef HORIZON_PROJ_FORWARD

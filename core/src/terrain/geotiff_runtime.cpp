@@ -12,13 +12,12 @@
 // Should it fail to open, each forwarder returns its type's zero (a null
 // GTIF or GTIFDefn, 0: libgeotiff's own failure values) and
 // geotiff_runtime_error() says why.
-#include <dlfcn.h>
 #include <geo_normalize.h>
 #include <geotiffio.h>
 
 #include <string>
-#include <type_traits>
 
+#include "common/shared_library.hpp"
 #include "geotiff_runtime.hpp"
 
 #ifndef HORIZON_GEOTIFF_SONAME
@@ -47,21 +46,13 @@ struct GeotiffLibrary {
 
 GeotiffLibrary open_library() {
   GeotiffLibrary lib;
-  void* handle = dlopen(HORIZON_GEOTIFF_SONAME, RTLD_NOW | RTLD_LOCAL);  // never closed
-  if (!handle) {
-    const char* why = dlerror();
-    lib.error = "libgeotiff cannot be loaded (" + std::string(why ? why : HORIZON_GEOTIFF_SONAME) + ")";
-    return lib;
-  }
-  std::string missing;
-#define HORIZON_GEOTIFF_RESOLVE(ret, name, params, args)                 \
-  lib.name = reinterpret_cast<decltype(lib.name)>(dlsym(handle, #name)); \
-  if (!lib.name) missing += (missing.empty() ? "" : ", ") + std::string(#name);
+  horizon::detail::SharedLibrary so(HORIZON_GEOTIFF_SONAME, "libgeotiff");
+#define HORIZON_GEOTIFF_RESOLVE(ret, name, params, args) lib.name = so.function<decltype(lib.name)>(#name);
   HORIZON_GEOTIFF_FUNCTIONS(HORIZON_GEOTIFF_RESOLVE)
 #undef HORIZON_GEOTIFF_RESOLVE
-  if (!missing.empty()) {
+  if (!so.ok()) {
     GeotiffLibrary none;
-    none.error = "libgeotiff (" HORIZON_GEOTIFF_SONAME ") lacks " + missing;
+    none.error = so.error();
     return none;
   }
   return lib;
@@ -72,11 +63,6 @@ const GeotiffLibrary& library() {
   return lib;
 }
 
-template <class T>
-T zero() {
-  if constexpr (!std::is_void_v<T>) return T{};
-}
-
 }  // namespace
 
 std::string geotiff_runtime_error() {
@@ -85,10 +71,10 @@ std::string geotiff_runtime_error() {
 
 }  // namespace horizon::terrain::detail
 
-#define HORIZON_GEOTIFF_FORWARD(ret, name, params, args)                     \
-  extern "C" ret name params {                                               \
-    const auto& lib = horizon::terrain::detail::library();                   \
-    return lib.name ? lib.name args : horizon::terrain::detail::zero<ret>(); \
+#define HORIZON_GEOTIFF_FORWARD(ret, name, params, args)                  \
+  extern "C" ret name params {                                            \
+    const auto& lib = horizon::terrain::detail::library();                \
+    return lib.name ? lib.name args : horizon::detail::zero_value<ret>(); \
   }
 HORIZON_GEOTIFF_FUNCTIONS(HORIZON_GEOTIFF_FORWARD)
 #undef HORIZON_GEOTIFF_FORWARD
