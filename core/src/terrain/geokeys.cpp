@@ -1,6 +1,7 @@
 // geokeys.cpp — the GeoKey directory without libgeotiff (see geokeys.hpp).
 #include "geokeys.hpp"
 
+#include <algorithm>
 #include <cstring>
 #include <limits>
 #include <utility>

@@ -1,6 +1,7 @@
 // tiff_predictor.cpp — TIFF predictors undone with register sums (see tiff_predictor.hpp).
 #include "tiff_predictor.hpp"
 
+#include <bit>
 #include <cstring>
 
 #if defined(__SSE2__)
@@ -110,17 +111,10 @@ void interleave4(const unsigned char* planes, std::size_t count, std::size_t fir
   }
 }
 
-bool little_endian_host() {
-  const std::uint16_t one = 1;
-  unsigned char first;
-  std::memcpy(&first, &one, 1);
-  return first == 1;
-}
-
 }  // namespace
 
 bool predictor_is_ours(std::uint16_t predictor, int bits, int samples_per_row_pixel, bool byte_swapped) {
-  if (byte_swapped || samples_per_row_pixel != 1 || !little_endian_host()) return false;
+  if (byte_swapped || samples_per_row_pixel != 1 || std::endian::native != std::endian::little) return false;
   if (predictor == 2) return bits == 8 || bits == 16 || bits == 32 || bits == 64;
   if (predictor == 3) return bits == 32 || bits == 64;
   return false;
