@@ -3,10 +3,13 @@
 // with a shifted georeference, and counts what it decoded.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <string>
+#include <utility>
 
 #include "horizon/geodesy/observer.hpp"
 #include "horizon/terrain/dem_reader.hpp"
@@ -68,6 +71,55 @@ TEST(WindowRead, HeaderMatchesFullReadWithoutDecodingPixels) {
   EXPECT_EQ(stats.blocks_total, 20u);
   EXPECT_EQ(stats.blocks_read, 20u);
   EXPECT_EQ(stats.window, (Window{0, 0, 1100, 900}));
+}
+
+// The lowest and highest non-void value of a grid, by brute force.
+std::pair<float, float> value_range(const Grid<float>& g) {
+  float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+  for (std::size_t i = 0; i < g.size(); ++i) {
+    if (std::isnan(g.data()[i])) continue;
+    lo = std::min(lo, g.data()[i]);
+    hi = std::max(hi, g.data()[i]);
+  }
+  return {lo, hi};
+}
+
+TEST(WindowRead, ReportsTheLowestAndHighestValueOfTheCellsItReturns) {
+  // The range the elevation source checks plausibility by: exactly the
+  // window's values, voids aside, infinities counted, whatever the window's
+  // width (rows of 4 cells at a time, then the rest) and the threads.
+  TempDir dir;
+  Dem dem = testing::make_dem(700, 300, [](int c, int r) {
+    if ((c * 7 + r * 13) % 41 == 0) return std::nan("");
+    return 500.0 + 200.0 * std::sin(c * 0.02) * std::cos(r * 0.03);
+  });
+  dem.elevation.at(601, 250) = 12000.5f;
+  dem.elevation.at(603, 250) = -std::numeric_limits<float>::infinity();
+  const std::string path = dir.file("range.tif");
+  ASSERT_TRUE(write_geotiff(path, dem.elevation, dem.georef, -9999.0).ok());
+  const Window windows[] = {{0, 0, 700, 300}, {3, 2, 10, 9}, {600, 249, 603, 252}, {600, 240, 607, 260}, {5, 5, 6, 6}};
+  for (const Window& w : windows) {
+    for (unsigned threads : {1u, 2u}) {
+      ReadOptions options;
+      options.window = w;
+      options.threads = threads;
+      ReadStats stats;
+      auto part = read_dem(path, options, &stats);
+      ASSERT_TRUE(part.ok()) << part.error().message;
+      const auto [lo, hi] = value_range(part->elevation);
+      EXPECT_EQ(stats.value_min, lo) << w.col0 << "," << w.row0 << " on " << threads;
+      EXPECT_EQ(stats.value_max, hi) << w.col0 << "," << w.row0 << " on " << threads;
+    }
+  }
+  // The window holding the spike alone, then one with the -inf beside it.
+  ReadOptions spike;
+  spike.window = Window{600, 249, 603, 252};
+  ReadStats stats;
+  ASSERT_TRUE(read_dem(path, spike, &stats).ok());
+  EXPECT_EQ(stats.value_max, 12000.5f);
+  spike.window = Window{600, 240, 607, 260};
+  ASSERT_TRUE(read_dem(path, spike, &stats).ok());
+  EXPECT_EQ(stats.value_min, -std::numeric_limits<float>::infinity());
 }
 
 TEST(WindowRead, TiledWindowReadsOnlyItsTilesAndEqualsTheFullReadCrop) {

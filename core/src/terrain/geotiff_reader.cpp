@@ -60,6 +60,10 @@
 #include "tiff_predictor.hpp"
 #include "tiff_support.hpp"
 
+#ifdef __SSE2__
+#include <immintrin.h>
+#endif
+
 namespace horizon::terrain {
 namespace {
 
@@ -475,6 +479,32 @@ void convert_any(PixelType type, const unsigned char* src, std::size_t stride, i
   }
 }
 
+// Widens [lo, hi] to take in the values of `row` that are not voids (NaN).
+void widen_value_range(const float* row, int count, float& lo, float& hi) {
+  int i = 0;
+#ifdef __SSE2__
+  // minps / maxps return their second operand when the first is NaN, so a
+  // void leaves the running bounds as they are.
+  __m128 l = _mm_set1_ps(lo), h = _mm_set1_ps(hi);
+  for (; i + 4 <= count; i += 4) {
+    const __m128 v = _mm_loadu_ps(row + i);
+    l = _mm_min_ps(v, l);
+    h = _mm_max_ps(v, h);
+  }
+  alignas(16) float ls[4], hs[4];
+  _mm_store_ps(ls, l);
+  _mm_store_ps(hs, h);
+  for (int k = 0; k < 4; ++k) {
+    lo = std::min(lo, ls[k]);
+    hi = std::max(hi, hs[k]);
+  }
+#endif
+  for (; i < count; ++i) {
+    lo = row[i] < lo ? row[i] : lo;
+    hi = row[i] > hi ? row[i] : hi;
+  }
+}
+
 // Bytes from one pixel of a block row to the next: the pixel type times the
 // bands interleaved with it.
 std::size_t pixel_stride(const TiffFacts& f) {
@@ -646,6 +676,10 @@ Status read_window_with_libtiff(const std::string& path, const TiffFacts& f, con
       blocks.push_back({static_cast<int>(bx), static_cast<int>(by)});
   std::vector<Status> status(blocks.size(), Status::Ok());
   std::vector<std::uint64_t> cells(blocks.size(), 0);
+  // Each block's lowest and highest value, taken from its rows while they
+  // are in cache (ReadStats::value_min).
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  std::vector<float> lowest(blocks.size(), kInf), highest(blocks.size(), -kInf);
   ReaderPool pool(path, max_block_bytes, f.own_predictor);
   const int sample_bytes = static_cast<int>(pixel_type_size(f.type));
   // Tasks of consecutive blocks, ~256 KB decoded each: a tiled file's task
@@ -723,15 +757,20 @@ Status read_window_with_libtiff(const std::string& path, const TiffFacts& f, con
           }
           float* dst = out.row(r - window.row0) + (c0 - window.col0);
           convert_any(f.type, src, stride, c1 - c0, dst, f.nodata);
+          widen_value_range(dst, c1 - c0, lowest[i], highest[i]);
         }
       }();
     }
     pool.give_back(std::move(reader));
   });
   for (std::size_t i = 0; i < blocks.size(); ++i) HORIZON_RETURN_IF_ERROR(status[i]);
+  stats.value_min = kInf;
+  stats.value_max = -kInf;
   for (std::size_t i = 0; i < blocks.size(); ++i) {
     stats.blocks_read += cells[i] > 0;
     stats.cells_decoded += cells[i];
+    stats.value_min = std::min(stats.value_min, lowest[i]);
+    stats.value_max = std::max(stats.value_max, highest[i]);
   }
   return Status::Ok();
 }

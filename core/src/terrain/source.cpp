@@ -90,11 +90,14 @@ bool row_plausible(const float* row, int n, float lo, float hi) {
 
 // Cells outside the plausible range (NaN passes), as an error naming `file`
 // and where the first such cell lies; `at` places `cells` in the source's
-// grid. Rows are checked on `threads` threads; a whole DEM read at once is
-// tens of millions of cells.
-Status check_plausible(const Grid<float>& cells, const Window& at, const SourceOptions& o, const std::string& file,
-                       const std::string& where, unsigned threads = 1) {
+// grid. When the reader's value range (`read`) lies inside the plausible
+// one, no cell can be outside it and none is looked at; otherwise rows are
+// checked on `threads` threads (a whole DEM read at once is tens of millions
+// of cells).
+Status check_plausible(const Grid<float>& cells, const ReadStats& read, const Window& at, const SourceOptions& o,
+                       const std::string& file, const std::string& where, unsigned threads = 1) {
   const float lo = static_cast<float>(o.valid_min), hi = static_cast<float>(o.valid_max);
+  if (read.value_min >= lo && read.value_max <= hi) return Status::Ok();
   constexpr int kRowsPerTask = 64;
   const std::size_t tasks = (static_cast<std::size_t>(cells.height()) + kRowsPerTask - 1) / kRowsPerTask;
   std::vector<unsigned char> bad(tasks, 0);
@@ -303,7 +306,8 @@ Status ElevationSource::check_covered(const Window& window) const {
 Result<Grid<float>> ElevationSource::load_block(std::uint64_t block) const {
   const SourceFile& f = file_of(block);
   const Window cells = block_cells(block);
-  auto got = f.raster->read_cells(shifted(cells, -f.cells.col0, -f.cells.row0), 1);
+  ReadStats read;
+  auto got = f.raster->read_cells(shifted(cells, -f.cells.col0, -f.cells.row0), 1, &read);
   if (!got.ok()) {
     std::error_code ec;
     if (options_.missing_as_nodata && !std::filesystem::exists(f.path, ec))
@@ -313,7 +317,7 @@ Result<Grid<float>> ElevationSource::load_block(std::uint64_t block) const {
     return e;
   }
   HORIZON_RETURN_IF_ERROR(
-      check_plausible(*got, cells, options_, f.path, "block " + std::to_string(block) + ": " + describe_cells(cells)));
+      check_plausible(*got, read, cells, options_, f.path, "block " + std::to_string(block) + ": " + describe_cells(cells)));
   return got;
 }
 
@@ -356,7 +360,7 @@ Result<Dem> ElevationSource::read(const Window& requested, BlockCache* cache, co
       const SourceFile& f = *under.front();
       auto cells = f.raster->read_cells(shifted(window, -f.cells.col0, -f.cells.row0), threads, &local.file);
       if (!cells.ok()) return cells.error();
-      HORIZON_RETURN_IF_ERROR(check_plausible(*cells, window, options_, f.path, describe_cells(window), threads));
+      HORIZON_RETURN_IF_ERROR(check_plausible(*cells, local.file, window, options_, f.path, describe_cells(window), threads));
       dem.elevation = std::move(*cells);
       local.cells_decoded = local.file.cells_decoded;
     } else {
@@ -372,7 +376,7 @@ Result<Dem> ElevationSource::read(const Window& requested, BlockCache* cache, co
           if (options_.missing_as_nodata && !std::filesystem::exists(f.path, ec)) continue;
           return cells.error();
         }
-        HORIZON_RETURN_IF_ERROR(check_plausible(*cells, part, options_, f.path, describe_cells(part), threads));
+        HORIZON_RETURN_IF_ERROR(check_plausible(*cells, read, part, options_, f.path, describe_cells(part), threads));
         copy_into(dem.elevation, *cells, part);
         local.cells_decoded += read.cells_decoded;
       }

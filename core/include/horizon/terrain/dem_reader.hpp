@@ -32,6 +32,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -94,6 +95,13 @@ struct ReadStats {
   std::uint64_t blocks_read = 0;          // blocks decoded (0 for a header read)
   std::uint64_t cells_decoded = 0;        // cells decoded: whole tiles, a strip down to the last row wanted
   double seconds = 0.0;                   // wall time of the read
+  // Every cell returned that is not a void lies in [value_min, value_max]
+  // (an infinity counts as a value). A reader that does not track them
+  // leaves the whole line; the GeoTIFF reader narrows them to the lowest and
+  // highest value it converted, so that an elevation source can check the
+  // cells' plausibility without a pass over them (source.hpp, valid_min).
+  float value_min = -std::numeric_limits<float>::infinity();
+  float value_max = std::numeric_limits<float>::infinity();
 };
 
 // A raster's facts without its pixels.
