@@ -207,30 +207,6 @@ struct Phases {
 
 // The visible and hidden cells of a mask in the default codes, counted in
 // chunks on `threads` threads (a 12 M-cell mask is 12 MB to scan).
-struct CodeCounts {
-  std::uint64_t visible = 0, hidden = 0;
-};
-CodeCounts count_codes(const terrain::Grid<std::uint8_t>& mask, unsigned threads) {
-  constexpr std::size_t kChunk = std::size_t{1} << 20;
-  const std::size_t n = mask.size(), chunks = (n + kChunk - 1) / kChunk;
-  std::vector<CodeCounts> part(chunks);
-  parallel_for(chunks, chunks > 1 ? threads : 1, [&](std::size_t k) {
-    const std::uint8_t* v = mask.data();
-    std::uint64_t visible = 0, hidden = 0;
-    for (std::size_t i = k * kChunk, end = std::min(n, i + kChunk); i < end; ++i) {
-      visible += v[i] == visibility::kVisible;
-      hidden += v[i] == visibility::kHidden;
-    }
-    part[k] = {visible, hidden};
-  });
-  CodeCounts all;
-  for (const CodeCounts& c : part) {
-    all.visible += c.visible;
-    all.hidden += c.hidden;
-  }
-  return all;
-}
-
 double seconds_since(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
 }
@@ -360,9 +336,9 @@ int run_viewshed(const Args& args) {
   phases.compute = result->stats.seconds;
   // The default codes, for the counts and the picture (whatever codes the file has).
   const auto masking = std::chrono::steady_clock::now();
+  visibility::AnswerCounts counts;
   const terrain::Grid<std::uint8_t> mask =
-      visibility::visibility_mask(*result, r.options.target_height, r.options.threads);
-  const CodeCounts counts = count_codes(mask, r.options.threads);
+      visibility::visibility_mask(*result, r.options.target_height, r.options.threads, &counts);
   phases.mask = seconds_since(masking);
   if (auto s = write_output(r, *dem, *run, mask, phases); !s.ok()) return report_error(s.error());
   if (r.png_path) {

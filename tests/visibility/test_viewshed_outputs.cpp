@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
+#include <iterator>
 #include <limits>
 #include <numbers>
 
@@ -45,7 +47,8 @@ struct Scene {
 TEST(ViewshedOutputs, CodesClassifyVoidThenOutOfRangeThenVisibility) {
   const Scene s;
   const ValueCodes codes{.visible = 7, .hidden = 3, .out_of_range = 9, .nodata = 200};
-  const auto coded = visibility::visibility_codes(s.result, 0.0, codes);
+  visibility::AnswerCounts counts;
+  const auto coded = visibility::visibility_codes(s.result, 0.0, codes, 1, &counts);
   const auto plain = visibility::visibility_mask(s.result, 0.0);
   ASSERT_EQ(s.result.frame.window, (terrain::Window{0, 0, 9, 9}));
   int seen = 0, hidden = 0, out = 0;
@@ -67,9 +70,83 @@ TEST(ViewshedOutputs, CodesClassifyVoidThenOutOfRangeThenVisibility) {
   EXPECT_GT(out, 0);
   EXPECT_GT(hidden, 0);
   EXPECT_GT(seen, 20);
+  // Counted as the raster was made, class by class.
+  EXPECT_EQ(counts.visible, static_cast<std::uint64_t>(seen));
+  EXPECT_EQ(counts.hidden, static_cast<std::uint64_t>(hidden));
+  EXPECT_EQ(counts.out_of_range, static_cast<std::uint64_t>(out));
+  EXPECT_EQ(counts.nodata, 1u);
   // The default codes are visibility_mask's.
   const auto defaults = visibility::visibility_codes(s.result, 0.0, {});
   for (std::size_t i = 0; i < plain.size(); ++i) ASSERT_EQ(defaults.values()[i], plain.values()[i]);
+}
+
+TEST(ViewshedOutputs, CountsOfALargeRasterOnSeveralThreadsAreTheRastersOwn) {
+  // 700 x 500 cells: two chunks of the parallel pass and a part; voids,
+  // cells beyond reach, visible and hidden cells in each.
+  terrain::Dem dem = grid_dem(700, 500, [](int c, int r) { return 30.0 * std::sin(c * 0.05) * std::cos(r * 0.07); });
+  for (int r = 0; r < 500; r += 7)
+    for (int c = r % 11; c < 700; c += 13) dem.elevation.at(c, r) = std::numeric_limits<float>::quiet_NaN();
+  auto o = testing::flat_earth(visibility::Algorithm::kRadial);
+  o.max_distance = 3000;  // 10 m cells: a disc of radius 300 cells
+  const auto result = visibility::compute_viewshed(dem, eye_at(dem, 350, 250, 5.0), o);
+  ASSERT_TRUE(result.ok()) << result.error().message;
+  const ValueCodes codes{.visible = 1, .hidden = 2, .out_of_range = 3, .nodata = 4};
+  for (unsigned threads : {1u, 2u, 3u}) {
+    visibility::AnswerCounts counts;
+    const auto coded = visibility::visibility_codes(*result, 0.0, codes, threads, &counts);
+    std::uint64_t by_code[5] = {};
+    for (std::uint8_t v : coded.values()) ++by_code[v];
+    EXPECT_EQ(counts.visible, by_code[1]) << threads;
+    EXPECT_EQ(counts.hidden, by_code[2]) << threads;
+    EXPECT_EQ(counts.out_of_range, by_code[3]) << threads;
+    EXPECT_EQ(counts.nodata, by_code[4]) << threads;
+    EXPECT_EQ(by_code[0], 0u);
+    EXPECT_GT(by_code[1], 1000u);
+    EXPECT_GT(by_code[2], 1000u);
+    EXPECT_GT(by_code[3], 1000u);
+    EXPECT_GT(by_code[4], 1000u);
+  }
+}
+
+TEST(ViewshedOutputs, CodesFollowTheMinTargetHeightRuleCellByCell) {
+  // Every kind of OHF and ground value, at and around the tie tolerance, in
+  // runs that are not a multiple of the 16 cells the pass takes at a time:
+  // each code is the rule's, worked out here cell by cell.
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  const float tol = visibility::kTieTolerance;
+  const float ohf_above[] = {0.0f, tol, tol * 1.5f, 2 * tol, -1.0f, 0.5f, 3.0f, 1e6f, nan, -inf, inf, -tol};
+  const float grounds[] = {0.0f, 100.0f, -50.25f, 8848.0f, nan};
+  for (int width : {1, 15, 16, 17, 61}) {
+    visibility::ViewshedResult r;
+    r.ohf = terrain::Grid<float>(width, 13);
+    r.terrain = terrain::Grid<float>(width, 13);
+    for (std::size_t i = 0; i < r.ohf.size(); ++i) {
+      const float ground = grounds[(i * 7) % std::size(grounds)];
+      const float above = ohf_above[(i * 5 + i / 3) % std::size(ohf_above)];
+      r.terrain.values()[i] = ground;
+      r.ohf.values()[i] = std::isnan(ground) || std::isinf(above) ? above : ground + above;
+    }
+    for (float th : {0.0f, tol, 1.0f, 2.5f}) {
+      const ValueCodes codes{.visible = 1, .hidden = 2, .out_of_range = 3, .nodata = 4};
+      visibility::AnswerCounts counts;
+      const auto coded = visibility::visibility_codes(r, th, codes, 1, &counts);
+      std::uint64_t by_code[5] = {};
+      for (std::size_t i = 0; i < coded.size(); ++i) {
+        const float o = r.ohf.values()[i], g = r.terrain.values()[i];
+        const std::uint8_t want = std::isnan(g)   ? 4
+                                  : std::isnan(o) ? 3
+                                  : th >= visibility::min_target_height_at(o, g) ? 1
+                                                                                 : 2;
+        ASSERT_EQ(coded.values()[i], want) << "width " << width << " cell " << i << " ohf " << o << " ground " << g
+                                           << " target " << th;
+        ++by_code[want];
+      }
+      EXPECT_EQ(counts.visible, by_code[1]);
+      EXPECT_EQ(counts.hidden, by_code[2]);
+      EXPECT_EQ(counts.out_of_range, by_code[3]);
+      EXPECT_EQ(counts.nodata, by_code[4]);
+    }
+  }
 }
 
 TEST(ViewshedOutputs, BooleanCodesAreRViewshedsMinusB) {

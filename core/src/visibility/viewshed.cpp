@@ -147,9 +147,10 @@ terrain::Grid<float> min_target_height(const ViewshedResult& result) {
   return per_answered_cell(result, min_target_height_at);
 }
 
-terrain::Grid<std::uint8_t> visibility_mask(const ViewshedResult& result, double target_height, unsigned threads) {
+terrain::Grid<std::uint8_t> visibility_mask(const ViewshedResult& result, double target_height, unsigned threads,
+                                            AnswerCounts* counts) {
   // The rule of min_target_height(), cell by cell, so the two rasters can never disagree.
-  return visibility_codes(result, target_height, ValueCodes{}, threads);
+  return visibility_codes(result, target_height, ValueCodes{}, threads, counts);
 }
 
 terrain::Grid<float> ohf_raster(const ViewshedResult& result) {

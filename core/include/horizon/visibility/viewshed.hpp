@@ -92,9 +92,19 @@ inline float min_target_height_at(float ohf, float ground) {
 // Output rasters, all window-sized.
 inline constexpr std::uint8_t kVisible = 1, kHidden = 0, kNoAnswer = 255;
 
+// How many cells of a visible raster fell in each class, counted as the
+// raster is made (a class, not a code: two classes may share a code).
+struct AnswerCounts {
+  std::uint64_t visible = 0, hidden = 0;
+  std::uint64_t out_of_range = 0;  // no answer: beyond max distance, outside the field of view
+  std::uint64_t nodata = 0;        // a void target
+};
+
 // 1 visible / 0 hidden / 255 no answer (out of range, void target); rows
-// on `threads` threads (0 = all hardware threads).
-terrain::Grid<std::uint8_t> visibility_mask(const ViewshedResult& result, double target_height, unsigned threads = 1);
+// on `threads` threads (0 = all hardware threads); the classes' counts in
+// `counts` when given.
+terrain::Grid<std::uint8_t> visibility_mask(const ViewshedResult& result, double target_height, unsigned threads = 1,
+                                            AnswerCounts* counts = nullptr);
 // Minimum target height above ground that is visible, metres, >= 0; NaN for no answer.
 terrain::Grid<float> min_target_height(const ViewshedResult& result);
 // OHF floored at the terrain (equal to the terrain where the ground is visible); NaN for no answer.

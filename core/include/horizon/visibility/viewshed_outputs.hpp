@@ -58,9 +58,11 @@ inline constexpr ValueCodes kBooleanCodes{.visible = 1, .hidden = 0, .out_of_ran
 Status validate_value_codes(const ValueCodes& codes);
 
 // The visible raster in `codes`: window-sized, every cell one of the four;
-// rows on `threads` threads (0 = all hardware threads).
+// rows on `threads` threads (0 = all hardware threads); the classes' counts
+// in `counts` when given.
 terrain::Grid<std::uint8_t> visibility_codes(const ViewshedResult& result, double target_height,
-                                             const ValueCodes& codes, unsigned threads = 1);
+                                             const ValueCodes& codes, unsigned threads = 1,
+                                             AnswerCounts* counts = nullptr);
 
 // r.viewshed's vertical angle to each visible target, degrees from straight
 // down: 0 straight down, 90 level, 180 straight up, i.e.
