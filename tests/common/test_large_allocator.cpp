@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cstdint>
 #include <numeric>
-#include <string_view>
 #include <vector>
 
 #include "horizon/common/large_allocator.hpp"
@@ -24,38 +23,6 @@ TEST(LargeAllocator, OnlyBlocksOfTwoMebibytesAndMoreAreMapped) {
 #endif
   EXPECT_FALSE(detail::is_large_block((std::size_t{2} << 20) - 1));
   EXPECT_FALSE(detail::is_large_block(0));
-}
-
-TEST(LargeAllocator, HugePagesAreAskedForOnlyOnRequestModeWithFreeBlocksToSpare) {
-  // This VM's /proc/buddyinfo: orders 0..10; order 9 is one 2 MiB page,
-  // order 10 two. Free here: DMA 1 + 3 * 2, DMA32 1 + 753 * 2, Normal 126 +
-  // 2942 * 2: 7524 huge pages.
-  const std::string_view roomy =
-      "Node 0, zone      DMA      0      0      0      0      0      0      0      0      1      1      3 \n"
-      "Node 0, zone    DMA32      1      2      2      2      1      2      0      3      3      1    753 \n"
-      "Node 0, zone   Normal  16941   9822   7091   6380   2608   1195    538    181     44    126   2942 \n";
-  const std::string_view madvise = "always [madvise] never\n";
-  constexpr std::size_t kMiB = std::size_t{1} << 20;
-  EXPECT_TRUE(detail::want_huge_pages(madvise, roomy, 48 * kMiB));
-  // Twice the block's huge pages and 32 more must be free: 7524 = 2 * 3746 + 32.
-  EXPECT_TRUE(detail::want_huge_pages(madvise, roomy, 3746 * 2 * kMiB));
-  EXPECT_FALSE(detail::want_huge_pages(madvise, roomy, 3746 * 2 * kMiB + 1));
-  // Fragmented: free memory in small blocks only (3 + 1 huge pages free).
-  const std::string_view fragmented =
-      "Node 0, zone   Normal  916941   99822   7091   6380   2608   1195    538    181     44      3      0 \n"
-      "Node 1, zone   Normal  16941   9822   7091   6380   2608   1195    538    181     44      1      0\n";
-  EXPECT_FALSE(detail::want_huge_pages(madvise, fragmented, 2 * kMiB));
-  // Two nodes are summed: 20 + 2 * 10 = 40 >= 2 * 4 + 32; a fifth page is one too many.
-  const std::string_view two_nodes =
-      "Node 0, zone   Normal 1 1 1 1 1 1 1 1 1 20 0\nNode 1, zone   Normal 1 1 1 1 1 1 1 1 1 0 10";
-  EXPECT_TRUE(detail::want_huge_pages(madvise, two_nodes, 8 * kMiB));
-  EXPECT_FALSE(detail::want_huge_pages(madvise, two_nodes, 10 * kMiB - 1));
-  // Other modes: "always" backs blocks unasked, "never" refuses; an
-  // unreadable file (empty text) asks for nothing.
-  EXPECT_FALSE(detail::want_huge_pages("[always] madvise never\n", roomy, 48 * kMiB));
-  EXPECT_FALSE(detail::want_huge_pages("always madvise [never]\n", roomy, 48 * kMiB));
-  EXPECT_FALSE(detail::want_huge_pages("", roomy, 48 * kMiB));
-  EXPECT_FALSE(detail::want_huge_pages(madvise, "", 48 * kMiB));
 }
 
 TEST(LargeAllocator, LargeAndSmallVectorsHoldTheirValues) {

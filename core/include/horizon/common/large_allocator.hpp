@@ -7,22 +7,19 @@
 // first write, ~12,000 of them for a 12 M-cell float raster. Smaller blocks, and every block in sanitizer builds (which
 // must see each allocation), come from operator new.
 //
-// Such a block is also backed by transparent huge pages (MADV_HUGEPAGE,
-// the mapping aligned to 2 MiB) when the kernel hands them out only on
-// request (THP mode "madvise", Debian's default) and has free 2 MiB blocks
-// enough for it twice over and 64 MiB more (/proc/buddyinfo): a sweep's
-// samples then miss the TLB far less (Gabon's 2.9 M cells: read 12.1 ->
-// 9.2 ms, compute 26.4 -> 23.4 ms). Asked for with fragmented memory, a
-// fault would wait for the kernel to compact it (3 of 11 whole viewsheds
-// took 1.0-1.1 s instead of 0.35 s when measured so), hence the check. In
-// mode "always" the kernel backs the block without being asked, and never
-// stalls a fault that did not ask; in "never" asking does nothing.
+// Transparent huge pages (MADV_HUGEPAGE) were measured as well: 10-15 %
+// faster sweeps, but with the kernel's usual "defrag=madvise" a fault may
+// wait for memory compaction, and 3 of 11 whole `horizon viewshed` runs took
+// 1.0-1.1 s instead of 0.35 s. Asked for only when /proc/buddyinfo showed
+// free 2 MiB blocks to spare, the median read and sweep got 20 % faster, but
+// on a VM whose kernel reports free memory to its host (virtio-balloon page
+// reporting) 7 of 25 runs still took 5-15 ms longer in the phase that
+// allocated. A viewshed must not stall like that, so they are not asked for.
 #pragma once
 
 #include <cstddef>
 #include <limits>
 #include <new>
-#include <string_view>
 #include <type_traits>
 #include <utility>
 
@@ -32,9 +29,6 @@ namespace detail {
 inline constexpr std::size_t kLargeBlockBytes = std::size_t{2} << 20;
 // Whether a block of `bytes` is mapped (large) rather than taken from operator new.
 bool is_large_block(std::size_t bytes);
-// Whether to ask for huge pages for a block of `bytes`, from the texts of
-// /sys/kernel/mm/transparent_hugepage/enabled and /proc/buddyinfo.
-bool want_huge_pages(std::string_view thp_mode, std::string_view buddyinfo, std::size_t bytes);
 // A zeroed, page-aligned block of `bytes`, its pages allocated; throws std::bad_alloc.
 void* map_large_block(std::size_t bytes);
 void unmap_large_block(void* block, std::size_t bytes) noexcept;
