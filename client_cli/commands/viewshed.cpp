@@ -205,8 +205,6 @@ struct Phases {
   double preview = 0.0;  // the PNG, when asked for
 };
 
-// The visible and hidden cells of a mask in the default codes, counted in
-// chunks on `threads` threads (a 12 M-cell mask is 12 MB to scan).
 double seconds_since(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
 }

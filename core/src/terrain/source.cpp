@@ -316,8 +316,8 @@ Result<Grid<float>> ElevationSource::load_block(std::uint64_t block) const {
     e.message += " (block " + std::to_string(block) + ": " + describe_cells(cells) + " of '" + header_.source + "')";
     return e;
   }
-  HORIZON_RETURN_IF_ERROR(
-      check_plausible(*got, read, cells, options_, f.path, "block " + std::to_string(block) + ": " + describe_cells(cells)));
+  HORIZON_RETURN_IF_ERROR(check_plausible(*got, read, cells, options_, f.path,
+                                          "block " + std::to_string(block) + ": " + describe_cells(cells)));
   return got;
 }
 
@@ -360,7 +360,8 @@ Result<Dem> ElevationSource::read(const Window& requested, BlockCache* cache, co
       const SourceFile& f = *under.front();
       auto cells = f.raster->read_cells(shifted(window, -f.cells.col0, -f.cells.row0), threads, &local.file);
       if (!cells.ok()) return cells.error();
-      HORIZON_RETURN_IF_ERROR(check_plausible(*cells, local.file, window, options_, f.path, describe_cells(window), threads));
+      HORIZON_RETURN_IF_ERROR(
+          check_plausible(*cells, local.file, window, options_, f.path, describe_cells(window), threads));
       dem.elevation = std::move(*cells);
       local.cells_decoded = local.file.cells_decoded;
     } else {

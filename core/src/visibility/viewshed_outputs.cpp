@@ -164,8 +164,8 @@ terrain::Grid<std::uint8_t> visibility_codes(const ViewshedResult& result, doubl
   std::vector<RunCounts> part(chunks);
   parallel_for(chunks, chunks > 1 ? threads : 1, [&](std::size_t k) {
     const std::size_t begin = k * kChunk, end = std::min(n, begin + kChunk);
-    part[k] = code_run(result.ohf.data() + begin, result.terrain.data() + begin, out.data() + begin, end - begin, th,
-                       codes);
+    part[k] =
+        code_run(result.ohf.data() + begin, result.terrain.data() + begin, out.data() + begin, end - begin, th, codes);
   });
   if (counts) {
     *counts = {};
