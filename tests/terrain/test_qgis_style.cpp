@@ -70,5 +70,36 @@ TEST(QgisStyle, SitsBesideItsRasterAndIsWrittenWhole) {
   EXPECT_NE(missing.error().message.find("nowhere/v.qml"), std::string::npos);
 }
 
+TEST(QgisStyle, AStagedStyleIsFlushedAsideAndPutInPlaceOnlyWhenCommitted) {
+  TempDir dir;
+  const std::string path = dir.file("v.qml");
+  auto read = [&] {
+    std::ifstream in(path);
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
+  };
+  auto files = [&] { return std::distance(std::filesystem::directory_iterator(dir.path()), {}); };
+  ASSERT_TRUE(write_text_file(path, "old").ok());
+  {
+    auto staged = StagedTextFile::stage(path, "never committed");
+    ASSERT_TRUE(staged.ok()) << staged.error().message;
+    EXPECT_EQ(files(), 2);  // the old file and the staged temporary beside it
+    EXPECT_EQ(read(), "old");
+  }
+  EXPECT_EQ(files(), 1);  // dropped uncommitted: the temporary is gone
+  EXPECT_EQ(read(), "old");
+  auto staged = StagedTextFile::stage(path, "new");
+  ASSERT_TRUE(staged.ok());
+  StagedTextFile moved = std::move(*staged);  // the move carries the temporary
+  EXPECT_EQ(read(), "old");
+  ASSERT_TRUE(moved.commit().ok());
+  EXPECT_EQ(read(), "new");
+  EXPECT_EQ(files(), 1);
+  auto nowhere = StagedTextFile::stage(dir.file("nowhere/v.qml"), "x");
+  ASSERT_FALSE(nowhere.ok());
+  EXPECT_NE(nowhere.error().message.find("nowhere/v.qml"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace horizon::terrain

@@ -61,6 +61,13 @@ class AtomicFile {
   // Flushes the finished temporary to disk and renames it over the target.
   // `what` prefixes messages ("geotiff", "preview").
   Status commit(const char* what) {
+    HORIZON_RETURN_IF_ERROR(flush(what));
+    return rename_into_place(what);
+  }
+
+  // commit()'s two steps, for a caller that flushes a file early and puts
+  // it in place later: the temporary's bytes on disk ...
+  Status flush(const char* what) {
     const int fd = ::open(temp_.c_str(), O_RDONLY | O_CLOEXEC);
     if (fd < 0 || ::fsync(fd) != 0) {
       const int err = errno;
@@ -70,6 +77,11 @@ class AtomicFile {
                         path_);
     }
     ::close(fd);
+    return Status::Ok();
+  }
+
+  // ... and the flushed temporary renamed over the target.
+  Status rename_into_place(const char* what) {
     if (std::rename(temp_.c_str(), path_.c_str()) != 0) {
       const int err = errno;
       return make_error(

@@ -133,16 +133,41 @@ std::string qml_path_for(const std::string& raster_path) {
   return std::filesystem::path(raster_path).replace_extension(".qml").string();
 }
 
+namespace {
+
+// `text` written into `file`'s temporary (created here).
+Status write_temporary(detail::AtomicFile& file, const std::string& path, const std::string& text) {
+  HORIZON_RETURN_IF_ERROR(file.create("style"));
+  std::ofstream out(file.temp_path(), std::ios::binary | std::ios::trunc);
+  out << text;
+  out.flush();
+  if (!out) return make_error(ErrorCode::kIoError, "style '" + path + "': cannot write the file", path);
+  return Status::Ok();
+}
+
+}  // namespace
+
 Status write_text_file(const std::string& path, const std::string& text) {
   detail::AtomicFile file(path);
-  HORIZON_RETURN_IF_ERROR(file.create("style"));
-  {
-    std::ofstream out(file.temp_path(), std::ios::binary | std::ios::trunc);
-    out << text;
-    out.flush();
-    if (!out) return make_error(ErrorCode::kIoError, "style '" + path + "': cannot write the file", path);
-  }
+  HORIZON_RETURN_IF_ERROR(write_temporary(file, path, text));
   return file.commit("style");
+}
+
+StagedTextFile::StagedTextFile() = default;
+StagedTextFile::StagedTextFile(StagedTextFile&&) noexcept = default;
+StagedTextFile& StagedTextFile::operator=(StagedTextFile&&) noexcept = default;
+StagedTextFile::~StagedTextFile() = default;  // AtomicFile removes an uncommitted temporary
+
+Result<StagedTextFile> StagedTextFile::stage(const std::string& path, const std::string& text) {
+  StagedTextFile staged;
+  staged.file_ = std::make_unique<detail::AtomicFile>(path);
+  HORIZON_RETURN_IF_ERROR(write_temporary(*staged.file_, path, text));
+  HORIZON_RETURN_IF_ERROR(staged.file_->flush("style"));
+  return staged;
+}
+
+Status StagedTextFile::commit() {
+  return file_->rename_into_place("style");
 }
 
 }  // namespace horizon::terrain

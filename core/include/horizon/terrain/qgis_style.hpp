@@ -14,6 +14,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
 
@@ -41,5 +42,27 @@ std::string qml_path_for(const std::string& raster_path);
 
 // Writes `text` at `path` atomically (temporary name + rename); errors name the path.
 Status write_text_file(const std::string& path, const std::string& text);
+
+namespace detail {
+class AtomicFile;
+}
+
+// write_text_file in two steps: stage() writes `text` under a temporary
+// name beside `path` and flushes it to disk; commit() renames it over
+// `path`. A staged file never committed is removed, and `path` is left as
+// it was. So a raster's style can be written while the raster is encoded
+// (the two flushes overlap) and put in place only once the raster is.
+class StagedTextFile {
+ public:
+  static Result<StagedTextFile> stage(const std::string& path, const std::string& text);
+  StagedTextFile(StagedTextFile&&) noexcept;
+  StagedTextFile& operator=(StagedTextFile&&) noexcept;
+  ~StagedTextFile();
+  Status commit();
+
+ private:
+  StagedTextFile();
+  std::unique_ptr<detail::AtomicFile> file_;
+};
 
 }  // namespace horizon::terrain
