@@ -13,8 +13,8 @@
 // 1.0-1.1 s instead of 0.35 s. Asked for only when /proc/buddyinfo showed
 // free 2 MiB blocks to spare, the median read and sweep got 20 % faster, but
 // on a VM whose kernel reports free memory to its host (virtio-balloon page
-// reporting) 7 of 25 runs still took 5-15 ms longer in the phase that
-// allocated. A viewshed must not stall like that, so they are not asked for.
+// reporting), of 25 runs 8 took 4-15 ms longer in the sweep and 5 in the
+// read, the phases that allocate. A viewshed must not stall like that, so they are not asked for.
 #pragma once
 
 #include <cstddef>
