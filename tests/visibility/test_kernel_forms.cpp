@@ -1,7 +1,8 @@
 // The whole radial sweep with its kernels capped at each instruction set
 // (scalar, AVX2, AVX-512: core/src/visibility/simd.hpp) on the real DEMs
-// bundled in data/dem, at summit, ridge, valley and edge observers: fast and
-// conservative must give the same OHF bits whichever form runs. The kernel
+// bundled in data/dem, at summit, ridge, valley and edge observers: fast,
+// conservative and exact (whose crossing screen has the forms too,
+// exact_screen.hpp) must give the same OHF bits whichever form runs. The kernel
 // tests (test_ray_steps.cpp, test_resample_cells.cpp) compare the forms loop
 // by loop; this compares what a user gets.
 #include <gtest/gtest.h>
@@ -43,7 +44,8 @@ TEST_P(KernelForms, EveryFormGivesTheSameOhf) {
   for (const auto& pick : accuracy::pick_observers(*dem)) {
     auto eye = accuracy::pick_eye(*dem, pick, 2.0);
     ASSERT_TRUE(eye.ok()) << eye.error().message;
-    for (const auto algorithm : {visibility::Algorithm::kRadial, visibility::Algorithm::kConservative}) {
+    for (const auto algorithm :
+         {visibility::Algorithm::kRadial, visibility::Algorithm::kConservative, visibility::Algorithm::kExact}) {
       const std::vector<float> scalar = ohf_with(*dem, *eye, algorithm, Isa::kScalar);
       ASSERT_FALSE(scalar.empty());
       for (const Isa isa : {Isa::kAvx2, Isa::kAvx512}) {

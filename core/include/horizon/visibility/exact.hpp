@@ -13,8 +13,11 @@
 //     it; its samples' slopes cannot exceed (zmax - eye) / d - curvature d
 //     over its distance range. A stretch whose bound is below the best slope
 //     known (the lower bound, then the samples found) is skipped whole;
-//     otherwise it is split 8 ways, down to stretches of 8 cells whose
-//     crossings are taken exactly as R3 takes them (crossings.hpp).
+//     otherwise it is split 8 ways, down to stretches of 64 cells (8 when
+//     deciding visibility only) whose crossings are screened with cheap
+//     vector arithmetic against the height the best slope needs there
+//     (exact_screen.hpp); the few that may reach it are taken exactly as
+//     R3 takes them (crossings.hpp).
 //
 //  3. Near the eye (out to 256 cells), for the whole OHF: bounds by distance
 //     ring and direction (polar_bounds.hpp). Every grid segment there, in
