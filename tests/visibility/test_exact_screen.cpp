@@ -79,8 +79,8 @@ std::vector<bool> screened(const Segment& s, double slope, bool scalar) {
   std::vector<bool> bits;
   for (int line = s.first; line <= s.last; line += 64) {
     const int count = std::min(64, s.last - line + 1);
-    const std::uint64_t mask = scalar ? screen_crossings_scalar(s.screen, line, count, slope)
-                                      : screen_crossings(s.screen, line, count, slope);
+    const std::uint64_t mask =
+        scalar ? screen_crossings_scalar(s.screen, line, count, slope) : screen_crossings(s.screen, line, count, slope);
     for (int i = 0; i < count; ++i) bits.push_back(((mask >> i) & 1) != 0);
   }
   return bits;
@@ -101,6 +101,20 @@ void for_random_segments(std::mt19937& rng, const terrain::HeightView& z, Check 
       ASSERT_EQ(slopes.size(), static_cast<std::size_t>(s.last - s.first + 1));
       check(s, slopes);
     }
+  }
+}
+
+// crossings.hpp's integer floor and ceiling, which every crossing's
+// position goes through, against std::floor / std::ceil.
+TEST(Crossings, IntegerFloorAndCeilingAreTheLibrarys) {
+  std::vector<double> xs = {0.0,      -0.0,      0.5, -0.5, 1.0,          -1.0,
+                            2.999999, -2.999999, 1e9, -1e9, 2147483646.5, -2147483647.5};
+  for (int k = -5000; k <= 5000; ++k)
+    for (const double x : {k / 8.0, k * 0.37})
+      xs.insert(xs.end(), {x, std::nextafter(x, -1e300), std::nextafter(x, 1e300)});
+  for (const double x : xs) {
+    EXPECT_EQ(floor_to_int(x), static_cast<int>(std::floor(x))) << x;
+    EXPECT_EQ(ceil_to_int(x), static_cast<int>(std::ceil(x))) << x;
   }
 }
 

@@ -76,7 +76,7 @@ struct SightLine {
 
   // Search [ta, tb] as stretches of about kTile[l] cells along the major axis.
   void split(int l, double ta, double tb) {
-    const int pieces = std::max(1, static_cast<int>(std::ceil((tb - ta) * major / kTile[l])));
+    const int pieces = std::max(1, detail::ceil_to_int((tb - ta) * major / kTile[l]));
     const double step = (tb - ta) / pieces;
     for (int i = pieces - 1; i >= 0 && !stop; --i) search(l, ta + i * step, i + 1 == pieces ? tb : ta + (i + 1) * step);
   }
@@ -160,10 +160,10 @@ struct SightLine {
     // or reads a void, is taken exactly as R3 takes it.
     constexpr double kHair = 1e-9;  // cells
     const double cs = col_at(ta), ce = col_at(tb), rs = row_at(ta), re = row_at(tb);
-    screen(detail::Axis::kColumns, static_cast<int>(std::ceil(std::min(cs, ce) - kHair)),
-           static_cast<int>(std::floor(std::max(cs, ce) + kHair)));
-    screen(detail::Axis::kRows, static_cast<int>(std::ceil(std::min(rs, re) - kHair)),
-           static_cast<int>(std::floor(std::max(rs, re) + kHair)));
+    screen(detail::Axis::kColumns, detail::ceil_to_int(std::min(cs, ce) - kHair),
+           detail::floor_to_int(std::max(cs, ce) + kHair));
+    screen(detail::Axis::kRows, detail::ceil_to_int(std::min(rs, re) - kHair),
+           detail::floor_to_int(std::max(rs, re) + kHair));
   }
 
   // The screen's view of this sight line's crossings with each family of
@@ -180,8 +180,8 @@ struct SightLine {
       const double b0 = columns ? r0 : c0, b1 = columns ? r1 : c1;
       const int line_count = columns ? z->width() : z->height(), pos_count = columns ? z->height() : z->width();
       // R3's crossings are the lines strictly between a0 and a1.
-      first_line[i] = std::max(static_cast<int>(std::floor(std::min(a0, a1))) + 1, 0);
-      last_line[i] = a0 == a1 ? -1 : std::min(static_cast<int>(std::ceil(std::max(a0, a1))) - 1, line_count - 1);
+      first_line[i] = std::max(detail::floor_to_int(std::min(a0, a1)) + 1, 0);
+      last_line[i] = a0 == a1 ? -1 : std::min(detail::ceil_to_int(std::max(a0, a1)) - 1, line_count - 1);
       // The crossing's two cells: (line, p0) and (line, p0 + 1) on a column
       // line, (p0, line) and (p0 + 1, line) on a row line.
       const std::ptrdiff_t stride = z->stride();

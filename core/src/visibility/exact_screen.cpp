@@ -58,9 +58,9 @@ HORIZON_AVX2 std::uint64_t screen_avx2(const CrossingScreen& s, int first, int c
     const __m256d pos = _mm256_min_pd(_mm256_max_pd(_mm256_add_pd(b0, _mm256_mul_pd(t, db)), zero), pos_max);
     const __m128i p0 = _mm_min_epi32(_mm256_cvttpd_epi32(pos), p_max);
     // (line + lane) * line_stride + p0 * pos_stride, in 64 bits: every factor fits 32.
-    const __m256i index = _mm256_add_epi64(
-        _mm256_mul_epi32(_mm256_add_epi64(_mm256_set1_epi64x(line), lane64), line_stride),
-        _mm256_mul_epi32(_mm256_cvtepi32_epi64(p0), pos_stride));
+    const __m256i index =
+        _mm256_add_epi64(_mm256_mul_epi32(_mm256_add_epi64(_mm256_set1_epi64x(line), lane64), line_stride),
+                         _mm256_mul_epi32(_mm256_cvtepi32_epi64(p0), pos_stride));
     const __m128 raw_a = _mm256_mask_i64gather_ps(_mm_setzero_ps(), s.cells, index, live, 4);
     const __m128 raw_b =
         _mm256_mask_i64gather_ps(_mm_setzero_ps(), s.cells, _mm256_add_epi64(index, pos_stride), live, 4);

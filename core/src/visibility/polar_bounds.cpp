@@ -165,7 +165,7 @@ PolarBounds::PolarBounds(const terrain::HeightView& z, const ViewFrame& f, doubl
 
 float PolarBounds::bound(int ring, double angle) const {
   const int n = bins_[ring];
-  const long i = static_cast<long>(std::floor(angle * n / 4));
+  const long i = static_cast<long>(angle * n / 4);  // angle >= 0: truncation is floor
   return bound_[ring][static_cast<std::size_t>(i & (n - 1))];
 }
 

@@ -175,12 +175,12 @@ SectorPlan plan_sector(const Sector& s, const SweepConstants& c, double ray_spac
 // crossing arithmetic (crossings.hpp): each candidate is R3's sample of the
 // cell's sight line on that grid line, bit for bit, so the maximum never
 // exceeds R3's horizon and the OHF made from it (by R3's formula) never
-// exceeds R3's. Returns the horizon slope per metre, -inf when no candidate.
-double resample_r3(const Sector& s, const SweepConstants& c, int line, int j, int n, int a0, int a1) {
+// exceeds R3's. `total` is the cell's distance (ViewFrame::distance).
+// Returns the horizon slope per metre, -inf when no candidate.
+double resample_r3(const Sector& s, const SweepConstants& c, int line, int j, int n, int a0, int a1, double total) {
   const ViewFrame& f = *c.frame;
   const int jd = j + s.v_offset;  // DEM index
   const double tc = s.rows ? jd : line, tr = s.rows ? line : jd;
-  const double total = f.distance(tc, tr);
   const detail::Axis u_axis = s.rows ? detail::Axis::kRows : detail::Axis::kColumns;
   const detail::Axis v_axis = s.rows ? detail::Axis::kColumns : detail::Axis::kRows;
   double best = -std::numeric_limits<double>::infinity();
@@ -452,9 +452,9 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
           if (c.precise) {
             // R3's own OHF formula on R3's samples (the lower bound): never above R3's value.
             const int* code = scratch.code.data();  // where each ray's horizon lies (step 1)
-            const double horizon = resample_r3(s, c, line, j, n, code[i0], code[i0 + 1]);
             const int jd = j + s.v_offset;
             const double d = c.frame->distance(s.rows ? jd : line, s.rows ? line : jd);
+            const double horizon = resample_r3(s, c, line, j, n, code[i0], code[i0 + 1], d);
             *out = horizon == -std::numeric_limits<double>::infinity()
                        ? -std::numeric_limits<float>::infinity()
                        : static_cast<float>(detail::r3_ohf_value(*c.frame, d, horizon));
