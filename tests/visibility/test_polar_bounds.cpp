@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "crossings.hpp"
@@ -111,6 +112,34 @@ TEST(PolarBounds, FollowsTheDirectionOfAPeak) {
     if (holds_peak) EXPECT_GT(polar.bound(k, east), 0.2f) << "ring " << k;  // 48 m up at about 200 m
     else EXPECT_LT(polar.bound(k, east), 0.0f) << "ring " << k;
   }
+}
+
+// beyond(k, a) lets a sight line stop at ring k: it must be at least the
+// bound of ring k and of every ring outside it in that direction. It reads
+// ring k's coarser directions, so it may be higher, but mostly it is that
+// highest bound exactly, and on the outermost ring it is the ring's own.
+TEST(PolarBounds, BeyondBoundsTheRingAndThoseOutsideIt) {
+  const auto dem = holey(91, 3);
+  auto frame = make_view_frame(dem, testing::eye_at(dem, 40.3, 45.2, 2.0), ViewshedOptions{});
+  ASSERT_TRUE(frame.ok()) << frame.error().message;
+  const PolarBounds polar(dem.elevation, *frame, 45 * frame->metres_per_col, 2);
+  ASSERT_GE(polar.rings(), 4);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> angle(0.0, 4.0);
+  int checked = 0, equal = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const double a = angle(rng);
+    const int last = polar.rings() - 1;
+    ASSERT_EQ(polar.beyond(last, a), polar.bound(last, a)) << "angle " << a;
+    for (int k = 0; k < last; ++k) {
+      float highest = -std::numeric_limits<float>::infinity();
+      for (int j = k; j <= last; ++j) highest = std::max(highest, polar.bound(j, a));
+      ASSERT_GE(polar.beyond(k, a), highest) << "angle " << a << ", ring " << k;
+      ++checked;
+      equal += polar.beyond(k, a) == highest;
+    }
+  }
+  EXPECT_GT(equal, checked / 2);
 }
 
 TEST(PolarBounds, PseudoAngleIsMonotoneAroundTheCircle) {

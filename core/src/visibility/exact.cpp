@@ -82,9 +82,10 @@ struct SightLine {
   }
 
   // The whole sight line: beyond the polar bounds' rings, then ring by ring
-  // inwards, skipping a ring whose bound in this direction is below the
-  // slope to beat (by a margin past the rounding of both slopes).
-  // Neighbouring rings that are not skipped are searched as one stretch.
+  // outwards from the eye, skipping a ring whose bound in this direction is
+  // below the slope to beat (by a margin past the rounding of both slopes),
+  // and stopping where no ring further out can beat it. Neighbouring rings
+  // that are not skipped are searched as one stretch.
   void search_all() {
     prepare_screens();
     if (polar == nullptr) {
@@ -92,26 +93,30 @@ struct SightLine {
       return;
     }
     const double angle = detail::PolarBounds::pseudo_angle(c1 - c0, r1 - r0);
-    double t_hi = 1.0;
+    double t_end = 1.0;  // where the rings end along this sight line
     const double t_out = polar->outer(polar->rings() - 1) / total;
     if (t_out < 1.0) {
       search_range(t_out, 1.0);
-      t_hi = t_out;
+      t_end = t_out;
     }
-    double run_hi = -1;  // the outer end of rings not skipped yet to search, or -1
-    for (int k = polar->rings() - 1; k >= 0 && !stop; --k) {
-      const double t_a = polar->inner(k) / total;
-      if (t_a >= t_hi) continue;
+    const auto skipped = [&](float bound) {
       const double T = std::max(floor_slope, best);
-      if (polar->bound(k, angle) < T - 1e-9 * (1.0 + std::abs(T))) {
-        if (run_hi >= 0) search_range(t_hi, run_hi);
-        run_hi = -1;
-      } else if (run_hi < 0) {
-        run_hi = t_hi;
+      return bound < T - 1e-9 * (1.0 + std::abs(T));
+    };
+    double t_lo = 0.0;    // ring k's inner end
+    double run_lo = -1;   // the inner end of the rings kept and not searched yet, or -1
+    for (int k = 0; k < polar->rings() && t_lo < t_end && !stop; ++k) {
+      if (skipped(polar->beyond(k, angle))) break;
+      const double t_hi = k + 1 == polar->rings() ? t_end : std::min(polar->inner(k + 1) / total, t_end);
+      if (skipped(polar->bound(k, angle))) {
+        if (run_lo >= 0) search_range(run_lo, t_lo);
+        run_lo = -1;
+      } else if (run_lo < 0) {
+        run_lo = t_lo;
       }
-      t_hi = t_a;
+      t_lo = t_hi;
     }
-    if (run_hi >= 0 && !stop) search_range(t_hi, run_hi);
+    if (run_lo >= 0 && !stop) search_range(run_lo, t_lo);
   }
 
   // The stretch t in [ta, tb], from the coarsest level shorter than it.

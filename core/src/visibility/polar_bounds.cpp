@@ -145,7 +145,10 @@ PolarBounds::PolarBounds(const terrain::HeightView& z, const ViewFrame& f, doubl
   const int c_hi = std::min(z.width() - 1, static_cast<int>(std::ceil(f.observer_col + r / f.metres_per_col)) + 1);
   const int r_lo = std::max(0, static_cast<int>(std::floor(f.observer_row - r / f.metres_per_row)) - 1);
   const int r_hi = std::min(z.height() - 1, static_cast<int>(std::ceil(f.observer_row + r / f.metres_per_row)) + 1);
-  if (c_lo > c_hi || r_lo > r_hi) return;
+  if (c_lo > c_hi || r_lo > r_hi) {
+    gather_beyond();
+    return;
+  }
   const int columns = c_hi - c_lo + 1, lines = columns + (r_hi - r_lo + 1);
   std::mutex merge;
   parallel_for(kTasks, threads, [&](std::size_t task) {
@@ -161,6 +164,25 @@ PolarBounds::PolarBounds(const terrain::HeightView& z, const ViewFrame& f, doubl
     for (std::size_t k = 0; k < bound_.size(); ++k)
       for (std::size_t i = 0; i < bound_[k].size(); ++i) bound_[k][i] = std::max(bound_[k][i], b.bound[k][i]);
   });
+  gather_beyond();
+}
+
+void PolarBounds::gather_beyond() {
+  // Outer rings have as many directions or more (powers of two): direction
+  // i of ring k covers directions [i r, (i + 1) r) of ring k + 1, r the ratio.
+  beyond_ = bound_;
+  for (int k = rings() - 2; k >= 0; --k) {
+    const int ratio = bins_[k + 1] / bins_[k];
+    for (int i = 0; i < bins_[k]; ++i)
+      for (int j = i * ratio; j < (i + 1) * ratio; ++j)
+        beyond_[k][i] = std::max(beyond_[k][i], beyond_[k + 1][j]);
+  }
+}
+
+float PolarBounds::beyond(int ring, double angle) const {
+  const int n = bins_[ring];
+  const long i = static_cast<long>(angle * n / 4);  // angle >= 0: truncation is floor
+  return beyond_[ring][static_cast<std::size_t>(i & (n - 1))];
 }
 
 float PolarBounds::bound(int ring, double angle) const {

@@ -45,14 +45,19 @@ class PolarBounds {
   // `ring` can have on a sight line in direction `angle` (pseudo_angle());
   // -inf when there is none (voids, or outside the DEM).
   float bound(int ring, double angle) const;
+  // The highest bound(k, angle) of `ring` and every ring outside it.
+  float beyond(int ring, double angle) const;
 
   // The pseudo-angle of grid offset (dx, dy) != (0, 0), in [0, 4).
   static double pseudo_angle(double dx, double dy);
 
  private:
+  void gather_beyond();  // beyond_ from bound_
+
   std::vector<double> outer_;              // per ring, metres
   std::vector<int> bins_;                  // per ring: directions, a power of two
   std::vector<std::vector<float>> bound_;  // per ring, per direction
+  std::vector<std::vector<float>> beyond_;  // per ring, per direction: the max of bound_ over it and outer rings
 };
 
 }  // namespace horizon::visibility::detail

@@ -23,10 +23,12 @@
 //     ring and direction (polar_bounds.hpp). Every grid segment there, in
 //     pieces, bounds the slope of any crossing on it; a ring's bound in one
 //     direction is the highest of the pieces that direction meets. A sight
-//     line skips a ring whose bound is below the best slope known. The
-//     pyramid's square tiles span wide angles near the eye, where every
-//     sight line passes; these follow the sight line (on the 12 M-cell
-//     Everest case they halve the crossings screened, 1.51 G to 0.69 G).
+//     line skips a ring whose bound is below the best slope known, and stops
+//     at the first ring beyond which none reaches it. The pyramid's square
+//     tiles span wide angles near the eye, where every sight line passes;
+//     these follow the sight line (on the 12 M-cell Everest case they cut
+//     the crossings screened from 2.28 G to 0.67 G, and the search from
+//     3.3 s to 2.0 s).
 //
 // The stretch holding R3's maximum is never skipped (its bounds, tile and
 // ring, are at least that maximum, which is at least the lower bound), so
