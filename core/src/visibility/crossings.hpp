@@ -14,6 +14,7 @@
 #include <cmath>
 #include <limits>
 
+#include "../common/int_floor.hpp"
 #include "horizon/terrain/grid.hpp"
 #include "horizon/terrain/height_view.hpp"
 #include "horizon/visibility/view_frame.hpp"
@@ -22,16 +23,8 @@ namespace horizon::visibility::detail {
 
 enum class Axis { kColumns, kRows };
 
-// std::floor(x) and std::ceil(x) as ints, for |x| < 2^31: the same values,
-// without the library call that baseline x86-64 (no SSE4.1 roundsd) makes.
-inline int floor_to_int(double x) {
-  const int i = static_cast<int>(x);
-  return i - (x < i);
-}
-inline int ceil_to_int(double x) {
-  const int i = static_cast<int>(x);
-  return i + (x > i);
-}  // crossings with column lines x = c, or with row lines y = r
+using ::horizon::ceil_to_int;
+using ::horizon::floor_to_int;
 
 // Visits, for one family of grid lines, the crossings strictly between the
 // segment's endpoints whose line index lies in [line_lo, line_hi]:

@@ -17,6 +17,7 @@
 #include <cmath>
 #include <vector>
 
+#include "../common/int_floor.hpp"
 #include "horizon/visibility/view_frame.hpp"
 
 namespace horizon::visibility::sweep {
@@ -152,7 +153,7 @@ inline double ray_coordinate(int j, double eye_v, double inv_k, int half) {
 }
 
 inline int lower_ray(double rho, int half) {
-  return std::clamp(static_cast<int>(std::floor(rho)), -half, half - 1);
+  return std::clamp(floor_to_int(rho), -half, half - 1);
 }
 
 }  // namespace horizon::visibility::sweep
