@@ -38,7 +38,8 @@
 // Rays are kept as structures of arrays, marched by tasks of kRaysPerTask
 // neighbouring rays line by line; the per-line loops over a task's rays and
 // over a line's cells are kernels with scalar, AVX2 and AVX-512 forms that
-// give the same bits (ray_steps.hpp, resample_cells.hpp, simd.hpp).
+// give the same bits (ray_steps.hpp, resample_cells.hpp, resample_r3.hpp,
+// simd.hpp).
 #include "horizon/visibility/radial_sweep.hpp"
 
 #include <algorithm>
@@ -50,10 +51,10 @@
 #include <string>
 #include <vector>
 
-#include "crossings.hpp"
 #include "horizon/common/parallel.hpp"
 #include "ray_steps.hpp"
 #include "resample_cells.hpp"
+#include "resample_r3.hpp"
 #include "sweep_geometry.hpp"
 #include "sweep_samples.hpp"
 
@@ -171,38 +172,6 @@ SectorPlan plan_sector(const Sector& s, const SweepConstants& c, double ray_spac
   return p;
 }
 
-// The same re-sampling for RadialBound::kLowerBound, through R3's own
-// crossing arithmetic (crossings.hpp): each candidate is R3's sample of the
-// cell's sight line on that grid line, bit for bit, so the maximum never
-// exceeds R3's horizon and the OHF made from it (by R3's formula) never
-// exceeds R3's. `total` is the cell's distance (ViewFrame::distance).
-// Returns the horizon slope per metre, -inf when no candidate.
-double resample_r3(const Sector& s, const SweepConstants& c, int line, int j, int n, int a0, int a1, double total) {
-  const ViewFrame& f = *c.frame;
-  const int jd = j + s.v_offset;  // DEM index
-  const double tc = s.rows ? jd : line, tr = s.rows ? line : jd;
-  const detail::Axis u_axis = s.rows ? detail::Axis::kRows : detail::Axis::kColumns;
-  const detail::Axis v_axis = s.rows ? detail::Axis::kColumns : detail::Axis::kRows;
-  double best = -std::numeric_limits<double>::infinity();
-  auto take = [&](double t, double, double, double terrain) {
-    const double slope = detail::r3_slope(f, total, t, terrain);
-    if (slope > best) best = slope;  // NaN (void) never wins
-  };
-  auto sample = [&](detail::Axis axis, int index) {
-    detail::for_each_crossing_on(axis, *c.grid, f.observer_col, f.observer_row, tc, tr, index, index, take);
-  };
-  auto sample_code = [&](int where) {
-    if (where >= 0)
-      sample(u_axis, s.line0 + s.dir * where);
-    else if (where <= -2)
-      sample(v_axis, -2 - where + s.v_offset);  // codes carry window-based v
-  };
-  if (n > 0) sample(u_axis, s.line0 + s.dir * (n - 1));
-  if (a0 != n - 1) sample_code(a0);
-  if (a1 != a0 && a1 != n - 1) sample_code(a1);
-  return best;
-}
-
 // Per-task scratch: one entry per ray of the task.
 struct RayScratch {
   std::vector<float> horizon;      // running max slope up to the last line marched
@@ -308,8 +277,9 @@ void prefetch_ahead(const Sector& s, int n, float slope_lo, float slope_hi) {
 // Marches rays [ra, rb] (inclusive, plan indices) of one sector through every
 // line and writes the cells whose bracketing pair (r, r + 1) has r in [ra, rb).
 // Adds the ray steps taken and the cells answered to `steps` / `evaluated`.
-// The per-ray and per-cell loops are in ray_steps.cpp and resample_cells.cpp
-// (each with an AVX2 kernel).
+// The per-ray and per-cell loops are in ray_steps.cpp, resample_cells.cpp and
+// (RadialBound::kLowerBound) resample_r3.cpp, each with AVX2 and AVX-512
+// kernels.
 void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, int ra, int rb, RayScratch& scratch,
                 const RunControl* control, std::atomic<bool>& stop, std::uint64_t& steps, std::uint64_t& evaluated) {
   int level = task_level(p, 0, ra, rb);
@@ -438,6 +408,42 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
         const sweep::ResampleLine rl{&cl, code,  n,           ra,  level,      p.rays.half, s.eye_v,  inv_k,
                                      k,   c.eye, c.curvature, du2, s.metres_v, cur,         out_line, s.o_v};
         if (j_begin <= j_end) evaluated += sweep::resample_cells(rl, j_begin, j_end);
+      } else if (c.precise) {
+        // R3's own samples and OHF formula (the lower bound, resample_r3.hpp):
+        // never above R3's value. The cells go to the kernel in batches.
+        const int* code = scratch.code.data();  // where each ray's horizon lies (step 1)
+        const sweep::R3CellLine r3_line{c.grid, c.frame, s.rows, line, n > 0 ? s.line0 + s.dir * (n - 1) : -1};
+        const auto on = [&](int where) -> sweep::R3Line {
+          if (where >= 0) return {s.line0 + s.dir * where, true};  // a u line, by step
+          if (where <= -2) return {-2 - where + s.v_offset, false};  // a v line (codes carry window-based v)
+          return {};
+        };
+        constexpr int kBatch = 64;
+        int cell_j[kBatch], cell_v[kBatch];
+        double total[kBatch];
+        sweep::R3Line first[kBatch], second[kBatch];
+        float value[kBatch];
+        int batch = 0;
+        const auto flush = [&] {
+          sweep::resample_r3_cells(r3_line, batch, cell_v, total, first, second, value);
+          for (int i = 0; i < batch; ++i) out_line[cell_j[i] * s.o_v] = value[i];
+          batch = 0;
+        };
+        for (int j = j_begin; j <= j_end; ++j) {
+          if (std::isnan(sweep::fill_void(cur[j * zv], s.fill))) continue;  // void target: no answer (stays NaN)
+          ++evaluated;
+          const int r = sweep::lower_ray(sweep::ray_coordinate(j, s.eye_v, inv_k, p.rays.half), p.rays.half);
+          const int i0 = (r - ra) >> level;  // the bracketing rays are i0 and i0 + 1
+          const int a0 = code[i0], a1 = code[i0 + 1];
+          const int jd = j + s.v_offset;  // DEM index
+          cell_j[batch] = j;
+          cell_v[batch] = jd;
+          total[batch] = c.frame->distance(s.rows ? jd : line, s.rows ? line : jd);
+          first[batch] = a0 != n - 1 ? on(a0) : sweep::R3Line{};
+          second[batch] = a1 != a0 && a1 != n - 1 ? on(a1) : sweep::R3Line{};
+          if (++batch == kBatch) flush();
+        }
+        if (batch > 0) flush();
       } else {
         for (int j = j_begin; j <= j_end; ++j) {
           const double rho = sweep::ray_coordinate(j, s.eye_v, inv_k, p.rays.half);
@@ -449,17 +455,6 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
           ++evaluated;
           const int i0 = (r - ra) >> level;  // the bracketing rays are i0 and i0 + 1
           float* out = out_line + j * s.o_v;
-          if (c.precise) {
-            // R3's own OHF formula on R3's samples (the lower bound): never above R3's value.
-            const int* code = scratch.code.data();  // where each ray's horizon lies (step 1)
-            const int jd = j + s.v_offset;
-            const double d = c.frame->distance(s.rows ? jd : line, s.rows ? line : jd);
-            const double horizon = resample_r3(s, c, line, j, n, code[i0], code[i0 + 1], d);
-            *out = horizon == -std::numeric_limits<double>::infinity()
-                       ? -std::numeric_limits<float>::infinity()
-                       : static_cast<float>(detail::r3_ohf_value(*c.frame, d, horizon));
-            continue;
-          }
           // The value-only blends (kLinear, kMin) of the two rays' horizons.
           float h0 = h[i0], h1 = h[i0 + 1];
           if (cross_v[i0] != j && cross_slope[i0] > h0) h0 = cross_slope[i0];
