@@ -24,8 +24,11 @@ constexpr double kSweepSecondsPerRayStep = 7e-9;
 // A ray's table entry (slope, inverse, curvature: sweep_geometry.hpp's
 // RayTable) and its share of the per-task scratch (radial_sweep.cpp).
 constexpr std::uint64_t kSweepBytesPerRay = 12 + 32;
-constexpr double kConservativeSecondsPerCell = 140e-9;
-constexpr double kExactSecondsPerCell = 0.5e-6;  // R3's whole OHF: 0.37 us measured on the 12 M-cell case
+// Conservative's re-sampling on top of the sweep: 19 ns (AVX-512 kernels)
+// and 31 ns (AVX2) measured; exact's search, R3's whole OHF: 0.32 us and
+// 0.37 us. Scalar-only CPUs take several times longer.
+constexpr double kConservativeSecondsPerCell = 40e-9;
+constexpr double kExactSecondsPerCell = 0.5e-6;
 constexpr double kR3SecondsPerCellPerCrossing = 12e-9;  // R3 walks ~ the distance in cells per target
 constexpr double kLineSecondsPerCrossing = 20e-9;
 
