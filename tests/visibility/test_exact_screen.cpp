@@ -31,8 +31,8 @@ std::vector<float> rough_terrain(std::mt19937& rng) {
   return z;
 }
 
-// A sight line from a fractional eye to a cell centre, as exact.cpp sets up
-// its screen for one family of lines.
+// A sight line from a fractional eye to a cell centre, and its screen for
+// one family of lines (screen_family, as exact.cpp sets it up).
 struct Segment {
   double c0, r0, c1, r1, total;
   int first, last;  // the family's lines strictly between the ends, inside the grid
@@ -40,26 +40,12 @@ struct Segment {
 };
 
 Segment segment(const terrain::HeightView& z, Axis axis, double c0, double r0, int c1, int r1) {
-  const bool columns = axis == Axis::kColumns;
   Segment s{c0, r0, double(c1), double(r1), 0, 0, 0, {}};
   s.total = std::hypot((c1 - c0) * kMetresPerCol, (r1 - r0) * kMetresPerRow);
-  const double a0 = columns ? c0 : r0, a1 = columns ? c1 : r1, b0 = columns ? r0 : c0, b1 = columns ? r1 : c1;
-  const int line_count = columns ? kWidth : kHeight, pos_count = columns ? kHeight : kWidth;
-  s.first = std::max(static_cast<int>(std::floor(std::min(a0, a1))) + 1, 0);
-  s.last = a0 == a1 ? -1 : std::min(static_cast<int>(std::ceil(std::max(a0, a1))) - 1, line_count - 1);
-  s.screen = {.cells = z.data(),
-              .line_stride = columns ? 1 : z.stride(),
-              .pos_stride = columns ? z.stride() : 1,
-              .a0 = a0,
-              .inv_da = 1.0 / (a1 - a0),
-              .b0 = b0,
-              .db = b1 - b0,
-              .pos_max = double(pos_count - 1),
-              .p_max = pos_count - 2,
-              .fill = z.void_fill(),
-              .total = s.total,
-              .eye = kEye,
-              .curvature = kCurvature};
+  const ScreenedFamily family = screen_family(z, axis, c0, r0, c1, r1, s.total, kEye, kCurvature);
+  s.first = family.first;
+  s.last = family.last;
+  s.screen = family.screen;
   return s;
 }
 

@@ -172,44 +172,19 @@ struct SightLine {
   }
 
   // The screen's view of this sight line's crossings with each family of
-  // grid lines (index 0: column lines, 1: row lines), and the lines it
-  // crosses, [first_line, last_line] (empty when first > last).
-  std::array<detail::CrossingScreen, 2> families{};
-  std::array<int, 2> first_line{}, last_line{};
+  // grid lines (index 0: column lines, 1: row lines).
+  std::array<detail::ScreenedFamily, 2> families{};
 
   void prepare_screens() {
-    for (const detail::Axis axis : {detail::Axis::kColumns, detail::Axis::kRows}) {
-      const bool columns = axis == detail::Axis::kColumns;
-      const int i = columns ? 0 : 1;
-      const double a0 = columns ? c0 : r0, a1 = columns ? c1 : r1;
-      const double b0 = columns ? r0 : c0, b1 = columns ? r1 : c1;
-      const int line_count = columns ? z->width() : z->height(), pos_count = columns ? z->height() : z->width();
-      // R3's crossings are the lines strictly between a0 and a1.
-      first_line[i] = std::max(detail::floor_to_int(std::min(a0, a1)) + 1, 0);
-      last_line[i] = a0 == a1 ? -1 : std::min(detail::ceil_to_int(std::max(a0, a1)) - 1, line_count - 1);
-      // The crossing's two cells: (line, p0) and (line, p0 + 1) on a column
-      // line, (p0, line) and (p0 + 1, line) on a row line.
-      const std::ptrdiff_t stride = z->stride();
-      families[i] = {.cells = z->data(),
-                     .line_stride = columns ? 1 : stride,
-                     .pos_stride = columns ? stride : 1,
-                     .a0 = a0,
-                     .inv_da = 1.0 / (a1 - a0),
-                     .b0 = b0,
-                     .db = b1 - b0,
-                     .pos_max = double(pos_count - 1),
-                     .p_max = pos_count - 2,
-                     .fill = z->void_fill(),
-                     .total = total,
-                     .eye = f->eye,
-                     .curvature = f->curvature};
-    }
+    for (const detail::Axis axis : {detail::Axis::kColumns, detail::Axis::kRows})
+      families[axis == detail::Axis::kColumns ? 0 : 1] =
+          detail::screen_family(*z, axis, c0, r0, c1, r1, total, f->eye, f->curvature);
   }
 
   // Screens the crossings with lines [line_lo, line_hi] of one family.
   void screen(detail::Axis axis, int line_lo, int line_hi) {
     const int i = axis == detail::Axis::kColumns ? 0 : 1;
-    const int first = std::max(line_lo, first_line[i]), last = std::min(line_hi, last_line[i]);
+    const int first = std::max(line_lo, families[i].first), last = std::min(line_hi, families[i].last);
     if (first > last) return;
     samples += static_cast<std::uint64_t>(last - first + 1);
     auto exact = [&](double t, double, double, double terrain) {
@@ -222,7 +197,7 @@ struct SightLine {
     // stood when the batch began (a lower one only lets more through).
     for (int line = first; line <= last; line += 64) {
       std::uint64_t hits =
-          detail::screen_crossings(families[i], line, std::min(64, last - line + 1), std::max(floor_slope, best));
+          detail::screen_crossings(families[i].screen, line, std::min(64, last - line + 1), std::max(floor_slope, best));
       for (; hits != 0; hits &= hits - 1) {
         const int hit = line + std::countr_zero(hits);
         detail::for_each_crossing_on(axis, *z, c0, r0, c1, r1, hit, hit, exact);

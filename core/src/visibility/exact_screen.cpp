@@ -14,6 +14,34 @@ constexpr double kMargin = 1e-6;  // relative: outweighs the rounding of the scr
 
 }  // namespace
 
+ScreenedFamily screen_family(const terrain::HeightView& z, Axis axis, double c0, double r0, double c1, double r1,
+                             double total, double eye, double curvature) {
+  const bool columns = axis == Axis::kColumns;
+  const double a0 = columns ? c0 : r0, a1 = columns ? c1 : r1;
+  const double b0 = columns ? r0 : c0, b1 = columns ? r1 : c1;
+  const int line_count = columns ? z.width() : z.height(), pos_count = columns ? z.height() : z.width();
+  ScreenedFamily family;
+  // R3's crossings are the lines strictly between a0 and a1.
+  family.first = std::max(floor_to_int(std::min(a0, a1)) + 1, 0);
+  family.last = a0 == a1 ? -1 : std::min(ceil_to_int(std::max(a0, a1)) - 1, line_count - 1);
+  // The crossing's two cells: (line, p0) and (line, p0 + 1) on a column
+  // line, (p0, line) and (p0 + 1, line) on a row line.
+  family.screen = {.cells = z.data(),
+                   .line_stride = columns ? 1 : z.stride(),
+                   .pos_stride = columns ? z.stride() : 1,
+                   .a0 = a0,
+                   .inv_da = 1.0 / (a1 - a0),
+                   .b0 = b0,
+                   .db = b1 - b0,
+                   .pos_max = double(pos_count - 1),
+                   .p_max = pos_count - 2,
+                   .fill = z.void_fill(),
+                   .total = total,
+                   .eye = eye,
+                   .curvature = curvature};
+  return family;
+}
+
 std::uint64_t screen_crossings_scalar(const CrossingScreen& s, int first, int count, double slope) {
   std::uint64_t hits = 0;
   for (int i = 0; i < count; ++i) {

@@ -22,6 +22,9 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "crossings.hpp"
+#include "horizon/terrain/height_view.hpp"
+
 namespace horizon::visibility::detail {
 
 // One sight line's crossings with the lines of one family (column lines or
@@ -43,6 +46,17 @@ struct CrossingScreen {
   double eye = 0;             // the eye's height, metres
   double curvature = 0;       // curvature per metre^2 (ViewFrame::curvature)
 };
+
+// The screen of segment (c0, r0) -> (c1, r1)'s crossings with one family
+// of `z`'s grid lines, the segment `total` metres long from an eye at
+// `eye` metres with `curvature`; [first, last] are the lines it crosses
+// strictly between its ends inside the grid (none when first > last).
+struct ScreenedFamily {
+  CrossingScreen screen;
+  int first = 0, last = -1;
+};
+ScreenedFamily screen_family(const terrain::HeightView& z, Axis axis, double c0, double r0, double c1, double r1,
+                             double total, double eye, double curvature);
 
 // Which of the `count` lines first, first + 1, ... (count in [1, 64]; every
 // line and its cells inside the grid) may hold a crossing whose slope beats
