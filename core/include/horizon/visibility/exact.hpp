@@ -23,8 +23,9 @@
 //     ring and direction (polar_bounds.hpp). Every grid segment there, in
 //     pieces, bounds the slope of any crossing on it; a ring's bound in one
 //     direction is the highest of the pieces that direction meets. A sight
-//     line skips a ring whose bound is below the best slope known, and stops
-//     at the first ring beyond which none reaches it. The pyramid's square
+//     line skips a ring whose bound is below the best slope known, screens
+//     the rings it keeps without the pyramid, and stops at the first ring
+//     beyond which none reaches it. The pyramid's square
 //     tiles span wide angles near the eye, where every sight line passes;
 //     these follow the sight line (on the 12 M-cell Everest case they cut
 //     the crossings screened from 2.28 G to 0.67 G, and the search from
