@@ -25,11 +25,10 @@
 //     direction is the highest of the pieces that direction meets. A sight
 //     line skips a ring whose bound is below the best slope known, screens
 //     the rings it keeps without the pyramid, and stops at the first ring
-//     beyond which none reaches it. The pyramid's square
-//     tiles span wide angles near the eye, where every sight line passes;
-//     these follow the sight line (on the 12 M-cell Everest case they cut
-//     the crossings screened from 2.28 G to 0.67 G, and the search from
-//     3.3 s to 2.0 s).
+//     beyond which none reaches it. The pyramid's square tiles span wide
+//     angles near the eye, where every sight line passes; these follow the
+//     sight line (on the 12 M-cell Everest case they cut the crossings
+//     screened from 2.28 G to 0.68 G, and the compute from 3.1 s to 1.7 s).
 //
 // The stretch holding R3's maximum is never skipped (its bounds, tile and
 // ring, are at least that maximum, which is at least the lower bound), so
