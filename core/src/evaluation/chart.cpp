@@ -21,6 +21,7 @@
 
 #include "horizon/evaluation/bench.hpp"
 #include "horizon/imageio/imageio.hpp"
+#include "label_placement.hpp"
 
 namespace horizon::evaluation {
 namespace {
@@ -189,16 +190,21 @@ Status write_chart(const std::string& path, const std::vector<Aggregate>& group,
     if (a.on_front && words.pareto_front) cv.box(x - 6, y - 6, x + 6, y + 6, black, false);
     if (a.is_default) cv.box(x - 9, y - 9, x + 9, y + 9, c, false);
   }
-  // Front points named (the setting, or the peer), right of the point.
-  int label_index = 0;
+  // Front points named (the setting, or the peer), right of the point:
+  // above it, or below, or further out, wherever the name meets no name
+  // placed before it (front points can sit a few pixels apart).
+  std::vector<std::string> names;
+  std::vector<LabelBox> boxes;
   for (const Aggregate* a : front) {
-    // Alternately above and below the point, so neighbours on the front do not overprint.
-    const int dy = label_index++ % 2 ? 6 : -16;
-    const std::string name = a->is_peer || a->setting == "default" || a->setting == "reference"
-                                 ? a->algorithm
-                                 : a->algorithm + " " + a->setting;
-    cv.text(x_of(a->seconds) + 12, y_of(a->error()) + dy, name, 11, 0, {0.25f, 0.25f, 0.25f});
+    names.push_back(a->is_peer || a->setting == "default" || a->setting == "reference"
+                        ? a->algorithm
+                        : a->algorithm + " " + a->setting);
+    const int width = imageio::text_width(names.back(), 11, kFont).value_or(7 * static_cast<int>(names.back().size()));
+    boxes.push_back({x_of(a->seconds) + 12, y_of(a->error()), width, 13});
   }
+  const std::vector<int> dy = place_labels(boxes, {-16, 6, -30, 20, -44, 34, -58, 48});
+  for (std::size_t i = 0; i < names.size(); ++i)
+    cv.text(boxes[i].x, boxes[i].y + dy[i], names[i], 11, 0, {0.25f, 0.25f, 0.25f});
 
   // Legend.
   int ly = py0 + 6;
