@@ -13,25 +13,36 @@ struct LabelBox {
 };
 
 // For each name in order, the first of `offsets` (added to its y) whose box
-// meets none of the boxes placed before it; the first offset when every one
-// does. Returns the chosen offset of each name.
-inline std::vector<int> place_labels(const std::vector<LabelBox>& names, const std::vector<int>& offsets) {
+// meets neither a name placed before it nor an obstacle (the chart's
+// points); failing that, the first that meets no name; failing that, the
+// first offset. Returns the chosen offset of each name.
+inline std::vector<int> place_labels(const std::vector<LabelBox>& names, const std::vector<int>& offsets,
+                                     const std::vector<LabelBox>& obstacles = {}) {
+  const auto meets = [](const LabelBox& a, int dy, const LabelBox& b) {
+    return a.x < b.x + b.width && b.x < a.x + a.width && a.y + dy < b.y + b.height && b.y < a.y + dy + a.height;
+  };
+  const auto meets_any = [&](const LabelBox& a, int dy, const std::vector<LabelBox>& boxes) {
+    for (const LabelBox& b : boxes)
+      if (meets(a, dy, b)) return true;
+    return false;
+  };
   std::vector<LabelBox> placed;
   std::vector<int> chosen;
   for (const LabelBox& name : names) {
-    const auto meets = [&](int dy) {
-      for (const LabelBox& p : placed)
-        if (name.x < p.x + p.width && p.x < name.x + name.width && name.y + dy < p.y + p.height &&
-            p.y < name.y + dy + name.height)
-          return true;
-      return false;
-    };
     int dy = offsets.empty() ? 0 : offsets.front();
+    bool found = false;
     for (const int candidate : offsets)
-      if (!meets(candidate)) {
+      if (!meets_any(name, candidate, placed) && !meets_any(name, candidate, obstacles)) {
         dy = candidate;
+        found = true;
         break;
       }
+    if (!found)
+      for (const int candidate : offsets)
+        if (!meets_any(name, candidate, placed)) {
+          dy = candidate;
+          break;
+        }
     chosen.push_back(dy);
     placed.push_back({name.x, name.y + dy, name.width, name.height});
   }
