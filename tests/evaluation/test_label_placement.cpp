@@ -1,7 +1,7 @@
 // The charts' name placement (core/src/evaluation/label_placement.hpp): names
 // of points a few pixels apart must not overprint, a lone name keeps the
-// first offset, a name steps aside from a point when it can, and when
-// nothing fits the first offset is used.
+// first offset, a name moves to its point's other side to clear another
+// point, and when nothing fits the first offset is used.
 #include <gtest/gtest.h>
 
 #include <vector>
@@ -47,13 +47,14 @@ TEST(LabelPlacement, NamesOnOnePointStackAndFallBackWhenNothingFits) {
     for (int j = i + 1; j < 8; ++j) EXPECT_FALSE(overlap(same[i], dy[i], same[j], dy[j])) << i << " and " << j;
 }
 
-TEST(LabelPlacement, NamesAvoidPointsWhenTheyCanButNeverOtherNames) {
+TEST(LabelPlacement, NamesStepAsideFromPointsOnlyToTheOtherSide) {
   // A point right above the name's first place: it goes below instead.
   const LabelBox name{100, 200, 120, 13};
-  EXPECT_EQ(place_labels({name}, kOffsets, {{150, 180, 19, 19}}), (std::vector<int>{6}));
-  // Points everywhere: the name still takes the first place free of names.
-  const std::vector<LabelBox> wall = {{90, 100, 200, 200}};
-  const std::vector<int> dy = place_labels({name, name}, kOffsets, wall);
+  EXPECT_EQ(place_labels({name}, kOffsets, {{150, 180, 11, 11}}), (std::vector<int>{6}));
+  // Points above and below: the name stays above its point rather than
+  // wander off; a second name still never overprints the first.
+  const std::vector<LabelBox> points = {{150, 180, 11, 11}, {150, 208, 11, 11}};
+  const std::vector<int> dy = place_labels({name, name}, kOffsets, points);
   EXPECT_EQ(dy[0], -16);
   EXPECT_EQ(dy[1], 6);
 }

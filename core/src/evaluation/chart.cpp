@@ -191,8 +191,8 @@ Status write_chart(const std::string& path, const std::vector<Aggregate>& group,
     if (a.is_default) cv.box(x - 9, y - 9, x + 9, y + 9, c, false);
   }
   // Front points named (the setting, or the peer), right of the point:
-  // above it, or below, or further out, wherever the name meets no name
-  // placed before it and, if it can, no point (front points can sit a few
+  // above it or below, whichever meets no other name and no point, or
+  // further out where names would overprint (front points can sit a few
   // pixels apart, and other series' points beside them).
   std::vector<std::string> names;
   std::vector<LabelBox> boxes;
@@ -204,7 +204,7 @@ Status write_chart(const std::string& path, const std::vector<Aggregate>& group,
     boxes.push_back({x_of(a->seconds) + 12, y_of(a->error()), width, 13});
   }
   std::vector<LabelBox> points;
-  for (const Aggregate& a : group) points.push_back({x_of(a.seconds) - 9, y_of(a.error()) - 9, 19, 19});
+  for (const Aggregate& a : group) points.push_back({x_of(a.seconds) - 5, y_of(a.error()) - 5, 11, 11});
   const std::vector<int> dy = place_labels(boxes, {-16, 6, -30, 20, -44, 34, -58, 48}, points);
   for (std::size_t i = 0; i < names.size(); ++i)
     cv.text(boxes[i].x, boxes[i].y + dy[i], names[i], 11, 0, {0.25f, 0.25f, 0.25f});

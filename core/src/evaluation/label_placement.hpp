@@ -12,10 +12,12 @@ struct LabelBox {
   int x = 0, y = 0, width = 0, height = 0;
 };
 
-// For each name in order, the first of `offsets` (added to its y) whose box
-// meets neither a name placed before it nor an obstacle (the chart's
-// points); failing that, the first that meets no name; failing that, the
-// first offset. Returns the chosen offset of each name.
+// For each name in order: the first of the first two `offsets` (added to
+// its y: just above or below its point) whose box meets neither a name
+// placed before it nor an obstacle (the chart's points); failing that, the
+// first of all `offsets` that meets no name (further out only to keep names
+// apart, never to dodge a point, so that a name stays by its point);
+// failing that, the first offset. Returns the chosen offset of each name.
 inline std::vector<int> place_labels(const std::vector<LabelBox>& names, const std::vector<int>& offsets,
                                      const std::vector<LabelBox>& obstacles = {}) {
   const auto meets = [](const LabelBox& a, int dy, const LabelBox& b) {
@@ -31,9 +33,9 @@ inline std::vector<int> place_labels(const std::vector<LabelBox>& names, const s
   for (const LabelBox& name : names) {
     int dy = offsets.empty() ? 0 : offsets.front();
     bool found = false;
-    for (const int candidate : offsets)
-      if (!meets_any(name, candidate, placed) && !meets_any(name, candidate, obstacles)) {
-        dy = candidate;
+    for (std::size_t i = 0; i < offsets.size() && i < 2; ++i)
+      if (!meets_any(name, offsets[i], placed) && !meets_any(name, offsets[i], obstacles)) {
+        dy = offsets[i];
         found = true;
         break;
       }
