@@ -201,11 +201,10 @@ int run_region(const Args& args) {
   const terrain::Window& w = res->window;
   terrain::Georeference georef = dem->georef;
   georef.transform = georef.transform.shifted(w.col0, w.row0);
-  if (auto s =
-          terrain::write_geotiff(*out, res->codes, georef, double{region::kNoAnswer}, visibility::code_colour_table());
-      !s.ok())
-    return report_error(s.error());
-  if (auto s = terrain::write_text_file(terrain::qml_path_for(*out), visibility::region_style()); !s.ok())
+  const auto write_codes = [&] {
+    return terrain::write_geotiff(*out, res->codes, georef, double{region::kNoAnswer}, visibility::code_colour_table());
+  };
+  if (auto s = terrain::write_with_style(*out, visibility::region_style(), write_codes); !s.ok())
     return report_error(s.error());
   double preview_seconds = 0.0;
   if (png) {

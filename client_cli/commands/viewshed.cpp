@@ -2,7 +2,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <future>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -210,30 +209,15 @@ double seconds_since(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
 }
 
-// The raster written by `write_raster` and, beside it, its QGIS style
-// (OUT.qml): the style is written and flushed on a thread of its own while
-// the raster is encoded (the two flushes to disk overlap), and renamed into
-// place only once the raster is; if the raster fails, the old style stays.
-template <class WriteRaster>
-Status write_with_style(const std::string& style_path, const std::string& style, WriteRaster&& write_raster) {
-  auto staged = std::async(std::launch::async, [&] { return terrain::StagedTextFile::stage(style_path, style); });
-  const Status raster = write_raster();
-  auto style_file = staged.get();
-  HORIZON_RETURN_IF_ERROR(raster);
-  if (!style_file.ok()) return style_file.error();
-  return style_file->commit();
-}
-
 // The raster asked for, written atomically by the engine's writer, and its
-// QGIS style beside it: codes with the previews' colour table in the file,
-// or a ramp over the values written. `mask` is the result in the default
-// codes (visibility_mask), written as it is when those are the codes asked
-// for.
+// QGIS style beside it (terrain::write_with_style): codes with the
+// previews' colour table in the file, or a ramp over the values written.
+// `mask` is the result in the default codes (visibility_mask), written as
+// it is when those are the codes asked for.
 Status write_output(const Request& r, const terrain::Dem& dem, const visibility::ViewshedRun& run,
                     const terrain::Grid<std::uint8_t>& mask, Phases& phases) {
   const visibility::ViewshedResult& result = run.result;
   const terrain::Georeference& georef = run.georef;
-  const std::string style_path = terrain::qml_path_for(r.out_path);
   const RasterFlags& raster = r.raster;
   auto at = std::chrono::steady_clock::now();
   if (visibility::is_code_raster(raster.output)) {
@@ -244,7 +228,7 @@ Status write_output(const Request& r, const terrain::Dem& dem, const visibility:
     const terrain::Grid<std::uint8_t>& values = recoded ? *recoded : mask;
     phases.mask += seconds_since(at);
     at = std::chrono::steady_clock::now();
-    HORIZON_RETURN_IF_ERROR(write_with_style(style_path, visibility::visibility_style(codes), [&] {
+    HORIZON_RETURN_IF_ERROR(terrain::write_with_style(r.out_path, visibility::visibility_style(codes), [&] {
       return terrain::write_geotiff(r.out_path, values, georef, static_cast<double>(codes.nodata),
                                     visibility::code_colour_table(codes), r.geotiff.options);
     }));
@@ -255,9 +239,9 @@ Status write_output(const Request& r, const terrain::Dem& dem, const visibility:
   phases.mask += seconds_since(at);
   at = std::chrono::steady_clock::now();
   const std::optional<double> nodata = raster.output_nodata ? raster.output_nodata : dem.nodata;
-  HORIZON_RETURN_IF_ERROR(
-      write_with_style(style_path, visibility::viewshed_style(visibility::preview_raster(raster.output), values),
-                       [&] { return terrain::write_geotiff(r.out_path, values, georef, nodata, r.geotiff.options); }));
+  HORIZON_RETURN_IF_ERROR(terrain::write_with_style(
+      r.out_path, visibility::viewshed_style(visibility::preview_raster(raster.output), values),
+      [&] { return terrain::write_geotiff(r.out_path, values, georef, nodata, r.geotiff.options); }));
   phases.encode = seconds_since(at);
   return Status::Ok();
 }

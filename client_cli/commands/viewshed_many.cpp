@@ -227,17 +227,15 @@ int run_many_observers(const Args& args) {
   std::uint32_t max_count = 0;
   for (std::uint32_t c : res->count.values()) max_count = std::max(max_count, c);
   const terrain::GeoTiffOptions& layout = r.geotiff.options;
-  Status written = r.accumulate == "count"
-                       ? terrain::write_geotiff(r.out_path, visibility::observer_count(*res), georef,
-                                                double{visibility::kNoCount}, layout)
-                       : terrain::write_geotiff(r.out_path, r.accumulate == "all" ? all : any, georef,
-                                                double{visibility::kNoAnswer}, visibility::code_colour_table(), layout);
+  const Status written = terrain::write_with_style(
+      r.out_path, visibility::many_observers_style(preview_accumulation(r.accumulate), max_count), [&] {
+        return r.accumulate == "count"
+                   ? terrain::write_geotiff(r.out_path, visibility::observer_count(*res), georef,
+                                            double{visibility::kNoCount}, layout)
+                   : terrain::write_geotiff(r.out_path, r.accumulate == "all" ? all : any, georef,
+                                            double{visibility::kNoAnswer}, visibility::code_colour_table(), layout);
+      });
   if (!written.ok()) return report_error(written.error());
-  if (auto s =
-          terrain::write_text_file(terrain::qml_path_for(r.out_path),
-                                   visibility::many_observers_style(preview_accumulation(r.accumulate), max_count));
-      !s.ok())
-    return report_error(s.error());
   double preview_seconds = 0.0;
   if (r.png_path) {
     const auto drawing = std::chrono::steady_clock::now();

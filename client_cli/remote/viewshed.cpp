@@ -92,12 +92,12 @@ int impl::run_viewshed(const Args& args, const ViewshedInputs& in) {
   }
   if (auto s = reader->Finish(); !s.ok()) return report_status(s, client.address());
 
-  if (auto s = write_file_atomic(in.out_path, geotiff); !s.ok()) return report_error(s.error());
   if (!std::isfinite(low)) low = high = 0.0;
   const std::string style = visibility::is_code_raster(raster.output)
                                 ? visibility::visibility_style(raster.codes)
                                 : visibility::viewshed_style(visibility::preview_raster(raster.output), low, high);
-  if (auto s = terrain::write_text_file(terrain::qml_path_for(in.out_path), style); !s.ok())
+  if (auto s = terrain::write_with_style(in.out_path, style, [&] { return write_file_atomic(in.out_path, geotiff); });
+      !s.ok())
     return report_error(s.error());
   if (in.png_path)
     if (auto s = write_file_atomic(*in.png_path, png); !s.ok()) return report_error(s.error());

@@ -95,13 +95,12 @@ int impl::run_viewshed_many(const Args& args, const ManyViewshedInputs& in) {
   if (summary.observers_size() != static_cast<int>(in.observers.size()))
     return report_error(make_error(ErrorCode::kDataError, "the daemon's summary does not have a line per observer"));
 
-  if (auto s = write_file_atomic(in.out_path, geotiff); !s.ok()) return report_error(s.error());
   const visibility::PreviewAccumulation accumulation = in.accumulate == "any" ? visibility::PreviewAccumulation::kAny
                                                        : in.accumulate == "all"
                                                            ? visibility::PreviewAccumulation::kAll
                                                            : visibility::PreviewAccumulation::kCount;
-  if (auto s = terrain::write_text_file(terrain::qml_path_for(in.out_path),
-                                        visibility::many_observers_style(accumulation, max_count));
+  if (auto s = terrain::write_with_style(in.out_path, visibility::many_observers_style(accumulation, max_count),
+                                         [&] { return write_file_atomic(in.out_path, geotiff); });
       !s.ok())
     return report_error(s.error());
   if (in.png_path)

@@ -101,5 +101,33 @@ TEST(QgisStyle, AStagedStyleIsFlushedAsideAndPutInPlaceOnlyWhenCommitted) {
   EXPECT_NE(nowhere.error().message.find("nowhere/v.qml"), std::string::npos);
 }
 
+// write_with_style: the raster's writer runs while the style is staged; the
+// style is put in place only after a written raster, and a failed raster
+// leaves an existing style as it was (its error returned, nothing staged
+// left behind).
+TEST(QgisStyle, AStyleWrittenWithItsRasterFollowsTheRastersFate) {
+  TempDir dir;
+  const std::string raster = dir.file("v.tif"), style = qml_path_for(raster);
+  auto read = [](const std::string& path) {
+    std::ifstream in(path);
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
+  };
+  auto files = [&] { return std::distance(std::filesystem::directory_iterator(dir.path()), {}); };
+  ASSERT_TRUE(write_text_file(style, "old").ok());
+  const Status failed = write_with_style(
+      raster, "new", [] { return make_error(ErrorCode::kIoError, "geotiff 'v.tif': disk full", "v.tif"); });
+  ASSERT_FALSE(failed.ok());
+  EXPECT_EQ(failed.error().message, "geotiff 'v.tif': disk full");
+  EXPECT_EQ(read(style), "old");
+  EXPECT_EQ(files(), 1);
+  const Status written = write_with_style(raster, "new", [&] { return write_text_file(raster, "raster"); });
+  ASSERT_TRUE(written.ok()) << written.error().message;
+  EXPECT_EQ(read(raster), "raster");
+  EXPECT_EQ(read(style), "new");
+  EXPECT_EQ(files(), 2);
+}
+
 }  // namespace
 }  // namespace horizon::terrain

@@ -14,6 +14,7 @@
 
 #include <array>
 #include <cstdint>
+#include <future>
 #include <memory>
 #include <span>
 #include <string>
@@ -64,5 +65,20 @@ class StagedTextFile {
   StagedTextFile();
   std::unique_ptr<detail::AtomicFile> file_;
 };
+
+// A raster written by `write_raster` (a callable returning Status) and its
+// QGIS style `style` beside it (qml_path_for(raster_path)): the style is
+// staged on a thread of its own while the raster is written (the two
+// flushes to disk overlap) and renamed into place only once the raster is.
+// If the raster fails, its error is returned and an existing style stays.
+template <class WriteRaster>
+Status write_with_style(const std::string& raster_path, const std::string& style, WriteRaster&& write_raster) {
+  auto staged = std::async(std::launch::async, [&] { return StagedTextFile::stage(qml_path_for(raster_path), style); });
+  const Status raster = write_raster();
+  auto style_file = staged.get();
+  HORIZON_RETURN_IF_ERROR(raster);
+  if (!style_file.ok()) return style_file.error();
+  return style_file->commit();
+}
 
 }  // namespace horizon::terrain
