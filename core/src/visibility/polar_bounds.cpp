@@ -179,16 +179,18 @@ void PolarBounds::gather_beyond() {
   }
 }
 
-float PolarBounds::beyond(int ring, double angle) const {
+std::size_t PolarBounds::direction(int ring, double angle) const {
   const int n = bins_[ring];
   const long i = static_cast<long>(angle * n / 4);  // angle >= 0: truncation is floor
-  return beyond_[ring][static_cast<std::size_t>(i & (n - 1))];
+  return static_cast<std::size_t>(i & (n - 1));
+}
+
+float PolarBounds::beyond(int ring, double angle) const {
+  return beyond_[ring][direction(ring, angle)];
 }
 
 float PolarBounds::bound(int ring, double angle) const {
-  const int n = bins_[ring];
-  const long i = static_cast<long>(angle * n / 4);  // angle >= 0: truncation is floor
-  return bound_[ring][static_cast<std::size_t>(i & (n - 1))];
+  return bound_[ring][direction(ring, angle)];
 }
 
 }  // namespace horizon::visibility::detail

@@ -52,11 +52,12 @@ class PolarBounds {
   static double pseudo_angle(double dx, double dy);
 
  private:
-  void gather_beyond();  // beyond_ from bound_
+  void gather_beyond();                                 // beyond_ from bound_
+  std::size_t direction(int ring, double angle) const;  // the ring's direction bin holding `angle`
 
-  std::vector<double> outer_;              // per ring, metres
-  std::vector<int> bins_;                  // per ring: directions, a power of two
-  std::vector<std::vector<float>> bound_;  // per ring, per direction
+  std::vector<double> outer_;               // per ring, metres
+  std::vector<int> bins_;                   // per ring: directions, a power of two
+  std::vector<std::vector<float>> bound_;   // per ring, per direction
   std::vector<std::vector<float>> beyond_;  // per ring, per direction: the max of bound_ over it and outer rings
 };
 
