@@ -18,6 +18,17 @@ namespace {
 
 using testing::TempDir;
 
+std::string contents(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+long entries(const TempDir& dir) {
+  return std::distance(std::filesystem::directory_iterator(dir.path()), {});
+}
+
 int occurrences(const std::string& s, const std::string& what) {
   int n = 0;
   for (std::size_t at = s.find(what); at != std::string::npos; at = s.find(what, at + 1)) ++n;
@@ -60,11 +71,8 @@ TEST(QgisStyle, SitsBesideItsRasterAndIsWrittenWhole) {
   const std::string path = dir.file("v.qml");
   ASSERT_TRUE(write_text_file(path, "first").ok());
   ASSERT_TRUE(write_text_file(path, "second").ok());
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  EXPECT_EQ(text.str(), "second");
-  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path()), {}), 1);
+  EXPECT_EQ(contents(path), "second");
+  EXPECT_EQ(entries(dir), 1);
   const Status missing = write_text_file(dir.file("nowhere/v.qml"), "x");
   ASSERT_FALSE(missing.ok());
   EXPECT_NE(missing.error().message.find("nowhere/v.qml"), std::string::npos);
@@ -73,29 +81,22 @@ TEST(QgisStyle, SitsBesideItsRasterAndIsWrittenWhole) {
 TEST(QgisStyle, AStagedStyleIsFlushedAsideAndPutInPlaceOnlyWhenCommitted) {
   TempDir dir;
   const std::string path = dir.file("v.qml");
-  auto read = [&] {
-    std::ifstream in(path);
-    std::stringstream text;
-    text << in.rdbuf();
-    return text.str();
-  };
-  auto files = [&] { return std::distance(std::filesystem::directory_iterator(dir.path()), {}); };
   ASSERT_TRUE(write_text_file(path, "old").ok());
   {
     auto staged = StagedTextFile::stage(path, "never committed");
     ASSERT_TRUE(staged.ok()) << staged.error().message;
-    EXPECT_EQ(files(), 2);  // the old file and the staged temporary beside it
-    EXPECT_EQ(read(), "old");
+    EXPECT_EQ(entries(dir), 2);  // the old file and the staged temporary beside it
+    EXPECT_EQ(contents(path), "old");
   }
-  EXPECT_EQ(files(), 1);  // dropped uncommitted: the temporary is gone
-  EXPECT_EQ(read(), "old");
+  EXPECT_EQ(entries(dir), 1);  // dropped uncommitted: the temporary is gone
+  EXPECT_EQ(contents(path), "old");
   auto staged = StagedTextFile::stage(path, "new");
   ASSERT_TRUE(staged.ok());
   StagedTextFile moved = std::move(*staged);  // the move carries the temporary
-  EXPECT_EQ(read(), "old");
+  EXPECT_EQ(contents(path), "old");
   ASSERT_TRUE(moved.commit().ok());
-  EXPECT_EQ(read(), "new");
-  EXPECT_EQ(files(), 1);
+  EXPECT_EQ(contents(path), "new");
+  EXPECT_EQ(entries(dir), 1);
   auto nowhere = StagedTextFile::stage(dir.file("nowhere/v.qml"), "x");
   ASSERT_FALSE(nowhere.ok());
   EXPECT_NE(nowhere.error().message.find("nowhere/v.qml"), std::string::npos);
@@ -108,25 +109,18 @@ TEST(QgisStyle, AStagedStyleIsFlushedAsideAndPutInPlaceOnlyWhenCommitted) {
 TEST(QgisStyle, AStyleWrittenWithItsRasterFollowsTheRastersFate) {
   TempDir dir;
   const std::string raster = dir.file("v.tif"), style = qml_path_for(raster);
-  auto read = [](const std::string& path) {
-    std::ifstream in(path);
-    std::stringstream text;
-    text << in.rdbuf();
-    return text.str();
-  };
-  auto files = [&] { return std::distance(std::filesystem::directory_iterator(dir.path()), {}); };
   ASSERT_TRUE(write_text_file(style, "old").ok());
   const Status failed = write_with_style(
       raster, "new", [] { return make_error(ErrorCode::kIoError, "geotiff 'v.tif': disk full", "v.tif"); });
   ASSERT_FALSE(failed.ok());
   EXPECT_EQ(failed.error().message, "geotiff 'v.tif': disk full");
-  EXPECT_EQ(read(style), "old");
-  EXPECT_EQ(files(), 1);
+  EXPECT_EQ(contents(style), "old");
+  EXPECT_EQ(entries(dir), 1);
   const Status written = write_with_style(raster, "new", [&] { return write_text_file(raster, "raster"); });
   ASSERT_TRUE(written.ok()) << written.error().message;
-  EXPECT_EQ(read(raster), "raster");
-  EXPECT_EQ(read(style), "new");
-  EXPECT_EQ(files(), 2);
+  EXPECT_EQ(contents(raster), "raster");
+  EXPECT_EQ(contents(style), "new");
+  EXPECT_EQ(entries(dir), 2);
 }
 
 }  // namespace
