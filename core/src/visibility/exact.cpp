@@ -13,21 +13,24 @@
 
 #include "crossings.hpp"
 #include "exact_screen.hpp"
-#include "polar_bounds.hpp"
 #include "horizon/common/parallel.hpp"
 #include "horizon/terrain/pyramid.hpp"
 #include "horizon/visibility/radial_sweep.hpp"
 #include "horizon/visibility/viewshed.hpp"
+#include "sector_bounds.hpp"
 
 namespace horizon::visibility {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-// Cells from the eye that the polar bounds cover (polar_bounds.hpp). On the
-// 12 M-cell Everest case, measured with rings doubling: 256 cells built in
-// 0.02 s and left 0.80 G crossings to screen; 512 cells, 0.07-0.09 s and
-// the same 0.80 G; 1024 cells, 0.43 s.
-constexpr double kPolarReach = 256;
+// Cells from the eye (along the finer grid axis) that the sector bounds
+// cover (sector_bounds.hpp), and the side of the square tiles targets are
+// searched in. On the 12 M-cell Everest case, against the ring bounds out
+// to 307 cells this replaced (1.87 s): reach 512 cells and tiles of 32,
+// 1.63 s; 768 and 64, 1.50 s with 4096 sectors, 1.40 s with 1024 or 2048;
+// 1536 cells, 1.39-1.43 s with a table four times the size.
+constexpr double kNearReach = 768;
+constexpr int kTargetTile = 64;
 // Stretches of kTile[l] cells along the major axis, bounded by the tile
 // maxima of pyramid level l + 1 (tiles of kTile[l] cells; voids ignored,
 // -inf for an all-void tile). A stretch of the sight line's leaf length that
@@ -50,14 +53,14 @@ constexpr terrain::PyramidOptions kMaxOptions{.block_cells = 1024, .spans = true
 struct SightLine {
   const terrain::HeightView* z;
   const ViewFrame* f;
-  const terrain::Pyramid* pyramid;   // kMax over the window, built
-  const detail::PolarBounds* polar;  // null: no ring bounds (visibility only)
-  double c0, r0, c1, r1;  // eye and target, grid coordinates
-  double total;           // metres
-  double major;           // |extent| along the major axis, cells
-  double floor_slope;     // prune below this (the lower bound, minus a safety margin)
-  int leaf = kOhfLeaf;    // the level of the stretches screened crossing by crossing
-  double best = -kInf;    // highest exact sample slope found
+  const terrain::Pyramid* pyramid;      // kMax over the window, built
+  const detail::SectorBounds* sectors;  // near the eye, built
+  double c0, r0, c1, r1;                // eye and target, grid coordinates
+  double total;                         // metres
+  double major;                         // |extent| along the major axis, cells
+  double floor_slope;                   // prune below this (the lower bound, minus a safety margin)
+  int leaf = kOhfLeaf;                  // the level of the stretches screened crossing by crossing
+  double best = -kInf;                  // highest exact sample slope found
   std::uint64_t samples = 0;
   // Visibility only: a crossing above floor_slope is checked against the
   // viewshed's rule at (target_ground, target_height); the first that hides
@@ -81,45 +84,78 @@ struct SightLine {
     for (int i = pieces - 1; i >= 0 && !stop; --i) search(l, ta + i * step, i + 1 == pieces ? tb : ta + (i + 1) * step);
   }
 
-  // The whole sight line: beyond the polar bounds' rings, then ring by ring
-  // outwards from the eye, skipping a ring whose bound in this direction is
-  // below the slope to beat (by a margin past the rounding of both slopes),
-  // and stopping where no ring further out can beat it. Neighbouring rings
-  // that are not skipped are screened as one stretch, without the pyramid:
-  // the ring's bound in this direction is far tighter than its square tiles
-  // near the eye (on the 12 M-cell case, kept rings searched through the
-  // pyramid took 1.84-1.92 s, screened outright 1.72-1.75 s).
+  // The whole sight line: beyond the sector bounds' reach through the
+  // pyramid, then within it only the lines whose bound in this sight line's
+  // sector reaches the slope to beat.
   void search_all() {
     prepare_screens();
-    if (polar == nullptr) {
-      search_range(0.0, 1.0);
-      return;
-    }
-    const double angle = detail::PolarBounds::pseudo_angle(c1 - c0, r1 - r0);
-    double t_end = 1.0;  // where the rings end along this sight line
-    const double t_out = polar->outer(polar->rings() - 1) / total;
-    if (t_out < 1.0) {
-      search_range(t_out, 1.0);
-      t_end = t_out;
-    }
-    const auto skipped = [&](float bound) {
+    const double t_near = std::min(1.0, sectors->reach() / total);
+    if (t_near < 1.0) search_range(t_near, 1.0);
+    const double angle = detail::SectorBounds::pseudo_angle(c1 - c0, r1 - r0);
+    search_near(detail::Axis::kColumns, angle, t_near);
+    if (!stop) search_near(detail::Axis::kRows, angle, t_near);
+  }
+
+  // The crossings with one family's lines up to t_near, on the lines whose
+  // sector bound is not below the slope to beat (by a margin past the
+  // rounding of both slopes): spans, then blocks, then entries, each kept
+  // where its maximum reaches that slope.
+  void search_near(detail::Axis axis, double angle, double t_near) {
+    using detail::SectorBounds;
+    constexpr double kHair = 1e-9;  // cells, as screen_stretch
+    constexpr int kBlock = SectorBounds::kBlock, kSpan = SectorBounds::kSpan;
+    const SectorBounds::Lines lines = sectors->lines(angle, axis);
+    const double end = axis == detail::Axis::kColumns ? col_at(t_near) : row_at(t_near);
+    const int count = std::min(lines.count, detail::floor_to_int((end - lines.first) * lines.step + kHair) + 1);
+    // An entry is below the double slope exactly when it is below that
+    // double rounded up to a float.
+    const auto threshold = [&] {
       const double T = std::max(floor_slope, best);
-      return bound < T - 1e-9 * (1.0 + std::abs(T));
+      const double t = T - 1e-9 * (1.0 + std::abs(T));
+      const float up = static_cast<float>(t);
+      return up < t ? next_up(up) : up;
     };
-    double t_lo = 0.0;    // ring k's inner end
-    double run_lo = -1;   // the inner end of the rings kept and not searched yet, or -1
-    for (int k = 0; k < polar->rings() && t_lo < t_end && !stop; ++k) {
-      if (skipped(polar->beyond(k, angle))) break;
-      const double t_hi = k + 1 == polar->rings() ? t_end : std::min(polar->inner(k + 1) / total, t_end);
-      if (skipped(polar->bound(k, angle))) {
-        if (run_lo >= 0) screen_stretch(run_lo, t_lo);
-        run_lo = -1;
-      } else if (run_lo < 0) {
-        run_lo = t_lo;
+    float below = threshold();
+    int run = -1, next = 0;  // the kept entries [run, next) not screened yet; run -1: none
+    const auto flush = [&] {
+      if (run < 0) return;
+      const int a = lines.first + lines.step * run, b = lines.first + lines.step * (next - 1);
+      screen(axis, std::min(a, b), std::max(a, b));
+      run = -1;
+      below = threshold();
+    };
+    for (int span = 0; span * kSpan < count && !stop; ++span) {
+      if (lines.span[span] < below) continue;
+      std::uint32_t blocks = SectorBounds::at_least(lines.block + span * (kSpan / kBlock), below);
+      while (blocks != 0 && !stop) {
+        const int j0 = span * kSpan + std::countr_zero(blocks) * kBlock;
+        blocks &= blocks - 1;
+        if (j0 >= count) break;
+        std::uint32_t kept = SectorBounds::at_least(lines.bound + j0, below);
+        if (count - j0 < kBlock) kept &= (std::uint32_t{1} << (count - j0)) - 1;
+        while (kept != 0) {
+          const int i = std::countr_zero(kept), len = std::countr_one(kept >> i);
+          kept &= ~(((std::uint32_t{1} << len) - 1) << i);
+          if (run >= 0 && next == j0 + i) {
+            next += len;
+          } else {
+            flush();
+            if (stop) return;
+            run = j0 + i;
+            next = run + len;
+          }
+        }
       }
-      t_lo = t_hi;
     }
-    if (run_lo >= 0 && !stop) screen_stretch(run_lo, t_lo);
+    flush();
+  }
+
+  // The smallest float above f (f finite or -inf).
+  static float next_up(float f) {
+    if (f == -std::numeric_limits<float>::infinity()) return std::numeric_limits<float>::lowest();
+    if (f == 0) return std::numeric_limits<float>::denorm_min();
+    const auto bits = std::bit_cast<std::uint32_t>(f);
+    return std::bit_cast<float>(f > 0 ? bits + 1 : bits - 1);
   }
 
   // The stretch t in [ta, tb], from the coarsest level shorter than it.
@@ -202,8 +238,8 @@ struct SightLine {
     // Batches of up to 64 lines, screened against the slope to beat as it
     // stood when the batch began (a lower one only lets more through).
     for (int line = first; line <= last; line += 64) {
-      std::uint64_t hits =
-          detail::screen_crossings(families[i].screen, line, std::min(64, last - line + 1), std::max(floor_slope, best));
+      std::uint64_t hits = detail::screen_crossings(families[i].screen, line, std::min(64, last - line + 1),
+                                                    std::max(floor_slope, best));
       for (; hits != 0; hits &= hits - 1) {
         const int hit = line + std::countr_zero(hits);
         detail::for_each_crossing_on(axis, *z, c0, r0, c1, r1, hit, hit, exact);
@@ -232,74 +268,88 @@ Status exact_ohf(const terrain::HeightView& z, const ViewFrame& f, const RadialO
                                      RadialBound::kLowerBound));
   terrain::Pyramid pyramid(z, f.window, terrain::Reduction::kMax, kMaxShape, kMaxOptions);
   pyramid.build_all(threads);  // every sight line reads it: built up front, read without checks
-  // Near the eye, bounds that follow the sight lines, out to kPolarReach
-  // cells or the window's farthest corner. Not for visibility only: there
-  // the target's own sight line already prunes the near stretches.
-  std::optional<detail::PolarBounds> polar;
-  if (!visibility_only_at) {
-    const double farthest = std::sqrt(f.farthest_distance2(f.window));
-    polar.emplace(z, f, std::min(farthest, kPolarReach * std::max(f.metres_per_col, f.metres_per_row)), threads);
-  }
-  const detail::PolarBounds* rings = polar ? &*polar : nullptr;
+  // Near the eye, bounds by direction sector and grid line, out to
+  // kNearReach cells or the window's farthest corner.
+  const double farthest = std::sqrt(f.farthest_distance2(f.window));
+  const detail::SectorBounds sectors(z, f, std::min(farthest, kNearReach * std::min(f.metres_per_col, f.metres_per_row)),
+                                     threads);
+  const detail::SectorBounds* near = &sectors;
   const terrain::Window& win = f.window;
 
   std::atomic<std::uint64_t> evaluated{0}, samples{0};
-  const auto search_row = [&](std::size_t i) {
-    const int row = win.row0 + static_cast<int>(i);
-    float* out = ohf.row(static_cast<int>(i));
+  // Targets in square tiles: neighbouring targets' sight lines share their
+  // sectors' bounds and the terrain and pyramid around them.
+  const int tiles_across = (win.width() + kTargetTile - 1) / kTargetTile;
+  const int tiles_down = (win.height() + kTargetTile - 1) / kTargetTile;
+  const auto search_tile = [&](std::size_t i) {
+    const int col0 = win.col0 + static_cast<int>(i % tiles_across) * kTargetTile;
+    const int row0 = win.row0 + static_cast<int>(i / tiles_across) * kTargetTile;
+    const int col1 = std::min(col0 + kTargetTile, win.col1), row1 = std::min(row0 + kTargetTile, win.row1);
     std::uint64_t n = 0, s = 0;
-    for (int col = win.col0; col < win.col1; ++col) {
-      float& cell = out[col - win.col0];
-      if (std::isnan(cell)) continue;  // out of range or a void target: no answer, as in R3
-      const double d = f.distance(col, row);
-      ++n;
-      if (d == 0) {
-        cell = -std::numeric_limits<float>::infinity();
-        continue;
-      }
-      SightLine line{&z, &f, &pyramid, rings, f.observer_col, f.observer_row, double(col), double(row), d,
-                     std::max(std::abs(col - f.observer_col), std::abs(row - f.observer_row)), -kInf};
-      if (visibility_only_at) {
-        line.decide = true;
-        line.leaf = kDecideLeaf;
-        line.target_ground = z.at(col, row);
-        line.target_height = static_cast<float>(*visibility_only_at);
-        // The bound hides the target: so does R3's maximum (at least the bound).
-        if (std::isfinite(cell) && line.hides_value(cell)) continue;
-        // Below this slope no crossing can hide the target: the highest OHF
-        // value that leaves it visible, stepped down past float rounding.
-        const double ceiling = double(line.target_ground) +
-                               std::max(double(kTieTolerance), double(line.target_height));
-        const double slack = 4.0 * std::numeric_limits<float>::epsilon() * std::abs(ceiling) + 1e-6;
-        const double slope = (ceiling - slack - f.eye - f.curvature * d * d) / d;
-        line.floor_slope = slope - 1e-9 * (1.0 + std::abs(slope));
+    for (int row = row0; row < row1; ++row) {
+      float* out = ohf.row(row - win.row0);
+      for (int col = col0; col < col1; ++col) {
+        float& cell = out[col - win.col0];
+        if (std::isnan(cell)) continue;  // out of range or a void target: no answer, as in R3
+        const double d = f.distance(col, row);
+        ++n;
+        if (d == 0) {
+          cell = -std::numeric_limits<float>::infinity();
+          continue;
+        }
+        SightLine line{&z,
+                       &f,
+                       &pyramid,
+                       near,
+                       f.observer_col,
+                       f.observer_row,
+                       double(col),
+                       double(row),
+                       d,
+                       std::max(std::abs(col - f.observer_col), std::abs(row - f.observer_row)),
+                       -kInf};
+        if (visibility_only_at) {
+          line.decide = true;
+          line.leaf = kDecideLeaf;
+          line.target_ground = z.at(col, row);
+          line.target_height = static_cast<float>(*visibility_only_at);
+          // The bound hides the target: so does R3's maximum (at least the bound).
+          if (std::isfinite(cell) && line.hides_value(cell)) continue;
+          // Below this slope no crossing can hide the target: the highest OHF
+          // value that leaves it visible, stepped down past float rounding.
+          const double ceiling =
+              double(line.target_ground) + std::max(double(kTieTolerance), double(line.target_height));
+          const double slack = 4.0 * std::numeric_limits<float>::epsilon() * std::abs(ceiling) + 1e-6;
+          const double slope = (ceiling - slack - f.eye - f.curvature * d * d) / d;
+          line.floor_slope = slope - 1e-9 * (1.0 + std::abs(slope));
+          line.search_all();
+          s += line.samples;
+          // Hidden: the value that hid it (R3's maximum or below, same answer);
+          // visible: the higher of the bound and the samples seen, both visible.
+          if (line.best != -kInf) {
+            const float found = static_cast<float>(detail::r3_ohf_value(f, d, line.best));
+            cell = std::isfinite(cell) ? std::max(cell, found) : found;
+          }
+          continue;
+        }
+        if (std::isfinite(cell)) {
+          // The bound arrives rounded to float, possibly upwards by half a unit
+          // in the last place: step below that before turning it into a slope.
+          const double slack = 2.0 * std::numeric_limits<float>::epsilon() * std::abs(double(cell)) + 1e-6;
+          const double lower = (double(cell) - slack - f.eye - f.curvature * d * d) / d;
+          line.floor_slope = lower - 1e-9 * (1.0 + std::abs(lower));
+        }
         line.search_all();
         s += line.samples;
-        // Hidden: the value that hid it (R3's maximum or below, same answer);
-        // visible: the higher of the bound and the samples seen, both visible.
-        if (line.best != -kInf) {
-          const float found = static_cast<float>(detail::r3_ohf_value(f, d, line.best));
-          cell = std::isfinite(cell) ? std::max(cell, found) : found;
-        }
-        continue;
+        cell = line.best == -kInf ? -std::numeric_limits<float>::infinity()
+                                  : static_cast<float>(detail::r3_ohf_value(f, d, line.best));
       }
-      if (std::isfinite(cell)) {
-        // The bound arrives rounded to float, possibly upwards by half a unit
-        // in the last place: step below that before turning it into a slope.
-        const double slack = 2.0 * std::numeric_limits<float>::epsilon() * std::abs(double(cell)) + 1e-6;
-        const double lower = (double(cell) - slack - f.eye - f.curvature * d * d) / d;
-        line.floor_slope = lower - 1e-9 * (1.0 + std::abs(lower));
-      }
-      line.search_all();
-      s += line.samples;
-      cell = line.best == -kInf ? -std::numeric_limits<float>::infinity()
-                                : static_cast<float>(detail::r3_ohf_value(f, d, line.best));
     }
     evaluated += n;
     samples += s;
   };
-  HORIZON_RETURN_IF_ERROR(
-      parallel_for(static_cast<std::size_t>(win.height()), threads, control, search_row, kBoundShare, 1.0));
+  HORIZON_RETURN_IF_ERROR(parallel_for(static_cast<std::size_t>(tiles_across) * tiles_down, threads, control,
+                                       search_tile, kBoundShare, 1.0));
   stats.cells_evaluated = evaluated;
   stats.rays = radial_stats.rays;
   stats.terrain_samples = radial_stats.terrain_samples + samples;

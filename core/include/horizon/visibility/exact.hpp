@@ -19,22 +19,30 @@
 //     (exact_screen.hpp); the few that may reach it are taken exactly as
 //     R3 takes them (crossings.hpp).
 //
-//  3. Near the eye (out to 256 cells), for the whole OHF: bounds by distance
-//     ring and direction (polar_bounds.hpp). Every grid segment there, in
-//     pieces, bounds the slope of any crossing on it; a ring's bound in one
-//     direction is the highest of the pieces that direction meets. A sight
-//     line skips a ring whose bound is below the best slope known, screens
-//     the rings it keeps without the pyramid, and stops at the first ring
-//     beyond which none reaches it. The pyramid's square tiles span wide
-//     angles near the eye, where every sight line passes; these follow the
-//     sight line (on the 12 M-cell Everest case they cut the crossings
-//     screened from 2.28 G to 0.68 G, and the compute from 3.1 s to 1.7 s).
+//  3. Near the eye (out to 768 cells): bounds by direction sector and grid
+//     line (sector_bounds.hpp). Directions are cut into 1024 narrow
+//     sectors; for each sector and each grid line near the eye the table
+//     bounds the slope of any crossing of that line by a sight line in the
+//     sector (the highest terrain between the sector's two edges' crossings
+//     over the nearer distance). A sight line screens only the lines whose
+//     bound reaches the best slope known, found through block and span
+//     maxima of the table: usually a few lines around the ridge that hides
+//     it. Beyond the table's reach the pyramid prunes as above. The
+//     pyramid's square tiles span wide angles near the eye, where every
+//     sight line passes; the sectors follow the sight line (on the 12 M-cell
+//     Everest case the search screens 47 M crossings for R3's whole OHF,
+//     against 2.28 G with the pyramid alone).
 //
-// The stretch holding R3's maximum is never skipped (its bounds, tile and
-// ring, are at least that maximum, which is at least the lower bound), so
-// the maximum found is R3's, computed by the same arithmetic. Cost:
-// O(cells * log) when the lower bound is tight; never more than R3's samples
-// plus the bound lookups, and the rings' build (about 0.5 M grid segments).
+// Targets are searched in square tiles of 64 cells, so that neighbouring
+// sight lines share the table's sectors and the terrain around them in the
+// caches.
+//
+// The line or stretch holding R3's maximum is never skipped (its bounds,
+// tile and sector, are at least that maximum, which is at least the lower
+// bound), so the maximum found is R3's, computed by the same arithmetic.
+// Cost: O(cells * log) when the lower bound is tight; never more than R3's
+// samples plus the bound lookups, and the table's build (about 1.6 M
+// entries).
 #pragma once
 
 #include <optional>
