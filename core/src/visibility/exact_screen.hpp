@@ -11,10 +11,11 @@
 // exactly as R3 takes it (crossings.hpp): the screen decides which samples
 // are looked at, never their values.
 //
-// This is most of exact's time, so it has three kernels with the same
+// This is a large share of exact's time, so it has three kernels with the same
 // arithmetic, double operation for double operation: a scalar one, an AVX2
 // one (four crossings a step, hardware gathers) and an AVX-512 one (eight),
-// chosen at run time (simd_isa::kernel_isa()). All return the same mask
+// chosen at run time (simd_isa::kernel_isa()); runs of up to 8 lines take
+// the scalar one, cheaper than a vector call's set-up. All return the same mask
 // (tests/visibility/test_exact_screen.cpp); the file is built without fused
 // multiply-adds.
 #pragma once
