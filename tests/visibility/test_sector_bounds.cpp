@@ -24,7 +24,8 @@ using detail::Axis;
 using detail::SectorBounds;
 
 struct Count {
-  long crossings = 0, bounded = 0;
+  long crossings = 0, bounded = 0;  // within reach, against their line's bound
+  long far = 0, far_bounded = 0;    // beyond it, against beyond()
 };
 
 // The entry of `line` in `lines`, or -1 when the table has none.
@@ -34,22 +35,25 @@ int entry_of(const SectorBounds::Lines& lines, int line) {
 }
 
 // Every crossing of the sight lines from the eye to each cell of `dem`
-// within the reach, against its line's bound in the line's sector (no
-// tolerance: the bound must hold as computed); and every block and span
-// maximum against the entries it covers. Returns how many crossings were
-// checked and how many held.
-Count check_every_crossing(const terrain::Dem& dem, const geodesy::GridPoint& eye, double curvature) {
+// within `reach_cells` cells, against its line's bound in the line's
+// sector, and every one beyond, against beyond() (no tolerance: the bounds
+// must hold as computed); and every block and span maximum against the
+// entries it covers; targets every `target_step` cells each way. Returns
+// how many crossings were checked and how many held.
+Count check_every_crossing(const terrain::Dem& dem, const geodesy::GridPoint& eye, double curvature, double reach_cells,
+                           int target_step = 1) {
   ViewshedOptions o;
   o.curvature_coefficient = curvature;
   auto frame = make_view_frame(dem, eye, o);
   EXPECT_TRUE(frame.ok()) << frame.error().message;
   const ViewFrame& f = *frame;
-  const double reach = 40 * std::min(f.metres_per_col, f.metres_per_row);
-  const SectorBounds sectors(dem.elevation, f, reach, 2);
+  const double reach = reach_cells * std::min(f.metres_per_col, f.metres_per_row);
+  const terrain::Pyramid maxima(dem.elevation, f.window, terrain::Reduction::kMax, {}, {});
+  const SectorBounds sectors(dem.elevation, maxima, f, reach, 2);
   EXPECT_EQ(sectors.reach(), reach);
   Count n;
-  for (int row = 0; row < dem.elevation.height(); ++row)
-    for (int col = 0; col < dem.elevation.width(); ++col) {
+  for (int row = 0; row < dem.elevation.height(); row += target_step)
+    for (int col = 0; col < dem.elevation.width(); col += target_step) {
       const double total = f.distance(col, row);
       if (total == 0) continue;
       const double angle = SectorBounds::pseudo_angle(col - f.observer_col, row - f.observer_row);
@@ -60,27 +64,31 @@ Count check_every_crossing(const terrain::Dem& dem, const geodesy::GridPoint& ey
             EXPECT_GE(lines.block[b], lines.bound[j]);
             EXPECT_GE(lines.span[j / SectorBounds::kSpan], lines.bound[j]);
           }
+        const auto visit = [&](double t, double c, double r, double terrain) {
+          const double s = detail::r3_slope(f, total, t, terrain);
+          if (std::isnan(s)) return;  // a void never wins
+          if (t * total > reach) {
+            ++n.far;
+            const float b = sectors.beyond(angle, total);
+            if (s <= b)
+              ++n.far_bounded;
+            else
+              ADD_FAILURE() << "target (" << col << ", " << row << ") crossing at d " << t * total << " m: slope " << s
+                            << " above beyond()'s " << b;
+            return;
+          }
+          ++n.crossings;
+          const int line = static_cast<int>(axis == Axis::kColumns ? c : r);
+          const int j = entry_of(lines, line);
+          if (j >= 0 && s <= lines.bound[j])
+            ++n.bounded;
+          else
+            ADD_FAILURE() << "target (" << col << ", " << row << ") crossing line " << line << " at d " << t * total
+                          << " m: slope " << s << " above its bound (entry " << j << ")";
+        };
         constexpr int kAll[2] = {std::numeric_limits<int>::min(), std::numeric_limits<int>::max()};
         detail::for_each_crossing_on(axis, dem.elevation, f.observer_col, f.observer_row, col, row, kAll[0], kAll[1],
-                                     [&](double t, double c, double r, double terrain) {
-                                       const double s = detail::r3_slope(f, total, t, terrain);
-                                       if (std::isnan(s) || t * total > reach)
-                                         return;  // a void never wins; beyond reach: not the table's
-                                       ++n.crossings;
-                                       const int line = static_cast<int>(axis == Axis::kColumns ? c : r);
-                                       const int j = entry_of(lines, line);
-                                       if (j >= 0 && s <= lines.bound[j]) {
-                                         ++n.bounded;
-                                       } else {
-                                         ADD_FAILURE()
-                                             << "target (" << col << ", " << row << ") crossing line " << line
-                                             << " at t " << t << ", d " << t * total << " m: slope " << s
-                                             << " above its bound "
-                                             << (j >= 0 ? lines.bound[j] : -std::numeric_limits<float>::infinity())
-                                             << " axis " << int(axis) << " first " << lines.first << " step "
-                                             << lines.step << " count " << lines.count << " j " << j;
-                                       }
-                                     });
+                                     visit);
       }
     }
   return n;
@@ -106,9 +114,14 @@ TEST(SectorBounds, BoundEveryCrossingForEyesOnAndOffTheGridLines) {
         if (std::isnan(
                 dem.elevation.at(static_cast<int>(std::lround(spot[0])), static_cast<int>(std::lround(spot[1])))))
           continue;
-        const Count n = check_every_crossing(dem, testing::eye_at(dem, spot[0], spot[1], height), curvature);
-        EXPECT_GT(n.crossings, 10000) << spot[0] << "," << spot[1];
-        EXPECT_EQ(n.bounded, n.crossings);
+        for (const double reach : {40.0, 12.0}) {
+          const auto eye = testing::eye_at(dem, spot[0], spot[1], height);
+          const Count n = check_every_crossing(dem, eye, curvature, reach);
+          EXPECT_GT(n.crossings, 10000) << spot[0] << "," << spot[1];
+          EXPECT_EQ(n.bounded, n.crossings);
+          EXPECT_GT(n.far, reach < 20 ? 10000 : 0) << spot[0] << "," << spot[1];
+          EXPECT_EQ(n.far_bounded, n.far);
+        }
       }
 }
 
@@ -116,9 +129,34 @@ TEST(SectorBounds, BoundEveryCrossingWithOblongCells) {
   auto dem = holey(61, 11);
   dem.georef.transform = {500000.0, 20.0, 5000000.0, -45.0};  // 20 m across, 45 m down
   for (const double spot : {30.0, 22.5}) {
-    const Count n = check_every_crossing(dem, testing::eye_at(dem, spot, 31.2, 2.0), 0.85714);
+    const Count n = check_every_crossing(dem, testing::eye_at(dem, spot, 31.2, 2.0), 0.85714, 12.0);
     EXPECT_GT(n.crossings, 10000);
     EXPECT_EQ(n.bounded, n.crossings);
+    EXPECT_GT(n.far, 10000);
+    EXPECT_EQ(n.far_bounded, n.far);
+  }
+}
+
+// beyond() over a grid of 7 x 7 of its tiles (64 cells), from an eye off
+// the grid lines, with a reach wider than a tile (as the exact sweep's):
+// every crossing past the reach, up to the target, of every third target
+// each way. The terrain is a plain below the eye with spikes on tile
+// edges, tile corners and inside tiles, and voids: only crossings next to
+// a spike climb above the horizontal, so each spike's own tile, sectors
+// and band must hold them.
+TEST(SectorBounds, BeyondBoundsEveryFarCrossing) {
+  auto dem = testing::make_dem(
+      401, 401, [](int, int) { return 100.0; }, 30.0);
+  const int spikes[][2] = {{320, 192}, {256, 320}, {128, 30}, {330, 40}, {64, 300},
+                           {200, 390}, {383, 383}, {10, 200}, {263, 63}, {199, 280}};
+  for (const auto& spike : spikes) dem.elevation.at(spike[0], spike[1]) = 160.0f;
+  std::mt19937 rng(9);
+  std::uniform_int_distribution<int> pick(0, 400);
+  for (int i = 0; i < 2000; ++i) dem.elevation.at(pick(rng), pick(rng)) = std::nanf("");
+  for (const double curvature : {0.85714, 0.0}) {
+    const Count n = check_every_crossing(dem, testing::eye_at(dem, 200.3, 160.7, 2.0), curvature, 100.0, 3);
+    EXPECT_GT(n.far, 1000000);
+    EXPECT_EQ(n.far_bounded, n.far);
   }
 }
 
@@ -133,7 +171,8 @@ TEST(SectorBounds, FollowsTheDirectionOfAPeak) {
   o.curvature_coefficient = 0.0;
   auto frame = make_view_frame(dem, testing::eye_at(dem, 40, 40, 2.0), o);
   ASSERT_TRUE(frame.ok());
-  const SectorBounds sectors(dem.elevation, *frame, 400.0, 1);
+  const terrain::Pyramid maxima(dem.elevation, frame->window, terrain::Reduction::kMax, {}, {});
+  const SectorBounds sectors(dem.elevation, maxima, *frame, 400.0, 1);
   const double north = SectorBounds::pseudo_angle(0, -1), east = SectorBounds::pseudo_angle(1, 0.01);
   for (const Axis axis : {Axis::kColumns, Axis::kRows}) {
     const SectorBounds::Lines n = sectors.lines(north, axis);

@@ -23,13 +23,18 @@ namespace horizon::visibility {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-// Cells from the eye (along the finer grid axis) that the sector bounds
-// cover (sector_bounds.hpp), and the side of the square tiles targets are
-// searched in. On the 12 M-cell Everest case, against the ring bounds out
-// to 307 cells this replaced (1.87 s): reach 512 cells and tiles of 32,
-// 1.63 s; 768 and 64, 1.50 s with 4096 sectors, 1.40 s with 1024 or 2048;
-// 1536 cells, 1.39-1.43 s with a table four times the size.
+// Cells from the eye (along the coarser grid axis, and at most kNearLines
+// along the finer one: oblong cells, as a geographic DEM's, would make the
+// table long) that the sector bounds cover (sector_bounds.hpp), and the
+// side of the square tiles targets are searched in. On the 12 M-cell
+// Everest case, against the ring bounds out to 307 cells this replaced
+// (1.87 s): reach 512 cells and tiles of 32, 1.63 s; 768 and 64, 1.50 s
+// with 4096 sectors, 1.40 s with 1024 or 2048; 1536 cells, 1.39-1.43 s
+// with a table four times the size. On Rainier's SRTM tile (cells 0.68 as
+// wide as high) 768 cells along the finer axis took 0.34 s, along the
+// coarser 0.25 s.
 constexpr double kNearReach = 768;
+constexpr double kNearLines = 2048;
 constexpr int kTargetTile = 64;
 // Stretches of kTile[l] cells along the major axis, bounded by the tile
 // maxima of pyramid level l + 1 (tiles of kTile[l] cells; voids ignored,
@@ -85,13 +90,17 @@ struct SightLine {
   }
 
   // The whole sight line: beyond the sector bounds' reach through the
-  // pyramid, then within it only the lines whose bound in this sight line's
-  // sector reaches the slope to beat.
+  // pyramid, unless the sector's far bound is below the slope to beat;
+  // then within it only the lines whose bound in this sight line's sector
+  // reaches that slope.
   void search_all() {
     prepare_screens();
     const double t_near = std::min(1.0, sectors->reach() / total);
-    if (t_near < 1.0) search_range(t_near, 1.0);
     const double angle = detail::SectorBounds::pseudo_angle(c1 - c0, r1 - r0);
+    if (t_near < 1.0) {
+      const double T = std::max(floor_slope, best);
+      if (!(sectors->beyond(angle, total) < T - 1e-9 * (1.0 + std::abs(T)))) search_range(t_near, 1.0);
+    }
     search_near(detail::Axis::kColumns, angle, t_near);
     if (!stop) search_near(detail::Axis::kRows, angle, t_near);
   }
@@ -271,8 +280,9 @@ Status exact_ohf(const terrain::HeightView& z, const ViewFrame& f, const RadialO
   // Near the eye, bounds by direction sector and grid line, out to
   // kNearReach cells or the window's farthest corner.
   const double farthest = std::sqrt(f.farthest_distance2(f.window));
-  const detail::SectorBounds sectors(z, f, std::min(farthest, kNearReach * std::min(f.metres_per_col, f.metres_per_row)),
-                                     threads);
+  const double reach = std::min({farthest, kNearReach * std::max(f.metres_per_col, f.metres_per_row),
+                                 kNearLines * std::min(f.metres_per_col, f.metres_per_row)});
+  const detail::SectorBounds sectors(z, pyramid, f, reach, threads);
   const detail::SectorBounds* near = &sectors;
   const terrain::Window& win = f.window;
 

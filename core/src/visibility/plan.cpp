@@ -32,7 +32,7 @@ constexpr double kExactSecondsPerCell = 0.5e-6;
 constexpr double kR3SecondsPerCellPerCrossing = 12e-9;  // R3 walks ~ the distance in cells per target
 constexpr double kLineSecondsPerCrossing = 20e-9;
 
-// Fixed tables of exact (the sector bounds near the eye, about 7 MB), bytes.
+// Fixed tables of exact (the sector bounds near the eye, at most 12 MB), bytes.
 constexpr std::uint64_t kExactFixedBytes = 16ull << 20;
 
 ReadPlan plan_read(const terrain::ElevationSource& source, const terrain::Window& read) {

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <mutex>
 
 #include "horizon/common/parallel.hpp"
 
@@ -58,7 +59,8 @@ double SectorBounds::pseudo_angle(double dx, double dy) {
   return dx < 0 ? 2 - dy / (-dx - dy) : 3 + dx / (dx - dy);
 }
 
-SectorBounds::SectorBounds(const terrain::HeightView& z, const ViewFrame& f, double reach, unsigned threads)
+SectorBounds::SectorBounds(const terrain::HeightView& z, const terrain::Pyramid& maxima, const ViewFrame& f,
+                           double reach, unsigned threads)
     : reach_(reach) {
   // Cover two cells more than the reach: a sight line's own arithmetic may
   // put a crossing a rounding error past it.
@@ -77,6 +79,83 @@ SectorBounds::SectorBounds(const terrain::HeightView& z, const ViewFrame& f, dou
   parallel_for(kTasks, threads, [&](std::size_t task) {
     for (int s = static_cast<int>(task); s < kSectors; s += kTasks) build_sector(z, f, s, cover);
   });
+  build_far(maxima, f, threads);
+}
+
+void SectorBounds::build_far(const terrain::Pyramid& maxima, const ViewFrame& f, unsigned threads) {
+  const terrain::Window& w = f.window;
+  band_metres_ = kFarTile * std::max(f.metres_per_col, f.metres_per_row);
+  const double farthest = std::sqrt(f.farthest_distance2(w));
+  bands_ = std::max(1, static_cast<int>(std::ceil((farthest - reach_) / band_metres_)) + 1);
+  far_.assign(static_cast<std::size_t>(kSectors) * bands_, kNone);
+  if (w.empty()) return;
+  // The regions below cover the segments from the eye to the window's
+  // targets only when the eye lies among them: else nothing is bounded.
+  if (!(f.observer_col >= w.col0 - 0.5 && f.observer_col <= w.col1 - 0.5 && f.observer_row >= w.row0 - 0.5 &&
+        f.observer_row <= w.row1 - 0.5)) {
+    std::fill(far_.begin(), far_.end(), std::numeric_limits<float>::infinity());
+    return;
+  }
+  const int across = (w.width() + kFarTile - 1) / kFarTile, down = (w.height() + kFarTile - 1) / kFarTile;
+  std::mutex merge;
+  parallel_for(static_cast<std::size_t>(down), threads, [&](std::size_t ty) {
+    std::vector<float> local(far_.size(), kNone);
+    for (int tx = 0; tx < across; ++tx) {
+      // The tile's region [x0, x1] x [y0, y1] (grid coordinates): its
+      // cells' centres and half a cell around, so that the regions cover
+      // every point between the eye and a target. A crossing there reads
+      // cells within a cell of it, or of its position clamped to the DEM.
+      const int c0 = w.col0 + tx * kFarTile, r0 = w.row0 + static_cast<int>(ty) * kFarTile;
+      const int c1 = std::min(c0 + kFarTile, w.col1 - 1), r1 = std::min(r0 + kFarTile, w.row1 - 1);
+      const double x0 = c0 - 0.5, x1 = c1 + 0.5, y0 = r0 - 0.5, y1 = r1 + 0.5;
+      const double ex = f.observer_col, ey = f.observer_row;
+      const double nx = (std::clamp(ex, x0, x1) - ex) * f.metres_per_col,
+                   ny = (std::clamp(ey, y0, y1) - ey) * f.metres_per_row;
+      const double fx = std::max(std::abs(x0 - ex), std::abs(x1 - ex)) * f.metres_per_col;
+      const double fy = std::max(std::abs(y0 - ey), std::abs(y1 - ey)) * f.metres_per_row;
+      const double d_lo = std::sqrt(nx * nx + ny * ny) * (1 - 1e-12), d_hi = std::sqrt(fx * fx + fy * fy) * (1 + 1e-12);
+      if (d_hi < reach_ * (1 - 1e-9)) continue;  // the near table's
+      // Inside the window: a crossing between the eye and a target reads
+      // no cell outside it with a weight other than zero.
+      const terrain::Window around{std::max(w.col0, c0 - 2) - w.col0, std::max(w.row0, r0 - 2) - w.row0,
+                                   std::min(w.col1, c1 + 3) - w.col0, std::min(w.row1, r1 + 3) - w.row0};
+      const double top = maxima.max_in(around);
+      if (!(top > -std::numeric_limits<double>::infinity())) continue;  // all void: its crossings never win
+      const double above = top + 1e-6 * (1.0 + std::abs(top)) - f.eye;
+      float s = std::numeric_limits<float>::infinity();
+      if (above < 0 || d_lo > 0) s = round_up(above / (above >= 0 ? d_lo : d_hi) - f.curvature * d_lo);
+      // Its directions: every one when it holds the eye (or nearly),
+      // else the arc of its corners, one sector more on each side.
+      int first = 0, last = kSectors - 1;
+      if (d_lo > 1e-6) {
+        double lo = 4, hi = 0;
+        for (const double x : {x0, x1})
+          for (const double y : {y0, y1}) {
+            const double a = pseudo_angle(x - ex, y - ey);
+            lo = std::min(lo, a);
+            hi = std::max(hi, a);
+          }
+        if (hi - lo > 2) {  // across angle 0: the arc from hi round to lo + 4
+          const double wrap = lo + 4;
+          lo = hi;
+          hi = wrap;
+        }
+        first = static_cast<int>(std::floor(lo * kSectors / 4)) - 1;
+        last = static_cast<int>(std::floor(hi * kSectors / 4)) + 1;
+      }
+      const int band = std::clamp(static_cast<int>((d_lo - reach_) / band_metres_), 0, bands_ - 1);
+      for (int k = first; k <= last; ++k) {
+        float& v = local[static_cast<std::size_t>(k & (kSectors - 1)) * bands_ + band];
+        v = std::max(v, s);
+      }
+    }
+    const std::lock_guard<std::mutex> lock(merge);
+    for (std::size_t i = 0; i < far_.size(); ++i) far_[i] = std::max(far_[i], local[i]);
+  });
+  for (int k = 0; k < kSectors; ++k) {
+    float* bands = far_.data() + static_cast<std::size_t>(k) * bands_;
+    for (int b = 1; b < bands_; ++b) bands[b] = std::max(bands[b], bands[b - 1]);
+  }
 }
 
 void SectorBounds::build_sector(const terrain::HeightView& z, const ViewFrame& f, int sector, double cover) {
@@ -148,7 +227,7 @@ void SectorBounds::build_sector(const terrain::HeightView& z, const ViewFrame& f
 }
 
 SectorBounds::Lines SectorBounds::lines(double angle, Axis axis) const {
-  const int sector = static_cast<int>(angle * (kSectors / 4)) & (kSectors - 1);  // angle >= 0: truncation is floor
+  const int sector = sector_of(angle);
   const Family& family = families_[axis == Axis::kColumns ? 0 : 1];
   return {family.bound.data() + static_cast<std::size_t>(sector) * family.stride(),
           family.block.data() + static_cast<std::size_t>(sector) * family.block_stride(),

@@ -1,5 +1,6 @@
-// Private: upper bounds of R3's crossing slopes near the eye, by direction
-// sector and grid line (for the exact sweep, exact.cpp).
+// Private: upper bounds of R3's crossing slopes by direction sector: near
+// the eye per grid line, beyond it per band of distance (for the exact
+// sweep, exact.cpp).
 //
 // Around the eye the directions are cut into kSectors narrow sectors, and
 // for each sector and each grid line near the eye the table holds an upper
@@ -22,12 +23,20 @@
 // few lines around the ridge that hides it, where walking the sight line
 // would screen every crossing out to the ridge.
 //
+// Beyond the reach a coarser bound per sector and band of distance,
+// beyond(), lets a sight line skip its far part in one look-up: the tiles
+// of 64 cells that meet the sector, each bounded by its highest terrain
+// over its nearest distance. From a valley the slope to beat is steep and
+// the far terrain stays far below it; where it does not, the sweep falls
+// back to its max-pyramid.
+//
 // Directions are pseudo-angles: a monotone map of the angle onto [0, 4)
 // (the "diamond angle"), cheaper than atan2, in grid coordinates. The
 // sectors are equal steps of it, with the grid axes (0, 1, 2, 3) among
 // their edges.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -37,6 +46,7 @@
 
 #include "crossings.hpp"
 #include "horizon/terrain/height_view.hpp"
+#include "horizon/terrain/pyramid.hpp"
 #include "horizon/visibility/view_frame.hpp"
 
 namespace horizon::visibility::detail {
@@ -45,8 +55,11 @@ class SectorBounds {
  public:
   // Bounds for the crossings within `reach` metres of the eye (a little
   // more, so that a sight line that takes its crossings up to `reach` by
-  // its own arithmetic stays inside); threads as parallel_for.
-  SectorBounds(const terrain::HeightView& elevation, const ViewFrame& frame, double reach, unsigned threads);
+  // its own arithmetic stays inside), and beyond it over frame.window, of
+  // which `maxima` is a kMax pyramid of `elevation`; threads as
+  // parallel_for.
+  SectorBounds(const terrain::HeightView& elevation, const terrain::Pyramid& maxima, const ViewFrame& frame,
+               double reach, unsigned threads);
 
   static constexpr int kSectors = 1024;
   static constexpr int kBlock = 16;  // entries per block maximum
@@ -67,6 +80,20 @@ class SectorBounds {
   Lines lines(double angle, Axis axis) const;
 
   double reach() const { return reach_; }  // metres
+
+  // The highest slope any crossing at least reach() and at most `distance`
+  // metres from the eye can have on a sight line in the sector of `angle`
+  // and in the frame's window: the highest of the slope bounds of the
+  // window's tiles of kFarTile cells that meet the sector (their highest
+  // terrain with two cells around, over their nearest distance), by bands
+  // of distance.
+  // Coarse, but far from the eye a sight line to a hidden target usually
+  // passes high above all of it.
+  float beyond(double angle, double distance) const {
+    const int band = std::clamp(static_cast<int>((distance - reach_) / band_metres_), 0, bands_ - 1);
+    return far_[static_cast<std::size_t>(sector_of(angle)) * bands_ + band];
+  }
+  static constexpr int kFarTile = 64;
 
   // Bit i set when values[i] >= floor, for i in [0, 16).
   static std::uint32_t at_least(const float* values, float floor) {
@@ -97,9 +124,19 @@ class SectorBounds {
     int spans() const { return (count + kSpan - 1) / kSpan; }
   };
   void build_sector(const terrain::HeightView& z, const ViewFrame& f, int sector, double cover);
+  void build_far(const terrain::Pyramid& maxima, const ViewFrame& f, unsigned threads);
+  static int sector_of(double angle) {
+    return static_cast<int>(angle * (kSectors / 4)) & (kSectors - 1);  // angle >= 0: truncation is floor
+  }
 
   double reach_ = 0;
   Family families_[2];  // column lines, row lines
+  // Beyond the reach: per sector, per band of kFarTile cells of distance
+  // from the reach outwards, the highest bound of the tiles whose nearest
+  // point lies in that band or a nearer one.
+  double band_metres_ = 1;
+  int bands_ = 1;
+  std::vector<float> far_;
 };
 
 }  // namespace horizon::visibility::detail

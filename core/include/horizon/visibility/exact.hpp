@@ -27,7 +27,9 @@
 //     over the nearer distance). A sight line screens only the lines whose
 //     bound reaches the best slope known, found through block and span
 //     maxima of the table: usually a few lines around the ridge that hides
-//     it. Beyond the table's reach the pyramid prunes as above. The
+//     it. Beyond the table's reach a coarse bound per sector and band of
+//     distance (tiles of 64 cells) skips the far part of most sight lines
+//     at once; the pyramid prunes the rest as above. The
 //     pyramid's square tiles span wide angles near the eye, where every
 //     sight line passes; the sectors follow the sight line (on the 12 M-cell
 //     Everest case the search screens 47 M crossings for R3's whole OHF,
