@@ -98,14 +98,18 @@ void SectorBounds::build_far(const terrain::Pyramid& maxima, const ViewFrame& f,
   }
   const int across = (w.width() + kFarTile - 1) / kFarTile, down = (w.height() + kFarTile - 1) / kFarTile;
   std::mutex merge;
-  parallel_for(static_cast<std::size_t>(down), threads, [&](std::size_t ty) {
+  // A fixed number of tasks, each with its own maxima merged at its end
+  // (one per tile row would clear a table per row).
+  constexpr int kTasks = 16;
+  parallel_for(kTasks, threads, [&](std::size_t task) {
     std::vector<float> local(far_.size(), kNone);
-    for (int tx = 0; tx < across; ++tx) {
+    for (int tile = static_cast<int>(task); tile < across * down; tile += kTasks) {
+      const int tx = tile % across, ty = tile / across;
       // The tile's region [x0, x1] x [y0, y1] (grid coordinates): its
       // cells' centres and half a cell around, so that the regions cover
       // every point between the eye and a target. A crossing there reads
       // cells within a cell of it, or of its position clamped to the DEM.
-      const int c0 = w.col0 + tx * kFarTile, r0 = w.row0 + static_cast<int>(ty) * kFarTile;
+      const int c0 = w.col0 + tx * kFarTile, r0 = w.row0 + ty * kFarTile;
       const int c1 = std::min(c0 + kFarTile, w.col1 - 1), r1 = std::min(r0 + kFarTile, w.row1 - 1);
       const double x0 = c0 - 0.5, x1 = c1 + 0.5, y0 = r0 - 0.5, y1 = r1 + 0.5;
       const double ex = f.observer_col, ey = f.observer_row;
