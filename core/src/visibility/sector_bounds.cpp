@@ -185,6 +185,8 @@ void SectorBounds::build_sector(const terrain::HeightView& z, const ViewFrame& f
       q[e] = da == 0 ? std::numeric_limits<double>::infinity() : db / da;
     }
     const double q_lo = std::min(q[0], q[1]), q_hi = std::max(q[0], q[1]);
+    // Metres from the eye per cell across the lines, at each edge.
+    const double k_lo = std::sqrt(ma * ma + q_lo * mb * q_lo * mb), k_hi = std::sqrt(ma * ma + q_hi * mb * q_hi * mb);
     const int first = sa > 0 ? floor_to_int(a0) + 1 : ceil_to_int(a0) - 1;
     family.first[sector] = first;
     family.step[sector] = sa;
@@ -197,9 +199,13 @@ void SectorBounds::build_sector(const terrain::HeightView& z, const ViewFrame& f
       const double across = delta * ma;
       if (across > cover) break;
       // Offsets along the line, cells from b0 on side sb: the sector's
-      // crossings, and those within `cover` of the eye.
-      const double within = std::sqrt(cover * cover - across * across) / mb;
-      const double off_lo = delta * q_lo, off_hi = std::min(delta * q_hi, within);
+      // crossings, and those within `cover` of the eye; their distances.
+      const double off_lo = delta * q_lo;
+      double off_hi = delta * q_hi, d_far = delta * k_hi;
+      if (!(d_far <= cover)) {
+        off_hi = std::min(off_hi, std::sqrt(cover * cover - across * across) / mb);
+        d_far = std::sqrt(across * across + off_hi * mb * off_hi * mb);
+      }
       if (!(off_lo <= off_hi)) continue;
       // Widened by a hair: R3's own arithmetic may put a crossing on a cell
       // centre just before it, and read the cell pair there.
@@ -213,8 +219,7 @@ void SectorBounds::build_sector(const terrain::HeightView& z, const ViewFrame& f
       // Distances of the nearer and farther crossing, with slack for the
       // rounding of R3's own (t * total) and of these; and the terrain with
       // slack for R3's own interpolation.
-      const double d_lo = std::sqrt(across * across + off_lo * mb * off_lo * mb) * (1 - 1e-12);
-      const double d_hi = std::sqrt(across * across + off_hi * mb * off_hi * mb) * (1 + 1e-12);
+      const double d_lo = delta * k_lo * (1 - 1e-12), d_hi = d_far * (1 + 1e-12);
       const double above = top + 1e-6 * (1.0 + std::abs(top)) - f.eye;
       float s = std::numeric_limits<float>::infinity();
       if (above < 0 || d_lo > 0)
