@@ -32,8 +32,11 @@ constexpr double kExactSecondsPerCell = 0.5e-6;
 constexpr double kR3SecondsPerCellPerCrossing = 12e-9;  // R3 walks ~ the distance in cells per target
 constexpr double kLineSecondsPerCrossing = 20e-9;
 
-// Fixed tables of exact (the sector bounds near the eye, at most 12 MB), bytes.
+// Tables of exact (sector_bounds.hpp): near the eye at most 12 MB; beyond
+// it 4 KB per 64 cells of the window's diagonal (1024 sectors, a float per
+// band of distance).
 constexpr std::uint64_t kExactFixedBytes = 16ull << 20;
+constexpr double kExactBytesPerDiagonalCell = 1024.0 * sizeof(float) / 64.0;
 
 ReadPlan plan_read(const terrain::ElevationSource& source, const terrain::Window& read) {
   return {read, source.blocks_in(read)};
@@ -85,7 +88,10 @@ Status add_ohf_cost(const ViewshedOptions& o, const terrain::Window& output, dou
       cost.seconds += cells * kConservativeSecondsPerCell;
       break;
     case Algorithm::kExact:
-      cost.bytes += cost.cells + kExactFixedBytes;  // the max-pyramid (~1 B a cell) and the sector bounds
+      // The max-pyramid (~1 B a cell) and the sector bounds.
+      cost.bytes += cost.cells + kExactFixedBytes +
+                    static_cast<std::uint64_t>(kExactBytesPerDiagonalCell *
+                                               std::hypot(double(output.width()), double(output.height())));
       cost.seconds += cells * kExactSecondsPerCell;
       break;
     case Algorithm::kR3:

@@ -62,15 +62,17 @@ class SectorBounds {
                double reach, unsigned threads);
 
   static constexpr int kSectors = 1024;
-  static constexpr int kBlock = 16;  // entries per block maximum
-  static constexpr int kSpan = 256;  // entries per span maximum (16 blocks)
+  static constexpr int kBlock = 16;    // entries per block maximum
+  static constexpr int kSpan = 256;    // entries per span maximum (16 blocks)
+  static constexpr int kFarTile = 64;  // cells: beyond()'s tiles and bands
 
   // One sector's bounds for one family of grid lines: bound[j] for line
   // first + step * j, j in [0, count), the lines in order of distance from
   // the eye; -inf where no crossing of the line lies within reach (or all
-  // read voids), and in the last block's entries past count. block[b] is the highest of bound[b * kBlock ...] (kBlock
-  // entries, fewer in the last block), span[k] the highest of
-  // bound[k * kSpan ...]. block has whole spans, -inf past the last block.
+  // read voids), and in the last block's entries past count. block[b] is
+  // the highest of bound[b * kBlock ...] (kBlock entries, fewer in the last
+  // block), span[k] the highest of bound[k * kSpan ...]; block has whole
+  // spans, -inf past the last block.
   struct Lines {
     const float* bound = nullptr;
     const float* block = nullptr;
@@ -86,14 +88,12 @@ class SectorBounds {
   // and in the frame's window: the highest of the slope bounds of the
   // window's tiles of kFarTile cells that meet the sector (their highest
   // terrain with two cells around, over their nearest distance), by bands
-  // of distance.
-  // Coarse, but far from the eye a sight line to a hidden target usually
-  // passes high above all of it.
+  // of kFarTile cells of distance. Coarse, but far from the eye a sight
+  // line to a hidden target usually passes high above all of it.
   float beyond(double angle, double distance) const {
     const int band = std::clamp(static_cast<int>((distance - reach_) / band_metres_), 0, bands_ - 1);
     return far_[static_cast<std::size_t>(sector_of(angle)) * bands_ + band];
   }
-  static constexpr int kFarTile = 64;
 
   // Bit i set when values[i] >= floor, for i in [0, 16).
   static std::uint32_t at_least(const float* values, float floor) {
