@@ -25,8 +25,10 @@ constexpr double kSweepSecondsPerRayStep = 7e-9;
 // RayTable) and its share of the per-task scratch (radial_sweep.cpp).
 constexpr std::uint64_t kSweepBytesPerRay = 12 + 32;
 // Conservative's re-sampling on top of the sweep: 19 ns (AVX-512 kernels)
-// and 31 ns (AVX2) measured; exact's search, R3's whole OHF: 0.32 us and
-// 0.37 us. Scalar-only CPUs take several times longer.
+// and 31 ns (AVX2) measured; exact's search, R3's whole OHF: 0.18 us and
+// 0.21 us on the 12 M-cell case, 0.35 us on Rainier's SRTM tile and
+// 0.41 us on Gabon's from its summit (thread time per cell). Scalar-only
+// CPUs take several times longer.
 constexpr double kConservativeSecondsPerCell = 40e-9;
 constexpr double kExactSecondsPerCell = 0.5e-6;
 constexpr double kR3SecondsPerCellPerCrossing = 12e-9;  // R3 walks ~ the distance in cells per target
