@@ -10,6 +10,7 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <vector>
 
 #include "crossings.hpp"
 #include "horizon/visibility/view_frame.hpp"
@@ -199,6 +200,35 @@ TEST(SectorBounds, AtLeastMasksTheValuesAtOrAboveTheFloor) {
     std::uint32_t expected = 0;
     for (int i = 0; i < 16; ++i) expected |= std::uint32_t(v[i] >= floor) << i;
     EXPECT_EQ(SectorBounds::at_least(v, floor), expected) << trial;
+  }
+}
+
+// round_up(s) is the smallest float at least s, as std::nextafter gives it.
+TEST(SectorBounds, RoundUpIsTheSmallestFloatAtLeastTheDouble) {
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> value(-3.0, 3.0);
+  const auto reference = [](double s) {
+    const float f = static_cast<float>(s);
+    return f < s ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+  };
+  std::vector<double> cases = {0.0,
+                               -0.0,
+                               1e-300,
+                               -1e-300,
+                               1e300,
+                               -1e300,
+                               1.0,
+                               -1.0,
+                               0.1,
+                               -0.1,
+                               -std::numeric_limits<double>::infinity(),
+                               std::numeric_limits<double>::infinity(),
+                               double(std::numeric_limits<float>::max()) * (1 + 1e-12)};
+  for (int i = 0; i < 100000; ++i) cases.push_back(value(rng) * std::pow(10.0, i % 13 - 6));
+  for (const double s : cases) {
+    const float up = SectorBounds::round_up(s);
+    ASSERT_EQ(up, reference(s)) << s;
+    ASSERT_GE(double(up), s) << s;
   }
 }
 

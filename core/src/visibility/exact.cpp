@@ -89,6 +89,13 @@ struct SightLine {
     for (int i = pieces - 1; i >= 0 && !stop; --i) search(l, ta + i * step, i + 1 == pieces ? tb : ta + (i + 1) * step);
   }
 
+  // The slope a sector bound must reach for its crossings to be searched:
+  // the slope to beat, less a margin past the rounding of both slopes.
+  double to_beat() const {
+    const double T = std::max(floor_slope, best);
+    return T - 1e-9 * (1.0 + std::abs(T));
+  }
+
   // The whole sight line: beyond the sector bounds' reach through the
   // pyramid, unless the sector's far bound is below the slope to beat;
   // then within it only the lines whose bound in this sight line's sector
@@ -97,10 +104,7 @@ struct SightLine {
     prepare_screens();
     const double t_near = std::min(1.0, sectors->reach() / total);
     const double angle = detail::SectorBounds::pseudo_angle(c1 - c0, r1 - r0);
-    if (t_near < 1.0) {
-      const double T = std::max(floor_slope, best);
-      if (!(sectors->beyond(angle, total) < T - 1e-9 * (1.0 + std::abs(T)))) search_range(t_near, 1.0);
-    }
+    if (t_near < 1.0 && !(sectors->beyond(angle, total) < to_beat())) search_range(t_near, 1.0);
     search_near(detail::Axis::kColumns, angle, t_near);
     if (!stop) search_near(detail::Axis::kRows, angle, t_near);
   }
@@ -116,14 +120,7 @@ struct SightLine {
     const SectorBounds::Lines lines = sectors->lines(angle, axis);
     const double end = axis == detail::Axis::kColumns ? col_at(t_near) : row_at(t_near);
     const int count = std::min(lines.count, detail::floor_to_int((end - lines.first) * lines.step + kHair) + 1);
-    // An entry is below the double slope exactly when it is below that
-    // double rounded up to a float.
-    const auto threshold = [&] {
-      const double T = std::max(floor_slope, best);
-      const double t = T - 1e-9 * (1.0 + std::abs(T));
-      const float up = static_cast<float>(t);
-      return up < t ? next_up(up) : up;
-    };
+    const auto threshold = [&] { return SectorBounds::round_up(to_beat()); };
     float below = threshold();
     int run = -1, next = 0;  // the kept entries [run, next) not screened yet; run -1: none
     const auto flush = [&] {
@@ -157,14 +154,6 @@ struct SightLine {
       }
     }
     flush();
-  }
-
-  // The smallest float above f (f finite or -inf).
-  static float next_up(float f) {
-    if (f == -std::numeric_limits<float>::infinity()) return std::numeric_limits<float>::lowest();
-    if (f == 0) return std::numeric_limits<float>::denorm_min();
-    const auto bits = std::bit_cast<std::uint32_t>(f);
-    return std::bit_cast<float>(f > 0 ? bits + 1 : bits - 1);
   }
 
   // The stretch t in [ta, tb], from the coarsest level shorter than it.
@@ -283,7 +272,6 @@ Status exact_ohf(const terrain::HeightView& z, const ViewFrame& f, const RadialO
   const double reach = std::min({farthest, kNearReach * std::max(f.metres_per_col, f.metres_per_row),
                                  kNearLines * std::min(f.metres_per_col, f.metres_per_row)});
   const detail::SectorBounds sectors(z, pyramid, f, reach, threads);
-  const detail::SectorBounds* near = &sectors;
   const terrain::Window& win = f.window;
 
   std::atomic<std::uint64_t> evaluated{0}, samples{0};
@@ -310,7 +298,7 @@ Status exact_ohf(const terrain::HeightView& z, const ViewFrame& f, const RadialO
         SightLine line{&z,
                        &f,
                        &pyramid,
-                       near,
+                       &sectors,
                        f.observer_col,
                        f.observer_row,
                        double(col),

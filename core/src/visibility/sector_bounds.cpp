@@ -14,10 +14,17 @@ namespace {
 
 constexpr float kNone = -std::numeric_limits<float>::infinity();
 
-// The double rounded up to a float.
-float round_up(double s) {
-  const float f = static_cast<float>(s);
-  return f < s ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+// The highest slope (terrain - curvature d^2 - eye) / d of a crossing whose
+// terrain is at most `top` and whose distance lies in [d_lo, d_hi] (slack
+// for rounding already in both), rounded up to a float; the terrain gets
+// slack for R3's own interpolation. +inf when d_lo is 0 and top reaches the
+// eye.
+float slope_bound(const ViewFrame& f, double top, double d_lo, double d_hi) {
+  const double above = top + 1e-6 * (1.0 + std::abs(top)) - f.eye;
+  if (!(above < 0 || d_lo > 0)) return std::numeric_limits<float>::infinity();
+  // Curvature is never negative (ViewshedOptions' check): -curvature d is
+  // highest at d_lo.
+  return SectorBounds::round_up(above / (above >= 0 ? d_lo : d_hi) - f.curvature * d_lo);
 }
 
 // A direction (dx, dy) whose pseudo-angle is `a` (in [0, 4]).
@@ -125,9 +132,7 @@ void SectorBounds::build_far(const terrain::Pyramid& maxima, const ViewFrame& f,
                                    std::min(w.col1, c1 + 3) - w.col0, std::min(w.row1, r1 + 3) - w.row0};
       const double top = maxima.max_in(around);
       if (!(top > -std::numeric_limits<double>::infinity())) continue;  // all void: its crossings never win
-      const double above = top + 1e-6 * (1.0 + std::abs(top)) - f.eye;
-      float s = std::numeric_limits<float>::infinity();
-      if (above < 0 || d_lo > 0) s = round_up(above / (above >= 0 ? d_lo : d_hi) - f.curvature * d_lo);
+      const float s = slope_bound(f, top, d_lo, d_hi);
       // Its directions: every one when it holds the eye (or nearly),
       // else the arc of its corners, one sector more on each side.
       int first = 0, last = kSectors - 1;
@@ -217,14 +222,8 @@ void SectorBounds::build_sector(const terrain::HeightView& z, const ViewFrame& f
       const double top = highest(z.data() + line * line_stride, pos_stride, pos_count - 2, z.void_fill(), p_lo, p_hi);
       if (std::isnan(top)) continue;  // a crossing there reads a void: it never wins
       // Distances of the nearer and farther crossing, with slack for the
-      // rounding of R3's own (t * total) and of these; and the terrain with
-      // slack for R3's own interpolation.
-      const double d_lo = delta * k_lo * (1 - 1e-12), d_hi = d_far * (1 + 1e-12);
-      const double above = top + 1e-6 * (1.0 + std::abs(top)) - f.eye;
-      float s = std::numeric_limits<float>::infinity();
-      if (above < 0 || d_lo > 0)
-        s = round_up(above / (above >= 0 ? d_lo : d_hi) - f.curvature * (f.curvature >= 0 ? d_lo : d_hi));
-      bound[j] = s;
+      // rounding of R3's own (t * total) and of these.
+      bound[j] = slope_bound(f, top, delta * k_lo * (1 - 1e-12), d_far * (1 + 1e-12));
     }
     float* block = family.block.data() + static_cast<std::size_t>(sector) * family.block_stride();
     float* span = family.span.data() + static_cast<std::size_t>(sector) * family.spans();

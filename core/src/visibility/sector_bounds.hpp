@@ -37,7 +37,9 @@
 #pragma once
 
 #include <algorithm>
+#include <bit>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #ifdef __SSE2__
@@ -112,6 +114,18 @@ class SectorBounds {
 
   // The pseudo-angle of grid offset (dx, dy) != (0, 0), in [0, 4).
   static double pseudo_angle(double dx, double dy);
+
+  // The smallest float at least s (s a double, not NaN): the table's
+  // entries are bounds rounded so, and an entry is below a slope exactly
+  // when it is below the slope rounded so.
+  static float round_up(double s) {
+    const float f = static_cast<float>(s);
+    if (!(f < s)) return f;  // also NaN
+    if (f == -std::numeric_limits<float>::infinity()) return std::numeric_limits<float>::lowest();
+    if (f == 0) return std::numeric_limits<float>::denorm_min();
+    const auto bits = std::bit_cast<std::uint32_t>(f);  // the next float up, without libm
+    return std::bit_cast<float>(f > 0 ? bits + 1 : bits - 1);
+  }
 
  private:
   struct Family {
