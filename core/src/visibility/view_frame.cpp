@@ -10,10 +10,6 @@
 
 namespace horizon::visibility {
 
-double ViewFrame::distance(double col, double row) const {
-  return std::hypot((col - observer_col) * metres_per_col, (row - observer_row) * metres_per_row);
-}
-
 double ViewFrame::farthest_distance2(const terrain::Window& cells) const {
   const double dx0 = (cells.col0 - observer_col) * metres_per_col;
   const double dx1 = (cells.col1 - 1 - observer_col) * metres_per_col;

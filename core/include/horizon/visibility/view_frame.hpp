@@ -3,13 +3,14 @@
 //
 // All algorithms work in continuous grid coordinates (cell centres at
 // integers) relative to the observer, with ground distances in metres:
-//   d(col, row) = hypot((col - observer_col) * metres_per_col,
-//                       (row - observer_row) * metres_per_row)
+//   d(col, row) = sqrt(dx^2 + dy^2), dx = (col - observer_col) * metres_per_col,
+//                                    dy = (row - observer_row) * metres_per_row
 // The metric cell sizes are taken at the observer (for geographic DEMs they
 // differ east-west and north-south; across a 1-degree tile the east-west size
 // varies by ~1 %, which is far inside the distances where curvature matters).
 // Curvature and refraction lower a point at distance d by curvature * d^2.
 #pragma once
+#include <cmath>
 #include <string>
 
 #include "horizon/common/error.hpp"
@@ -29,7 +30,15 @@ struct ViewFrame {
   int dem_width = 0, dem_height = 0;
 
   // Ground distance in metres from the eye to the centre of cell (col, row).
-  double distance(double col, double row) const;
+  // Every algorithm (R3 included) takes its distances here, so they agree to
+  // the bit. A plain square root: ground distances on one DEM are far from
+  // the range where squaring overflows or underflows, which std::hypot
+  // guards against at several times the cost (a fifth of the exact
+  // visibility-only search's time was spent in it).
+  double distance(double col, double row) const {
+    const double dx = (col - observer_col) * metres_per_col, dy = (row - observer_row) * metres_per_row;
+    return std::sqrt(dx * dx + dy * dy);
+  }
   // True when cell (col, row)'s centre lies within max_distance.
   bool in_range(int col, int row) const;
   // Squared ground distance in metres from the eye to the farthest cell
