@@ -3,12 +3,17 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
+#include <limits>
 #include <ostream>
 #include <random>
 #include <sstream>
 
 #include "horizon/visibility/agreement.hpp"
+#include "horizon/visibility/radial_sweep.hpp"
+#include "horizon/visibility/view_frame.hpp"
 #include "horizon/visibility/viewshed.hpp"
+#include "simd.hpp"
 #include "test_support.hpp"
 #include "visibility_test_util.hpp"
 
@@ -176,6 +181,88 @@ TEST(RadialSweep, MaxDistanceAnswersExactlyTheDisc) {
   // Work stays proportional to the disc, not the DEM.
   EXPECT_LT(vs->stats.terrain_samples, 12 * inside);  // ~2 samples x ~4.5 ray steps per cell at spacing 0.5
   EXPECT_LT(vs->stats.window_cells, dem.elevation.size() / 2);
+}
+
+// The sweep writes every cell within max distance (NaN on a void target)
+// and sets every other cell to NaN itself, so nothing an output grid held
+// before shows through (a daemon reuses its rasters; a fresh raster holds
+// zeros): run into grids full of a sentinel, fresh or reshaped from a
+// larger one, it gives the bits of a run into a new grid, and a cell has no
+// answer exactly when it is out of range or a void target. Eyes on and off
+// cell centres, in a corner, on a void cell; with and without max
+// distance; voids transparent and filled; every blend, the lower bound and
+// thinned rays; every kernel form.
+TEST(RadialSweep, WritesEveryCellWhateverTheOutputHeld) {
+  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN(), kSentinel = 12345.0f;
+  auto dem = testing::make_random_terrain(90, 70, 21);
+  for (int r = 30; r < 36; ++r)
+    for (int c = 50; c < 58; ++c) dem.elevation.at(c, r) = kNaN;
+  for (int i = 0; i < 200; ++i) dem.elevation.at((i * 37) % 90, (i * 11) % 70) = kNaN;
+  dem.elevation.at(20, 20) = kNaN;
+  struct Eye {
+    double col, row, max_distance;
+  };
+  const double kNone = std::numeric_limits<double>::infinity();
+  const Eye eyes[] = {{40.3, 33.7, kNone}, {44, 35, kNone}, {89, 0, kNone},       {89, 69, 900.0},
+                      {20, 20, kNone},     {20, 20, 450.0}, {60.5, 10.25, 600.0}, {44, 35, 1e300}};
+  struct Sweep {
+    visibility::RadialOptions options;
+    visibility::RadialBound bound;
+  };
+  const Sweep sweeps[] = {{{}, visibility::RadialBound::kNone},
+                          {{1.0, visibility::RayBlend::kLinear, 0}, visibility::RadialBound::kNone},
+                          {{1.0, visibility::RayBlend::kMin, 0}, visibility::RadialBound::kNone},
+                          {{1.0, visibility::RayBlend::kResample, 2}, visibility::RadialBound::kNone},
+                          {{}, visibility::RadialBound::kLowerBound}};
+  using visibility::sweep::simd::Isa;
+  struct Restore {
+    ~Restore() { visibility::sweep::simd::isa_limit() = Isa::kAvx512; }
+  } restore;
+  for (const Isa isa : {Isa::kScalar, Isa::kAvx2, Isa::kAvx512}) {
+    if (visibility::sweep::simd::cpu_isa() < isa) continue;
+    visibility::sweep::simd::isa_limit() = isa;
+    for (const Eye& e : eyes)
+      for (const bool filled : {false, true})
+        for (std::size_t k = 0; k < std::size(sweeps); ++k) {
+          std::ostringstream what;
+          what << "isa " << int(isa) << ", eye " << e.col << "," << e.row << " reach " << e.max_distance
+               << (filled ? ", voids filled" : "") << ", sweep " << k;
+          SCOPED_TRACE(what.str());
+          visibility::ViewshedOptions o;
+          o.max_distance = e.max_distance;
+          if (filled) {
+            o.nodata = visibility::NodataPolicy::kFill;
+            o.nodata_fill_height = 150.0;
+          }
+          // The eye on the void cell (20, 20) stands at a given altitude.
+          geodesy::GridPoint eye = eye_at(dem, e.col, e.row, 2.0);
+          if (std::isnan(eye.elevation)) eye.ground = 100.0, eye.elevation = 102.0;
+          const auto f = visibility::make_view_frame(dem, eye, o);
+          ASSERT_TRUE(f.ok()) << f.error().message;
+          const terrain::HeightView z = visibility::elevation_view(dem.elevation, o);
+          const terrain::Window& w = f->window;
+          visibility::WorkStats stats;
+          terrain::Grid<float> fresh;
+          ASSERT_TRUE(visibility::radial_ohf(z, *f, sweeps[k].options, 2, nullptr, fresh, stats, sweeps[k].bound).ok());
+          terrain::Grid<float> same(w.width(), w.height(), kSentinel), larger(w.width() + 7, w.height() + 3, kSentinel);
+          for (terrain::Grid<float>* reused : {&same, &larger}) {
+            ASSERT_TRUE(visibility::radial_ohf(z, *f, sweeps[k].options, 2, nullptr, *reused, stats, sweeps[k].bound).ok());
+            ASSERT_EQ(reused->width(), w.width());
+            ASSERT_EQ(reused->height(), w.height());
+            EXPECT_EQ(std::memcmp(reused->data(), fresh.data(), fresh.size() * sizeof(float)), 0);
+          }
+          std::size_t answered = 0;
+          for (int row = w.row0; row < w.row1; ++row)
+            for (int col = w.col0; col < w.col1; ++col) {
+              const float v = same.at(col - w.col0, row - w.row0);
+              ASSERT_NE(v, kSentinel) << col << "," << row;
+              const bool answers = f->in_range(col, row) && !std::isnan(z.at(col, row));
+              ASSERT_EQ(!std::isnan(v), answers) << col << "," << row;
+              answered += answers;
+            }
+          EXPECT_EQ(stats.cells_evaluated, answered);
+        }
+  }
 }
 
 TEST(RadialSweep, FinerRaySpacingApproachesR3) {

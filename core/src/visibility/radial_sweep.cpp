@@ -430,7 +430,10 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
           batch = 0;
         };
         for (int j = j_begin; j <= j_end; ++j) {
-          if (std::isnan(sweep::fill_void(cur[j * zv], s.fill))) continue;  // void target: no answer (stays NaN)
+          if (std::isnan(sweep::fill_void(cur[j * zv], s.fill))) {  // void target: no answer
+            out_line[j * s.o_v] = std::numeric_limits<float>::quiet_NaN();
+            continue;
+          }
           ++evaluated;
           const int r = sweep::lower_ray(sweep::ray_coordinate(j, s.eye_v, inv_k, p.rays.half), p.rays.half);
           const int i0 = (r - ra) >> level;  // the bracketing rays are i0 and i0 + 1
@@ -451,7 +454,10 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
           const double dv = (j - s.eye_v) * s.metres_v;
           const double d2 = du2 + dv * dv;
           const float zc = sweep::fill_void(cur[j * zv], s.fill);
-          if (std::isnan(zc)) continue;  // void target: no answer (stays NaN)
+          if (std::isnan(zc)) {  // void target: no answer
+            out_line[j * s.o_v] = std::numeric_limits<float>::quiet_NaN();
+            continue;
+          }
           ++evaluated;
           const int i0 = (r - ra) >> level;  // the bracketing rays are i0 and i0 + 1
           float* out = out_line + j * s.o_v;
@@ -481,6 +487,42 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
   }
 }
 
+// Sizes `ohf` to the frame's window and sets to NaN the cells the sweep
+// will not write. The sweep writes every cell within max distance (NaN on a
+// void target) but the eye's own, so with no max distance nothing is set
+// here, and a 12 M-cell OHF is not written twice. With one, each row's
+// cells outside a disc a hair smaller than max distance are set (the
+// sweep's own test, in its own rounding, keeps every cell inside it).
+void prepare_output(terrain::Grid<float>& ohf, const ViewFrame& f, unsigned threads) {
+  const terrain::Window& win = f.window;
+  size_output(ohf, win);
+  const double reach2 = f.max_distance * f.max_distance * (1.0 - 1e-9);
+  if (!std::isfinite(reach2)) return;
+  const std::size_t rows = static_cast<std::size_t>(win.height()), width = static_cast<std::size_t>(win.width());
+  const std::size_t band = std::max<std::size_t>(1, (std::size_t{1} << 16) / std::max<std::size_t>(1, width));
+  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+  parallel_for((rows + band - 1) / band, threads, [&](std::size_t b) {
+    for (std::size_t i = b * band; i < std::min(rows, (b + 1) * band); ++i) {
+      float* row = ohf.data() + i * width;
+      const double dy = (static_cast<double>(win.row0 + static_cast<int>(i)) - f.observer_row) * f.metres_per_row;
+      const double rest = reach2 - dy * dy;
+      // Columns [inside_lo, inside_hi] (window-based) lie inside the disc.
+      double inside_lo = static_cast<double>(width), inside_hi = -1.0;
+      if (rest >= 0) {
+        const double half = std::sqrt(rest) / f.metres_per_col;
+        inside_lo = std::max(0.0, std::ceil(f.observer_col - half) - win.col0);
+        inside_hi = std::min(static_cast<double>(width) - 1.0, std::floor(f.observer_col + half) - win.col0);
+      }
+      if (inside_lo > inside_hi) {
+        std::fill(row, row + width, kNaN);
+        continue;
+      }
+      std::fill(row, row + static_cast<std::size_t>(inside_lo), kNaN);
+      std::fill(row + static_cast<std::size_t>(inside_hi) + 1, row + width, kNaN);
+    }
+  });
+}
+
 }  // namespace
 
 Status radial_ohf(const terrain::HeightView& z, const ViewFrame& f, const RadialOptions& options, unsigned threads,
@@ -490,7 +532,7 @@ Status radial_ohf(const terrain::HeightView& z, const ViewFrame& f, const Radial
     return make_error(ErrorCode::kResourceExhausted,
                       "dem: the radial sweep handles up to 2^31 cells; this DEM has " + std::to_string(z.cell_count()),
                       "dem");
-  reset_output(ohf, win, threads);
+  prepare_output(ohf, f, threads);
   const bool lower_bound = bound == RadialBound::kLowerBound;
   const SweepConstants c{
       f.eye, f.curvature, f.max_distance, lower_bound ? RayBlend::kResample : options.blend, lower_bound, &z, &f};
@@ -569,10 +611,11 @@ Status radial_ohf(const terrain::HeightView& z, const ViewFrame& f, const Radial
 
   // The observer's own cell when the eye sits exactly on its centre: no sector owns it.
   const double oc = f.observer_col, orow = f.observer_row;
-  if (oc == std::floor(oc) && orow == std::floor(orow) && win.contains(int(oc), int(orow)) &&
-      !std::isnan(z.at(int(oc), int(orow)))) {
-    ohf.at(int(oc) - win.col0, int(orow) - win.row0) = -std::numeric_limits<float>::infinity();
-    ++evaluated;
+  if (oc == std::floor(oc) && orow == std::floor(orow) && win.contains(int(oc), int(orow))) {
+    const bool void_target = std::isnan(z.at(int(oc), int(orow)));
+    ohf.at(int(oc) - win.col0, int(orow) - win.row0) =
+        void_target ? std::numeric_limits<float>::quiet_NaN() : -std::numeric_limits<float>::infinity();
+    if (!void_target) ++evaluated;
   }
   stats.cells_evaluated = evaluated;
   stats.rays = 0;

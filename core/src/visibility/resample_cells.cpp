@@ -24,7 +24,10 @@ std::uint64_t resample_cells_scalar(const ResampleLine& L, int j_begin, int j_en
   std::uint64_t written = 0;
   for (int j = j_begin; j <= j_end; ++j) {
     const float zc = fill_void(L.elevation[j * cl.zv], cl.s->fill);
-    if (std::isnan(zc)) continue;  // void target: no answer (stays NaN)
+    if (std::isnan(zc)) {  // void target: no answer
+      L.out[j * L.o_v] = std::numeric_limits<float>::quiet_NaN();
+      continue;
+    }
     // Rays are evenly spaced: ray r has slope r / ray_half, so the cell's
     // own slope m sits at ray coordinate rho = m * ray_half.
     const double rho = (j - L.eye_v) * L.inv_k * L.ray_half;
@@ -124,6 +127,20 @@ HORIZON_AVX2 __m256 sample_at8(const CellLine& L, __m256 lanes, __m256i j, __m25
   return _mm256_blendv_ps(_mm256_blendv_ps(none, sv, on_v), su, on_u);
 }
 
+// Stores the lanes of `lanes` (cells j, j + 1, ...) into the line's output;
+// `values` and `keep` are scratch for a line whose cells lie apart.
+HORIZON_AVX2 inline void store_cells8(const ResampleLine& L, int j, __m256 lanes, __m256 height, float* values,
+                                      int* keep) {
+  if (L.o_v == 1) {
+    _mm256_maskstore_ps(L.out + j, _mm256_castps_si256(lanes), height);
+    return;
+  }
+  _mm256_store_ps(values, height);
+  _mm256_store_si256(reinterpret_cast<__m256i*>(keep), _mm256_castps_si256(lanes));
+  for (int q = 0; q < 8; ++q)
+    if (keep[q]) L.out[(j + q) * L.o_v] = values[q];
+}
+
 HORIZON_AVX2 std::uint64_t resample_cells_avx2(const ResampleLine& L, int j_begin, int j_end) {
   using namespace simd;
   const CellLine& cl = *L.cells;
@@ -148,7 +165,10 @@ HORIZON_AVX2 std::uint64_t resample_cells_avx2(const ResampleLine& L, int j_begi
                                  f8(cl.s->fill));
     const __m256 valid = _mm256_and_ps(lanes, _mm256_cmp_ps(zc, zc, _CMP_ORD_Q));
     const int valid_bits = _mm256_movemask_ps(valid);
-    if (valid_bits == 0) continue;
+    if (valid_bits == 0) {  // void targets only: no answers
+      store_cells8(L, j, lanes, f8(std::numeric_limits<float>::quiet_NaN()), values, keep);
+      continue;
+    }
     // rho and d^2 in double, four lanes at a time.
     const __m256d j_lo = _mm256_cvtepi32_pd(_mm256_castsi256_si128(jv));
     const __m256d j_hi = _mm256_cvtepi32_pd(_mm256_extracti128_si256(jv, 1));
@@ -183,14 +203,9 @@ HORIZON_AVX2 std::uint64_t resample_cells_avx2(const ResampleLine& L, int j_begi
     __m256 height = _mm256_set_m128(_mm256_cvtpd_ps(h_hi), _mm256_cvtpd_ps(h_lo));
     const __m256 some = _mm256_cmp_ps(best, f8(static_cast<float>(0.5 * kNoHorizon)), _CMP_GT_OQ);
     height = _mm256_blendv_ps(minus_inf, height, some);
-    if (L.o_v == 1) {
-      _mm256_maskstore_ps(L.out + j, _mm256_castps_si256(valid), height);
-    } else {
-      _mm256_store_ps(values, height);
-      _mm256_store_si256(reinterpret_cast<__m256i*>(keep), _mm256_castps_si256(valid));
-      for (int q = 0; q < 8; ++q)
-        if (keep[q]) L.out[(j + q) * L.o_v] = values[q];
-    }
+    // Void targets: NaN, no answer.
+    height = _mm256_blendv_ps(f8(std::numeric_limits<float>::quiet_NaN()), height, valid);
+    store_cells8(L, j, lanes, height, values, keep);
     written += static_cast<std::uint64_t>(__builtin_popcount(static_cast<unsigned>(valid_bits)));
   }
   return written;
@@ -266,6 +281,16 @@ HORIZON_AVX512 inline __m512d high_pd(__m512i x) {
   return _mm512_cvtepi32_pd(_mm512_extracti64x4_epi64(x, 1));
 }
 
+// Stores the lanes of `lanes` (cells jv) into the line's output.
+HORIZON_AVX512 inline void store_cells16(const ResampleLine& L, int j, __m512i jv, __mmask16 lanes, __m512 height,
+                                         __m512i o_v) {
+  if (L.o_v == 1) {
+    _mm512_mask_storeu_ps(L.out + j, lanes, height);
+  } else {
+    _mm512_mask_i32scatter_ps(L.out, lanes, _mm512_mullo_epi32(jv, o_v), height, 4);
+  }
+}
+
 HORIZON_AVX512 std::uint64_t resample_cells_avx512(const ResampleLine& L, int j_begin, int j_end) {
   using namespace simd;
   const CellLine& cl = *L.cells;
@@ -286,7 +311,10 @@ HORIZON_AVX512 std::uint64_t resample_cells_avx512(const ResampleLine& L, int j_
                                             : gather_masked(L.elevation, _mm512_mullo_epi32(jv, i16(cl.zv)), lanes),
                                  f16(cl.s->fill));
     const __mmask16 valid = _mm512_mask_cmp_ps_mask(lanes, zc, zc, _CMP_ORD_Q);
-    if (valid == 0) continue;
+    if (valid == 0) {  // void targets only: no answers
+      store_cells16(L, j, jv, lanes, f16(std::numeric_limits<float>::quiet_NaN()), o_v);
+      continue;
+    }
     const __m512d dj_lo = _mm512_sub_pd(low_pd(jv), eye_v), dj_hi = _mm512_sub_pd(high_pd(jv), eye_v);
     const __m256i r_lo =
         _mm512_cvttpd_epi32(_mm512_roundscale_pd(_mm512_mul_pd(_mm512_mul_pd(dj_lo, inv_k), ray_half), kFloor));
@@ -318,12 +346,10 @@ HORIZON_AVX512 std::uint64_t resample_cells_avx512(const ResampleLine& L, int j_
     const __m512 both = _mm512_castpd_ps(_mm512_insertf64x4(
         _mm512_castpd256_pd512(_mm256_castps_pd(_mm512_cvtpd_ps(h_lo))), _mm256_castps_pd(_mm512_cvtpd_ps(h_hi)), 1));
     const __mmask16 some = _mm512_cmp_ps_mask(best, f16(static_cast<float>(0.5 * kNoHorizon)), _CMP_GT_OQ);
-    const __m512 height = _mm512_mask_blend_ps(some, minus_inf, both);
-    if (L.o_v == 1) {
-      _mm512_mask_storeu_ps(L.out + j, valid, height);
-    } else {
-      _mm512_mask_i32scatter_ps(L.out, valid, _mm512_mullo_epi32(jv, o_v), height, 4);
-    }
+    // Void targets: NaN, no answer.
+    const __m512 height = _mm512_mask_blend_ps(valid, f16(std::numeric_limits<float>::quiet_NaN()),
+                                               _mm512_mask_blend_ps(some, minus_inf, both));
+    store_cells16(L, j, jv, lanes, height, o_v);
     written += static_cast<std::uint64_t>(__builtin_popcount(static_cast<unsigned>(valid)));
   }
   return written;

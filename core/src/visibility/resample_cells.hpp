@@ -44,9 +44,9 @@ struct ResampleLine {
 // Evaluates the cells j in [j_begin, j_end] of `line`. Every one must belong
 // to the task (its bracketing rays are marching rays i0, i0 + 1 with i0 =
 // (floor(rho) - ra) >> level, rho = (j - eye_v) / k * ray_half) and lie
-// inside max distance. Writes each non-void cell's occlusion height (-inf
-// when no sample was taken) and returns how many it wrote; void cells keep
-// their value.
+// inside max distance. Writes each cell's occlusion height (-inf when no
+// sample was taken; NaN, no answer, on a void target) and returns how many
+// non-void cells it answered.
 std::uint64_t resample_cells(const ResampleLine& line, int j_begin, int j_end);
 
 // The same with the scalar kernel whatever the CPU, for the tests.

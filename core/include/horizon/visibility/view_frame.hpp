@@ -46,6 +46,10 @@ struct ViewFrame {
   double farthest_distance2(const terrain::Window& cells) const;
 };
 
+// Sizes `ohf` to `window`, reusing its storage when it is large enough (no
+// new pages); its contents are then unspecified.
+void size_output(terrain::Grid<float>& ohf, const terrain::Window& window);
+
 // Sizes `ohf` to the frame's window and fills it with NaN ("no answer") on
 // `threads` threads (0: one per core), reusing its storage when it is large
 // enough: a caller computing many viewsheds (a daemon, a benchmark) then
