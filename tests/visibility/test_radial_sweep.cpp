@@ -185,13 +185,13 @@ TEST(RadialSweep, MaxDistanceAnswersExactlyTheDisc) {
 
 // The sweep writes every cell within max distance (NaN on a void target)
 // and sets every other cell to NaN itself, so nothing an output grid held
-// before shows through (a daemon reuses its rasters; a fresh raster holds
-// zeros): run into grids full of a sentinel, fresh or reshaped from a
-// larger one, it gives the bits of a run into a new grid, and a cell has no
-// answer exactly when it is out of range or a void target. Eyes on and off
-// cell centres, in a corner, on a void cell; with and without max
-// distance; voids transparent and filled; every blend, the lower bound and
-// thinned rays; every kernel form.
+// before shows through (a daemon reuses its rasters, and a new one holds
+// whatever its memory held): run into grids full of a sentinel, of the
+// window's size or reshaped from a larger one, it gives the bits of a run
+// into a new grid, and a cell has no answer exactly when it is out of range
+// or a void target. Eyes on and off cell centres, in a corner, on a void
+// cell; with and without max distance; voids transparent and filled; every
+// blend, the lower bound and thinned rays; every kernel form.
 TEST(RadialSweep, WritesEveryCellWhateverTheOutputHeld) {
   constexpr float kNaN = std::numeric_limits<float>::quiet_NaN(), kSentinel = 12345.0f;
   auto dem = testing::make_random_terrain(90, 70, 21);
@@ -246,7 +246,8 @@ TEST(RadialSweep, WritesEveryCellWhateverTheOutputHeld) {
           ASSERT_TRUE(visibility::radial_ohf(z, *f, sweeps[k].options, 2, nullptr, fresh, stats, sweeps[k].bound).ok());
           terrain::Grid<float> same(w.width(), w.height(), kSentinel), larger(w.width() + 7, w.height() + 3, kSentinel);
           for (terrain::Grid<float>* reused : {&same, &larger}) {
-            ASSERT_TRUE(visibility::radial_ohf(z, *f, sweeps[k].options, 2, nullptr, *reused, stats, sweeps[k].bound).ok());
+            ASSERT_TRUE(
+                visibility::radial_ohf(z, *f, sweeps[k].options, 2, nullptr, *reused, stats, sweeps[k].bound).ok());
             ASSERT_EQ(reused->width(), w.width());
             ASSERT_EQ(reused->height(), w.height());
             EXPECT_EQ(std::memcmp(reused->data(), fresh.data(), fresh.size() * sizeof(float)), 0);
