@@ -23,6 +23,10 @@ namespace horizon::visibility {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+// Cells by which a range of grid lines is widened, so that rounding cannot
+// drop a line between neighbouring stretches (one seen by both is harmless:
+// the maximum is idempotent).
+constexpr double kHair = 1e-9;
 // Cells from the eye (along the coarser grid axis, and at most kNearLines
 // along the finer one: oblong cells, as a geographic DEM's, would make the
 // table long) that the sector bounds cover (sector_bounds.hpp), and the
@@ -115,7 +119,6 @@ struct SightLine {
   // where its maximum reaches that slope.
   void search_near(detail::Axis axis, double angle, double t_near) {
     using detail::SectorBounds;
-    constexpr double kHair = 1e-9;  // cells, as screen_stretch
     constexpr int kBlock = SectorBounds::kBlock, kSpan = SectorBounds::kSpan;
     const SectorBounds::Lines lines = sectors->lines(angle, axis);
     const double end = axis == detail::Axis::kColumns ? col_at(t_near) : row_at(t_near);
@@ -197,13 +200,10 @@ struct SightLine {
     screen_stretch(ta, tb);
   }
 
-  // The column and row lines crossed within [ta, tb], widened by a hair
-  // so that rounding cannot drop a line between neighbouring stretches
-  // (one seen by both is harmless: the maximum is idempotent). Each crossing
-  // is screened first (exact_screen.hpp); only one that may reach the
-  // bound, or reads a void, is taken exactly as R3 takes it.
+  // The column and row lines crossed within [ta, tb], widened by kHair.
+  // Each crossing is screened first (exact_screen.hpp); only one that may
+  // reach the bound, or reads a void, is taken exactly as R3 takes it.
   void screen_stretch(double ta, double tb) {
-    constexpr double kHair = 1e-9;  // cells
     const double cs = col_at(ta), ce = col_at(tb), rs = row_at(ta), re = row_at(tb);
     screen(detail::Axis::kColumns, detail::ceil_to_int(std::min(cs, ce) - kHair),
            detail::floor_to_int(std::max(cs, ce) + kHair));

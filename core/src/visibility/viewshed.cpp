@@ -77,7 +77,7 @@ Result<ViewshedResult> compute(const terrain::Dem& dem, terrain::Grid<float>* sp
   const terrain::HeightView elevation = elevation_view(dem.elevation, options);
 
   ViewshedResult result;
-  if (storage.ohf) result.ohf = std::move(*storage.ohf);  // reset_output keeps its pages
+  if (storage.ohf) result.ohf = std::move(*storage.ohf);  // size_output keeps its pages
   result.frame = *frame;
   result.target_height = options.target_height;
   result.field_of_view = options.field_of_view;
