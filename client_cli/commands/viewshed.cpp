@@ -176,6 +176,8 @@ Request parse_request(const Args& args) {
   r.raster = raster_flags(args);
   // Only the visible/hidden raster is written: exact may skip finding R3's OHF.
   o.visibility_only = !visibility::needs_heights(r.raster.output);
+  // A code raster needs only the mask: the fast sweep then codes the cells itself.
+  o.mask_only = visibility::is_code_raster(r.raster.output);
   (void)source_options(args);  // a malformed --band or --valid-range is a usage error before any reading
   // The engine owns the ranges (max distance > 0, curvature in [0, 2], ...);
   // asking it now makes a bad value a usage error that names the flag.
@@ -200,8 +202,8 @@ struct Phases {
   double open = 0.0;     // the DEM's header opened and the request planned on it
   double read = 0.0;     // the planned blocks decoded (the engine's SourceReadStats)
   double compute = 0.0;  // the algorithm (WorkStats::seconds)
-  double mask = 0.0;     // the output raster's values (and the counts' codes) made from the result
-  double encode = 0.0;   // the GeoTIFF (and COG overviews) encoded and written, its style beside it
+  double mask = 0.0;    // the output raster's values (and the counts' codes) made from the result, if the sweep did not
+  double encode = 0.0;  // the GeoTIFF (and COG overviews) encoded and written, its style beside it
   double preview = 0.0;  // the PNG, when asked for
 };
 
@@ -334,9 +336,10 @@ int run_viewshed(const Args& args) {
   phases.compute = result->stats.seconds;
   // The default codes, for the counts and the picture (whatever codes the file has).
   const auto masking = std::chrono::steady_clock::now();
-  visibility::AnswerCounts counts;
-  const terrain::Grid<std::uint8_t> mask =
-      visibility::visibility_mask(*result, r.options.target_height, r.options.threads, &counts);
+  visibility::AnswerCounts counts = result->mask_counts;
+  terrain::Grid<std::uint8_t> made;
+  if (!result->mask) made = visibility::visibility_mask(*result, r.options.target_height, r.options.threads, &counts);
+  const terrain::Grid<std::uint8_t>& mask = result->mask ? *result->mask : made;
   phases.mask = seconds_since(masking);
   if (auto s = write_output(r, *dem, *run, mask, phases); !s.ok()) return report_error(s.error());
   if (r.png_path) {

@@ -266,6 +266,104 @@ TEST(RadialSweep, WritesEveryCellWhateverTheOutputHeld) {
   }
 }
 
+// radial_mask codes each cell in the sweep: it must give, byte for byte,
+// the mask visibility_mask() makes from radial_ohf's OHF, and the same
+// counts, into a grid full of a sentinel that no code has. The eyes, voids
+// and kernel forms of the test above, at two target heights.
+TEST(RadialSweep, MaskIsTheOhfsMaskByteForByte) {
+  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+  constexpr std::uint8_t kSentinel = 77;
+  auto dem = testing::make_random_terrain(90, 70, 21);
+  for (int r = 30; r < 36; ++r)
+    for (int c = 50; c < 58; ++c) dem.elevation.at(c, r) = kNaN;
+  for (int i = 0; i < 200; ++i) dem.elevation.at((i * 37) % 90, (i * 11) % 70) = kNaN;
+  dem.elevation.at(20, 20) = kNaN;
+  struct Eye {
+    double col, row, max_distance;
+  };
+  const double kNone = std::numeric_limits<double>::infinity();
+  const Eye eyes[] = {{40.3, 33.7, kNone}, {44, 35, kNone},      {89, 0, kNone},  {89, 69, 900.0}, {20, 20, kNone},
+                      {20, 20, 450.0},     {60.5, 10.25, 600.0}, {44, 35, 1e300}, {44, 35, 700.0}};
+  using visibility::sweep::simd::Isa;
+  struct Restore {
+    ~Restore() { visibility::sweep::simd::isa_limit() = Isa::kAvx512; }
+  } restore;
+  int with_out_of_range = 0, with_nodata_out_of_range = 0;
+  for (const Isa isa : {Isa::kScalar, Isa::kAvx2, Isa::kAvx512}) {
+    if (visibility::sweep::simd::cpu_isa() < isa) continue;
+    visibility::sweep::simd::isa_limit() = isa;
+    for (const Eye& e : eyes)
+      for (const bool filled : {false, true})
+        for (const double target : {0.0, 3.5}) {
+          std::ostringstream what;
+          what << "isa " << int(isa) << ", eye " << e.col << "," << e.row << " reach " << e.max_distance
+               << (filled ? ", voids filled" : "") << ", target " << target;
+          SCOPED_TRACE(what.str());
+          visibility::ViewshedOptions o;
+          o.max_distance = e.max_distance;
+          if (filled) {
+            o.nodata = visibility::NodataPolicy::kFill;
+            o.nodata_fill_height = 150.0;
+          }
+          geodesy::GridPoint eye = eye_at(dem, e.col, e.row, 2.0);
+          if (std::isnan(eye.elevation)) eye.ground = 100.0, eye.elevation = 102.0;
+          const auto f = visibility::make_view_frame(dem, eye, o);
+          ASSERT_TRUE(f.ok()) << f.error().message;
+          const terrain::HeightView z = visibility::elevation_view(dem.elevation, o);
+          const terrain::Window& w = f->window;
+          // The mask by way of the OHF.
+          visibility::ViewshedResult by_ohf;
+          by_ohf.frame = *f;
+          visibility::WorkStats ohf_stats;
+          ASSERT_TRUE(visibility::radial_ohf(z, *f, o.radial, 2, nullptr, by_ohf.ohf, ohf_stats).ok());
+          terrain::copy_cells(z.sub(w), by_ohf.terrain);
+          visibility::AnswerCounts expected;
+          const auto want = visibility::visibility_mask(by_ohf, target, 2, &expected);
+          // The mask from the sweep, into a sentinel grid larger than the window.
+          terrain::Grid<std::uint8_t> got(w.width() + 5, w.height() + 2, kSentinel);
+          visibility::AnswerCounts counts;
+          visibility::WorkStats stats;
+          ASSERT_TRUE(visibility::radial_mask(z, *f, o.radial, target, 2, nullptr, got, counts, stats).ok());
+          ASSERT_EQ(got.width(), w.width());
+          ASSERT_EQ(got.height(), w.height());
+          for (int row = 0; row < w.height(); ++row)
+            for (int col = 0; col < w.width(); ++col)
+              ASSERT_EQ(int(got.at(col, row)), int(want.at(col, row))) << col + w.col0 << "," << row + w.row0;
+          EXPECT_EQ(counts.visible, expected.visible);
+          EXPECT_EQ(counts.hidden, expected.hidden);
+          EXPECT_EQ(counts.out_of_range, expected.out_of_range);
+          EXPECT_EQ(counts.nodata, expected.nodata);
+          EXPECT_EQ(counts.visible + counts.hidden + counts.out_of_range + counts.nodata, w.cell_count());
+          EXPECT_EQ(stats.cells_evaluated, ohf_stats.cells_evaluated);
+          EXPECT_EQ(stats.terrain_samples, ohf_stats.terrain_samples);
+          EXPECT_GT(counts.visible, 0u);
+          EXPECT_GT(counts.hidden, 0u);
+          with_out_of_range += counts.out_of_range > 0;
+          with_nodata_out_of_range += counts.out_of_range > 0 && counts.nodata > 0 && !filled;
+        }
+  }
+  // The cases reach every class, voids beyond max distance included.
+  EXPECT_GT(with_out_of_range, 0);
+  EXPECT_GT(with_nodata_out_of_range, 0);
+}
+
+// Only the re-sampling blend codes cells in the sweep; the others say so.
+TEST(RadialSweep, MaskNeedsTheResamplingBlend) {
+  const auto dem = testing::make_random_terrain(40, 40, 5);
+  visibility::ViewshedOptions o;
+  const auto f = visibility::make_view_frame(dem, eye_at(dem, 20, 20, 2.0), o);
+  ASSERT_TRUE(f.ok());
+  terrain::Grid<std::uint8_t> mask;
+  visibility::AnswerCounts counts;
+  visibility::WorkStats stats;
+  const visibility::RadialOptions linear{1.0, visibility::RayBlend::kLinear, 0};
+  const Status s = visibility::radial_mask(visibility::elevation_view(dem.elevation, o), *f, linear, 0.0, 1, nullptr,
+                                           mask, counts, stats);
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_EQ(s.error().field, "ray_blend");
+}
+
 TEST(RadialSweep, FinerRaySpacingApproachesR3) {
   const auto dem = testing::make_random_terrain(161, 161, 21);
   const auto eye = eye_at(dem, 80, 80, 2.0);

@@ -5,12 +5,14 @@
 // (partial groups of sixteen and eight included).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <random>
 #include <vector>
 
+#include "horizon/visibility/viewshed.hpp"  // min_target_height_at, the codes
 #include "resample_cells.hpp"
 #include "vector_forms.hpp"
 
@@ -141,6 +143,52 @@ void compare_kernels(bool rows, std::mt19937& rng) {
       }
     }
     EXPECT_GT(answered, 0);
+
+    // Coding the cells instead (radial_mask): every kernel gives the code
+    // that visibility_mask()'s rule gives the scalar kernel's height, and
+    // counts the visible ones, for every range tried above.
+    for (const float target : {0.0f, 40.0f}) {
+      std::vector<std::uint8_t> mask_scalar(z.size(), 77), mask_vector(z.size(), 77);
+      std::uint64_t visible_scalar = 0, visible_vector = 0;
+      auto coding = [&](std::vector<std::uint8_t>& mask, std::uint64_t& visible) {
+        ResampleLine l = line_of(out_vector);
+        l.out = nullptr;
+        l.mask = mask.data() + line * s.z_line;
+        l.target_height = target;
+        l.visible = &visible;
+        return l;
+      };
+      for (int trial = 0; trial < 40; ++trial) {
+        int j0 = start(rng), j1 = start(rng);
+        if (j0 > j1) std::swap(j0, j1);
+        visible_scalar = visible_vector = 0;
+        ASSERT_EQ(resample_cells(coding(mask_vector, visible_vector), j0, j1),
+                  resample_cells_scalar(coding(mask_scalar, visible_scalar), j0, j1));
+        ASSERT_EQ(visible_vector, visible_scalar) << "cells " << j0 << ".." << j1;
+      }
+      visible_scalar = visible_vector = 0;
+      resample_cells(coding(mask_vector, visible_vector), 0, s.v_count - 1);
+      resample_cells_scalar(coding(mask_scalar, visible_scalar), 0, s.v_count - 1);
+      std::uint64_t visible = 0;
+      for (int j = 0; j < s.v_count; ++j) {
+        const std::size_t at = static_cast<std::size_t>(line * s.z_line + j * s.z_v);
+        const float ground = s.z[at], height = out_scalar[at];
+        const std::uint8_t want = std::isnan(ground)                               ? kNoAnswer
+                                  : target >= min_target_height_at(height, ground) ? kVisible
+                                                                                   : kHidden;
+        ASSERT_EQ(int(mask_scalar[at]), int(want)) << "cell " << j;
+        ASSERT_EQ(int(mask_vector[at]), int(want)) << "cell " << j;
+        visible += want == kVisible;
+      }
+      EXPECT_EQ(visible_scalar, visible);
+      EXPECT_EQ(visible_vector, visible);
+      // The two masks agree everywhere, and no cell off the line was touched.
+      ASSERT_EQ(mask_vector, mask_scalar);
+      std::vector<bool> on_line(z.size(), false);
+      for (int j = 0; j < s.v_count; ++j) on_line[static_cast<std::size_t>(line * s.z_line + j * s.z_v)] = true;
+      for (std::size_t i = 0; i < z.size(); ++i)
+        ASSERT_TRUE(on_line[i] || mask_scalar[i] == 77) << "cell " << i << " is not on line " << line;
+    }
   }
 }
 

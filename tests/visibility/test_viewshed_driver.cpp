@@ -1,12 +1,17 @@
 // compute_viewshed_taking_elevation: the same answer as compute_viewshed,
 // with the DEM's grid handed over instead of copied only when the window
-// covers it, and the DEM left whole otherwise and on errors.
+// covers it, and the DEM left whole otherwise and on errors; and a run that
+// is asked for its visibility mask alone (mask_only).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
+#include <vector>
 
 #include "horizon/visibility/view_frame.hpp"
+#include "horizon/visibility/viewshed_outputs.hpp"
 #include "visibility_test_util.hpp"
 
 namespace horizon {
@@ -93,6 +98,75 @@ TEST(ViewshedDriver, FilledVoidsAreHandedOverAsTheFilledGrid) {
   ASSERT_TRUE(result.ok());
   EXPECT_EQ(result->terrain.at(5, 5), 12.5f);
   EXPECT_TRUE(std::isnan(dem.elevation.at(5, 5)));  // the caller's DEM keeps its void
+}
+
+// mask_only: the result's mask is the one visibility_mask() makes from an
+// ordinary run, with the same counts, whichever road made it: the fast
+// sweep coding its cells (no OHF then, and a caller's OHF storage handed
+// back untouched), or an OHF coded afterwards (another algorithm, a field of
+// view, another blend); and the recoded rasters match too.
+TEST(ViewshedDriver, MaskOnlyGivesTheMaskOfAnOrdinaryRun) {
+  terrain::Dem dem = hills();
+  // Voids beyond max distance and inside it.
+  for (int c = 10; c < 14; ++c) dem.elevation.at(c, 5) = std::numeric_limits<float>::quiet_NaN();
+  dem.elevation.at(33, 22) = std::numeric_limits<float>::quiet_NaN();
+  const auto eye = eye_at(dem, 30, 20, 2.0);
+  struct Case {
+    const char* name;
+    visibility::ViewshedOptions options;
+    bool swept;  // the sweep makes the mask itself
+  };
+  std::vector<Case> cases;
+  visibility::ViewshedOptions o;
+  o.max_distance = 220.0;  // 22 cells: the corners are out of range
+  o.target_height = 1.5;
+  cases.push_back({"fast", o, true});
+  visibility::ViewshedOptions exact = o;
+  exact.algorithm = visibility::Algorithm::kExact;
+  exact.visibility_only = true;
+  cases.push_back({"exact", exact, false});
+  visibility::ViewshedOptions view = o;
+  view.field_of_view.azimuth_start = 300;
+  view.field_of_view.azimuth_end = 60;
+  cases.push_back({"field of view", view, false});
+  visibility::ViewshedOptions linear = o;
+  linear.radial.blend = visibility::RayBlend::kLinear;
+  cases.push_back({"linear blend", linear, false});
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    auto ordinary = visibility::compute_viewshed(dem, eye, c.options);
+    ASSERT_TRUE(ordinary.ok());
+    visibility::AnswerCounts expected;
+    const auto want = visibility::visibility_mask(*ordinary, c.options.target_height, 1, &expected);
+    visibility::ViewshedOptions masked = c.options;
+    masked.mask_only = true;
+    terrain::Grid<float> storage(5, 4, 42.0f);
+    auto got = visibility::compute_viewshed(dem, eye, masked, nullptr, nullptr, nullptr, {.ohf = &storage});
+    ASSERT_TRUE(got.ok());
+    ASSERT_TRUE(got->mask.has_value());
+    EXPECT_EQ(got->mask->values().size(), want.values().size());
+    EXPECT_TRUE(std::equal(want.values().begin(), want.values().end(), got->mask->values().begin()));
+    EXPECT_EQ(got->mask_counts.visible, expected.visible);
+    EXPECT_EQ(got->mask_counts.hidden, expected.hidden);
+    EXPECT_EQ(got->mask_counts.out_of_range, expected.out_of_range);
+    EXPECT_EQ(got->mask_counts.nodata, expected.nodata);
+    EXPECT_GT(expected.out_of_range, 0u);
+    EXPECT_GT(expected.nodata, 0u);
+    EXPECT_EQ(got->ohf.empty(), c.swept);
+    if (c.swept) {  // the storage came back as it was
+      ASSERT_EQ(storage.width(), 5);
+      EXPECT_EQ(storage.at(4, 3), 42.0f);
+    }
+    // Other codes, from the mask alone when there is no OHF.
+    const visibility::ValueCodes codes{.visible = 7, .hidden = 3, .out_of_range = 9, .nodata = 200};
+    visibility::AnswerCounts ordinary_counts, mask_counts;
+    const auto a = visibility::visibility_codes(*ordinary, c.options.target_height, codes, 1, &ordinary_counts);
+    const auto b = visibility::visibility_codes(*got, c.options.target_height, codes, 1, &mask_counts);
+    EXPECT_TRUE(std::equal(a.values().begin(), a.values().end(), b.values().begin()));
+    EXPECT_EQ(mask_counts.visible, ordinary_counts.visible);
+    EXPECT_EQ(mask_counts.nodata, ordinary_counts.nodata);
+    EXPECT_EQ(mask_counts.out_of_range, ordinary_counts.out_of_range);
+  }
 }
 
 TEST(ViewshedDriver, ResetOutputLeavesEveryCellNoAnswerWhetherItReusesTheGridOrNot) {

@@ -48,7 +48,9 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "horizon/common/parallel.hpp"
@@ -84,7 +86,8 @@ struct SweepConstants {
   double curvature = 0.0;
   double max_distance = 0.0;
   RayBlend blend = RayBlend::kLinear;
-  bool precise = false;                        // re-sample through R3's arithmetic (RadialBound::kLowerBound)
+  bool precise = false;                       // re-sample through R3's arithmetic (RadialBound::kLowerBound)
+  float target_height = 0.0f;                 // radial_mask's: the codes' target height
   const terrain::HeightView* grid = nullptr;  // for R3's arithmetic
   const ViewFrame* frame = nullptr;
 };
@@ -274,14 +277,23 @@ void prefetch_ahead(const Sector& s, int n, float slope_lo, float slope_hi) {
   }
 }
 
+// What one task did, added up over the tasks.
+struct SweepCounts {
+  std::uint64_t steps = 0;      // ray steps
+  std::uint64_t evaluated = 0;  // cells answered (non-void targets in range)
+  std::uint64_t voids = 0;      // void targets in range (written as no answer)
+  std::uint64_t visible = 0;    // cells coded visible (radial_mask)
+};
+
 // Marches rays [ra, rb] (inclusive, plan indices) of one sector through every
-// line and writes the cells whose bracketing pair (r, r + 1) has r in [ra, rb).
-// Adds the ray steps taken and the cells answered to `steps` / `evaluated`.
+// line and writes the cells whose bracketing pair (r, r + 1) has r in [ra, rb),
+// as heights, or as codes when the sector has a mask. Adds what it did to
+// `counts`.
 // The per-ray and per-cell loops are in ray_steps.cpp, resample_cells.cpp and
 // (RadialBound::kLowerBound) resample_r3.cpp, each with AVX2 and AVX-512
 // kernels.
 void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, int ra, int rb, RayScratch& scratch,
-                const RunControl* control, std::atomic<bool>& stop, std::uint64_t& steps, std::uint64_t& evaluated) {
+                const RunControl* control, std::atomic<bool>& stop, SweepCounts& counts) {
   int level = task_level(p, 0, ra, rb);
   int stride = 1 << level;
   scratch.horizon.assign((rb - ra) / stride + 1, kNoHorizon);
@@ -401,20 +413,30 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
       int j_begin = j_first, j_end = j_last;
       while (j_begin <= j_end && !answers(j_begin)) ++j_begin;
       while (j_end >= j_begin && !answers(j_end)) --j_end;
-      float* const out_line = s.out + (line - s.out_line0) * s.o_line - s.out_v0 * s.o_v;
+      const std::ptrdiff_t out_at = (line - s.out_line0) * s.o_line - s.out_v0 * s.o_v;
+      float* const out_line = s.out ? s.out + out_at : nullptr;
       if (c.blend == RayBlend::kResample && !c.precise) {
         // Where each ray's horizon lies, this step's crossing counted (step 1).
         const int* code = scratch.code.data();
-        const sweep::ResampleLine rl{&cl, code,  n,           ra,  level,      p.rays.half, s.eye_v,  inv_k,
-                                     k,   c.eye, c.curvature, du2, s.metres_v, cur,         out_line, s.o_v};
-        if (j_begin <= j_end) evaluated += sweep::resample_cells(rl, j_begin, j_end);
+        sweep::ResampleLine rl{&cl, code,  n,           ra,  level,      p.rays.half, s.eye_v,  inv_k,
+                               k,   c.eye, c.curvature, du2, s.metres_v, cur,         out_line, s.o_v};
+        if (s.mask) {
+          rl.mask = s.mask + out_at;
+          rl.target_height = c.target_height;
+          rl.visible = &counts.visible;
+        }
+        if (j_begin <= j_end) {
+          const std::uint64_t answered = sweep::resample_cells(rl, j_begin, j_end);
+          counts.evaluated += answered;
+          counts.voids += static_cast<std::uint64_t>(j_end - j_begin + 1) - answered;
+        }
       } else if (c.precise) {
         // R3's own samples and OHF formula (the lower bound, resample_r3.hpp):
         // never above R3's value. The cells go to the kernel in batches.
         const int* code = scratch.code.data();  // where each ray's horizon lies (step 1)
         const sweep::R3CellLine r3_line{c.grid, c.frame, s.rows, line, n > 0 ? s.line0 + s.dir * (n - 1) : -1};
         const auto on = [&](int where) -> sweep::R3Line {
-          if (where >= 0) return {s.line0 + s.dir * where, true};  // a u line, by step
+          if (where >= 0) return {s.line0 + s.dir * where, true};    // a u line, by step
           if (where <= -2) return {-2 - where + s.v_offset, false};  // a v line (codes carry window-based v)
           return {};
         };
@@ -434,7 +456,7 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
             out_line[j * s.o_v] = std::numeric_limits<float>::quiet_NaN();
             continue;
           }
-          ++evaluated;
+          ++counts.evaluated;
           const int r = sweep::lower_ray(sweep::ray_coordinate(j, s.eye_v, inv_k, p.rays.half), p.rays.half);
           const int i0 = (r - ra) >> level;  // the bracketing rays are i0 and i0 + 1
           const int a0 = code[i0], a1 = code[i0 + 1];
@@ -458,7 +480,7 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
             out_line[j * s.o_v] = std::numeric_limits<float>::quiet_NaN();
             continue;
           }
-          ++evaluated;
+          ++counts.evaluated;
           const int i0 = (r - ra) >> level;  // the bracketing rays are i0 and i0 + 1
           float* out = out_line + j * s.o_v;
           // The value-only blends (kLinear, kMin) of the two rays' horizons.
@@ -483,27 +505,26 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
     const int o = lo;
     if (!fused)
       sweep::step_line(ls, hi - lo + 1, slope + o, curv_k + o, cur, cross_slope + o, cross_v + o, h + o, arg + o, n);
-    steps += static_cast<std::uint64_t>(hi - lo + 1);
+    counts.steps += static_cast<std::uint64_t>(hi - lo + 1);
   }
 }
 
-// Sizes `ohf` to the frame's window and sets to NaN the cells the sweep
-// will not write. The sweep writes every cell within max distance (NaN on a
-// void target) but the eye's own, so with no max distance nothing is set
-// here, and a 12 M-cell OHF is not written twice. With one, each row's
-// cells outside a disc a hair smaller than max distance are set (the
-// sweep's own test, in its own rounding, keeps every cell inside it).
-void prepare_output(terrain::Grid<float>& ohf, const ViewFrame& f, unsigned threads) {
+// Calls visit(row, begin, end) (window-based, end exclusive, on `threads`
+// threads) for each run of a row's cells that the sweep does not write: the
+// row's ends outside a disc a hair smaller than max distance (the sweep's
+// own test, in its own rounding, keeps every cell inside it), the whole row
+// when the disc misses it. Nothing without a max distance: the sweep writes
+// every cell then but the eye's own (radial_ohf handles that one).
+template <class Visit>
+void for_each_unswept_run(const ViewFrame& f, unsigned threads, Visit&& visit) {
   const terrain::Window& win = f.window;
-  size_output(ohf, win);
   const double reach2 = f.max_distance * f.max_distance * (1.0 - 1e-9);
   if (!std::isfinite(reach2)) return;
   const std::size_t rows = static_cast<std::size_t>(win.height()), width = static_cast<std::size_t>(win.width());
+  // Bands of rows of at least 64 K cells each.
   const std::size_t band = std::max<std::size_t>(1, (std::size_t{1} << 16) / std::max<std::size_t>(1, width));
-  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
   parallel_for((rows + band - 1) / band, threads, [&](std::size_t b) {
     for (std::size_t i = b * band; i < std::min(rows, (b + 1) * band); ++i) {
-      float* row = ohf.data() + i * width;
       const double dy = (static_cast<double>(win.row0 + static_cast<int>(i)) - f.observer_row) * f.metres_per_row;
       const double rest = reach2 - dy * dy;
       // Columns [inside_lo, inside_hi] (window-based) lie inside the disc.
@@ -514,28 +535,53 @@ void prepare_output(terrain::Grid<float>& ohf, const ViewFrame& f, unsigned thre
         inside_hi = std::min(static_cast<double>(width) - 1.0, std::floor(f.observer_col + half) - win.col0);
       }
       if (inside_lo > inside_hi) {
-        std::fill(row, row + width, kNaN);
+        visit(i, std::size_t{0}, width);
         continue;
       }
-      std::fill(row, row + static_cast<std::size_t>(inside_lo), kNaN);
-      std::fill(row + static_cast<std::size_t>(inside_hi) + 1, row + width, kNaN);
+      visit(i, std::size_t{0}, static_cast<std::size_t>(inside_lo));
+      visit(i, static_cast<std::size_t>(inside_hi) + 1, width);
     }
   });
 }
 
-}  // namespace
+// radial_mask's cells that the sweep does not write get this first, a value
+// no code has; finish_mask() then codes whichever of them the sweep left.
+constexpr std::uint8_t kUnswept = 254;
+static_assert(kUnswept != kVisible && kUnswept != kHidden && kUnswept != kNoAnswer);
 
-Status radial_ohf(const terrain::HeightView& z, const ViewFrame& f, const RadialOptions& options, unsigned threads,
-                  const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats, RadialBound bound) {
+// radial_mask's cells the sweep left (kUnswept): kNoAnswer, out of range or
+// (a void target) no data. Adds them to `counts`.
+void finish_mask(const terrain::HeightView& z, const ViewFrame& f, unsigned threads, terrain::Grid<std::uint8_t>& mask,
+                 AnswerCounts& counts) {
+  const terrain::Window& win = f.window;
+  std::atomic<std::uint64_t> out_of_range{0}, nodata{0};
+  for_each_unswept_run(f, threads, [&](std::size_t row, std::size_t begin, std::size_t end) {
+    std::uint8_t* codes = mask.data() + row * static_cast<std::size_t>(win.width());
+    std::uint64_t far = 0, gaps = 0;
+    for (std::size_t c = begin; c < end; ++c) {
+      if (codes[c] != kUnswept) continue;  // the sweep's own test took it in
+      codes[c] = kNoAnswer;
+      const bool gap = std::isnan(z.at(win.col0 + static_cast<int>(c), win.row0 + static_cast<int>(row)));
+      far += !gap;
+      gaps += gap;
+    }
+    out_of_range += far;
+    nodata += gaps;
+  });
+  counts.out_of_range += out_of_range.load();
+  counts.nodata += nodata.load();
+}
+
+// The sweep of every sector into `ohf` or `mask` (one of them null, the other
+// sized to the frame's window and prepared), with the tasks' counts.
+Status sweep_sectors(const terrain::HeightView& z, const ViewFrame& f, const RadialOptions& options, unsigned threads,
+                     const RunControl* control, const SweepConstants& c, float* ohf, std::uint8_t* mask,
+                     SweepCounts& total, std::uint64_t& rays) {
   const terrain::Window& win = f.window;
   if (z.cell_count() >= (std::size_t{1} << 31) || z.stride() * std::ptrdiff_t{z.height()} >= (std::ptrdiff_t{1} << 31))
     return make_error(ErrorCode::kResourceExhausted,
                       "dem: the radial sweep handles up to 2^31 cells; this DEM has " + std::to_string(z.cell_count()),
                       "dem");
-  prepare_output(ohf, f, threads);
-  const bool lower_bound = bound == RadialBound::kLowerBound;
-  const SweepConstants c{
-      f.eye, f.curvature, f.max_distance, lower_bound ? RayBlend::kResample : options.blend, lower_bound, &z, &f};
   const std::ptrdiff_t pitch = z.stride();
 
   // The four sectors. North/south step rows (v = column, contiguous); east/west
@@ -548,7 +594,8 @@ Status radial_ohf(const terrain::HeightView& z, const ViewFrame& f, const Radial
     Sector s;
     s.z = z.data();
     s.fill = z.void_fill();
-    s.out = ohf.data();
+    s.out = ohf;
+    s.mask = mask;
     s.z_line = rows ? pitch : 1;
     s.z_v = rows ? 1 : pitch;
     s.o_line = rows ? win.width() : 1;
@@ -594,33 +641,111 @@ Status radial_ohf(const terrain::HeightView& z, const ViewFrame& f, const Radial
   }
 
   std::atomic<bool> stop{false};
-  std::atomic<std::uint64_t> steps{0}, evaluated{0};
+  std::atomic<std::uint64_t> steps{0}, evaluated{0}, voids{0}, visible{0};
   std::atomic<std::size_t> done{0};
   parallel_for(tasks.size(), threads, [&](std::size_t t) {
     if (stop.load(std::memory_order_relaxed)) return;
     thread_local RayScratch scratch;
     const Task& task = tasks[t];
-    std::uint64_t task_steps = 0, task_evaluated = 0;
-    sweep_rays(sectors[task.sector], plans[task.sector], c, task.ra, task.rb, scratch, control, stop, task_steps,
-               task_evaluated);
-    steps += task_steps;
-    evaluated += task_evaluated;
+    SweepCounts counts;
+    sweep_rays(sectors[task.sector], plans[task.sector], c, task.ra, task.rb, scratch, control, stop, counts);
+    steps += counts.steps;
+    evaluated += counts.evaluated;
+    voids += counts.voids;
+    visible += counts.visible;
     report_progress(control, double(++done) / double(tasks.size()));
   });
   HORIZON_RETURN_IF_ERROR(check_control(control));
+  total = {steps.load(), evaluated.load(), voids.load(), visible.load()};
+  rays = 0;
+  for (const SectorPlan& p : plans) rays += static_cast<std::uint64_t>(2 * p.rays.half + 1);
+  return Status::Ok();
+}
 
-  // The observer's own cell when the eye sits exactly on its centre: no sector owns it.
+// The eye's own cell when the eye sits exactly on its centre (no sector owns
+// it): its window-based position, or nothing.
+std::optional<std::pair<int, int>> eye_cell(const ViewFrame& f) {
   const double oc = f.observer_col, orow = f.observer_row;
-  if (oc == std::floor(oc) && orow == std::floor(orow) && win.contains(int(oc), int(orow))) {
-    const bool void_target = std::isnan(z.at(int(oc), int(orow)));
-    ohf.at(int(oc) - win.col0, int(orow) - win.row0) =
+  if (oc != std::floor(oc) || orow != std::floor(orow) || !f.window.contains(int(oc), int(orow))) return std::nullopt;
+  return std::pair{int(oc) - f.window.col0, int(orow) - f.window.row0};
+}
+
+void set_stats(const SweepCounts& counts, std::uint64_t rays, WorkStats& stats) {
+  stats.cells_evaluated = counts.evaluated;
+  stats.rays = rays;
+  stats.terrain_samples = 2 * counts.steps;
+}
+
+}  // namespace
+
+Status radial_ohf(const terrain::HeightView& z, const ViewFrame& f, const RadialOptions& options, unsigned threads,
+                  const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats, RadialBound bound) {
+  // Sized to the window; NaN where the sweep will not write, so that a
+  // 12 M-cell OHF is not written twice.
+  size_output(ohf, f.window);
+  const std::size_t width = static_cast<std::size_t>(f.window.width());
+  for_each_unswept_run(f, threads, [&](std::size_t row, std::size_t begin, std::size_t end) {
+    std::fill(ohf.data() + row * width + begin, ohf.data() + row * width + end,
+              std::numeric_limits<float>::quiet_NaN());
+  });
+  const bool lower_bound = bound == RadialBound::kLowerBound;
+  SweepConstants c{f.eye, f.curvature, f.max_distance, lower_bound ? RayBlend::kResample : options.blend, lower_bound};
+  c.grid = &z;
+  c.frame = &f;
+  SweepCounts counts;
+  std::uint64_t rays = 0;
+  HORIZON_RETURN_IF_ERROR(sweep_sectors(z, f, options, threads, control, c, ohf.data(), nullptr, counts, rays));
+  if (const auto eye = eye_cell(f)) {
+    const bool void_target = std::isnan(z.at(eye->first + f.window.col0, eye->second + f.window.row0));
+    ohf.at(eye->first, eye->second) =
         void_target ? std::numeric_limits<float>::quiet_NaN() : -std::numeric_limits<float>::infinity();
-    if (!void_target) ++evaluated;
+    counts.evaluated += !void_target;
   }
-  stats.cells_evaluated = evaluated;
-  stats.rays = 0;
-  for (const SectorPlan& p : plans) stats.rays += static_cast<std::uint64_t>(2 * p.rays.half + 1);
-  stats.terrain_samples = 2 * steps.load();
+  set_stats(counts, rays, stats);
+  return Status::Ok();
+}
+
+Status radial_mask(const terrain::HeightView& z, const ViewFrame& f, const RadialOptions& options, double target_height,
+                   unsigned threads, const RunControl* control, terrain::Grid<std::uint8_t>& mask,
+                   AnswerCounts& answers, WorkStats& stats) {
+  if (options.blend != RayBlend::kResample)
+    return make_error(ErrorCode::kInvalidArgument,
+                      "ray_blend: the visibility mask is made in the sweep by the re-sampling blend only; the other "
+                      "blends make occlusion heights (radial_ohf)",
+                      "ray_blend");
+  size_output(mask, f.window);
+  const std::size_t width = static_cast<std::size_t>(f.window.width());
+  for_each_unswept_run(f, threads, [&](std::size_t row, std::size_t begin, std::size_t end) {
+    std::fill(mask.data() + row * width + begin, mask.data() + row * width + end, kUnswept);
+  });
+  SweepConstants c{f.eye, f.curvature, f.max_distance, RayBlend::kResample, false};
+  c.target_height = static_cast<float>(target_height);
+  c.grid = &z;
+  c.frame = &f;
+  SweepCounts counts;
+  std::uint64_t rays = 0;
+  HORIZON_RETURN_IF_ERROR(sweep_sectors(z, f, options, threads, control, c, nullptr, mask.data(), counts, rays));
+  answers = {};
+  answers.visible = counts.visible;
+  answers.hidden = counts.evaluated - counts.visible;
+  answers.nodata = counts.voids;
+  // The eye's own cell, as radial_ohf answers it (-infinity: nothing can block it).
+  if (const auto eye = eye_cell(f)) {
+    const float ground = z.at(eye->first + f.window.col0, eye->second + f.window.row0);
+    std::uint8_t& code = mask.at(eye->first, eye->second);
+    if (std::isnan(ground)) {
+      code = kNoAnswer;
+      ++answers.nodata;
+    } else {
+      const bool seen =
+          static_cast<float>(target_height) >= min_target_height_at(-std::numeric_limits<float>::infinity(), ground);
+      code = seen ? kVisible : kHidden;
+      ++(seen ? answers.visible : answers.hidden);
+      ++counts.evaluated;
+    }
+  }
+  finish_mask(z, f, threads, mask, answers);
+  set_stats(counts, rays, stats);
   return Status::Ok();
 }
 

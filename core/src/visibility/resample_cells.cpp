@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
+#include "horizon/visibility/viewshed.hpp"  // min_target_height_at, kVisible, kHidden, kNoAnswer
 #include "simd.hpp"
 
 namespace horizon::visibility::sweep {
@@ -17,6 +19,20 @@ inline float occlusion_height(const ResampleLine& L, float best, int j) {
   return static_cast<float>(L.eye + L.k * static_cast<double>(best) + L.curvature * d2);
 }
 
+// The cell's result: its height, or (L.mask) its code at the target height
+// by visibility_mask()'s rule, a void target or no height first.
+inline void put(const ResampleLine& L, int j, float height, float ground) {
+  if (!L.mask) {
+    L.out[j * L.o_v] = height;
+    return;
+  }
+  std::uint8_t code = kNoAnswer;
+  if (!std::isnan(ground) && !std::isnan(height))
+    code = L.target_height >= min_target_height_at(height, ground) ? kVisible : kHidden;
+  L.mask[j * L.o_v] = code;
+  *L.visible += code == kVisible;
+}
+
 }  // namespace
 
 std::uint64_t resample_cells_scalar(const ResampleLine& L, int j_begin, int j_end) {
@@ -25,7 +41,7 @@ std::uint64_t resample_cells_scalar(const ResampleLine& L, int j_begin, int j_en
   for (int j = j_begin; j <= j_end; ++j) {
     const float zc = fill_void(L.elevation[j * cl.zv], cl.s->fill);
     if (std::isnan(zc)) {  // void target: no answer
-      L.out[j * L.o_v] = std::numeric_limits<float>::quiet_NaN();
+      put(L, j, std::numeric_limits<float>::quiet_NaN(), zc);
       continue;
     }
     // Rays are evenly spaced: ray r has slope r / ray_half, so the cell's
@@ -41,7 +57,7 @@ std::uint64_t resample_cells_scalar(const ResampleLine& L, int j_begin, int j_en
     if (L.n > 0) take(sample_u(cl, cr, L.n - 1));
     if (a0 != L.n - 1) take(sample_at(cl, cr, a0));
     if (a1 != a0 && a1 != L.n - 1) take(sample_at(cl, cr, a1));
-    L.out[j * L.o_v] = occlusion_height(L, best, j);
+    put(L, j, occlusion_height(L, best, j), zc);
     ++written;
   }
   return written;
@@ -127,10 +143,43 @@ HORIZON_AVX2 __m256 sample_at8(const CellLine& L, __m256 lanes, __m256i j, __m25
   return _mm256_blendv_ps(_mm256_blendv_ps(none, sv, on_v), su, on_u);
 }
 
-// Stores the lanes of `lanes` (cells j, j + 1, ...) into the line's output;
-// `values` and `keep` are scratch for a line whose cells lie apart.
-HORIZON_AVX2 inline void store_cells8(const ResampleLine& L, int j, __m256 lanes, __m256 height, float* values,
-                                      int* keep) {
+// The codes of put(), eight cells at once: the same float subtraction and
+// compares as min_target_height_at. `lanes` are the cells j, j + 1, ... in
+// the line's range, `ground` their elevations (NaN on a void target).
+HORIZON_AVX2 inline void store_codes8(const ResampleLine& L, int j, __m256 lanes, __m256 height, __m256 ground) {
+  using namespace simd;
+  const __m256 above = _mm256_sub_ps(height, ground);
+  const __m256 needed = _mm256_and_ps(_mm256_cmp_ps(above, f8(kTieTolerance), _CMP_GT_OQ), above);
+  const __m256 seen = _mm256_cmp_ps(f8(L.target_height), needed, _CMP_GE_OQ);
+  const __m256 answered =
+      _mm256_and_ps(_mm256_cmp_ps(ground, ground, _CMP_ORD_Q), _mm256_cmp_ps(height, height, _CMP_ORD_Q));
+  const __m256 visible = _mm256_and_ps(_mm256_and_ps(lanes, answered), seen);
+  const __m256i code =
+      _mm256_blendv_epi8(i8(kNoAnswer), _mm256_blendv_epi8(i8(kHidden), i8(kVisible), _mm256_castps_si256(seen)),
+                         _mm256_castps_si256(answered));
+  // 32-bit lanes to bytes: 0, 1 and 255 survive both saturating packs.
+  const __m128i words = _mm_packs_epi32(_mm256_castsi256_si128(code), _mm256_extracti128_si256(code, 1));
+  const __m128i bytes = _mm_packus_epi16(words, words);
+  *L.visible += static_cast<std::uint64_t>(__builtin_popcount(static_cast<unsigned>(_mm256_movemask_ps(visible))));
+  const int count = __builtin_popcount(static_cast<unsigned>(_mm256_movemask_ps(lanes)));  // lanes 0 .. count - 1
+  if (L.o_v == 1 && count == 8) {
+    _mm_storel_epi64(reinterpret_cast<__m128i*>(L.mask + j), bytes);
+    return;
+  }
+  alignas(16) std::uint8_t b[16];
+  _mm_store_si128(reinterpret_cast<__m128i*>(b), bytes);
+  for (int q = 0; q < count; ++q) L.mask[(j + q) * L.o_v] = b[q];
+}
+
+// Stores the lanes of `lanes` (cells j, j + 1, ...) into the line's output
+// (heights, or codes from `ground`); `values` and `keep` are scratch for a
+// line whose cells lie apart.
+HORIZON_AVX2 inline void store_cells8(const ResampleLine& L, int j, __m256 lanes, __m256 height, __m256 ground,
+                                      float* values, int* keep) {
+  if (L.mask) {
+    store_codes8(L, j, lanes, height, ground);
+    return;
+  }
   if (L.o_v == 1) {
     _mm256_maskstore_ps(L.out + j, _mm256_castps_si256(lanes), height);
     return;
@@ -166,7 +215,7 @@ HORIZON_AVX2 std::uint64_t resample_cells_avx2(const ResampleLine& L, int j_begi
     const __m256 valid = _mm256_and_ps(lanes, _mm256_cmp_ps(zc, zc, _CMP_ORD_Q));
     const int valid_bits = _mm256_movemask_ps(valid);
     if (valid_bits == 0) {  // void targets only: no answers
-      store_cells8(L, j, lanes, f8(std::numeric_limits<float>::quiet_NaN()), values, keep);
+      store_cells8(L, j, lanes, f8(std::numeric_limits<float>::quiet_NaN()), zc, values, keep);
       continue;
     }
     // rho and d^2 in double, four lanes at a time.
@@ -205,7 +254,7 @@ HORIZON_AVX2 std::uint64_t resample_cells_avx2(const ResampleLine& L, int j_begi
     height = _mm256_blendv_ps(minus_inf, height, some);
     // Void targets: NaN, no answer.
     height = _mm256_blendv_ps(f8(std::numeric_limits<float>::quiet_NaN()), height, valid);
-    store_cells8(L, j, lanes, height, values, keep);
+    store_cells8(L, j, lanes, height, zc, values, keep);
     written += static_cast<std::uint64_t>(__builtin_popcount(static_cast<unsigned>(valid_bits)));
   }
   return written;
@@ -281,9 +330,37 @@ HORIZON_AVX512 inline __m512d high_pd(__m512i x) {
   return _mm512_cvtepi32_pd(_mm512_extracti64x4_epi64(x, 1));
 }
 
-// Stores the lanes of `lanes` (cells jv) into the line's output.
+// store_codes8, sixteen cells at once.
+HORIZON_AVX512 inline void store_codes16(const ResampleLine& L, int j, __mmask16 lanes, __m512 height, __m512 ground) {
+  using namespace simd;
+  const __m512 above = _mm512_sub_ps(height, ground);
+  const __m512 needed = _mm512_maskz_mov_ps(_mm512_cmp_ps_mask(above, f16(kTieTolerance), _CMP_GT_OQ), above);
+  const __mmask16 seen = _mm512_cmp_ps_mask(f16(L.target_height), needed, _CMP_GE_OQ);
+  const __mmask16 answered =
+      _mm512_cmp_ps_mask(ground, ground, _CMP_ORD_Q) & _mm512_cmp_ps_mask(height, height, _CMP_ORD_Q);
+  const __m512i code =
+      _mm512_mask_blend_epi32(answered, i16(kNoAnswer), _mm512_mask_blend_epi32(seen, i16(kHidden), i16(kVisible)));
+  *L.visible += static_cast<std::uint64_t>(__builtin_popcount(static_cast<unsigned>(lanes & answered & seen)));
+  if (L.o_v == 1) {
+    _mm512_mask_cvtepi32_storeu_epi8(L.mask + j, lanes, code);
+    return;
+  }
+  alignas(16) std::uint8_t b[16];
+  _mm_store_si128(reinterpret_cast<__m128i*>(b), _mm512_cvtepi32_epi8(code));
+  for (unsigned left = lanes; left != 0; left &= left - 1) {
+    const int q = __builtin_ctz(left);
+    L.mask[(j + q) * L.o_v] = b[q];
+  }
+}
+
+// Stores the lanes of `lanes` (cells jv) into the line's output (heights, or
+// codes from `ground`).
 HORIZON_AVX512 inline void store_cells16(const ResampleLine& L, int j, __m512i jv, __mmask16 lanes, __m512 height,
-                                         __m512i o_v) {
+                                         __m512 ground, __m512i o_v) {
+  if (L.mask) {
+    store_codes16(L, j, lanes, height, ground);
+    return;
+  }
   if (L.o_v == 1) {
     _mm512_mask_storeu_ps(L.out + j, lanes, height);
   } else {
@@ -312,7 +389,7 @@ HORIZON_AVX512 std::uint64_t resample_cells_avx512(const ResampleLine& L, int j_
                                  f16(cl.s->fill));
     const __mmask16 valid = _mm512_mask_cmp_ps_mask(lanes, zc, zc, _CMP_ORD_Q);
     if (valid == 0) {  // void targets only: no answers
-      store_cells16(L, j, jv, lanes, f16(std::numeric_limits<float>::quiet_NaN()), o_v);
+      store_cells16(L, j, jv, lanes, f16(std::numeric_limits<float>::quiet_NaN()), zc, o_v);
       continue;
     }
     const __m512d dj_lo = _mm512_sub_pd(low_pd(jv), eye_v), dj_hi = _mm512_sub_pd(high_pd(jv), eye_v);
@@ -349,7 +426,7 @@ HORIZON_AVX512 std::uint64_t resample_cells_avx512(const ResampleLine& L, int j_
     // Void targets: NaN, no answer.
     const __m512 height = _mm512_mask_blend_ps(valid, f16(std::numeric_limits<float>::quiet_NaN()),
                                                _mm512_mask_blend_ps(some, minus_inf, both));
-    store_cells16(L, j, jv, lanes, height, o_v);
+    store_cells16(L, j, jv, lanes, height, zc, o_v);
     written += static_cast<std::uint64_t>(__builtin_popcount(static_cast<unsigned>(valid)));
   }
   return written;

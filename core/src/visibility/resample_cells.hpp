@@ -39,14 +39,22 @@ struct ResampleLine {
   const float* elevation = nullptr;  // the line's elevation: v index j at elevation[j * zv]
   float* out = nullptr;              // the line's output: v index j at out[j * o_v]
   std::ptrdiff_t o_v = 0;
+  // The visibility mask instead of the heights (radial_mask): when set, each
+  // cell's code at `target_height` goes to mask[j * o_v] and `out` is not
+  // used. The code is visibility_mask()'s, by min_target_height_at's rule on
+  // the height the cell would have had: kVisible, kHidden, kNoAnswer on a
+  // void target. The cells coded kVisible are added to *visible.
+  std::uint8_t* mask = nullptr;
+  float target_height = 0.0f;
+  std::uint64_t* visible = nullptr;
 };
 
 // Evaluates the cells j in [j_begin, j_end] of `line`. Every one must belong
 // to the task (its bracketing rays are marching rays i0, i0 + 1 with i0 =
 // (floor(rho) - ra) >> level, rho = (j - eye_v) / k * ray_half) and lie
 // inside max distance. Writes each cell's occlusion height (-inf when no
-// sample was taken; NaN, no answer, on a void target) and returns how many
-// non-void cells it answered.
+// sample was taken; NaN, no answer, on a void target), or its code when
+// `line.mask` is set, and returns how many non-void cells it answered.
 std::uint64_t resample_cells(const ResampleLine& line, int j_begin, int j_end);
 
 // The same with the scalar kernel whatever the CPU, for the tests.

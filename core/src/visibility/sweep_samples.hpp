@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <limits>
 
 namespace horizon::visibility::sweep {
@@ -29,8 +30,10 @@ struct Sector {
   // never depends on how much of the file around it was read.
   int v_offset = 0;
   int v_count = 0;  // positions along v in the DEM from v_offset on
-  // Output (window-relative): ohf[(i - out_line0) * o_line + (j - out_v0) * o_v].
+  // Output (window-relative): ohf[(i - out_line0) * o_line + (j - out_v0) * o_v],
+  // or, when `mask` is set (radial_mask), the codes at the same place of it.
   float* out = nullptr;
+  std::uint8_t* mask = nullptr;
   std::ptrdiff_t o_line = 0, o_v = 0;
   int out_line0 = 0, out_v0 = 0;
   int win_v0 = 0, win_v1 = 0;  // window range along v, half-open

@@ -25,14 +25,6 @@ bool ViewFrame::in_range(int col, int row) const {
   return dx * dx + dy * dy <= max_distance * max_distance;
 }
 
-void size_output(terrain::Grid<float>& ohf, const terrain::Window& window) {
-  if (ohf.width() == window.width() && ohf.height() == window.height()) return;
-  if (ohf.capacity() >= window.cell_count())
-    ohf.reshape(window.width(), window.height());  // the storage kept: no new pages
-  else
-    ohf = terrain::Grid<float>(window.width(), window.height(), terrain::kUninitialized);
-}
-
 void reset_output(terrain::Grid<float>& ohf, const terrain::Window& window, unsigned threads) {
   size_output(ohf, window);
   // Row bands of at least 64 K cells each, filled in parallel.

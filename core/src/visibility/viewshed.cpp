@@ -86,8 +86,20 @@ Result<ViewshedResult> compute(const terrain::Dem& dem, terrain::Grid<float>* sp
 
   const auto start = std::chrono::steady_clock::now();
   Status status;
+  // mask_only: the sweep codes the cells itself when nothing needs its heights.
+  const bool sweep_mask =
+      options.mask_only && options.radial.blend == RayBlend::kResample && !options.field_of_view.limits();
   if (!try_gpu(elevation, *frame, options, control, gpu, policy, result, status)) switch (options.algorithm) {
       case Algorithm::kRadial:
+        if (sweep_mask) {
+          // No heights: a caller's OHF storage goes back to it untouched.
+          if (storage.ohf) *storage.ohf = std::move(result.ohf);
+          result.ohf = terrain::Grid<float>();
+          result.mask.emplace();
+          status = radial_mask(elevation, *frame, options.radial, options.target_height, options.threads, control,
+                               *result.mask, result.mask_counts, result.stats);
+          break;
+        }
         status = radial_ohf(elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats);
         break;
       case Algorithm::kConservative:
@@ -118,7 +130,11 @@ Result<ViewshedResult> compute(const terrain::Dem& dem, terrain::Grid<float>* sp
     terrain::copy_cells(elevation.sub(w), result.terrain);
   }
   // The field of view masks the answer, whichever algorithm and backend gave it.
-  mask_field_of_view(options.field_of_view, *frame, result.terrain, result.ohf, options.threads);
+  if (!result.mask) {
+    mask_field_of_view(options.field_of_view, *frame, result.terrain, result.ohf, options.threads);
+    if (options.mask_only)
+      result.mask = visibility_codes(result, options.target_height, ValueCodes{}, options.threads, &result.mask_counts);
+  }
   return result;
 }
 

@@ -1,7 +1,9 @@
-// The rasters of viewshed_outputs.hpp, each derived from the result's OHF.
+// The rasters of viewshed_outputs.hpp, each derived from the result's OHF
+// (or, for the codes, from a mask-only result's mask).
 #include "horizon/visibility/viewshed_outputs.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -150,10 +152,39 @@ RunCounts code_run(const float* __restrict o, const float* __restrict g, std::ui
   return counts;
 }
 
+// visibility_codes() of a result with a mask and no OHF: the mask's codes
+// mapped to `codes`, a no-answer cell told apart by its ground (a void is no
+// data, as code_cell tells it first).
+terrain::Grid<std::uint8_t> recode_mask(const ViewshedResult& result, const ValueCodes& codes, unsigned threads,
+                                        AnswerCounts* counts) {
+  const terrain::Grid<std::uint8_t>& mask = *result.mask;
+  if (counts) *counts = result.mask_counts;
+  if (codes == ValueCodes{}) return mask;
+  terrain::Grid<std::uint8_t> out(mask.width(), mask.height(), terrain::kUninitialized);
+  const std::size_t n = out.size();
+  constexpr std::size_t kChunk = std::size_t{1} << 18;
+  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  parallel_for(chunks, chunks > 1 ? threads : 1, [&](std::size_t k) {
+    const std::size_t begin = k * kChunk, end = std::min(n, begin + kChunk);
+    const std::uint8_t* m = mask.data();
+    const float* g = result.terrain.data();
+    std::uint8_t* d = out.data();
+    for (std::size_t i = begin; i < end; ++i)
+      d[i] = m[i] == kVisible  ? codes.visible
+             : m[i] == kHidden ? codes.hidden
+                               : (std::isnan(g[i]) ? codes.nodata : codes.out_of_range);
+  });
+  return out;
+}
+
 }  // namespace
 
 terrain::Grid<std::uint8_t> visibility_codes(const ViewshedResult& result, double target_height,
                                              const ValueCodes& codes, unsigned threads, AnswerCounts* counts) {
+  if (result.mask && result.ohf.size() == 0) {
+    assert(target_height == result.target_height);
+    return recode_mask(result, codes, threads, counts);
+  }
   terrain::Grid<std::uint8_t> out(result.ohf.width(), result.ohf.height(), terrain::kUninitialized);
   const float th = static_cast<float>(target_height);
   const std::size_t n = out.size();

@@ -104,6 +104,12 @@ struct ViewshedOptions {
   // (exact.hpp), several times faster; the OHF it leaves gives R3's
   // visibility at target_height and nothing more. Other algorithms ignore it.
   bool visibility_only = false;
+  // The caller reads the visibility mask at target_height only, never the
+  // OHF: ViewshedResult::mask holds it (visibility_mask()'s codes) with its
+  // counts. Fast on the CPU, re-sampling blend, no field of view then codes
+  // each cell inside the sweep and leaves result.ohf empty (radial_mask);
+  // any other run codes its OHF as visibility_mask() does, the same bytes.
+  bool mask_only = false;
 };
 
 // "fast", "r3", "exact", "conservative".

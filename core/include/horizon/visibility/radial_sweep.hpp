@@ -32,6 +32,7 @@
 #include "horizon/terrain/height_view.hpp"
 #include "horizon/visibility/options.hpp"
 #include "horizon/visibility/view_frame.hpp"
+#include "horizon/visibility/viewshed.hpp"
 #include "horizon/visibility/work_stats.hpp"
 
 namespace horizon::visibility {
@@ -46,5 +47,19 @@ enum class RadialBound {
 Status radial_ohf(const terrain::HeightView& elevation, const ViewFrame& frame, const RadialOptions& options,
                   unsigned threads, const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats,
                   RadialBound bound = RadialBound::kNone);
+
+// The visibility mask that visibility_mask() would make at `target_height`
+// from radial_ohf()'s OHF, byte for byte, and its counts, without the OHF:
+// each cell is coded in the sweep from the height it would have had, by
+// min_target_height_at's rule. `mask` is sized to frame.window; 1 visible,
+// 0 hidden, 255 out of range or a void target. The CLI's visible rasters
+// take this road: a 12 M-cell run writes 12 MB of codes instead of 48 MB of
+// heights, and makes no pass over them afterwards. The re-sampling blend
+// only (options.blend == kResample, the default; kInvalidArgument else).
+// The field of view is not applied (compute_viewshed falls back to the OHF
+// when one limits it).
+Status radial_mask(const terrain::HeightView& elevation, const ViewFrame& frame, const RadialOptions& options,
+                   double target_height, unsigned threads, const RunControl* control, terrain::Grid<std::uint8_t>& mask,
+                   AnswerCounts& counts, WorkStats& stats);
 
 }  // namespace horizon::visibility

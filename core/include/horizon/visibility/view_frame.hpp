@@ -46,9 +46,16 @@ struct ViewFrame {
   double farthest_distance2(const terrain::Window& cells) const;
 };
 
-// Sizes `ohf` to `window`, reusing its storage when it is large enough (no
-// new pages); its contents are then unspecified.
-void size_output(terrain::Grid<float>& ohf, const terrain::Window& window);
+// Sizes `out` (an OHF, a mask) to `window`, reusing its storage when it is
+// large enough (no new pages); its contents are then unspecified.
+template <class T>
+void size_output(terrain::Grid<T>& out, const terrain::Window& window) {
+  if (out.width() == window.width() && out.height() == window.height()) return;
+  if (out.capacity() >= window.cell_count())
+    out.reshape(window.width(), window.height());  // the storage kept: no new pages
+  else
+    out = terrain::Grid<T>(window.width(), window.height(), terrain::kUninitialized);
+}
 
 // Sizes `ohf` to the frame's window and fills it with NaN ("no answer") on
 // `threads` threads (0: one per core), reusing its storage when it is large

@@ -18,6 +18,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 
 #include "horizon/common/control.hpp"
 #include "horizon/common/error.hpp"
@@ -33,6 +34,14 @@
 
 namespace horizon::visibility {
 
+// How many cells of a visible raster fell in each class, counted as the
+// raster is made (a class, not a code: two classes may share a code).
+struct AnswerCounts {
+  std::uint64_t visible = 0, hidden = 0;
+  std::uint64_t out_of_range = 0;  // no answer: beyond max distance, outside the field of view
+  std::uint64_t nodata = 0;        // a void target
+};
+
 struct ViewshedResult {
   ViewFrame frame;               // geometry; frame.window locates the grids in the DEM
   terrain::Grid<float> ohf;      // absolute metres, window-sized; NaN = not computed; -inf = nothing can block
@@ -40,6 +49,10 @@ struct ViewshedResult {
   double target_height = 0.0;    // from the options, used by visibility_mask() by default
   FieldOfView field_of_view;     // from the options: the cells outside it have no answer
   WorkStats stats;
+  // With ViewshedOptions::mask_only: visibility_mask(*this, target_height)
+  // and its counts; `ohf` is empty when the sweep made the mask itself.
+  std::optional<terrain::Grid<std::uint8_t>> mask;
+  AnswerCounts mask_counts;
 };
 
 // Rasters whose storage a run may fill instead of allocating its own (a
@@ -91,14 +104,6 @@ inline float min_target_height_at(float ohf, float ground) {
 
 // Output rasters, all window-sized.
 inline constexpr std::uint8_t kVisible = 1, kHidden = 0, kNoAnswer = 255;
-
-// How many cells of a visible raster fell in each class, counted as the
-// raster is made (a class, not a code: two classes may share a code).
-struct AnswerCounts {
-  std::uint64_t visible = 0, hidden = 0;
-  std::uint64_t out_of_range = 0;  // no answer: beyond max distance, outside the field of view
-  std::uint64_t nodata = 0;        // a void target
-};
 
 // 1 visible / 0 hidden / 255 no answer (out of range, void target); rows
 // on `threads` threads (0 = all hardware threads); the classes' counts in

@@ -59,7 +59,9 @@ Status validate_value_codes(const ValueCodes& codes);
 
 // The visible raster in `codes`: window-sized, every cell one of the four;
 // rows on `threads` threads (0 = all hardware threads); the classes' counts
-// in `counts` when given.
+// in `counts` when given. A result holding its mask and no OHF
+// (ViewshedOptions::mask_only) is recoded from the mask and its ground: it
+// answers at its own target height only, which `target_height` must be.
 terrain::Grid<std::uint8_t> visibility_codes(const ViewshedResult& result, double target_height,
                                              const ValueCodes& codes, unsigned threads = 1,
                                              AnswerCounts* counts = nullptr);
