@@ -180,6 +180,8 @@ grpc::Status ViewshedCall::compute() {
   const v1::RasterKind kind = out.kind;
   // Only visibility at the target height goes back: exact may skip finding R3's OHF.
   options->visibility_only = !visibility::needs_heights(out.output);
+  // A code raster needs only the mask: the fast sweep then codes the cells itself.
+  options->mask_only = visibility::is_code_raster(out.output);
 
   // The plan: options and observer checked, the cells and blocks to read and the cost known.
   auto plan = visibility::plan_viewshed(*d.source, {*spec, *options});
@@ -208,22 +210,28 @@ grpc::Status ViewshedCall::compute() {
   const visibility::WorkStats& stats = result->stats;
   scope_.ohf_computed(stats);
 
-  // The raster asked for, derived from the one OHF (as the CLI does); the
-  // default-coded mask for the counts and the picture.
-  const auto mask = visibility::visibility_mask(*result, options->target_height);
+  // The raster asked for, derived from the one OHF (as the CLI does), or
+  // the mask the sweep made (mask_only); the default-coded mask for the
+  // counts and the picture.
+  visibility::AnswerCounts counts = result->mask_counts;
+  terrain::Grid<std::uint8_t> made;
+  if (!result->mask) made = visibility::visibility_mask(*result, options->target_height, options->threads, &counts);
+  const terrain::Grid<std::uint8_t>& mask = result->mask ? *result->mask : made;
   const terrain::Georeference& georef = run->georef;
   const bool is_mask = visibility::is_code_raster(out.output);
   std::optional<double> nodata;
   terrain::Grid<float> values;
-  terrain::Grid<std::uint8_t> codes;
+  terrain::Grid<std::uint8_t> recoded;
   if (is_mask) {
-    codes = visibility::visibility_codes(*result, options->target_height, out.codes, options->threads);
+    if (out.codes != visibility::ValueCodes{})
+      recoded = visibility::visibility_codes(*result, options->target_height, out.codes, options->threads);
     nodata = static_cast<double>(out.codes.nodata);
   } else {
     values = visibility::float_raster(*result, out.output, options->target_height);
     nodata = out.float_nodata ? out.float_nodata : d.header().nodata;
   }
-  const int width = result->ohf.width(), height = result->ohf.height();
+  const terrain::Grid<std::uint8_t>& codes = out.codes != visibility::ValueCodes{} ? recoded : mask;
+  const int width = result->frame.window.width(), height = result->frame.window.height();
   row_bytes_ = static_cast<std::size_t>(width) * (is_mask ? 1 : sizeof(float));
   if (req.include_raster()) {
     raster_.resize(row_bytes_ * static_cast<std::size_t>(height));
@@ -273,11 +281,7 @@ grpc::Status ViewshedCall::compute() {
   header_.set_algorithm(scope_.record().algorithm);
   header_.set_backend(stats.backend);
 
-  std::uint64_t visible = 0, hidden = 0;
-  for (std::uint8_t v : mask.values()) {
-    visible += v == visibility::kVisible;
-    hidden += v == visibility::kHidden;
-  }
+  const std::uint64_t visible = counts.visible, hidden = counts.hidden;
   summary_.set_visible_cells(visible);
   summary_.set_hidden_cells(hidden);
   summary_.set_evaluated_cells(visible + hidden);

@@ -21,6 +21,7 @@
 #include "horizon/terrain/dem_reader.hpp"
 #include "horizon/terrain/geotiff_writer.hpp"
 #include "horizon/visibility/viewshed.hpp"
+#include "horizon/visibility/viewshed_outputs.hpp"
 #include "rpc_helpers.hpp"
 
 namespace horizon::testing {
@@ -158,6 +159,46 @@ TEST_F(ServerRpc, StreamedRasterEqualsTheEngineAndIsGeoreferenced) {
   for (auto v : mask.values()) visible += v == visibility::kVisible;
   EXPECT_EQ(messages.back().summary().visible_cells(), visible);
   EXPECT_NE(last_log_line("ComputeViewshed").find("\"status\":\"OK\""), std::string::npos);
+}
+
+// The code rasters come from the mask the sweep makes (no OHF): the same
+// bytes and counts as the engine's codes of an ordinary run, call after
+// call (the worker's kept mask refilled), visible and boolean alike.
+TEST_F(ServerRpc, StreamedCodeRastersEqualTheEnginesCodes) {
+  auto dem = terrain::read_dem(bundled_dem("rainier_summit_srtm3_400x400.tif"));
+  ASSERT_TRUE(dem.ok());
+  geodesy::PointSpec spec{geodesy::PointFrame::kWgs84, kRainierLon, kRainierLat, 2.0,
+                          geodesy::HeightMode::kAboveGround};
+  auto eye = geodesy::resolve_point(*dem, spec, "observer");
+  ASSERT_TRUE(eye.ok());
+  visibility::ViewshedOptions options;
+  options.max_distance = 5000;
+  options.threads = 1;
+  auto result = visibility::compute_viewshed(*dem, *eye, options);
+  ASSERT_TRUE(result.ok());
+  visibility::AnswerCounts counts;
+  for (const auto kind : {v1::RASTER_KIND_VISIBLE, v1::RASTER_KIND_BOOLEAN, v1::RASTER_KIND_VISIBLE}) {
+    const visibility::ValueCodes codes =
+        kind == v1::RASTER_KIND_BOOLEAN ? visibility::kBooleanCodes : visibility::ValueCodes{};
+    const auto want = visibility::visibility_codes(*result, 0.0, codes, 1, &counts);
+    ASSERT_GT(counts.out_of_range, 0u);
+    v1::ViewshedRequest request = rainier_viewshed(5000);
+    request.set_raster(kind);
+    request.set_include_raster(true);
+    std::vector<v1::ViewshedResponse> messages;
+    ASSERT_TRUE(run_viewshed(request, &messages).ok());
+    const v1::ViewshedHeader& h = messages.front().header();
+    EXPECT_EQ(h.sample_type(), v1::SAMPLE_TYPE_UINT8);
+    ASSERT_EQ(h.width(), want.width());
+    ASSERT_EQ(h.height(), want.height());
+    std::string raster;
+    for (const auto& m : messages)
+      if (m.has_raster_chunk()) raster += m.raster_chunk().data();
+    ASSERT_EQ(raster.size(), want.size());
+    EXPECT_EQ(std::memcmp(raster.data(), want.data(), raster.size()), 0) << v1::RasterKind_Name(kind);
+    EXPECT_EQ(messages.back().summary().visible_cells(), counts.visible);
+    EXPECT_EQ(messages.back().summary().hidden_cells(), counts.hidden);
+  }
 }
 
 // include_progress: progress messages before the header, the first at once,

@@ -4,6 +4,7 @@
 // before any pixel is read, and bad queries are refused at planning.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <filesystem>
@@ -368,6 +369,37 @@ TEST(Plan, AWorkspaceKeepsItsBufferAcrossRunsAndChangesNoAnswer) {
     workspace.recycle(std::move(with->result));
     EXPECT_EQ(workspace.ohf.data(), ohf);
     EXPECT_EQ(workspace.terrain.data(), terrain);
+  }
+}
+
+// A mask_only run (the daemon's visible rasters) fills the workspace's kept
+// mask instead of allocating one, gives the mask of an ordinary run, and
+// leaves the kept OHF where it was.
+TEST(Plan, AWorkspaceKeepsTheMaskOfAMaskOnlyRun) {
+  auto source = open(testing::bundled_dem("zion_canyon_srtm3_465x457.tif"));
+  ASSERT_TRUE(source);
+  terrain::BlockCache cache(cache_of(8 << 20));
+  Workspace workspace;
+  const terrain::DemHeader& h = source->header();
+  const std::uint8_t* mask = nullptr;
+  for (double reach : {6000.0, 3000.0, 6000.0}) {
+    ViewshedQuery q = query(at_cell(h, 201.3, 170.6), Algorithm::kRadial, reach);
+    auto ordinary = plan_viewshed(*source, q);
+    q.options.mask_only = true;
+    auto plan = plan_viewshed(*source, q);
+    ASSERT_TRUE(plan.ok() && ordinary.ok());
+    auto with = run_viewshed(*plan, *source, &cache, nullptr, nullptr, nullptr, &workspace);
+    auto without = run_viewshed(*ordinary, *source, &cache);
+    ASSERT_TRUE(with.ok() && without.ok());
+    ASSERT_TRUE(with->result.mask.has_value());
+    EXPECT_TRUE(with->result.ohf.empty());
+    const auto want = visibility_mask(without->result, 0.0);
+    ASSERT_EQ(with->result.mask->size(), want.size());
+    EXPECT_TRUE(std::equal(want.values().begin(), want.values().end(), with->result.mask->values().begin())) << reach;
+    EXPECT_TRUE(mask == nullptr || with->result.mask->data() == mask) << "the mask was reallocated";
+    mask = with->result.mask->data();
+    workspace.recycle(std::move(with->result));
+    EXPECT_EQ(workspace.mask.data(), mask);
   }
 }
 

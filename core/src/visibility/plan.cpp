@@ -113,14 +113,16 @@ Result<geodesy::GridPoint> on_ground(const terrain::Dem& dem, const terrain::Win
   return geodesy::place_on_ground(dem, located, spec, what, read.col0, read.row0);
 }
 
-bool keepable(const terrain::Grid<float>& g) {
-  return g.capacity() * sizeof(float) <= Workspace::kMaxKeptBytes;
+template <class T>
+bool keepable(const terrain::Grid<T>& g) {
+  return g.capacity() * sizeof(T) <= Workspace::kMaxKeptBytes;
 }
 
 // Keeps `done`'s storage in `kept` when it is within the limit and larger.
-void keep(terrain::Grid<float>& kept, terrain::Grid<float>&& done) {
+template <class T>
+void keep(terrain::Grid<T>& kept, terrain::Grid<T>&& done) {
   if (keepable(done) && done.capacity() >= kept.capacity()) kept = std::move(done);
-  done = terrain::Grid<float>();
+  done = terrain::Grid<T>();
 }
 
 // Hands a run's cells back to its workspace (or frees them).
@@ -131,7 +133,7 @@ void keep_or_release(terrain::Grid<float>& cells, Workspace* workspace) {
 
 ResultStorage storage_of(Workspace* workspace) {
   if (!workspace) return {};
-  return {&workspace->ohf, &workspace->terrain};
+  return {&workspace->ohf, &workspace->terrain, &workspace->mask};
 }
 
 geodesy::GridPoint to_source(geodesy::GridPoint p, const terrain::Window& read) {
@@ -155,11 +157,14 @@ Result<geodesy::GridPoint> locate(const terrain::ElevationSource& source, const 
 void Workspace::recycle(ViewshedResult&& done) {
   keep(ohf, std::move(done.ohf));
   keep(terrain, std::move(done.terrain));
+  if (done.mask) keep(mask, std::move(*done.mask));
+  done.mask.reset();
 }
 
 void Workspace::trim() {
   for (terrain::Grid<float>* g : {&cells, &ohf, &terrain})
     if (!keepable(*g)) *g = terrain::Grid<float>();
+  if (!keepable(mask)) mask = terrain::Grid<std::uint8_t>();
 }
 
 geodesy::GridPoint ViewshedRun::observer_in_source() const {

@@ -96,6 +96,7 @@ Result<ViewshedResult> compute(const terrain::Dem& dem, terrain::Grid<float>* sp
           if (storage.ohf) *storage.ohf = std::move(result.ohf);
           result.ohf = terrain::Grid<float>();
           result.mask.emplace();
+          if (storage.mask) *result.mask = std::move(*storage.mask);  // size_output keeps its pages
           status = radial_mask(elevation, *frame, options.radial, options.target_height, options.threads, control,
                                *result.mask, result.mask_counts, result.stats);
           break;

@@ -83,9 +83,10 @@ struct ReadPlan {
 // (culling's min-pyramid builds only the blocks under the boxes, exact's
 // max-pyramid stores 1/63 of its window).
 struct Workspace {
-  terrain::Grid<float> cells;    // the last run's read window
-  terrain::Grid<float> ohf;      // a finished run's OHF raster
-  terrain::Grid<float> terrain;  // a finished run's terrain raster
+  terrain::Grid<float> cells;        // the last run's read window
+  terrain::Grid<float> ohf;          // a finished run's OHF raster
+  terrain::Grid<float> terrain;      // a finished run's terrain raster
+  terrain::Grid<std::uint8_t> mask;  // a finished mask_only run's mask
   // A workspace keeps at most this much per buffer between runs (a larger
   // buffer is freed when its run ends): 64 MiB, a 16 M-cell window.
   static constexpr std::uint64_t kMaxKeptBytes = 64ull << 20;

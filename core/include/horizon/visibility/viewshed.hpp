@@ -56,11 +56,13 @@ struct ViewshedResult {
 };
 
 // Rasters whose storage a run may fill instead of allocating its own (a
-// caller's Workspace, plan.hpp): result.ohf and result.terrain take them
-// over. Either may be null; their contents are overwritten.
+// caller's Workspace, plan.hpp): result.ohf, result.terrain and (mask_only)
+// result.mask take them over. Any may be null; their contents are
+// overwritten.
 struct ResultStorage {
   terrain::Grid<float>* ohf = nullptr;
   terrain::Grid<float>* terrain = nullptr;
+  terrain::Grid<std::uint8_t>* mask = nullptr;
 };
 
 // Validates the options, builds the frame and runs the chosen algorithm.
