@@ -10,6 +10,7 @@
 #include <benchmark/benchmark.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <limits>
 #include <map>
@@ -168,6 +169,56 @@ void BM_RadialKernels(benchmark::State& state) {
   visibility::sweep::simd::isa_limit() = Isa::kAvx512;
 }
 BENCHMARK(BM_RadialKernels)->DenseRange(0, 2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The visible raster of BM_RadialKernels' viewshed (target on the ground),
+// kernels capped at range(0) (1 AVX2, 2 AVX-512) by one of two roads:
+// range(1) 0: the OHF (radial_ohf into a kept grid), then visibility_mask
+// over it and the terrain; 1: radial_mask, the sweep coding each cell into
+// a kept byte grid (ViewshedOptions::mask_only, the CLI's and the daemon's
+// visible rasters).
+void BM_VisibleRaster(benchmark::State& state) {
+  using visibility::sweep::simd::Isa;
+  const auto isa = static_cast<Isa>(state.range(0));
+  if (visibility::sweep::simd::cpu_isa() < isa) {
+    state.SkipWithError("this CPU lacks that instruction set");
+    return;
+  }
+  const terrain::Dem* dem = bench_dem(state);
+  if (!dem) return;
+  const bool in_sweep = state.range(1) != 0;
+  state.SetLabel(in_sweep ? "radial_mask" : "radial_ohf + visibility_mask");
+  visibility::ViewshedOptions o;
+  auto frame = visibility::make_view_frame(*dem, centre_eye(*dem), o);
+  if (!frame.ok()) {
+    state.SkipWithError(frame.error().message.c_str());
+    return;
+  }
+  visibility::sweep::simd::isa_limit() = isa;
+  visibility::ViewshedResult result;
+  result.frame = *frame;
+  result.terrain = dem->elevation;
+  terrain::Grid<std::uint8_t> mask;
+  visibility::AnswerCounts counts;
+  visibility::WorkStats stats;
+  for (auto _ : state) {
+    Status status;
+    if (in_sweep) {
+      status = visibility::radial_mask(dem->elevation, *frame, o.radial, 0.0, 0, nullptr, mask, counts, stats);
+    } else {
+      status = visibility::radial_ohf(dem->elevation, *frame, o.radial, 0, nullptr, result.ohf, stats);
+      mask = visibility::visibility_mask(result, 0.0, 0, &counts);
+    }
+    if (!status.ok()) {
+      state.SkipWithError(status.error().message.c_str());
+      break;
+    }
+    benchmark::DoNotOptimize(mask.data());
+  }
+  visibility::sweep::simd::isa_limit() = Isa::kAvx512;
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * stats.cells_evaluated));
+  state.counters["visible"] = static_cast<double>(counts.visible);
+}
+BENCHMARK(BM_VisibleRaster)->ArgsProduct({{1, 2}, {0, 1}})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // Each algorithm mode through compute_viewshed on $HORIZON_BENCH_DEM, whole
 // DEM: 0 fast, 1 conservative, 2 exact, 3 r3 (the last two are slow: run them
