@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -88,8 +89,8 @@ TEST(CreationOptions, DefaultsAreTheWritersOwn) {
 }
 
 TEST(CreationOptions, GdalSpellingsInAnyCase) {
-  auto o = parse(TiffFormat::kGTiff, {"compress=zstd", "ZSTD_LEVEL=15", "Predictor=2", "TILED=NO", "BLOCKYSIZE=32",
-                                      "BIGTIFF=YES"});
+  auto o = parse(TiffFormat::kGTiff,
+                 {"compress=zstd", "ZSTD_LEVEL=15", "Predictor=2", "TILED=NO", "BLOCKYSIZE=32", "BIGTIFF=YES"});
   ASSERT_TRUE(o.ok()) << o.error().message;
   EXPECT_EQ(o->compression, TiffCompression::kZstd);
   EXPECT_EQ(o->level, 15);
@@ -114,15 +115,15 @@ TEST(CreationOptions, RefusalsQuoteTheItem) {
   EXPECT_NE(error_of(TiffFormat::kGTiff, {"BLOCKSIZE=512"}).find("an option of the COG format"), std::string::npos);
   EXPECT_NE(error_of(TiffFormat::kCog, {"TILED=NO"}).find("an option of the GTiff format"), std::string::npos);
   EXPECT_NE(error_of(TiffFormat::kGTiff, {"ZLEVEL=13"}).find("from 1 to 12"), std::string::npos);
-  EXPECT_NE(error_of(TiffFormat::kGTiff, {"COMPRESS=LZW", "ZLEVEL=5"}).find("ZLEVEL=5: applies to COMPRESS=DEFLATE, not LZW"),
-            std::string::npos);
+  EXPECT_NE(
+      error_of(TiffFormat::kGTiff, {"COMPRESS=LZW", "ZLEVEL=5"}).find("ZLEVEL=5: applies to COMPRESS=DEFLATE, not LZW"),
+      std::string::npos);
   EXPECT_NE(error_of(TiffFormat::kCog, {"COMPRESS=LZW", "LEVEL=5"}).find("LZW has no level"), std::string::npos);
   EXPECT_NE(error_of(TiffFormat::kCog, {"COMPRESS=ZSTD", "LEVEL=23"}).find("from 1 to 22"), std::string::npos);
   EXPECT_NE(error_of(TiffFormat::kGTiff, {"BLOCKXSIZE=100"}).find("multiples of 16"), std::string::npos);
   EXPECT_NE(error_of(TiffFormat::kGTiff, {"TILED=maybe"}).find("expected YES or NO"), std::string::npos);
   EXPECT_NE(error_of(TiffFormat::kGTiff, {"COMPRESS"}).find("expected NAME=VALUE"), std::string::npos);
-  EXPECT_NE(error_of(TiffFormat::kGTiff, {"COMPRESS=LZW", "compress=ZSTD"}).find("more than once"),
-            std::string::npos);
+  EXPECT_NE(error_of(TiffFormat::kGTiff, {"COMPRESS=LZW", "compress=ZSTD"}).find("more than once"), std::string::npos);
   EXPECT_NE(error_of(TiffFormat::kCog, {"OVERVIEW_RESAMPLING=CUBIC"}).find("NEAREST, MODE or AVERAGE"),
             std::string::npos);
 }
@@ -193,6 +194,40 @@ TEST(CreationOptions, AnIntegerRasterRefusesTheFloatingPointPredictor) {
   ASSERT_TRUE(none.ok());
   EXPECT_FALSE(write_geotiff(dir.file("n.tif"), Grid<std::uint8_t>(20, 20, 1), utm(), 255.0, *none).ok());
   EXPECT_TRUE(std::filesystem::is_empty(dir.path())) << "nothing written on a refusal";
+}
+
+// The default predictor by sample type: none for UInt8 codes (a difference
+// of two codes means nothing, and their runs compress smaller as they are),
+// horizontal for UInt32 counts; PREDICTOR=2 still applies to codes.
+TEST(CreationOptions, CodesTakeNoPredictorByDefault) {
+  TempDir dir;
+  Grid<std::uint8_t> codes(300, 200, 0);
+  for (int r = 0; r < codes.height(); ++r)
+    for (int c = 0; c < codes.width(); ++c) codes.at(c, r) = (c / 37 + r / 23) % 3 == 0 ? 255 : (c + r) / 50 % 2;
+  const GeoTiffOptions defaults;
+  ASSERT_TRUE(write_geotiff(dir.file("codes.tif"), codes, utm(), 255.0, defaults).ok());
+  EXPECT_EQ(tags_of(dir.file("codes.tif")).predictor, PREDICTOR_NONE);
+  auto horizontal = parse(TiffFormat::kGTiff, {"PREDICTOR=2"});
+  ASSERT_TRUE(horizontal.ok());
+  ASSERT_TRUE(write_geotiff(dir.file("predicted.tif"), codes, utm(), 255.0, *horizontal).ok());
+  EXPECT_EQ(tags_of(dir.file("predicted.tif")).predictor, PREDICTOR_HORIZONTAL);
+  EXPECT_LT(std::filesystem::file_size(dir.file("codes.tif")), std::filesystem::file_size(dir.file("predicted.tif")));
+  for (const char* name : {"codes.tif", "predicted.tif"}) {  // the same codes either way
+    TIFF* tif = TIFFOpen(dir.file(name).c_str(), "r");
+    ASSERT_NE(tif, nullptr);
+    std::vector<std::uint8_t> tile(TIFFTileSize(tif));
+    for (std::uint32_t y = 0; y < 200; y += 256)
+      for (std::uint32_t x = 0; x < 300; x += 256) {
+        ASSERT_GT(TIFFReadTile(tif, tile.data(), x, y, 0, 0), 0);
+        for (std::uint32_t r = 0; r < 256 && y + r < 200; ++r)
+          for (std::uint32_t c = 0; c < 256 && x + c < 300; ++c)
+            ASSERT_EQ(tile[r * 256 + c], codes.at(static_cast<int>(x + c), static_cast<int>(y + r))) << name;
+      }
+    TIFFClose(tif);
+  }
+  Grid<std::uint32_t> counts(40, 30, 7);
+  ASSERT_TRUE(write_geotiff(dir.file("counts.tif"), counts, utm(), std::nullopt, defaults).ok());
+  EXPECT_EQ(tags_of(dir.file("counts.tif")).predictor, PREDICTOR_HORIZONTAL);
 }
 
 TEST(CreationOptions, IntegerRastersInStripsRoundTrip) {

@@ -6,7 +6,8 @@
 //
 //   GTiff  COMPRESS=DEFLATE|LZW|ZSTD|LZMA|PACKBITS|NONE  (default DEFLATE)
 //          PREDICTOR=1|2|3 (NO, YES/STANDARD, FLOATING_POINT; default 2 for
-//                    integer rasters, 3 for float ones, 1 without compression)
+//                    UInt32 counts, 3 for float rasters, 1 for UInt8
+//                    codes and without compression)
 //          ZLEVEL=1..12 (DEFLATE), ZSTD_LEVEL=1..22, LZMA_PRESET=0..9
 //          TILED=YES|NO, BLOCKXSIZE=N, BLOCKYSIZE=N (tiles: multiples of 16,
 //                    default 256; strips: BLOCKYSIZE rows each)
