@@ -151,22 +151,38 @@ void BM_RadialDem(benchmark::State& state) {
 }
 BENCHMARK(BM_RadialDem)->ArgsProduct({{100, 50, 25}, {0, 1}})->Unit(benchmark::kMillisecond)->UseRealTime();
 
+// Caps the sweep's kernels at instruction set `isa` (0 scalar, 1 AVX2, 2
+// AVX-512) while it lives; ok() is false, and the benchmark skipped, when
+// the CPU lacks it.
+class KernelCap {
+ public:
+  KernelCap(benchmark::State& state, std::int64_t isa) {
+    using visibility::sweep::simd::Isa;
+    if (visibility::sweep::simd::cpu_isa() < static_cast<Isa>(isa)) {
+      state.SkipWithError("this CPU lacks that instruction set");
+      return;
+    }
+    visibility::sweep::simd::isa_limit() = static_cast<Isa>(isa);
+    ok_ = true;
+  }
+  ~KernelCap() { visibility::sweep::simd::isa_limit() = visibility::sweep::simd::Isa::kAvx512; }
+  KernelCap(const KernelCap&) = delete;
+  KernelCap& operator=(const KernelCap&) = delete;
+  bool ok() const { return ok_; }
+
+ private:
+  bool ok_ = false;
+};
+
 // BM_RadialDem's default (ray spacing 1, whole DEM) with the sweep's kernels
 // capped at one instruction set: 0 scalar, 1 AVX2, 2 AVX-512 (skipped when
 // the CPU lacks it). Run with --benchmark_enable_random_interleaving=true to
 // compare the forms in one run on a noisy machine.
 void BM_RadialKernels(benchmark::State& state) {
-  using visibility::sweep::simd::Isa;
-  const auto isa = static_cast<Isa>(state.range(0));
-  if (visibility::sweep::simd::cpu_isa() < isa) {
-    state.SkipWithError("this CPU lacks that instruction set");
-    return;
-  }
-  const terrain::Dem* dem = bench_dem(state);
+  const KernelCap cap(state, state.range(0));
+  const terrain::Dem* dem = cap.ok() ? bench_dem(state) : nullptr;
   if (!dem) return;
-  visibility::sweep::simd::isa_limit() = isa;
   run_radial(state, *dem, 1.0, std::numeric_limits<double>::infinity());
-  visibility::sweep::simd::isa_limit() = Isa::kAvx512;
 }
 BENCHMARK(BM_RadialKernels)->DenseRange(0, 2)->Unit(benchmark::kMillisecond)->UseRealTime();
 
@@ -177,13 +193,8 @@ BENCHMARK(BM_RadialKernels)->DenseRange(0, 2)->Unit(benchmark::kMillisecond)->Us
 // a kept byte grid (ViewshedOptions::mask_only, the CLI's and the daemon's
 // visible rasters).
 void BM_VisibleRaster(benchmark::State& state) {
-  using visibility::sweep::simd::Isa;
-  const auto isa = static_cast<Isa>(state.range(0));
-  if (visibility::sweep::simd::cpu_isa() < isa) {
-    state.SkipWithError("this CPU lacks that instruction set");
-    return;
-  }
-  const terrain::Dem* dem = bench_dem(state);
+  const KernelCap cap(state, state.range(0));
+  const terrain::Dem* dem = cap.ok() ? bench_dem(state) : nullptr;
   if (!dem) return;
   const bool in_sweep = state.range(1) != 0;
   state.SetLabel(in_sweep ? "radial_mask" : "radial_ohf + visibility_mask");
@@ -193,7 +204,6 @@ void BM_VisibleRaster(benchmark::State& state) {
     state.SkipWithError(frame.error().message.c_str());
     return;
   }
-  visibility::sweep::simd::isa_limit() = isa;
   visibility::ViewshedResult result;
   result.frame = *frame;
   result.terrain = dem->elevation;
@@ -214,7 +224,6 @@ void BM_VisibleRaster(benchmark::State& state) {
     }
     benchmark::DoNotOptimize(mask.data());
   }
-  visibility::sweep::simd::isa_limit() = Isa::kAvx512;
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * stats.cells_evaluated));
   state.counters["visible"] = static_cast<double>(counts.visible);
 }

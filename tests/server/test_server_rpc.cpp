@@ -108,6 +108,27 @@ class ServerRpc : public ::testing::Test {
 
 TempDir* ServerRpc::data_ = nullptr;
 
+// rainier_viewshed(max_distance)'s answer from the engine in this process,
+// on the same file: its OHF and its DEM (for the georeference).
+struct EngineAnswer {
+  terrain::Dem dem;
+  visibility::ViewshedResult result;
+};
+Result<EngineAnswer> engine_rainier(double max_distance) {
+  auto dem = terrain::read_dem(bundled_dem("rainier_summit_srtm3_400x400.tif"));
+  if (!dem.ok()) return dem.error();
+  geodesy::PointSpec spec{geodesy::PointFrame::kWgs84, kRainierLon, kRainierLat, 2.0,
+                          geodesy::HeightMode::kAboveGround};
+  auto eye = geodesy::resolve_point(*dem, spec, "observer");
+  if (!eye.ok()) return eye.error();
+  visibility::ViewshedOptions options;
+  options.max_distance = max_distance;
+  options.threads = 1;
+  auto result = visibility::compute_viewshed(*dem, *eye, options);
+  if (!result.ok()) return result.error();
+  return EngineAnswer{std::move(*dem), std::move(*result)};
+}
+
 TEST_F(ServerRpc, StreamedRasterEqualsTheEngineAndIsGeoreferenced) {
   v1::ViewshedRequest request = rainier_viewshed(5000);
   request.set_raster(v1::RASTER_KIND_OHF);
@@ -134,17 +155,10 @@ TEST_F(ServerRpc, StreamedRasterEqualsTheEngineAndIsGeoreferenced) {
   EXPECT_EQ(next_row, h.height());
 
   // The engine, in this process, on the same file.
-  auto dem = terrain::read_dem(bundled_dem("rainier_summit_srtm3_400x400.tif"));
-  ASSERT_TRUE(dem.ok());
-  geodesy::PointSpec spec{geodesy::PointFrame::kWgs84, kRainierLon, kRainierLat, 2.0,
-                          geodesy::HeightMode::kAboveGround};
-  auto eye = geodesy::resolve_point(*dem, spec, "observer");
-  ASSERT_TRUE(eye.ok());
-  visibility::ViewshedOptions options;
-  options.max_distance = 5000;
-  options.threads = 1;
-  auto result = visibility::compute_viewshed(*dem, *eye, options);
-  ASSERT_TRUE(result.ok());
+  auto engine = engine_rainier(5000);
+  ASSERT_TRUE(engine.ok()) << engine.error().message;
+  const terrain::Dem* const dem = &engine->dem;
+  const visibility::ViewshedResult* const result = &engine->result;
   const auto ohf = visibility::ohf_raster(*result);
   ASSERT_EQ(h.width(), ohf.width());
   ASSERT_EQ(h.height(), ohf.height());
@@ -165,17 +179,9 @@ TEST_F(ServerRpc, StreamedRasterEqualsTheEngineAndIsGeoreferenced) {
 // bytes and counts as the engine's codes of an ordinary run, call after
 // call (the worker's kept mask refilled), visible and boolean alike.
 TEST_F(ServerRpc, StreamedCodeRastersEqualTheEnginesCodes) {
-  auto dem = terrain::read_dem(bundled_dem("rainier_summit_srtm3_400x400.tif"));
-  ASSERT_TRUE(dem.ok());
-  geodesy::PointSpec spec{geodesy::PointFrame::kWgs84, kRainierLon, kRainierLat, 2.0,
-                          geodesy::HeightMode::kAboveGround};
-  auto eye = geodesy::resolve_point(*dem, spec, "observer");
-  ASSERT_TRUE(eye.ok());
-  visibility::ViewshedOptions options;
-  options.max_distance = 5000;
-  options.threads = 1;
-  auto result = visibility::compute_viewshed(*dem, *eye, options);
-  ASSERT_TRUE(result.ok());
+  auto engine = engine_rainier(5000);
+  ASSERT_TRUE(engine.ok()) << engine.error().message;
+  const visibility::ViewshedResult* const result = &engine->result;
   visibility::AnswerCounts counts;
   for (const auto kind : {v1::RASTER_KIND_VISIBLE, v1::RASTER_KIND_BOOLEAN, v1::RASTER_KIND_VISIBLE}) {
     const visibility::ValueCodes codes =

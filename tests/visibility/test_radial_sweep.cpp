@@ -8,6 +8,7 @@
 #include <ostream>
 #include <random>
 #include <sstream>
+#include <string>
 
 #include "horizon/visibility/agreement.hpp"
 #include "horizon/visibility/radial_sweep.hpp"
@@ -183,96 +184,22 @@ TEST(RadialSweep, MaxDistanceAnswersExactlyTheDisc) {
   EXPECT_LT(vs->stats.window_cells, dem.elevation.size() / 2);
 }
 
-// The sweep writes every cell within max distance (NaN on a void target)
-// and sets every other cell to NaN itself, so nothing an output grid held
-// before shows through (a daemon reuses its rasters, and a new one holds
-// whatever its memory held): run into grids full of a sentinel, of the
-// window's size or reshaped from a larger one, it gives the bits of a run
-// into a new grid, and a cell has no answer exactly when it is out of range
-// or a void target. Eyes on and off cell centres, in a corner, on a void
-// cell; with and without max distance; voids transparent and filled; every
-// blend, the lower bound and thinned rays; every kernel form.
-TEST(RadialSweep, WritesEveryCellWhateverTheOutputHeld) {
-  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN(), kSentinel = 12345.0f;
-  auto dem = testing::make_random_terrain(90, 70, 21);
-  for (int r = 30; r < 36; ++r)
-    for (int c = 50; c < 58; ++c) dem.elevation.at(c, r) = kNaN;
-  for (int i = 0; i < 200; ++i) dem.elevation.at((i * 37) % 90, (i * 11) % 70) = kNaN;
-  dem.elevation.at(20, 20) = kNaN;
-  struct Eye {
-    double col, row, max_distance;
-  };
-  const double kNone = std::numeric_limits<double>::infinity();
-  const Eye eyes[] = {{40.3, 33.7, kNone}, {44, 35, kNone}, {89, 0, kNone},       {89, 69, 900.0},
-                      {20, 20, kNone},     {20, 20, 450.0}, {60.5, 10.25, 600.0}, {44, 35, 1e300}};
-  struct Sweep {
-    visibility::RadialOptions options;
-    visibility::RadialBound bound;
-  };
-  const Sweep sweeps[] = {{{}, visibility::RadialBound::kNone},
-                          {{1.0, visibility::RayBlend::kLinear, 0}, visibility::RadialBound::kNone},
-                          {{1.0, visibility::RayBlend::kMin, 0}, visibility::RadialBound::kNone},
-                          {{1.0, visibility::RayBlend::kResample, 2}, visibility::RadialBound::kNone},
-                          {{}, visibility::RadialBound::kLowerBound}};
-  using visibility::sweep::simd::Isa;
-  struct Restore {
-    ~Restore() { visibility::sweep::simd::isa_limit() = Isa::kAvx512; }
-  } restore;
-  for (const Isa isa : {Isa::kScalar, Isa::kAvx2, Isa::kAvx512}) {
-    if (visibility::sweep::simd::cpu_isa() < isa) continue;
-    visibility::sweep::simd::isa_limit() = isa;
-    for (const Eye& e : eyes)
-      for (const bool filled : {false, true})
-        for (std::size_t k = 0; k < std::size(sweeps); ++k) {
-          std::ostringstream what;
-          what << "isa " << int(isa) << ", eye " << e.col << "," << e.row << " reach " << e.max_distance
-               << (filled ? ", voids filled" : "") << ", sweep " << k;
-          SCOPED_TRACE(what.str());
-          visibility::ViewshedOptions o;
-          o.max_distance = e.max_distance;
-          if (filled) {
-            o.nodata = visibility::NodataPolicy::kFill;
-            o.nodata_fill_height = 150.0;
-          }
-          // The eye on the void cell (20, 20) stands at a given altitude.
-          geodesy::GridPoint eye = eye_at(dem, e.col, e.row, 2.0);
-          if (std::isnan(eye.elevation)) eye.ground = 100.0, eye.elevation = 102.0;
-          const auto f = visibility::make_view_frame(dem, eye, o);
-          ASSERT_TRUE(f.ok()) << f.error().message;
-          const terrain::HeightView z = visibility::elevation_view(dem.elevation, o);
-          const terrain::Window& w = f->window;
-          visibility::WorkStats stats;
-          terrain::Grid<float> fresh;
-          ASSERT_TRUE(visibility::radial_ohf(z, *f, sweeps[k].options, 2, nullptr, fresh, stats, sweeps[k].bound).ok());
-          terrain::Grid<float> same(w.width(), w.height(), kSentinel), larger(w.width() + 7, w.height() + 3, kSentinel);
-          for (terrain::Grid<float>* reused : {&same, &larger}) {
-            ASSERT_TRUE(
-                visibility::radial_ohf(z, *f, sweeps[k].options, 2, nullptr, *reused, stats, sweeps[k].bound).ok());
-            ASSERT_EQ(reused->width(), w.width());
-            ASSERT_EQ(reused->height(), w.height());
-            EXPECT_EQ(std::memcmp(reused->data(), fresh.data(), fresh.size() * sizeof(float)), 0);
-          }
-          std::size_t answered = 0;
-          for (int row = w.row0; row < w.row1; ++row)
-            for (int col = w.col0; col < w.col1; ++col) {
-              const float v = same.at(col - w.col0, row - w.row0);
-              ASSERT_NE(v, kSentinel) << col << "," << row;
-              const bool answers = f->in_range(col, row) && !std::isnan(z.at(col, row));
-              ASSERT_EQ(!std::isnan(v), answers) << col << "," << row;
-              answered += answers;
-            }
-          EXPECT_EQ(stats.cells_evaluated, answered);
-        }
-  }
-}
+// One of the sweep's awkward cases (for_each_awkward_case).
+struct AwkwardCase {
+  terrain::HeightView z;
+  visibility::ViewFrame frame;
+  visibility::ViewshedOptions options;
+  bool filled;  // voids read as terrain at 150 m
+};
 
-// radial_mask codes each cell in the sweep: it must give, byte for byte,
-// the mask visibility_mask() makes from radial_ohf's OHF, and the same
-// counts, into a grid full of a sentinel that no code has. The eyes, voids
-// and kernel forms of the test above, at two target heights.
-TEST(RadialSweep, MaskIsTheOhfsMaskByteForByte) {
+// The sweep's awkward cases: a random terrain with a block of voids,
+// scattered voids and one at (20, 20); eyes on and off cell centres, in a
+// corner, on that void (standing at a given altitude), with and without max
+// distance (one beyond the grid); voids transparent and filled; under every
+// kernel form this CPU runs. Calls check(c) for each, with a trace naming it.
+template <class Check>
+void for_each_awkward_case(Check check) {
   constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
-  constexpr std::uint8_t kSentinel = 77;
   auto dem = testing::make_random_terrain(90, 70, 21);
   for (int r = 30; r < 36; ++r)
     for (int c = 50; c < 58; ++c) dem.elevation.at(c, r) = kNaN;
@@ -288,60 +215,120 @@ TEST(RadialSweep, MaskIsTheOhfsMaskByteForByte) {
   struct Restore {
     ~Restore() { visibility::sweep::simd::isa_limit() = Isa::kAvx512; }
   } restore;
-  int with_out_of_range = 0, with_nodata_out_of_range = 0;
   for (const Isa isa : {Isa::kScalar, Isa::kAvx2, Isa::kAvx512}) {
     if (visibility::sweep::simd::cpu_isa() < isa) continue;
     visibility::sweep::simd::isa_limit() = isa;
     for (const Eye& e : eyes)
-      for (const bool filled : {false, true})
-        for (const double target : {0.0, 3.5}) {
-          std::ostringstream what;
-          what << "isa " << int(isa) << ", eye " << e.col << "," << e.row << " reach " << e.max_distance
-               << (filled ? ", voids filled" : "") << ", target " << target;
-          SCOPED_TRACE(what.str());
-          visibility::ViewshedOptions o;
-          o.max_distance = e.max_distance;
-          if (filled) {
-            o.nodata = visibility::NodataPolicy::kFill;
-            o.nodata_fill_height = 150.0;
-          }
-          geodesy::GridPoint eye = eye_at(dem, e.col, e.row, 2.0);
-          if (std::isnan(eye.elevation)) eye.ground = 100.0, eye.elevation = 102.0;
-          const auto f = visibility::make_view_frame(dem, eye, o);
-          ASSERT_TRUE(f.ok()) << f.error().message;
-          const terrain::HeightView z = visibility::elevation_view(dem.elevation, o);
-          const terrain::Window& w = f->window;
-          // The mask by way of the OHF.
-          visibility::ViewshedResult by_ohf;
-          by_ohf.frame = *f;
-          visibility::WorkStats ohf_stats;
-          ASSERT_TRUE(visibility::radial_ohf(z, *f, o.radial, 2, nullptr, by_ohf.ohf, ohf_stats).ok());
-          terrain::copy_cells(z.sub(w), by_ohf.terrain);
-          visibility::AnswerCounts expected;
-          const auto want = visibility::visibility_mask(by_ohf, target, 2, &expected);
-          // The mask from the sweep, into a sentinel grid larger than the window.
-          terrain::Grid<std::uint8_t> got(w.width() + 5, w.height() + 2, kSentinel);
-          visibility::AnswerCounts counts;
-          visibility::WorkStats stats;
-          ASSERT_TRUE(visibility::radial_mask(z, *f, o.radial, target, 2, nullptr, got, counts, stats).ok());
-          ASSERT_EQ(got.width(), w.width());
-          ASSERT_EQ(got.height(), w.height());
-          for (int row = 0; row < w.height(); ++row)
-            for (int col = 0; col < w.width(); ++col)
-              ASSERT_EQ(int(got.at(col, row)), int(want.at(col, row))) << col + w.col0 << "," << row + w.row0;
-          EXPECT_EQ(counts.visible, expected.visible);
-          EXPECT_EQ(counts.hidden, expected.hidden);
-          EXPECT_EQ(counts.out_of_range, expected.out_of_range);
-          EXPECT_EQ(counts.nodata, expected.nodata);
-          EXPECT_EQ(counts.visible + counts.hidden + counts.out_of_range + counts.nodata, w.cell_count());
-          EXPECT_EQ(stats.cells_evaluated, ohf_stats.cells_evaluated);
-          EXPECT_EQ(stats.terrain_samples, ohf_stats.terrain_samples);
-          EXPECT_GT(counts.visible, 0u);
-          EXPECT_GT(counts.hidden, 0u);
-          with_out_of_range += counts.out_of_range > 0;
-          with_nodata_out_of_range += counts.out_of_range > 0 && counts.nodata > 0 && !filled;
+      for (const bool filled : {false, true}) {
+        std::ostringstream what;
+        what << "isa " << int(isa) << ", eye " << e.col << "," << e.row << " reach " << e.max_distance
+             << (filled ? ", voids filled" : "");
+        SCOPED_TRACE(what.str());
+        visibility::ViewshedOptions o;
+        o.max_distance = e.max_distance;
+        if (filled) {
+          o.nodata = visibility::NodataPolicy::kFill;
+          o.nodata_fill_height = 150.0;
         }
+        // The eye on the void cell (20, 20) stands at a given altitude.
+        geodesy::GridPoint eye = eye_at(dem, e.col, e.row, 2.0);
+        if (std::isnan(eye.elevation)) eye.ground = 100.0, eye.elevation = 102.0;
+        const auto f = visibility::make_view_frame(dem, eye, o);
+        ASSERT_TRUE(f.ok()) << f.error().message;
+        check(AwkwardCase{visibility::elevation_view(dem.elevation, o), *f, o, filled});
+        if (::testing::Test::HasFatalFailure()) return;
+      }
   }
+}
+
+// The sweep writes every cell it answers: into a grid full of a sentinel, of the
+// window's size or reshaped from a larger one, it gives the bits of a run
+// into a new grid, and a cell has no answer exactly when it is out of range
+// or a void target. Every awkward case, with every blend, the lower bound
+// and thinned rays.
+TEST(RadialSweep, WritesEveryCellWhateverTheOutputHeld) {
+  constexpr float kSentinel = 12345.0f;
+  struct Sweep {
+    visibility::RadialOptions options;
+    visibility::RadialBound bound;
+  };
+  const Sweep sweeps[] = {{{}, visibility::RadialBound::kNone},
+                          {{1.0, visibility::RayBlend::kLinear, 0}, visibility::RadialBound::kNone},
+                          {{1.0, visibility::RayBlend::kMin, 0}, visibility::RadialBound::kNone},
+                          {{1.0, visibility::RayBlend::kResample, 2}, visibility::RadialBound::kNone},
+                          {{}, visibility::RadialBound::kLowerBound}};
+  for_each_awkward_case([&](const AwkwardCase& c) {
+    const terrain::Window& w = c.frame.window;
+    for (std::size_t k = 0; k < std::size(sweeps); ++k) {
+      SCOPED_TRACE("sweep " + std::to_string(k));
+      visibility::WorkStats stats;
+      terrain::Grid<float> fresh;
+      ASSERT_TRUE(
+          visibility::radial_ohf(c.z, c.frame, sweeps[k].options, 2, nullptr, fresh, stats, sweeps[k].bound).ok());
+      terrain::Grid<float> same(w.width(), w.height(), kSentinel), larger(w.width() + 7, w.height() + 3, kSentinel);
+      for (terrain::Grid<float>* reused : {&same, &larger}) {
+        ASSERT_TRUE(
+            visibility::radial_ohf(c.z, c.frame, sweeps[k].options, 2, nullptr, *reused, stats, sweeps[k].bound).ok());
+        ASSERT_EQ(reused->width(), w.width());
+        ASSERT_EQ(reused->height(), w.height());
+        EXPECT_EQ(std::memcmp(reused->data(), fresh.data(), fresh.size() * sizeof(float)), 0);
+      }
+      std::size_t answered = 0;
+      for (int row = w.row0; row < w.row1; ++row)
+        for (int col = w.col0; col < w.col1; ++col) {
+          const float v = same.at(col - w.col0, row - w.row0);
+          ASSERT_NE(v, kSentinel) << col << "," << row;
+          const bool answers = c.frame.in_range(col, row) && !std::isnan(c.z.at(col, row));
+          ASSERT_EQ(!std::isnan(v), answers) << col << "," << row;
+          answered += answers;
+        }
+      EXPECT_EQ(stats.cells_evaluated, answered);
+    }
+  });
+}
+
+// radial_mask codes each cell in the sweep: it must give, byte for byte,
+// the mask visibility_mask() makes from radial_ohf's OHF, and the same
+// counts, into a grid full of a sentinel that no code has. Every awkward
+// case, at two target heights.
+TEST(RadialSweep, MaskIsTheOhfsMaskByteForByte) {
+  constexpr std::uint8_t kSentinel = 77;
+  int with_out_of_range = 0, with_nodata_out_of_range = 0;
+  for_each_awkward_case([&](const AwkwardCase& c) {
+    const terrain::Window& w = c.frame.window;
+    for (const double target : {0.0, 3.5}) {
+      SCOPED_TRACE("target " + std::to_string(target));
+      // The mask by way of the OHF.
+      visibility::ViewshedResult by_ohf;
+      by_ohf.frame = c.frame;
+      visibility::WorkStats ohf_stats;
+      ASSERT_TRUE(visibility::radial_ohf(c.z, c.frame, c.options.radial, 2, nullptr, by_ohf.ohf, ohf_stats).ok());
+      terrain::copy_cells(c.z.sub(w), by_ohf.terrain);
+      visibility::AnswerCounts expected;
+      const auto want = visibility::visibility_mask(by_ohf, target, 2, &expected);
+      // The mask from the sweep, into a sentinel grid larger than the window.
+      terrain::Grid<std::uint8_t> got(w.width() + 5, w.height() + 2, kSentinel);
+      visibility::AnswerCounts counts;
+      visibility::WorkStats stats;
+      ASSERT_TRUE(visibility::radial_mask(c.z, c.frame, c.options.radial, target, 2, nullptr, got, counts, stats).ok());
+      ASSERT_EQ(got.width(), w.width());
+      ASSERT_EQ(got.height(), w.height());
+      for (int row = 0; row < w.height(); ++row)
+        for (int col = 0; col < w.width(); ++col)
+          ASSERT_EQ(int(got.at(col, row)), int(want.at(col, row))) << col + w.col0 << "," << row + w.row0;
+      EXPECT_EQ(counts.visible, expected.visible);
+      EXPECT_EQ(counts.hidden, expected.hidden);
+      EXPECT_EQ(counts.out_of_range, expected.out_of_range);
+      EXPECT_EQ(counts.nodata, expected.nodata);
+      EXPECT_EQ(counts.visible + counts.hidden + counts.out_of_range + counts.nodata, w.cell_count());
+      EXPECT_EQ(stats.cells_evaluated, ohf_stats.cells_evaluated);
+      EXPECT_EQ(stats.terrain_samples, ohf_stats.terrain_samples);
+      EXPECT_GT(counts.visible, 0u);
+      EXPECT_GT(counts.hidden, 0u);
+      with_out_of_range += counts.out_of_range > 0;
+      with_nodata_out_of_range += counts.out_of_range > 0 && counts.nodata > 0 && !c.filled;
+    }
+  });
   // The cases reach every class, voids beyond max distance included.
   EXPECT_GT(with_out_of_range, 0);
   EXPECT_GT(with_nodata_out_of_range, 0);
