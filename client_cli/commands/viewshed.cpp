@@ -202,8 +202,8 @@ struct Phases {
   double open = 0.0;     // the DEM's header opened and the request planned on it
   double read = 0.0;     // the planned blocks decoded (the engine's SourceReadStats)
   double compute = 0.0;  // the algorithm (WorkStats::seconds)
-  double mask = 0.0;    // the output raster's values (and the counts' codes) made from the result, if the sweep did not
-  double encode = 0.0;  // the GeoTIFF (and COG overviews) encoded and written, its style beside it
+  double mask = 0.0;     // the output raster's values and the counts' codes (none left when the sweep coded them)
+  double encode = 0.0;   // the GeoTIFF (and COG overviews) encoded and written, its style beside it
   double preview = 0.0;  // the PNG, when asked for
 };
 

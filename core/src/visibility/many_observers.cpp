@@ -29,6 +29,7 @@ ViewshedOptions site_options(const ManyObserversOptions& options, const Observer
   o.threads = 1;
   o.backend = Backend::kCpu;
   o.visibility_only = true;  // only the visible/hidden answer is kept
+  o.mask_only = true;        // the fast sweep codes it without an OHF
   return o;
 }
 
@@ -41,6 +42,7 @@ terrain::Window merged(const terrain::Window& a, const terrain::Window& b) {
 // One thread's viewshed buffers, kept from one observer to the next.
 struct Buffers {
   terrain::Grid<float> ohf, terrain;
+  terrain::Grid<std::uint8_t> mask;
 };
 
 }  // namespace
@@ -106,15 +108,15 @@ Result<ManyObserversResult> compute_many_observers(const terrain::Dem& dem, cons
     if (!buffers) buffers = std::make_unique<Buffers>();
     const auto t0 = std::chrono::steady_clock::now();
     const ViewshedOptions options = site_options(plan.options, plan.sites[i]);
-    auto vs =
-        compute_viewshed(dem, plan.points[i], options, control, nullptr, nullptr, {&buffers->ohf, &buffers->terrain});
+    auto vs = compute_viewshed(dem, plan.points[i], options, control, nullptr, nullptr,
+                               {&buffers->ohf, &buffers->terrain, &buffers->mask});
     if (!vs.ok()) {
       std::lock_guard lock(mutex);
       if (!failure) failure = vs.error();
       failed.store(true, std::memory_order_relaxed);
       return;
     }
-    const terrain::Grid<std::uint8_t> mask = visibility_mask(*vs, options.target_height);
+    const terrain::Grid<std::uint8_t>& mask = *vs->mask;  // mask_only: always made
     const terrain::Window& w = vs->frame.window;
     ObserverSummary& summary = res.observers[i];
     for (int r = 0; r < w.height(); ++r) {
@@ -133,9 +135,11 @@ Result<ManyObserversResult> compute_many_observers(const terrain::Dem& dem, cons
       }
     }
     summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    // The result took the buffers' storage over: hand it back for the next observer.
-    buffers->ohf = std::move(vs->ohf);
+    // The result took the buffers' storage over: hand it back for the next
+    // observer (an OHF the sweep did not need stayed in the buffers).
+    if (!vs->ohf.empty()) buffers->ohf = std::move(vs->ohf);
     buffers->terrain = std::move(vs->terrain);
+    buffers->mask = std::move(*vs->mask);
     std::lock_guard lock(mutex);
     spare.push_back(std::move(buffers));
   });
