@@ -204,6 +204,16 @@ TEST(ManyObservers, ErrorsNameTheObserver) {
   ASSERT_FALSE(option.ok());
   EXPECT_EQ(option.error().field, "target_height");
 
+  // Found by fuzz_requests: a ray spacing so fine that a site's sweep would
+  // need more rays than an int counts. The plan refuses it, as a single
+  // viewshed's plan does, before any work.
+  ManyObserversOptions fine;
+  fine.viewshed.radial.ray_spacing = 1e-300;
+  auto rays = plan_many_observers(e.dem, e.sites, fine);
+  ASSERT_FALSE(rays.ok());
+  EXPECT_EQ(rays.error().code, ErrorCode::kResourceExhausted);
+  EXPECT_EQ(rays.error().field, "ray_spacing");
+
   // A passed deadline stops the run before the first observer.
   auto plan = plan_many_observers(e.dem, e.sites, {});
   ASSERT_TRUE(plan.ok());

@@ -387,6 +387,31 @@ TEST(RadialSweep, MinBlendNeverMissesMoreThanLinear) {
             visibility::compare_viewsheds(*linear, *exact, 0.0).missed_visible);
 }
 
+// A caller that skips the plan (compute_viewshed, radial_ohf, radial_mask)
+// with a ray spacing so fine that the rays would overflow the sweep's int
+// counts gets an error naming ray_spacing, not undefined behaviour.
+TEST(RadialSweep, TooManyRaysAreRefusedWithoutAPlan) {
+  const auto dem = grid_dem(30, 30, [](int c, int r) { return 0.5 * c + 0.25 * r; });
+  visibility::ViewshedOptions o;
+  o.radial.ray_spacing = 1e-300;
+  auto vs = visibility::compute_viewshed(dem, eye_at(dem, 15, 15, 2), o);
+  ASSERT_FALSE(vs.ok());
+  EXPECT_EQ(vs.error().code, ErrorCode::kResourceExhausted);
+  EXPECT_EQ(vs.error().field, "ray_spacing");
+  const auto f = visibility::make_view_frame(dem, eye_at(dem, 15, 15, 2), o);
+  ASSERT_TRUE(f.ok());
+  terrain::Grid<std::uint8_t> mask;
+  visibility::AnswerCounts counts;
+  visibility::WorkStats stats;
+  const Status s = visibility::radial_mask(visibility::elevation_view(dem.elevation, o), *f, o.radial, 0.0, 1, nullptr,
+                                           mask, counts, stats);
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.error().field, "ray_spacing");
+  // The finest spacing the options allow in practice still runs.
+  o.radial.ray_spacing = 0.01;
+  EXPECT_TRUE(visibility::compute_viewshed(dem, eye_at(dem, 15, 15, 2), o).ok());
+}
+
 TEST(RadialSweep, RejectsBadKnobs) {
   const auto dem = grid_dem(10, 10, [](int, int) { return 0.0; });
   visibility::ViewshedOptions o;

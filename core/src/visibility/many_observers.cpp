@@ -13,6 +13,7 @@
 #include <string>
 
 #include "horizon/common/parallel.hpp"
+#include "horizon/visibility/plan.hpp"
 #include "horizon/visibility/viewshed.hpp"
 
 namespace horizon::visibility {
@@ -66,6 +67,11 @@ Result<ManyObserversPlan> plan_many_observers(const terrain::Dem& dem, std::span
     if (!point.ok()) return point.error();
     auto frame = make_view_frame(dem, *point, site_options(options, site));
     if (!frame.ok()) return frame.error();
+    // The sweep's rays bounded as a single viewshed's plan bounds them.
+    if (options.viewshed.algorithm != Algorithm::kR3) {
+      Cost sweep;
+      HORIZON_RETURN_IF_ERROR(add_sweep_cost(site_options(options, site), frame->window, sweep));
+    }
     plan.window = merged(plan.window, frame->window);
     plan.work_cells += frame->window.cell_count();
     largest = std::max(largest, frame->window.cell_count());

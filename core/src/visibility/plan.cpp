@@ -51,32 +51,6 @@ void add_read_cost(const terrain::ElevationSource& source, const ReadPlan& read,
   cost.bytes += cost.read_cells * sizeof(float);
 }
 
-// The radial sweep's rays over `output` (sweep_geometry.hpp's ray_half for
-// the farthest line a sector can have), their tables and their steps.
-// kResourceExhausted naming ray_spacing beyond kMaxSweepRays a sector.
-Status add_sweep_cost(const ViewshedOptions& o, const terrain::Window& output, Cost& cost) {
-  const double reach = std::max(output.width(), output.height());  // lines in the longest sector, at most
-  const double half = std::ceil(reach / o.radial.ray_spacing);
-  const double per_sector = 2 * half + 1;
-  if (per_sector > static_cast<double>(kMaxSweepRays)) {
-    const double floor_spacing = reach / (0.5 * static_cast<double>(kMaxSweepRays));
-    return make_error(ErrorCode::kResourceExhausted,
-                      "ray_spacing: " + number_text(o.radial.ray_spacing, 3) + " cells over a reach of " +
-                          number_text(reach, 3) + " cells needs " + number_text(per_sector, 3) +
-                          " rays a sector, more than the sweep's limit of " + std::to_string(kMaxSweepRays) +
-                          "; use a ray_spacing of at least " + number_text(floor_spacing, 3) +
-                          " or a smaller max_distance",
-                      "ray_spacing");
-  }
-  cost.sweep_rays = static_cast<std::uint64_t>(4 * per_sector);
-  cost.sweep_bytes = cost.sweep_rays * kSweepBytesPerRay;
-  cost.bytes += cost.sweep_bytes;
-  // Every ray marches through the lines of its sector's wedge: about half
-  // the reach for an observer inside the window, all of it at an edge.
-  cost.seconds += static_cast<double>(cost.sweep_rays) * (0.5 * reach) * kSweepSecondsPerRayStep;
-  return Status::Ok();
-}
-
 // The OHF and the terrain crop per answered cell, and what the algorithm adds.
 Status add_ohf_cost(const ViewshedOptions& o, const terrain::Window& output, double radius_cells, Cost& cost) {
   const auto cells = static_cast<double>(output.cell_count());
@@ -153,6 +127,32 @@ Result<geodesy::GridPoint> locate(const terrain::ElevationSource& source, const 
 }
 
 }  // namespace
+
+// The radial sweep's rays over `output` (sweep_geometry.hpp's ray_half for
+// the farthest line a sector can have), their tables and their steps.
+// kResourceExhausted naming ray_spacing beyond kMaxSweepRays a sector.
+Status add_sweep_cost(const ViewshedOptions& o, const terrain::Window& output, Cost& cost) {
+  const double reach = std::max(output.width(), output.height());  // lines in the longest sector, at most
+  const double half = std::ceil(reach / o.radial.ray_spacing);
+  const double per_sector = 2 * half + 1;
+  if (per_sector > static_cast<double>(kMaxSweepRays)) {
+    const double floor_spacing = reach / (0.5 * static_cast<double>(kMaxSweepRays));
+    return make_error(ErrorCode::kResourceExhausted,
+                      "ray_spacing: " + number_text(o.radial.ray_spacing, 3) + " cells over a reach of " +
+                          number_text(reach, 3) + " cells needs " + number_text(per_sector, 3) +
+                          " rays a sector, more than the sweep's limit of " + std::to_string(kMaxSweepRays) +
+                          "; use a ray_spacing of at least " + number_text(floor_spacing, 3) +
+                          " or a smaller max_distance",
+                      "ray_spacing");
+  }
+  cost.sweep_rays = static_cast<std::uint64_t>(4 * per_sector);
+  cost.sweep_bytes = cost.sweep_rays * kSweepBytesPerRay;
+  cost.bytes += cost.sweep_bytes;
+  // Every ray marches through the lines of its sector's wedge: about half
+  // the reach for an observer inside the window, all of it at an edge.
+  cost.seconds += static_cast<double>(cost.sweep_rays) * (0.5 * reach) * kSweepSecondsPerRayStep;
+  return Status::Ok();
+}
 
 void Workspace::recycle(ViewshedResult&& done) {
   keep(ohf, std::move(done.ohf));

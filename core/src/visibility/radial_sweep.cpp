@@ -582,6 +582,7 @@ Status sweep_sectors(const terrain::HeightView& z, const ViewFrame& f, const Rad
     return make_error(ErrorCode::kResourceExhausted,
                       "dem: the radial sweep handles up to 2^31 cells; this DEM has " + std::to_string(z.cell_count()),
                       "dem");
+  HORIZON_RETURN_IF_ERROR(sweep::check_ray_count(f, options.ray_spacing));
   const std::ptrdiff_t pitch = z.stride();
 
   // The four sectors. North/south step rows (v = column, contiguous); east/west

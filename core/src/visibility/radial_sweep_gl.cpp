@@ -194,6 +194,7 @@ Status radial_ohf_gl(gpu::Lease& lease, const terrain::HeightView& z, const View
     lease.fail();
     return status;
   };
+  HORIZON_RETURN_IF_ERROR(sweep::check_ray_count(f, radial.ray_spacing));  // the context is fine
   const terrain::Window& w = f.window;
   // The disk and its tables, the CPU sweep's geometry (sweep_geometry.hpp):
   // float values of double formulas.

@@ -15,9 +15,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <string>
 #include <vector>
 
 #include "../common/int_floor.hpp"
+#include "horizon/common/error.hpp"
 #include "horizon/visibility/view_frame.hpp"
 
 namespace horizon::visibility::sweep {
@@ -78,8 +81,31 @@ inline SectorLines sector_lines(const ViewFrame& f, SectorAxis axis) {
 // Rays per side of a sector whose farthest line is at step k_far: enough that
 // neighbouring rays are at most ray_spacing cells apart there, rounded up to
 // a multiple of `quantum` (the CPU's thinning needs one; the GPU uses 1).
+// Whether ray_half(k_far, ray_spacing) fits its int with room for the
+// tables' 2 half + 1 entries. Planned requests stay far below (plan.hpp's
+// kMaxSweepRays); a sweep called without a plan checks it before sizing.
+inline bool ray_half_fits(double k_far, double ray_spacing) {
+  return k_far / ray_spacing <= static_cast<double>(std::numeric_limits<int>::max() / 4);
+}
+
 inline int ray_half(double k_far, double ray_spacing, int quantum = 1) {
   return quantum * std::max(1, static_cast<int>(std::ceil(k_far / ray_spacing / quantum)));
+}
+
+// kResourceExhausted, naming ray_spacing, when a sector of `f` would need
+// more rays than ray_half_fits allows (a caller that skipped the plan).
+inline Status check_ray_count(const ViewFrame& f, double ray_spacing) {
+  for (const SectorAxis axis : kSectorOrder) {
+    const SectorLines g = sector_lines(f, axis);
+    if (g.lines > 0 && !ray_half_fits(g.step(g.lines - 1), ray_spacing))
+      return make_error(ErrorCode::kResourceExhausted,
+                        "ray_spacing: " + number_text(ray_spacing, 3) + " cells over a sector of " +
+                            std::to_string(g.lines) +
+                            " lines needs more rays than the sweep can index; use a "
+                            "coarser ray_spacing",
+                        "ray_spacing");
+  }
+  return Status::Ok();
 }
 
 // The rays of one sector, index r + half for ray r in [-half, half].

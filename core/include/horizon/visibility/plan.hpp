@@ -101,6 +101,12 @@ struct Workspace {
 // indexed by int, and 2^28 rays are already 3 GiB of tables).
 inline constexpr std::uint64_t kMaxSweepRays = std::uint64_t{1} << 28;
 
+// Adds to `cost` the radial sweep's rays over `output` at options'
+// ray_spacing (their tables' bytes and their steps' time), or
+// kResourceExhausted naming ray_spacing when a sector would need more than
+// kMaxSweepRays. Every plan that runs the sweep calls it.
+Status add_sweep_cost(const ViewshedOptions& options, const terrain::Window& output, Cost& cost);
+
 // ---- viewsheds ----------------------------------------------------------
 
 struct ViewshedQuery {
