@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <limits>
 
 #include "horizon/visibility/viewshed.hpp"  // min_target_height_at, kVisible, kHidden, kNoAnswer
