@@ -336,10 +336,8 @@ int run_viewshed(const Args& args) {
   phases.compute = result->stats.seconds;
   // The default codes, for the counts and the picture (whatever codes the file has).
   const auto masking = std::chrono::steady_clock::now();
-  visibility::AnswerCounts counts = result->mask_counts;
-  terrain::Grid<std::uint8_t> made;
-  if (!result->mask) made = visibility::visibility_mask(*result, r.options.target_height, r.options.threads, &counts);
-  const terrain::Grid<std::uint8_t>& mask = result->mask ? *result->mask : made;
+  const terrain::Grid<std::uint8_t>& mask = visibility::ensure_mask(*result, r.options.threads);
+  const visibility::AnswerCounts counts = result->mask_counts;
   phases.mask = seconds_since(masking);
   if (auto s = write_output(r, *dem, *run, mask, phases); !s.ok()) return report_error(s.error());
   if (r.png_path) {

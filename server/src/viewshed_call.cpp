@@ -213,10 +213,8 @@ grpc::Status ViewshedCall::compute() {
   // The raster asked for, derived from the one OHF (as the CLI does), or
   // the mask the sweep made (mask_only); the default-coded mask for the
   // counts and the picture.
-  visibility::AnswerCounts counts = result->mask_counts;
-  terrain::Grid<std::uint8_t> made;
-  if (!result->mask) made = visibility::visibility_mask(*result, options->target_height, options->threads, &counts);
-  const terrain::Grid<std::uint8_t>& mask = result->mask ? *result->mask : made;
+  const terrain::Grid<std::uint8_t>& mask = visibility::ensure_mask(run->result, options->threads);
+  const visibility::AnswerCounts& counts = result->mask_counts;
   const terrain::Georeference& georef = run->georef;
   const bool is_mask = visibility::is_code_raster(out.output);
   std::optional<double> nodata;

@@ -65,12 +65,13 @@ Result<ManyObserversPlan> plan_many_observers(const terrain::Dem& dem, std::span
                         name + ".max_distance");
     auto point = geodesy::resolve_point(dem, site.point, name.c_str());
     if (!point.ok()) return point.error();
-    auto frame = make_view_frame(dem, *point, site_options(options, site));
+    const ViewshedOptions site_viewshed = site_options(options, site);
+    auto frame = make_view_frame(dem, *point, site_viewshed);
     if (!frame.ok()) return frame.error();
     // The sweep's rays bounded as a single viewshed's plan bounds them.
-    if (options.viewshed.algorithm != Algorithm::kR3) {
+    if (site_viewshed.algorithm != Algorithm::kR3) {
       Cost sweep;
-      HORIZON_RETURN_IF_ERROR(add_sweep_cost(site_options(options, site), frame->window, sweep));
+      HORIZON_RETURN_IF_ERROR(add_sweep_cost(site_viewshed, frame->window, sweep));
     }
     plan.window = merged(plan.window, frame->window);
     plan.work_cells += frame->window.cell_count();

@@ -544,6 +544,17 @@ void for_each_unswept_run(const ViewFrame& f, unsigned threads, Visit&& visit) {
   });
 }
 
+// Sizes `out` to the frame's window and sets the cells the sweep will not
+// write (for_each_unswept_run) to `unswept`.
+template <class T>
+void prepare_output(terrain::Grid<T>& out, const ViewFrame& f, unsigned threads, T unswept) {
+  size_output(out, f.window);
+  const std::size_t width = static_cast<std::size_t>(f.window.width());
+  for_each_unswept_run(f, threads, [&](std::size_t row, std::size_t begin, std::size_t end) {
+    std::fill(out.data() + row * width + begin, out.data() + row * width + end, unswept);
+  });
+}
+
 // radial_mask's cells that the sweep does not write get this first, a value
 // no code has; finish_mask() then codes whichever of them the sweep left.
 constexpr std::uint8_t kUnswept = 254;
@@ -681,14 +692,8 @@ void set_stats(const SweepCounts& counts, std::uint64_t rays, WorkStats& stats) 
 
 Status radial_ohf(const terrain::HeightView& z, const ViewFrame& f, const RadialOptions& options, unsigned threads,
                   const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats, RadialBound bound) {
-  // Sized to the window; NaN where the sweep will not write, so that a
-  // 12 M-cell OHF is not written twice.
-  size_output(ohf, f.window);
-  const std::size_t width = static_cast<std::size_t>(f.window.width());
-  for_each_unswept_run(f, threads, [&](std::size_t row, std::size_t begin, std::size_t end) {
-    std::fill(ohf.data() + row * width + begin, ohf.data() + row * width + end,
-              std::numeric_limits<float>::quiet_NaN());
-  });
+  // NaN where the sweep will not write, so that a 12 M-cell OHF is not written twice.
+  prepare_output(ohf, f, threads, std::numeric_limits<float>::quiet_NaN());
   const bool lower_bound = bound == RadialBound::kLowerBound;
   SweepConstants c{f.eye, f.curvature, f.max_distance, lower_bound ? RayBlend::kResample : options.blend, lower_bound};
   c.grid = &z;
@@ -714,11 +719,7 @@ Status radial_mask(const terrain::HeightView& z, const ViewFrame& f, const Radia
                       "ray_blend: the visibility mask is made in the sweep by the re-sampling blend only; the other "
                       "blends make occlusion heights (radial_ohf)",
                       "ray_blend");
-  size_output(mask, f.window);
-  const std::size_t width = static_cast<std::size_t>(f.window.width());
-  for_each_unswept_run(f, threads, [&](std::size_t row, std::size_t begin, std::size_t end) {
-    std::fill(mask.data() + row * width + begin, mask.data() + row * width + end, kUnswept);
-  });
+  prepare_output(mask, f, threads, kUnswept);
   SweepConstants c{f.eye, f.curvature, f.max_distance, RayBlend::kResample, false};
   c.target_height = static_cast<float>(target_height);
   c.grid = &z;

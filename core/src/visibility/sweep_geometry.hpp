@@ -81,15 +81,15 @@ inline SectorLines sector_lines(const ViewFrame& f, SectorAxis axis) {
 // Rays per side of a sector whose farthest line is at step k_far: enough that
 // neighbouring rays are at most ray_spacing cells apart there, rounded up to
 // a multiple of `quantum` (the CPU's thinning needs one; the GPU uses 1).
+inline int ray_half(double k_far, double ray_spacing, int quantum = 1) {
+  return quantum * std::max(1, static_cast<int>(std::ceil(k_far / ray_spacing / quantum)));
+}
+
 // Whether ray_half(k_far, ray_spacing) fits its int with room for the
 // tables' 2 half + 1 entries. Planned requests stay far below (plan.hpp's
 // kMaxSweepRays); a sweep called without a plan checks it before sizing.
 inline bool ray_half_fits(double k_far, double ray_spacing) {
   return k_far / ray_spacing <= static_cast<double>(std::numeric_limits<int>::max() / 4);
-}
-
-inline int ray_half(double k_far, double ray_spacing, int quantum = 1) {
-  return quantum * std::max(1, static_cast<int>(std::ceil(k_far / ray_spacing / quantum)));
 }
 
 // kResourceExhausted, naming ray_spacing, when a sector of `f` would need

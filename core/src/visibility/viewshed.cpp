@@ -133,8 +133,7 @@ Result<ViewshedResult> compute(const terrain::Dem& dem, terrain::Grid<float>* sp
   // The field of view masks the answer, whichever algorithm and backend gave it.
   if (!result.mask) {
     mask_field_of_view(options.field_of_view, *frame, result.terrain, result.ohf, options.threads);
-    if (options.mask_only)
-      result.mask = visibility_codes(result, options.target_height, ValueCodes{}, options.threads, &result.mask_counts);
+    if (options.mask_only) ensure_mask(result, options.threads);
   }
   return result;
 }
@@ -168,6 +167,11 @@ terrain::Grid<std::uint8_t> visibility_mask(const ViewshedResult& result, double
                                             AnswerCounts* counts) {
   // The rule of min_target_height(), cell by cell, so the two rasters can never disagree.
   return visibility_codes(result, target_height, ValueCodes{}, threads, counts);
+}
+
+const terrain::Grid<std::uint8_t>& ensure_mask(ViewshedResult& result, unsigned threads) {
+  if (!result.mask) result.mask = visibility_mask(result, result.target_height, threads, &result.mask_counts);
+  return *result.mask;
 }
 
 terrain::Grid<float> ohf_raster(const ViewshedResult& result) {

@@ -52,9 +52,10 @@ Status radial_ohf(const terrain::HeightView& elevation, const ViewFrame& frame, 
 // from radial_ohf()'s OHF, byte for byte, and its counts, without the OHF:
 // each cell is coded in the sweep from the height it would have had, by
 // min_target_height_at's rule. `mask` is sized to frame.window; 1 visible,
-// 0 hidden, 255 out of range or a void target. The CLI's visible rasters
-// take this road: a 12 M-cell run writes 12 MB of codes instead of 48 MB of
-// heights, and makes no pass over them afterwards. The re-sampling blend
+// 0 hidden, 255 out of range or a void target. The code rasters of the CLI
+// and the daemon, and many observers' sites, take this road: a 12 M-cell
+// run writes 12 MB of codes instead of 48 MB of heights, and makes no pass
+// over them afterwards. The re-sampling blend
 // only (options.blend == kResample, the default; kInvalidArgument else).
 // The field of view is not applied (compute_viewshed falls back to the OHF
 // when one limits it).

@@ -112,6 +112,10 @@ inline constexpr std::uint8_t kVisible = 1, kHidden = 0, kNoAnswer = 255;
 // `counts` when given.
 terrain::Grid<std::uint8_t> visibility_mask(const ViewshedResult& result, double target_height, unsigned threads = 1,
                                             AnswerCounts* counts = nullptr);
+// The result's mask at its own target height with its counts
+// (result.mask_counts): the one a mask_only run made, or visibility_mask()
+// made now on `threads` threads and kept in the result.
+const terrain::Grid<std::uint8_t>& ensure_mask(ViewshedResult& result, unsigned threads = 1);
 // Minimum target height above ground that is visible, metres, >= 0; NaN for no answer.
 terrain::Grid<float> min_target_height(const ViewshedResult& result);
 // OHF floored at the terrain (equal to the terrain where the ground is visible); NaN for no answer.
