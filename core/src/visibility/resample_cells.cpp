@@ -18,6 +18,11 @@ inline float occlusion_height(const ResampleLine& L, float best, int j) {
   return static_cast<float>(L.eye + L.k * static_cast<double>(best) + L.curvature * d2);
 }
 
+// Whether put() codes a cell of this height hidden (ground not void).
+inline bool hidden(const ResampleLine& L, float height, float ground) {
+  return !std::isnan(height) && !(L.target_height >= min_target_height_at(height, ground));
+}
+
 // The cell's result: its height, or (L.mask) its code at the target height
 // by visibility_mask()'s rule, a void target or no height first.
 inline void put(const ResampleLine& L, int j, float height, float ground) {
@@ -53,8 +58,21 @@ std::uint64_t resample_cells_scalar(const ResampleLine& L, int j_begin, int j_en
     const CellRay cr = cell_ray(cl, j);
     float best = kNoHorizon;
     auto take = [&best](float x) { best = x > best ? x : best; };
-    if (L.n > 0) take(sample_u(cl, cr, L.n - 1));
-    if (a0 != L.n - 1) take(sample_at(cl, cr, a0));
+    if (L.mask) {
+      // A code: when the first candidate alone hides the cell, the others
+      // could only hide it more (see the header).
+      if (a0 != L.n - 1) take(sample_at(cl, cr, a0));
+      const float height = occlusion_height(L, best, j);
+      if (hidden(L, height, zc)) {
+        put(L, j, height, zc);
+        ++written;
+        continue;
+      }
+      if (L.n > 0) take(sample_u(cl, cr, L.n - 1));
+    } else {
+      if (L.n > 0) take(sample_u(cl, cr, L.n - 1));
+      if (a0 != L.n - 1) take(sample_at(cl, cr, a0));
+    }
     if (a1 != a0 && a1 != L.n - 1) take(sample_at(cl, cr, a1));
     put(L, j, occlusion_height(L, best, j), zc);
     ++written;
@@ -170,6 +188,33 @@ HORIZON_AVX2 inline void store_codes8(const ResampleLine& L, int j, __m256 lanes
   for (int q = 0; q < count; ++q) L.mask[(j + q) * L.o_v] = b[q];
 }
 
+// occlusion_height for eight cells from their best samples, in double (d2:
+// the cells' squared ground distances, lanes 0-3 and 4-7); lanes outside
+// `valid` (void targets) NaN, no answer.
+HORIZON_AVX2 inline __m256 occlusion_heights8(__m256 best, __m256 valid, __m256d eye, __m256d k, __m256d curvature,
+                                              __m256d d2_lo, __m256d d2_hi) {
+  using namespace simd;
+  const __m256d b_lo = _mm256_cvtps_pd(_mm256_castps256_ps128(best));
+  const __m256d b_hi = _mm256_cvtps_pd(_mm256_extractf128_ps(best, 1));
+  const __m256d h_lo = _mm256_add_pd(_mm256_add_pd(eye, _mm256_mul_pd(k, b_lo)), _mm256_mul_pd(curvature, d2_lo));
+  const __m256d h_hi = _mm256_add_pd(_mm256_add_pd(eye, _mm256_mul_pd(k, b_hi)), _mm256_mul_pd(curvature, d2_hi));
+  __m256 height = _mm256_set_m128(_mm256_cvtpd_ps(h_hi), _mm256_cvtpd_ps(h_lo));
+  const __m256 some = _mm256_cmp_ps(best, f8(static_cast<float>(0.5 * kNoHorizon)), _CMP_GT_OQ);
+  height = _mm256_blendv_ps(f8(-std::numeric_limits<float>::infinity()), height, some);
+  return _mm256_blendv_ps(f8(std::numeric_limits<float>::quiet_NaN()), height, valid);
+}
+
+// Whether every lane of `valid` would be coded hidden at `height`
+// (store_codes8's test).
+HORIZON_AVX2 inline bool all_hidden8(const ResampleLine& L, __m256 valid, __m256 height, __m256 ground) {
+  using namespace simd;
+  const __m256 above = _mm256_sub_ps(height, ground);
+  const __m256 needed = _mm256_and_ps(_mm256_cmp_ps(above, f8(kTieTolerance), _CMP_GT_OQ), above);
+  const __m256 seen = _mm256_cmp_ps(f8(L.target_height), needed, _CMP_GE_OQ);
+  const __m256 unanswered = _mm256_cmp_ps(height, height, _CMP_UNORD_Q);
+  return _mm256_movemask_ps(_mm256_and_ps(valid, _mm256_or_ps(seen, unanswered))) == 0;
+}
+
 // Stores the lanes of `lanes` (cells j, j + 1, ...) into the line's output
 // (heights, or codes from `ground`); `values` and `keep` are scratch for a
 // line whose cells lie apart.
@@ -200,7 +245,6 @@ HORIZON_AVX2 std::uint64_t resample_cells_avx2(const ResampleLine& L, int j_begi
   const __m256d eye = _mm256_set1_pd(L.eye), k = _mm256_set1_pd(L.k), curvature = _mm256_set1_pd(L.curvature),
                 du2 = _mm256_set1_pd(L.du2), metres_v = _mm256_set1_pd(L.metres_v);
   const __m128i shift = _mm_cvtsi32_si128(L.level);
-  const __m256 minus_inf = f8(-std::numeric_limits<float>::infinity());
   alignas(32) float values[8];
   alignas(32) int keep[8];
   for (; j <= j_end; j += 8) {
@@ -236,24 +280,27 @@ HORIZON_AVX2 std::uint64_t resample_cells_avx2(const ResampleLine& L, int j_begi
     const __m256 curv_k =
         _mm256_mul_ps(f8(cl.curvature), _mm256_add_ps(f8(cl.mu2), _mm256_mul_ps(_mm256_mul_ps(m, m), f8(cl.mv2))));
     // The candidates; `max(x, best)` keeps best when x is NaN, as take() does.
-    __m256 best = f8(kNoHorizon);
-    if (L.n > 0) best = _mm256_max_ps(sample_u8(cl, m, curv_k, i8(L.n - 1), valid, f8(cl.inv_step[L.n - 1])), best);
-    best = _mm256_max_ps(sample_at8(cl, valid, jv, m, inv_m, curv_k, a0), best);
-    best = _mm256_max_ps(sample_at8(cl, valid, jv, m, inv_m, curv_k, a1), best);
-    // occlusion_height, in double.
-    const __m256d b_lo = _mm256_cvtps_pd(_mm256_castps256_ps128(best));
-    const __m256d b_hi = _mm256_cvtps_pd(_mm256_extractf128_ps(best, 1));
     const __m256d dv_lo = _mm256_mul_pd(dj_lo, metres_v), dv_hi = _mm256_mul_pd(dj_hi, metres_v);
     const __m256d d2_lo = _mm256_add_pd(du2, _mm256_mul_pd(dv_lo, dv_lo));
     const __m256d d2_hi = _mm256_add_pd(du2, _mm256_mul_pd(dv_hi, dv_hi));
-    const __m256d h_lo = _mm256_add_pd(_mm256_add_pd(eye, _mm256_mul_pd(k, b_lo)), _mm256_mul_pd(curvature, d2_lo));
-    const __m256d h_hi = _mm256_add_pd(_mm256_add_pd(eye, _mm256_mul_pd(k, b_hi)), _mm256_mul_pd(curvature, d2_hi));
-    __m256 height = _mm256_set_m128(_mm256_cvtpd_ps(h_hi), _mm256_cvtpd_ps(h_lo));
-    const __m256 some = _mm256_cmp_ps(best, f8(static_cast<float>(0.5 * kNoHorizon)), _CMP_GT_OQ);
-    height = _mm256_blendv_ps(minus_inf, height, some);
-    // Void targets: NaN, no answer.
-    height = _mm256_blendv_ps(f8(std::numeric_limits<float>::quiet_NaN()), height, valid);
-    store_cells8(L, j, lanes, height, zc, values, keep);
+    __m256 best = f8(kNoHorizon);
+    if (L.mask) {
+      // The codes: the first candidate alone usually hides all eight cells,
+      // and a higher maximum would only hide them more (see the header).
+      best = _mm256_max_ps(sample_at8(cl, valid, jv, m, inv_m, curv_k, a0), best);
+      const __m256 height = occlusion_heights8(best, valid, eye, k, curvature, d2_lo, d2_hi);
+      if (all_hidden8(L, valid, height, zc)) {
+        store_cells8(L, j, lanes, height, zc, values, keep);
+        written += static_cast<std::uint64_t>(__builtin_popcount(static_cast<unsigned>(valid_bits)));
+        continue;
+      }
+      if (L.n > 0) best = _mm256_max_ps(sample_u8(cl, m, curv_k, i8(L.n - 1), valid, f8(cl.inv_step[L.n - 1])), best);
+    } else {
+      if (L.n > 0) best = _mm256_max_ps(sample_u8(cl, m, curv_k, i8(L.n - 1), valid, f8(cl.inv_step[L.n - 1])), best);
+      best = _mm256_max_ps(sample_at8(cl, valid, jv, m, inv_m, curv_k, a0), best);
+    }
+    best = _mm256_max_ps(sample_at8(cl, valid, jv, m, inv_m, curv_k, a1), best);
+    store_cells8(L, j, lanes, occlusion_heights8(best, valid, eye, k, curvature, d2_lo, d2_hi), zc, values, keep);
     written += static_cast<std::uint64_t>(__builtin_popcount(static_cast<unsigned>(valid_bits)));
   }
   return written;
@@ -352,6 +399,33 @@ HORIZON_AVX512 inline void store_codes16(const ResampleLine& L, int j, __mmask16
   }
 }
 
+// occlusion_height for sixteen cells from their best samples, in double
+// (d2: the cells' squared ground distances, lanes 0-7 and 8-15); lanes
+// outside `valid` (void targets) NaN, no answer.
+HORIZON_AVX512 inline __m512 occlusion_heights16(__m512 best, __mmask16 valid, __m512d eye, __m512d k,
+                                                 __m512d curvature, __m512d d2_lo, __m512d d2_hi) {
+  using namespace simd;
+  const __m512d b_lo = _mm512_cvtps_pd(_mm512_castps512_ps256(best));
+  const __m512d b_hi = _mm512_cvtps_pd(_mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(best), 1)));
+  const __m512d h_lo = _mm512_add_pd(_mm512_add_pd(eye, _mm512_mul_pd(k, b_lo)), _mm512_mul_pd(curvature, d2_lo));
+  const __m512d h_hi = _mm512_add_pd(_mm512_add_pd(eye, _mm512_mul_pd(k, b_hi)), _mm512_mul_pd(curvature, d2_hi));
+  const __m512 both = _mm512_castpd_ps(_mm512_insertf64x4(
+      _mm512_castpd256_pd512(_mm256_castps_pd(_mm512_cvtpd_ps(h_lo))), _mm256_castps_pd(_mm512_cvtpd_ps(h_hi)), 1));
+  const __mmask16 some = _mm512_cmp_ps_mask(best, f16(static_cast<float>(0.5 * kNoHorizon)), _CMP_GT_OQ);
+  return _mm512_mask_blend_ps(valid, f16(std::numeric_limits<float>::quiet_NaN()),
+                              _mm512_mask_blend_ps(some, f16(-std::numeric_limits<float>::infinity()), both));
+}
+
+// Whether every lane of `valid` would be coded hidden at `height`
+// (store_codes16's test).
+HORIZON_AVX512 inline bool all_hidden16(const ResampleLine& L, __mmask16 valid, __m512 height, __m512 ground) {
+  using namespace simd;
+  const __m512 above = _mm512_sub_ps(height, ground);
+  const __m512 needed = _mm512_maskz_mov_ps(_mm512_cmp_ps_mask(above, f16(kTieTolerance), _CMP_GT_OQ), above);
+  const __mmask16 answered = _mm512_mask_cmp_ps_mask(valid, height, height, _CMP_ORD_Q);
+  return answered == valid && _mm512_mask_cmp_ps_mask(valid, f16(L.target_height), needed, _CMP_GE_OQ) == 0;
+}
+
 // Stores the lanes of `lanes` (cells jv) into the line's output (heights, or
 // codes from `ground`).
 HORIZON_AVX512 inline void store_cells16(const ResampleLine& L, int j, __m512i jv, __mmask16 lanes, __m512 height,
@@ -377,7 +451,6 @@ HORIZON_AVX512 std::uint64_t resample_cells_avx512(const ResampleLine& L, int j_
   const __m512d eye = _mm512_set1_pd(L.eye), k = _mm512_set1_pd(L.k), curvature = _mm512_set1_pd(L.curvature),
                 du2 = _mm512_set1_pd(L.du2), metres_v = _mm512_set1_pd(L.metres_v);
   const __m128i shift = _mm_cvtsi32_si128(L.level);
-  const __m512 minus_inf = f16(-std::numeric_limits<float>::infinity());
   const __m512i o_v = i16(static_cast<int>(L.o_v));
   constexpr int kFloor = _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC;
   for (int j = j_begin; j <= j_end; j += 16) {
@@ -408,24 +481,29 @@ HORIZON_AVX512 std::uint64_t resample_cells_avx512(const ResampleLine& L, int j_
     const __m512 inv_m = _mm512_mul_ps(f16(cl.k), _mm512_maskz_loadu_ps(valid, cl.inv_dv + j));
     const __m512 curv_k =
         _mm512_mul_ps(f16(cl.curvature), _mm512_add_ps(f16(cl.mu2), _mm512_mul_ps(_mm512_mul_ps(m, m), f16(cl.mv2))));
-    __m512 best = f16(kNoHorizon);
-    if (L.n > 0) best = _mm512_max_ps(sample_u16(cl, m, curv_k, i16(L.n - 1), valid, f16(cl.inv_step[L.n - 1])), best);
-    best = _mm512_max_ps(sample_at16(cl, valid, jv, m, inv_m, curv_k, a0), best);
-    best = _mm512_max_ps(sample_at16(cl, valid, jv, m, inv_m, curv_k, a1), best);
-    const __m512d b_lo = _mm512_cvtps_pd(_mm512_castps512_ps256(best));
-    const __m512d b_hi = _mm512_cvtps_pd(_mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(best), 1)));
     const __m512d dv_lo = _mm512_mul_pd(dj_lo, metres_v), dv_hi = _mm512_mul_pd(dj_hi, metres_v);
     const __m512d d2_lo = _mm512_add_pd(du2, _mm512_mul_pd(dv_lo, dv_lo));
     const __m512d d2_hi = _mm512_add_pd(du2, _mm512_mul_pd(dv_hi, dv_hi));
-    const __m512d h_lo = _mm512_add_pd(_mm512_add_pd(eye, _mm512_mul_pd(k, b_lo)), _mm512_mul_pd(curvature, d2_lo));
-    const __m512d h_hi = _mm512_add_pd(_mm512_add_pd(eye, _mm512_mul_pd(k, b_hi)), _mm512_mul_pd(curvature, d2_hi));
-    const __m512 both = _mm512_castpd_ps(_mm512_insertf64x4(
-        _mm512_castpd256_pd512(_mm256_castps_pd(_mm512_cvtpd_ps(h_lo))), _mm256_castps_pd(_mm512_cvtpd_ps(h_hi)), 1));
-    const __mmask16 some = _mm512_cmp_ps_mask(best, f16(static_cast<float>(0.5 * kNoHorizon)), _CMP_GT_OQ);
-    // Void targets: NaN, no answer.
-    const __m512 height = _mm512_mask_blend_ps(valid, f16(std::numeric_limits<float>::quiet_NaN()),
-                                               _mm512_mask_blend_ps(some, minus_inf, both));
-    store_cells16(L, j, jv, lanes, height, zc, o_v);
+    __m512 best = f16(kNoHorizon);
+    if (L.mask) {
+      // The codes: the first candidate alone usually hides all sixteen
+      // cells, and a higher maximum would only hide them more (see the header).
+      best = _mm512_max_ps(sample_at16(cl, valid, jv, m, inv_m, curv_k, a0), best);
+      const __m512 height = occlusion_heights16(best, valid, eye, k, curvature, d2_lo, d2_hi);
+      if (all_hidden16(L, valid, height, zc)) {
+        store_cells16(L, j, jv, lanes, height, zc, o_v);
+        written += static_cast<std::uint64_t>(__builtin_popcount(static_cast<unsigned>(valid)));
+        continue;
+      }
+      if (L.n > 0)
+        best = _mm512_max_ps(sample_u16(cl, m, curv_k, i16(L.n - 1), valid, f16(cl.inv_step[L.n - 1])), best);
+    } else {
+      if (L.n > 0)
+        best = _mm512_max_ps(sample_u16(cl, m, curv_k, i16(L.n - 1), valid, f16(cl.inv_step[L.n - 1])), best);
+      best = _mm512_max_ps(sample_at16(cl, valid, jv, m, inv_m, curv_k, a0), best);
+    }
+    best = _mm512_max_ps(sample_at16(cl, valid, jv, m, inv_m, curv_k, a1), best);
+    store_cells16(L, j, jv, lanes, occlusion_heights16(best, valid, eye, k, curvature, d2_lo, d2_hi), zc, o_v);
     written += static_cast<std::uint64_t>(__builtin_popcount(static_cast<unsigned>(valid)));
   }
   return written;

@@ -9,6 +9,15 @@
 // that evaluates eight cells at once with hardware gathers, and an AVX-512
 // one that evaluates sixteen, chosen at run time (simd::kernel_isa()). All
 // give the same bits (tests/visibility/test_resample_cells.cpp).
+//
+// A cell's code (ResampleLine::mask) needs less than its height. The code
+// only moves towards hidden as the highest sample rises (the height is
+// eye + k * best + curvature d^2, rounded, and min_target_height_at grows
+// with it), so once one sample hides a cell no other can show it. The
+// kernels take first the sample where the cell's lower ray found its horizon
+// and, when that alone hides every cell of the group, code them from it and
+// skip the rest: behind a ridge, most of a viewshed. The codes are the bits
+// a full evaluation gives.
 #pragma once
 
 #include <cstddef>
