@@ -106,14 +106,15 @@ std::string planned_work(const std::string& what, const visibility::Cost& cost, 
 }
 
 Status CallScope::reserve(std::uint64_t bytes, const std::string& what) {
+  if (bytes <= memory_.bytes()) return Status::Ok();
   Reservation more;
-  if (!env_.memory.try_reserve(bytes, more))
+  if (!env_.memory.try_reserve(bytes - memory_.bytes(), more))
     return make_error(ErrorCode::kResourceExhausted,
                       what + " needs about " + std::to_string((bytes + (1 << 20) - 1) >> 20) +
                           " MiB of working memory, more than memory_budget_mb leaves free now (" +
                           std::to_string(env_.memory.reserved() >> 20) + " MiB held); retry later or ask less",
                       "memory_budget_mb");
-  memory_ = std::move(more);  // one reservation per call
+  memory_.absorb(std::move(more));
   env_.metrics.set_memory_reserved(env_.memory.reserved());
   return Status::Ok();
 }

@@ -94,8 +94,11 @@ class CallScope {
   QueueTicket ticket() const { return ticket_; }
   // The dataset by name: kInvalidArgument for an empty name, kNotFound for an unknown one.
   Result<std::shared_ptr<const Dataset>> dataset(const std::string& name);
-  // Reserves `bytes` of working memory for the rest of the call (kResourceExhausted when it
-  // does not fit). Once per call.
+  // Holds `bytes` of working memory for the rest of the call
+  // (kResourceExhausted when it does not fit). A call may reserve in steps,
+  // each the whole it needs so far: a part before it converts its request
+  // (CullBoxes: its boxes), the whole once planned; each step takes only
+  // what the call does not hold yet.
   Status reserve(std::uint64_t bytes, const std::string& what);
 
   const RunControl* control() const { return &control_; }

@@ -32,6 +32,12 @@ grpc::Status run_cull_boxes(CallScope& scope, const v1::CullBoxesRequest& reques
   if (!options.ok()) return scope.status_of(options.error());
   scope.record().algorithm = std::string(visibility::algorithm_name(
       options->conservative ? visibility::Algorithm::kConservative : options->viewshed.algorithm));
+  // The boxes' conversion and plan hold kCullBytesPerBox a box: paid for
+  // before they are made, as the rest of the plan's cost is below.
+  if (auto s = scope.reserve(static_cast<std::uint64_t>(n) * visibility::kCullBytesPerBox,
+                             "converting these " + std::to_string(n) + " boxes");
+      !s.ok())
+    return scope.status_of(s.error());
   auto boxes = to_boxes(request);
   if (!boxes.ok()) return scope.status_of(boxes.error());
 

@@ -1,5 +1,7 @@
 #include "memory_budget.hpp"
 
+#include <cassert>
+
 namespace horizon::server {
 
 Reservation& Reservation::operator=(Reservation&& other) noexcept {
@@ -10,6 +12,17 @@ Reservation& Reservation::operator=(Reservation&& other) noexcept {
     other.budget_ = nullptr;
   }
   return *this;
+}
+
+void Reservation::absorb(Reservation&& more) {
+  if (!more.budget_) return;
+  if (!budget_) {
+    *this = std::move(more);
+    return;
+  }
+  assert(budget_ == more.budget_);
+  bytes_ += more.bytes_;
+  more.budget_ = nullptr;
 }
 
 void Reservation::release() {

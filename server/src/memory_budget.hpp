@@ -37,6 +37,9 @@ class Reservation {
 
   std::uint64_t bytes() const { return budget_ ? bytes_ : 0; }
   void release();
+  // Takes over `more` (of the same budget, or empty): this one then holds
+  // both, and `more` nothing.
+  void absorb(Reservation&& more);
 
  private:
   friend class MemoryBudget;

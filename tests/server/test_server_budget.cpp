@@ -66,6 +66,28 @@ TEST(ServerBudget, AReceivedRequestIsCountedAtLeastAsItsWireSize) {
   holder->Release();
 }
 
+// A call that reserves in steps (CallScope::reserve) holds one reservation:
+// absorbing another adds its bytes, and releasing gives both back.
+TEST(ServerBudget, AReservationAbsorbsAnotherOfTheSameBudget) {
+  MemoryBudget budget(MemoryBudget::kBaseBytes + 100);
+  Reservation first, second, empty;
+  ASSERT_TRUE(budget.try_reserve(40, first));
+  ASSERT_TRUE(budget.try_reserve(50, second));
+  EXPECT_FALSE(budget.try_reserve(11, empty));  // 90 of 100 held
+  first.absorb(std::move(second));
+  EXPECT_EQ(first.bytes(), 90u);
+  EXPECT_EQ(second.bytes(), 0u);  // NOLINT(bugprone-use-after-move): absorb leaves it empty
+  EXPECT_EQ(budget.reserved(), 90u);
+  second.release();  // empty: gives nothing back
+  EXPECT_EQ(budget.reserved(), 90u);
+  Reservation taker;  // an empty one takes the other over whole
+  taker.absorb(std::move(first));
+  EXPECT_EQ(taker.bytes(), 90u);
+  taker.release();
+  EXPECT_EQ(budget.reserved(), 0u);
+  EXPECT_TRUE(budget.try_reserve(100, empty));
+}
+
 // Trims wait for the daemon to be idle at the end of the delay, and come at
 // most once an interval however often it falls idle. (Bounds are generous:
 // each waits several times the delay the trimmer is given.)

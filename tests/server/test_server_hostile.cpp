@@ -23,9 +23,12 @@
 #include <grpcpp/security/credentials.h>
 #include <grpcpp/support/byte_buffer.h>
 
+#include "arena_allocator.hpp"
 #include "daemon_process.hpp"
 #include "horizon/terrain/dem_reader.hpp"
 #include "horizon/terrain/geotiff_writer.hpp"
+#include "horizon/visibility/plan.hpp"
+#include "memory_budget.hpp"
 #include "rpc_helpers.hpp"
 
 namespace horizon::testing {
@@ -198,6 +201,32 @@ TEST(ServerHostile, AnIdleHealthWatchDoesNotHoldShutdownForTheGrace) {
 }
 
 
+// A CullBoxes request on the bundled Ecuador DEM (dataset "ecuador"): the
+// observer 10 m above its centre, `count` boxes 1-4 cells wide scattered
+// over a 300 x 300-cell scene around it.
+v1::CullBoxesRequest ecuador_boxes(int count) {
+  auto dem = terrain::read_dem(bundled_dem("ecuador_andes_utm17s_10m_383x415.tif"));
+  EXPECT_TRUE(dem.ok());
+  v1::CullBoxesRequest request;
+  if (!dem.ok()) return request;
+  const auto& t = dem->georef.transform;
+  request.set_dataset("ecuador");
+  *request.mutable_observer() = point(t.x_at(191), t.y_at(207), 10.0);
+  for (int i = 0; i < count; ++i) {
+    const std::uint64_t k = static_cast<std::uint64_t>(i);
+    const double c = 41.0 + static_cast<double>(k * 7919 % 300), r = 57.0 + static_cast<double>(k * 104729 % 300);
+    const double w = 1 + i % 4;
+    v1::Box* b = request.add_boxes();
+    b->set_x_min(t.x_at(c));
+    b->set_x_max(t.x_at(c + w));
+    b->set_y_max(t.y_at(r));
+    b->set_y_min(t.y_at(r + w));
+    b->set_z_min(2000);
+    b->set_z_max(2000 + 10 * (i % 200));
+  }
+  return request;
+}
+
 // Clients on connections of their own, each sending the largest CullBoxes
 // call the defaults take (100 000 boxes, ~5 MB on the wire, ~15 MB held
 // once received and answered) at once, against a small budget. What is on
@@ -218,25 +247,7 @@ TEST(ServerHostile, AFloodOfTheLargestCallsStaysWithinTheBudget) {
   DaemonProcess daemon(options);
   ASSERT_TRUE(daemon.ready()) << daemon.error();
   const std::uint64_t start = daemon.rss_bytes();
-  auto dem = terrain::read_dem(bundled_dem("ecuador_andes_utm17s_10m_383x415.tif"));
-  ASSERT_TRUE(dem.ok());
-  const auto& t = dem->georef.transform;
-
-  v1::CullBoxesRequest request;
-  request.set_dataset("ecuador");
-  *request.mutable_observer() = point(t.x_at(191), t.y_at(207), 10.0);
-  for (int i = 0; i < kBoxes; ++i) {  // a 300 x 300-cell scene around the observer, boxes 1-4 cells wide
-    const std::uint64_t k = static_cast<std::uint64_t>(i);
-    const double c = 41.0 + static_cast<double>(k * 7919 % 300), r = 57.0 + static_cast<double>(k * 104729 % 300);
-    const double w = 1 + i % 4;
-    v1::Box* b = request.add_boxes();
-    b->set_x_min(t.x_at(c));
-    b->set_x_max(t.x_at(c + w));
-    b->set_y_max(t.y_at(r));
-    b->set_y_min(t.y_at(r + w));
-    b->set_z_min(2000);
-    b->set_z_max(2000 + 10 * (i % 200));
-  }
+  const v1::CullBoxesRequest request = ecuador_boxes(kBoxes);
 
   const std::uint64_t on_the_wire = kClients * request.ByteSizeLong();
   std::atomic<int> answered{0}, refused{0}, shed{0}, other{0};
@@ -307,6 +318,50 @@ TEST(ServerHostile, AFloodOfTheLargestCallsStaysWithinTheBudget) {
 #endif
 }
 
+
+// A CullBoxes call's boxes are paid for before they are converted: with a
+// budget that holds the call's messages (admitted) but not also the boxes'
+// specs, footprints and answers, the call is refused naming the
+// conversion, before it makes them (and long before its plan's OHF).
+TEST(ServerHostile, ACullsBoxesArePaidForBeforeTheyAreConverted) {
+  constexpr int kBoxes = 100'000;
+  const v1::CullBoxesRequest request = ecuador_boxes(kBoxes);
+  // What admission holds (VisibilityService::CullBoxes): the request as
+  // received on the call's arena and the answer it will build.
+  server::ArenaAllocator<v1::CullBoxesRequest, v1::CullBoxesResponse> allocator;
+  auto* holder = allocator.AllocateMessages();
+  *holder->request() = request;
+  const std::uint64_t messages =
+      server::held_bytes(*holder->request()) + std::uint64_t{kBoxes} * server::MemoryBudget::kResponseBytesPerBox;
+  holder->Release();
+  const std::uint64_t boxes = std::uint64_t{kBoxes} * visibility::kCullBytesPerBox;
+  ASSERT_GT(boxes, std::uint64_t{4} << 20) << "too few bytes a box to tell the steps apart";
+  // Free after the fixed parts: the messages and half the boxes' bytes.
+  constexpr std::uint64_t kReceiveMb = 16, kCacheMb = 4;  // the receive quota holds the largest request
+  const std::uint64_t fixed = server::MemoryBudget::kBaseBytes + ((kReceiveMb + kCacheMb) << 20);
+  const std::uint64_t budget_mb = (fixed + messages + boxes / 2 + (1 << 20) - 1) >> 20;
+  DaemonOptions options;
+  options.datasets = {{"ecuador", "ecuador_andes_utm17s_10m_383x415.tif"}};
+  options.memory_budget_mb = static_cast<int>(budget_mb);
+  options.extra_json = "\"receive_buffer_mb\": " + std::to_string(kReceiveMb) + ", \"block_cache_mb\": " +
+                       std::to_string(kCacheMb) + R"(, "gpu": {"contexts": 0},)";
+  DaemonProcess daemon(options);
+  ASSERT_TRUE(daemon.ready()) << daemon.error();
+  v1::CullBoxesResponse response;
+  const grpc::Status s = v1::VisibilityService::NewStub(daemon.channel())
+                             ->CullBoxes(context_with_deadline(std::chrono::seconds(60)).get(), request, &response);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
+  EXPECT_NE(s.error_message().find("converting these 100000 boxes needs about"), std::string::npos)
+      << s.error_message();
+  EXPECT_NE(s.error_message().find("memory_budget_mb"), std::string::npos) << s.error_message();
+  // A call of fewer boxes fits and is answered.
+  v1::CullBoxesRequest few = request;
+  few.mutable_boxes()->DeleteSubrange(100, kBoxes - 100);
+  const grpc::Status ok = v1::VisibilityService::NewStub(daemon.channel())
+                              ->CullBoxes(context_with_deadline(std::chrono::seconds(60)).get(), few, &response);
+  EXPECT_TRUE(ok.ok()) << ok.error_message();
+  EXPECT_EQ(response.boxes_size(), 100);
+}
 
 // Clients that start a large viewshed stream, read its first message and
 // then never read again: the daemon's writes wait on the stream's flow

@@ -80,8 +80,7 @@ Result<RegionSourcePlan> plan_region(const terrain::ElevationSource& source, Reg
   RegionSourcePlan plan;
   plan.window = window;
   plan.cells = window.cell_count();
-  plan.bytes = plan.cells * kBytesPerCell +
-               query.boxes.size() * (sizeof(visibility::BoxSpec) + sizeof(visibility::BoxFootprint) + sizeof(Verdict));
+  plan.bytes = plan.cells * kBytesPerCell + query.boxes.size() * kBytesPerBox;
   plan.query = std::move(query);
   return plan;
 }

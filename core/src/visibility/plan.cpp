@@ -256,8 +256,7 @@ Result<CullBoxesPlan> plan_cull_boxes(const terrain::ElevationSource& source, Cu
   // The min-pyramids (each under 1.4 bytes a cell; 4/3 of the OHF, an upper
   // bound; the second, voids as +inf, only under boxes that meet a void)
   // and, per box, its spec, footprint and answer.
-  plan.cost.bytes += 2 * (plan.cost.cells * sizeof(float) * 4 / 3) +
-                     plan.footprints.size() * (sizeof(BoxSpec) + sizeof(BoxFootprint) + sizeof(BoxVisibility));
+  plan.cost.bytes += 2 * (plan.cost.cells * sizeof(float) * 4 / 3) + plan.footprints.size() * kCullBytesPerBox;
   plan.query = std::move(query);
   return plan;
 }

@@ -48,6 +48,13 @@ struct RegionSourcePlan {
   std::uint64_t bytes = 0;  // held by the run, bound
 };
 
+// The bytes each item box holds from its conversion to the end of its run:
+// its spec, its footprint and its verdict (part of a plan's `bytes`). A
+// caller can hold `boxes * kBytesPerBox` before it converts a request's
+// boxes, so that the conversion is paid for before it is made.
+inline constexpr std::uint64_t kBytesPerBox =
+    sizeof(visibility::BoxSpec) + sizeof(visibility::BoxFootprint) + sizeof(Verdict);
+
 // Checks the query (options, region and boxes finite and on the dataset:
 // kOutOfRange "region" / "boxes[3]", an empty box list without `cells`:
 // kInvalidArgument "boxes") and sizes the window.

@@ -168,6 +168,12 @@ struct CullBoxesPlan {
   Cost cost;
 };
 
+// The bytes each box holds from its conversion to the end of its run: its
+// spec, its footprint and its answer (part of a CullBoxesPlan's cost). A
+// caller can hold `boxes * kCullBytesPerBox` before it converts a request's
+// boxes, so that the conversion and the plan are paid for before they run.
+inline constexpr std::uint64_t kCullBytesPerBox = sizeof(BoxSpec) + sizeof(BoxFootprint) + sizeof(BoxVisibility);
+
 // Errors as plan_cull (boxes named by index) and plan_viewshed (observer).
 Result<CullBoxesPlan> plan_cull_boxes(const terrain::ElevationSource& source, CullQuery query);
 
