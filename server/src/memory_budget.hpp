@@ -8,7 +8,9 @@
 // admitted, before it queues for a worker (the request as gRPC handed it
 // over, arena_allocator.hpp's held_bytes, and for CullBoxes its answer,
 // kResponseBytesPerBox a box); and each request's working set before any
-// work: the engine's part from the request's plan (visibility/plan.hpp:
+// work (CullBoxes and RegionVisibility hold their boxes' conversion first,
+// kCullBytesPerBox / region::kBytesPerBox a box, then grow to the plan's
+// whole): the engine's part from the request's plan (visibility/plan.hpp:
 // the cells read, the OHF, the algorithm's tables, per box and per profile
 // sample), the server's own part from what it will send
 // (kEncodingBytesPerCell for a raster's encodings, kMessageBytesPerBox and
