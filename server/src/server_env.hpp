@@ -51,9 +51,10 @@ struct ServerEnv {
 };
 
 // The calling worker thread's engine workspace (visibility/plan.hpp): each
-// worker reuses its read buffer from call to call. At most
-// Workspace::kMaxKeptBytes a worker, outside memory_budget_mb's reservations
-// (a request's reservation covers its cells while it runs).
+// worker reuses its read buffer and rasters from call to call. At most
+// Workspace::kMaxKeptBytes per kept buffer (read window, OHF, terrain, mask)
+// a worker, outside memory_budget_mb's reservations (a request's
+// reservation covers its cells while it runs).
 inline visibility::Workspace& worker_workspace() {
   thread_local visibility::Workspace workspace;
   return workspace;

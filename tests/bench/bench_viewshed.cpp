@@ -18,6 +18,7 @@
 #include <random>
 #include <string>
 
+#include "horizon/common/large_allocator.hpp"
 #include "horizon/geodesy/observer.hpp"
 #include "horizon/gpu/context_pool.hpp"
 #include "horizon/terrain/dem_reader.hpp"
@@ -191,13 +192,21 @@ BENCHMARK(BM_RadialKernels)->DenseRange(0, 2)->Unit(benchmark::kMillisecond)->Us
 // range(1) 0: the OHF (radial_ohf into a kept grid), then visibility_mask
 // over it and the terrain; 1: radial_mask, the sweep coding each cell into
 // a kept byte grid (ViewshedOptions::mask_only, the CLI's and the daemon's
-// visible rasters).
+// visible rasters). The elevations are a copy of the DEM's, on 4 KiB pages
+// (range(2) 0) or, as a daemon worker's kept buffers are, backed by huge
+// pages with the output (1: back_with_huge_pages).
 void BM_VisibleRaster(benchmark::State& state) {
   const KernelCap cap(state, state.range(0));
   const terrain::Dem* dem = cap.ok() ? bench_dem(state) : nullptr;
   if (!dem) return;
-  const bool in_sweep = state.range(1) != 0;
-  state.SetLabel(in_sweep ? "radial_mask" : "radial_ohf + visibility_mask");
+  const bool in_sweep = state.range(1) != 0, huge = state.range(2) != 0;
+  state.SetLabel(std::string(in_sweep ? "radial_mask" : "radial_ohf + visibility_mask") +
+                 (huge ? ", huge pages" : ", 4 KiB pages"));
+  const terrain::Grid<float> elevation = dem->elevation;
+  if (huge && !back_with_huge_pages(elevation.data(), elevation.capacity() * sizeof(float))) {
+    state.SkipWithError("no huge pages here (MADV_COLLAPSE: Linux 6.1+)");
+    return;
+  }
   visibility::ViewshedOptions o;
   auto frame = visibility::make_view_frame(*dem, centre_eye(*dem), o);
   if (!frame.ok()) {
@@ -206,28 +215,36 @@ void BM_VisibleRaster(benchmark::State& state) {
   }
   visibility::ViewshedResult result;
   result.frame = *frame;
-  result.terrain = dem->elevation;
+  result.terrain = elevation;
   terrain::Grid<std::uint8_t> mask;
   visibility::AnswerCounts counts;
   visibility::WorkStats stats;
+  bool backed = false;
   for (auto _ : state) {
     Status status;
     if (in_sweep) {
-      status = visibility::radial_mask(dem->elevation, *frame, o.radial, 0.0, 0, nullptr, mask, counts, stats);
+      status = visibility::radial_mask(elevation, *frame, o.radial, 0.0, 0, nullptr, mask, counts, stats);
     } else {
-      status = visibility::radial_ohf(dem->elevation, *frame, o.radial, 0, nullptr, result.ohf, stats);
+      status = visibility::radial_ohf(elevation, *frame, o.radial, 0, nullptr, result.ohf, stats);
       mask = visibility::visibility_mask(result, 0.0, 0, &counts);
     }
     if (!status.ok()) {
       state.SkipWithError(status.error().message.c_str());
       break;
     }
+    if (huge && !backed) {  // the kept outputs too, once they exist
+      state.PauseTiming();
+      back_with_huge_pages(mask.data(), mask.capacity());
+      if (!result.ohf.empty()) back_with_huge_pages(result.ohf.data(), result.ohf.capacity() * sizeof(float));
+      backed = true;
+      state.ResumeTiming();
+    }
     benchmark::DoNotOptimize(mask.data());
   }
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * stats.cells_evaluated));
   state.counters["visible"] = static_cast<double>(counts.visible);
 }
-BENCHMARK(BM_VisibleRaster)->ArgsProduct({{1, 2}, {0, 1}})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_VisibleRaster)->ArgsProduct({{1, 2}, {0, 1}, {0, 1}})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // Each algorithm mode through compute_viewshed on $HORIZON_BENCH_DEM, whole
 // DEM: 0 fast, 1 conservative, 2 exact, 3 r3 (the last two are slow: run them

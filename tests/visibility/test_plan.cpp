@@ -372,6 +372,38 @@ TEST(Plan, AWorkspaceKeepsItsBufferAcrossRunsAndChangesNoAnswer) {
   }
 }
 
+// A run over the whole DEM takes its read buffer over as its terrain; once
+// recycled, the terrain buffer it displaced becomes the next read buffer,
+// so two buffers alternate and no run maps a new one (a daemon's whole-DEM
+// viewsheds: 48 MB populated per call otherwise).
+TEST(Plan, WholeDemRunsAlternateTwoBuffers) {
+  auto source = open(testing::bundled_dem("zion_canyon_srtm3_465x457.tif"));
+  ASSERT_TRUE(source);
+  terrain::BlockCache cache(cache_of(8 << 20));
+  Workspace workspace;
+  const terrain::DemHeader& h = source->header();
+  auto plan = plan_viewshed(*source, query(at_cell(h, 201.3, 170.6), Algorithm::kRadial, 1.0e6));
+  ASSERT_TRUE(plan.ok());
+  ASSERT_EQ(plan->read.read.cell_count(), static_cast<std::uint64_t>(h.width) * h.height);
+  std::vector<const float*> terrain;  // each run's terrain raster (its read buffer, taken over)
+  for (int run = 0; run < 5; ++run) {
+    auto with = run_viewshed(*plan, *source, &cache, nullptr, nullptr, nullptr, &workspace);
+    ASSERT_TRUE(with.ok());
+    EXPECT_TRUE(workspace.cells.empty()) << "the run took its read buffer over";
+    terrain.push_back(with->result.terrain.data());
+    workspace.recycle(std::move(with->result));
+    EXPECT_EQ(workspace.terrain.data(), terrain.back());
+    // From the second run on, the displaced terrain is the next read buffer.
+    if (run > 0) {
+      EXPECT_EQ(workspace.cells.data(), terrain[run - 1]) << "run " << run;
+    }
+  }
+  EXPECT_EQ(terrain[2], terrain[0]);
+  EXPECT_EQ(terrain[3], terrain[1]);
+  EXPECT_EQ(terrain[4], terrain[0]);
+  EXPECT_NE(terrain[0], terrain[1]);
+}
+
 // A mask_only run (the daemon's visible rasters) fills the workspace's kept
 // mask instead of allocating one, gives the mask of an ordinary run, and
 // leaves the kept OHF where it was.

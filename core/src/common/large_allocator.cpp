@@ -1,6 +1,7 @@
 #include "horizon/common/large_allocator.hpp"
 
 #include <algorithm>
+#include <cstdint>
 
 #include "horizon/common/parallel.hpp"
 
@@ -65,3 +66,23 @@ void unmap_large_block(void*, std::size_t) noexcept {}
 #endif
 
 }  // namespace horizon::detail
+
+namespace horizon {
+
+bool back_with_huge_pages(const void* block, std::size_t bytes) noexcept {
+#if defined(__linux__)
+  constexpr std::uintptr_t kHuge = std::uintptr_t{2} << 20;
+  constexpr int kCollapse = 25;  // MADV_COLLAPSE (Linux 6.1), absent from older headers
+  if (!detail::is_large_block(bytes)) return false;
+  const auto begin = (reinterpret_cast<std::uintptr_t>(block) + kHuge - 1) & ~(kHuge - 1);
+  const auto end = (reinterpret_cast<std::uintptr_t>(block) + bytes) & ~(kHuge - 1);
+  if (end <= begin) return false;
+  return ::madvise(reinterpret_cast<void*>(begin), end - begin, kCollapse) == 0;
+#else
+  (void)block;
+  (void)bytes;
+  return false;
+#endif
+}
+
+}  // namespace horizon

@@ -8,6 +8,8 @@
 #include <string>
 #include <utility>
 
+#include "horizon/common/large_allocator.hpp"
+
 namespace horizon::visibility {
 namespace {
 
@@ -92,11 +94,15 @@ bool keepable(const terrain::Grid<T>& g) {
   return g.capacity() * sizeof(T) <= Workspace::kMaxKeptBytes;
 }
 
-// Keeps `done`'s storage in `kept` when it is within the limit and larger.
+// Keeps `done`'s storage in `kept` when it is within the limit and larger,
+// backed by huge pages from then on (the next runs read and write it across
+// rows; the first call collapses its pages once, later ones cost
+// microseconds).
 template <class T>
 void keep(terrain::Grid<T>& kept, terrain::Grid<T>&& done) {
   if (keepable(done) && done.capacity() >= kept.capacity()) kept = std::move(done);
   done = terrain::Grid<T>();
+  if (kept.capacity() > 0) back_with_huge_pages(kept.data(), kept.capacity() * sizeof(T));
 }
 
 // Hands a run's cells back to its workspace (or frees them).
@@ -156,7 +162,13 @@ Status add_sweep_cost(const ViewshedOptions& o, const terrain::Window& output, C
 
 void Workspace::recycle(ViewshedResult&& done) {
   keep(ohf, std::move(done.ohf));
-  keep(terrain, std::move(done.terrain));
+  // A run over its whole read window takes the read buffer over as its
+  // terrain (compute_viewshed_taking_elevation) and leaves `cells` empty:
+  // the terrain buffer it displaces becomes the next read buffer, so the two
+  // alternate instead of a new one being mapped and populated every run.
+  if (keepable(done.terrain) && done.terrain.capacity() >= terrain.capacity()) std::swap(terrain, done.terrain);
+  keep(cells, std::move(done.terrain));
+  if (terrain.capacity() > 0) back_with_huge_pages(terrain.data(), terrain.capacity() * sizeof(float));
   if (done.mask) keep(mask, std::move(*done.mask));
   done.mask.reset();
 }

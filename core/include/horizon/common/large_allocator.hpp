@@ -14,7 +14,9 @@
 // free 2 MiB blocks to spare, the median read and sweep got 20 % faster, but
 // on a VM whose kernel reports free memory to its host (virtio-balloon page
 // reporting), of 25 runs 8 took 4-15 ms longer in the sweep and 5 in the
-// read, the phases that allocate. A viewshed must not stall like that, so they are not asked for.
+// read, the phases that allocate. A viewshed must not stall like that, so they
+// are not asked for here; a caller that keeps a block for many runs asks once
+// (back_with_huge_pages, below).
 #pragma once
 
 #include <cstddef>
@@ -33,6 +35,20 @@ bool is_large_block(std::size_t bytes);
 void* map_large_block(std::size_t bytes);
 void unmap_large_block(void* block, std::size_t bytes) noexcept;
 }  // namespace detail
+
+// For a large block a caller keeps and reuses for many runs (a daemon
+// worker's Workspace, visibility/plan.hpp): asks the kernel to back it with
+// 2 MiB pages now (madvise MADV_COLLAPSE, Linux 6.1+), so that reads that
+// stride across rows (the east and west sectors of the radial sweep read a
+// new row at every sample) stop missing the TLB: 6-8 % off the sweep in
+// steady state (docs/benchmarks.md). Not for one-shot rasters: the first
+// collapse of 48 MB took 13-18 ms here, and up to 140 ms on a VM that had
+// handed the memory back to its host (the reason the allocator never asks
+// for huge pages itself, above). Once backed, asking again costs
+// microseconds. True when the whole 2 MiB-aligned part of the block is
+// backed; false (and nothing changed) for a small block, a sanitizer build,
+// a kernel without MADV_COLLAPSE, or memory short.
+bool back_with_huge_pages(const void* block, std::size_t bytes) noexcept;
 
 template <class T>
 struct LargeAllocator {
