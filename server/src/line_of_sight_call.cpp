@@ -33,8 +33,12 @@ grpc::Status run_line_of_sight(CallScope& scope, const v1::LineOfSightRequest& r
   options.curvature_coefficient = *curvature;
 
   // Every line planned first (points checked and placed, cells known), so the
-  // memory is reserved once for the whole call: the largest line's cells
-  // (lines run one after another) and every result message.
+  // memory is reserved before any line runs: the plans (held until the last
+  // line runs, reserved before they are made), then with them the largest
+  // line's cells (lines run one after another) and every result message.
+  const std::uint64_t plan_bytes = static_cast<std::uint64_t>(n) * sizeof(visibility::LinePlan);
+  if (auto s = scope.reserve(plan_bytes, "planning these " + std::to_string(n) + " sight lines"); !s.ok())
+    return scope.status_of(s.error());
   std::vector<visibility::LinePlan> plans;
   plans.reserve(static_cast<std::size_t>(n));
   std::uint64_t largest = 0, messages = 0;
@@ -54,7 +58,8 @@ grpc::Status run_line_of_sight(CallScope& scope, const v1::LineOfSightRequest& r
                      : 0);
     plans.push_back(std::move(*plan));
   }
-  if (auto s = scope.reserve(largest + messages, "these sight lines"); !s.ok()) return scope.status_of(s.error());
+  if (auto s = scope.reserve(plan_bytes + largest + messages, "these sight lines"); !s.ok())
+    return scope.status_of(s.error());
 
   const terrain::Georeference& georef = d.header().georef;
   for (int i = 0; i < n; ++i) {
