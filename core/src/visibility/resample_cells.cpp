@@ -279,10 +279,10 @@ HORIZON_AVX2 std::uint64_t resample_cells_avx2(const ResampleLine& L, int j_begi
     const __m256 inv_m = _mm256_mul_ps(f8(cl.k), _mm256_maskload_ps(cl.inv_dv + j, _mm256_castps_si256(valid)));
     const __m256 curv_k =
         _mm256_mul_ps(f8(cl.curvature), _mm256_add_ps(f8(cl.mu2), _mm256_mul_ps(_mm256_mul_ps(m, m), f8(cl.mv2))));
-    // The candidates; `max(x, best)` keeps best when x is NaN, as take() does.
     const __m256d dv_lo = _mm256_mul_pd(dj_lo, metres_v), dv_hi = _mm256_mul_pd(dj_hi, metres_v);
     const __m256d d2_lo = _mm256_add_pd(du2, _mm256_mul_pd(dv_lo, dv_lo));
     const __m256d d2_hi = _mm256_add_pd(du2, _mm256_mul_pd(dv_hi, dv_hi));
+    // The candidates; `max(x, best)` keeps best when x is NaN, as take() does.
     __m256 best = f8(kNoHorizon);
     if (L.mask) {
       // The codes: the first candidate alone usually hides all eight cells,
