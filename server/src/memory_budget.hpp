@@ -9,10 +9,10 @@
 // over, arena_allocator.hpp's held_bytes, and for CullBoxes its answer,
 // kResponseBytesPerBox a box); and each request's working set before any
 // work (CullBoxes and RegionVisibility hold their boxes' conversion first,
-// kCullBytesPerBox / region::kBytesPerBox a box, then grow to the plan's
-// whole): the engine's part from the request's plan (visibility/plan.hpp:
-// the cells read, the OHF, the algorithm's tables, per box and per profile
-// sample), the server's own part from what it will send
+// kCullBytesPerBox / region::kBytesPerBox a box, and LineOfSight its lines'
+// plans, then grow to the plan's whole): the engine's part from the
+// request's plan (visibility/plan.hpp: the cells read, the OHF, the
+// algorithm's tables, per box and per profile sample), the server's own part from what it will send
 // (kEncodingBytesPerCell for a raster's encodings, kMessageBytesPerBox and
 // kMessageBytesPerLine for the messages). A reservation that does not fit is
 // refused: the request gets RESOURCE_EXHAUSTED. What is left outside the
