@@ -34,9 +34,10 @@ grpc::Status run_line_of_sight(CallScope& scope, const v1::LineOfSightRequest& r
 
   // Every line planned first (points checked and placed, cells known), so the
   // memory is reserved before any line runs: the plans (held until the last
-  // line runs, reserved before they are made), then with them the largest
-  // line's cells (lines run one after another) and every result message.
-  const std::uint64_t plan_bytes = static_cast<std::uint64_t>(n) * sizeof(visibility::LinePlan);
+  // line runs; their fixed part reserved before they are made, their lists
+  // of blocks once known), then with them the largest line's cells (lines run
+  // one after another) and every result message.
+  std::uint64_t plan_bytes = static_cast<std::uint64_t>(n) * sizeof(visibility::LinePlan);
   if (auto s = scope.reserve(plan_bytes, "planning these " + std::to_string(n) + " sight lines"); !s.ok())
     return scope.status_of(s.error());
   std::vector<visibility::LinePlan> plans;
@@ -51,6 +52,7 @@ grpc::Status run_line_of_sight(CallScope& scope, const v1::LineOfSightRequest& r
     auto plan = visibility::plan_line(*d.source, {ends->first, ends->second, options});
     if (!plan.ok()) return scope.status_of(rename_field(plan.error(), "", prefix));
     largest = std::max(largest, plan->cost.bytes);
+    plan_bytes += plan->read.blocks.capacity() * sizeof(std::uint64_t);
     const terrain::Window& w = plan->read.read;
     messages += MemoryBudget::kMessageBytesPerLine +
                 (request.include_profile()
