@@ -12,7 +12,8 @@
 // kCullBytesPerBox / region::kBytesPerBox a box, and LineOfSight its lines'
 // plans, then grow to the plan's whole): the engine's part from the
 // request's plan (visibility/plan.hpp: the cells read, the OHF, the
-// algorithm's tables, per box and per profile sample), the server's own part from what it will send
+// algorithm's tables, per box and per profile sample), the server's own
+// part from what it will send
 // (kEncodingBytesPerCell for a raster's encodings, kMessageBytesPerBox and
 // kMessageBytesPerLine for the messages). A reservation that does not fit is
 // refused: the request gets RESOURCE_EXHAUSTED. What is left outside the

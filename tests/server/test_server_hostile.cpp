@@ -343,8 +343,8 @@ TEST(ServerHostile, ACullsBoxesArePaidForBeforeTheyAreConverted) {
   DaemonOptions options;
   options.datasets = {{"ecuador", "ecuador_andes_utm17s_10m_383x415.tif"}};
   options.memory_budget_mb = static_cast<int>(budget_mb);
-  options.extra_json = "\"receive_buffer_mb\": " + std::to_string(kReceiveMb) + ", \"block_cache_mb\": " +
-                       std::to_string(kCacheMb) + R"(, "gpu": {"contexts": 0},)";
+  options.extra_json = "\"receive_buffer_mb\": " + std::to_string(kReceiveMb) +
+                       ", \"block_cache_mb\": " + std::to_string(kCacheMb) + R"(, "gpu": {"contexts": 0},)";
   DaemonProcess daemon(options);
   ASSERT_TRUE(daemon.ready()) << daemon.error();
   v1::CullBoxesResponse response;
