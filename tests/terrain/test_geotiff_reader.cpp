@@ -156,6 +156,40 @@ TEST(GeoTiffReader, ReadsGdalNodataOnInt16) {
   EXPECT_EQ(elevation_stats(dem->elevation).nodata_cells, 1u);
 }
 
+// A row of 21 samples is two vector steps of eight Int16 (or five of four
+// Float32) and a scalar tail: voids in each part, the extremes of Int16 (the
+// sign extension), and the nodata code's neighbours, which stay values.
+TEST(GeoTiffReader, ConvertsEverySampleOfARowAndOnlyTheNodataCodeToNaN) {
+  for (const bool int16 : {true, false}) {
+    SCOPED_TRACE(int16 ? "Int16" : "Float32");
+    TempDir dir;
+    RawTiff t = testing::utm_raw_tiff(21, 3);
+    t.int16 = int16;
+    const double code = int16 ? -32767 : -9999.5;
+    t.nodata = int16 ? "-32767" : "-9999.5";
+    t.values[0] = code;                            // first lane of the first step
+    t.values[9] = code;                            // second step
+    t.values[20] = code;                           // the tail
+    t.values[21 + 3] = int16 ? -32768 : -9999.25;  // the code's neighbours
+    t.values[21 + 4] = int16 ? -32766 : -9999.75;
+    t.values[21 + 15] = int16 ? 32767 : 3.0e38;
+    t.values[21 + 16] = int16 ? -1 : -0.0;
+    t.values[42 + 7] = int16 ? -12345 : -12345.125;
+    ASSERT_TRUE(testing::write_raw_tiff(dir.file("row.tif"), t));
+    auto dem = read_geotiff(dir.file("row.tif"), {});
+    ASSERT_TRUE(dem.ok()) << dem.error().message;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 21; ++c) {
+        const double v = t.values[static_cast<std::size_t>(21 * r + c)];
+        if (v == code)
+          EXPECT_TRUE(std::isnan(dem->elevation.at(c, r))) << c << "," << r;
+        else
+          EXPECT_EQ(dem->elevation.at(c, r), static_cast<float>(v)) << c << "," << r;
+      }
+    EXPECT_EQ(elevation_stats(dem->elevation).nodata_cells, 3u);
+  }
+}
+
 TEST(GeoTiffReader, AllowMissingCrsKeepsTransformOfUnsupportedCrs) {
   TempDir dir;
   RawTiff t = testing::utm_raw_tiff(4, 3);
