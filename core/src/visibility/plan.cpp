@@ -179,6 +179,12 @@ void Workspace::trim() {
   if (!keepable(mask)) mask = terrain::Grid<std::uint8_t>();
 }
 
+std::uint64_t Workspace::kept_bytes() const {
+  std::uint64_t bytes = mask.capacity() * sizeof(std::uint8_t);
+  for (const terrain::Grid<float>* g : {&cells, &ohf, &terrain}) bytes += g->capacity() * sizeof(float);
+  return bytes;
+}
+
 geodesy::GridPoint ViewshedRun::observer_in_source() const {
   return to_source(observer, read.window);
 }

@@ -102,6 +102,9 @@ struct Workspace {
   void recycle(ViewshedResult&& done);
   // Frees any buffer above kMaxKeptBytes.
   void trim();
+  // The bytes its buffers hold (their capacities), what a daemon's memory
+  // budget counts for a worker between calls.
+  std::uint64_t kept_bytes() const;
 };
 
 // The most rays one sector of the radial sweep may march (its tables are
