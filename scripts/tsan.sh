@@ -31,7 +31,7 @@ binaries=(test_common test_terrain test_clipmap test_server_units)
 daemon_tests='ServerRpc.StreamedRaster*:ServerRpc.ProgressMessages*:ServerRpc.InvalidArgument*'
 daemon_tests+=':ServerRpc.LineOfSightBatch*:ServerRpc.CullAnswers*:ServerRpc.ClientCancelling*'
 daemon_tests+=':ServerSession.TheLatestPose*:ServerTrace.BoxAnswers*:ServerConcurrency.*'
-daemon_tests+=':ServerMesh.CullMeshAnswers*:ServerMesh.AMeshFile*'
+daemon_tests+=':ServerMesh.CullMeshAnswers*:ServerMesh.AMeshFile*:ServerKept.*'
 
 cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" -DHORIZON_TSAN=ON \
   -DHORIZON_BUILD_BENCH=OFF >/dev/null

@@ -100,6 +100,12 @@ class CallScope {
   // (CullBoxes: its boxes), the whole once planned; each step takes only
   // what the call does not hold yet.
   Status reserve(std::uint64_t bytes, const std::string& what);
+  // Memory that serves the call, held with what reserve() holds (a worker's
+  // kept buffers, worker_memory.hpp): reserve() takes only what it lacks beyond it.
+  void hold(Reservation&& held) { memory_.absorb(std::move(held)); }
+  // Up to `bytes` of what the call holds, moved out for someone who keeps
+  // memory the call made past its end (the worker, its buffers).
+  Reservation hand_over(std::uint64_t bytes) { return memory_.split(bytes); }
 
   const RunControl* control() const { return &control_; }
   // What the engine's progress reports call, from any worker thread (before the work is posted).

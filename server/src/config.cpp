@@ -425,6 +425,7 @@ Result<Config> parse_config(const std::string& text, const std::string& source, 
                                       "memory_budget_mb",
                                       "block_cache_mb",
                                       "receive_buffer_mb",
+                                      "worker_kept_mb",
                                       "io_threads",
                                       "worker_threads",
                                       "engine_threads",
@@ -473,6 +474,12 @@ Result<Config> parse_config(const std::string& text, const std::string& source, 
     auto v = get_count(j, source, "block_cache_mb", "block_cache_mb", 1, 1u << 20);
     if (!v.ok()) return v.error();
     c.block_cache_bytes = *v << 20;
+  }
+  c.worker_kept_bytes = c.memory_budget_bytes / 4;
+  if (j.contains("worker_kept_mb")) {
+    auto v = get_count(j, source, "worker_kept_mb", "worker_kept_mb", 0, *budget);
+    if (!v.ok()) return v.error();
+    c.worker_kept_bytes = *v << 20;
   }
   if (j.contains("io_threads")) {
     auto v = get_count(j, source, "io_threads", "io_threads", 1, 64);
@@ -612,6 +619,7 @@ std::vector<std::string> keys_needing_restart(const Config& a, const Config& b) 
   differ(a.memory_budget_bytes != b.memory_budget_bytes, "memory_budget_mb");
   differ(a.block_cache_bytes != b.block_cache_bytes, "block_cache_mb");
   differ(a.receive_buffer_bytes != b.receive_buffer_bytes, "receive_buffer_mb");
+  differ(a.worker_kept_bytes != b.worker_kept_bytes, "worker_kept_mb");
   differ(a.io_threads != b.io_threads, "io_threads");
   differ(a.worker_threads != b.worker_threads, "worker_threads");
   differ(a.engine_threads != b.engine_threads, "engine_threads");

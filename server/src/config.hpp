@@ -39,6 +39,10 @@
 //                                           UNAVAILABLE, to be retried) rather than read more; at
 //                                           least the largest request the limits allow; default
 //                                           budget/8, at least that request
+//     "worker_kept_mb": 512,                the workers' buffers kept from one run to the next, in
+//                                           memory_budget_mb (worker_memory.hpp); past it a run's
+//                                           buffers are freed when it ends; 0: none kept; default
+//                                           budget/4, at most the budget
 //     "io_threads": 2,                      threads decoding blocks for the cache; [1, 64]
 //     "worker_threads": 2,                  computations run concurrently (Asio pool); 0 = all cores
 //     "engine_threads": 1,                  threads one computation may use; 0 = all cores
@@ -185,6 +189,7 @@ struct Config {
   std::uint64_t memory_budget_bytes = 2048ull << 20;
   std::uint64_t block_cache_bytes = 256ull << 20;
   std::uint64_t receive_buffer_bytes = 256ull << 20;
+  std::uint64_t worker_kept_bytes = 512ull << 20;
   unsigned io_threads = 2;
   unsigned worker_threads = 2;
   unsigned engine_threads = 1;

@@ -1,5 +1,6 @@
 // CullBoxes: one viewpoint, many object boxes, against the OHF of the window
 // they need (the culling logic itself is core's visibility/cull).
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -8,6 +9,7 @@
 #include "horizon/visibility/plan.hpp"
 #include "translate.hpp"
 #include "visibility_service.hpp"
+#include "worker_memory.hpp"
 
 namespace horizon::server {
 
@@ -34,7 +36,9 @@ grpc::Status run_cull_boxes(CallScope& scope, const v1::CullBoxesRequest& reques
       options->conservative ? visibility::Algorithm::kConservative : options->viewshed.algorithm));
   // The boxes' conversion and plan hold kCullBytesPerBox a box: paid for
   // before they are made, as the rest of the plan's cost is below.
-  if (auto s = scope.reserve(static_cast<std::uint64_t>(n) * visibility::kCullBytesPerBox,
+  // The worker's kept buffers serve this run; its own are kept when it is done (worker_memory.hpp).
+  WorkspaceLease lease(scope);
+  if (auto s = lease.reserve(0, static_cast<std::uint64_t>(n) * visibility::kCullBytesPerBox,
                              "converting these " + std::to_string(n) + " boxes");
       !s.ok())
     return scope.status_of(s.error());
@@ -53,11 +57,15 @@ grpc::Status run_cull_boxes(CallScope& scope, const v1::CullBoxesRequest& reques
                    "boxes"));
   // The messages were reserved at admission (VisibilityService::CullBoxes).
   const std::string what = planned_work("this culling request", plan->cost, plan->viewshed.radial.ray_spacing);
-  if (auto s = scope.reserve(plan->cost.bytes, what); !s.ok()) return scope.status_of(s.error());
+  // The boxes' share is the call's own; the rest is buffers the workspace serves.
+  const std::uint64_t boxes_bytes =
+      std::min<std::uint64_t>(plan->cost.bytes, static_cast<std::uint64_t>(n) * visibility::kCullBytesPerBox);
+  if (auto s = lease.reserve(plan->cost.bytes - boxes_bytes, boxes_bytes, what); !s.ok())
+    return scope.status_of(s.error());
 
   // The daemon's GPU contexts are lent to the OHF (backend auto: a hardware GPU for large windows).
   auto run = visibility::run_cull_boxes(*plan, *d.source, &env.cache, scope.control(), env.gpu, env.backend,
-                                        &worker_workspace());
+                                        lease.workspace());
   if (!run.ok()) return scope.status_of(rename_field(run.error(), ""));
   const visibility::CullResult* const result = &run->result;
   const visibility::WorkStats& stats = result->stats;

@@ -25,6 +25,13 @@ void Reservation::absorb(Reservation&& more) {
   more.budget_ = nullptr;
 }
 
+Reservation Reservation::split(std::uint64_t bytes) {
+  if (!budget_ || bytes == 0) return {};
+  if (bytes > bytes_) bytes = bytes_;
+  bytes_ -= bytes;
+  return Reservation(budget_, bytes);
+}
+
 void Reservation::release() {
   if (budget_) budget_->give_back(bytes_);
   budget_ = nullptr;

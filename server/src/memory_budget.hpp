@@ -15,8 +15,9 @@
 // algorithm's tables, per box and per profile sample), the server's own
 // part from what it will send
 // (kEncodingBytesPerCell for a raster's encodings, kMessageBytesPerBox and
-// kMessageBytesPerLine for the messages). A reservation that does not fit is
-// refused: the request gets RESOURCE_EXHAUSTED. What is left outside the
+// kMessageBytesPerLine for the messages); and the workers' buffers kept
+// from one run to the next (worker_memory.hpp). A reservation that does not
+// fit is refused: the request gets RESOURCE_EXHAUSTED. What is left outside the
 // accounting (code, libraries, allocator slack) is the fixed kBaseBytes
 // the budget sets aside at start.
 #pragma once
@@ -43,6 +44,9 @@ class Reservation {
   // Takes over `more` (of the same budget, or empty): this one then holds
   // both, and `more` nothing.
   void absorb(Reservation&& more);
+  // Moves `bytes` of this one (at most what it holds) into a reservation of
+  // their own: a call handing a part of its memory to someone who keeps it.
+  Reservation split(std::uint64_t bytes);
 
  private:
   friend class MemoryBudget;

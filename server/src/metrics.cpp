@@ -91,11 +91,17 @@ struct Metrics::Impl {
                                     .Help("Elevation bytes held resident")
                                     .Register(*registry)
                                     .Add({});
-  prometheus::Gauge& reserved = prometheus::BuildGauge()
-                                    .Name("horizon_memory_reserved_bytes")
-                                    .Help("Bytes reserved in the memory budget (cache, receive buffers, requests)")
-                                    .Register(*registry)
-                                    .Add({});
+  prometheus::Gauge& reserved =
+      prometheus::BuildGauge()
+          .Name("horizon_memory_reserved_bytes")
+          .Help("Bytes reserved in the memory budget (cache, receive buffers, requests, kept buffers)")
+          .Register(*registry)
+          .Add({});
+  prometheus::Gauge& worker_kept = prometheus::BuildGauge()
+                                       .Name("horizon_worker_kept_bytes")
+                                       .Help("Bytes of the memory budget the workers' buffers hold between calls")
+                                       .Register(*registry)
+                                       .Add({});
   prometheus::Gauge& receive_buffer = prometheus::BuildGauge()
                                           .Name("horizon_receive_buffer_bytes")
                                           .Help("Bytes gRPC may hold for requests still on the wire")
@@ -230,6 +236,10 @@ void Metrics::set_receive_buffer(std::uint64_t bytes) {
 
 void Metrics::set_memory_reserved(std::uint64_t bytes) {
   impl_->reserved.Set(static_cast<double>(bytes));
+}
+
+void Metrics::set_worker_kept(std::uint64_t bytes) {
+  impl_->worker_kept.Set(static_cast<double>(bytes));
 }
 
 }  // namespace horizon::server

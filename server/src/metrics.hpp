@@ -19,8 +19,10 @@
 //   horizon_receive_buffer_bytes                    gauge (gRPC's receive quota, receive_buffer_mb)
 //   horizon_gpu_image_bytes                         gauge (GL images taken from the budget: on a software
 //                                                   rasteriser, what contexts keep and what runs hold)
-//   horizon_memory_reserved_bytes                   gauge (block cache + receive buffers + requests,
-//                                                   as budgeted)
+//   horizon_memory_reserved_bytes                   gauge (block cache + receive buffers + requests
+//                                                   + the workers' kept buffers, as budgeted)
+//   horizon_worker_kept_bytes                       gauge (the workers' buffers kept between calls,
+//                                                   worker_memory.hpp)
 //   horizon_process_resident_bytes                  gauge (RSS from /proc/self/statm, read at scrape)
 //   horizon_datasets                                gauge
 //   horizon_backend_requests_total{backend}         counter (viewsheds and culls by where the OHF was
@@ -59,6 +61,7 @@ class Metrics {
   // The cache's figures now (counters advance by what changed since the last call).
   void set_block_cache(const terrain::BlockCacheStats& stats);
   void set_memory_reserved(std::uint64_t bytes);
+  void set_worker_kept(std::uint64_t bytes);
   void set_receive_buffer(std::uint64_t bytes);
   void set_gpu_images(std::uint64_t bytes);
   // What the health service says (Daemon: SERVING once loaded, NOT_SERVING when draining).

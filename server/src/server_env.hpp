@@ -13,7 +13,6 @@
 #include "deadline_watch.hpp"
 #include "horizon/gpu/context_pool.hpp"
 #include "horizon/terrain/block_cache.hpp"
-#include "horizon/visibility/plan.hpp"
 #include "horizon/visibility/backend_policy.hpp"
 #include "memory_budget.hpp"
 #include "meshes.hpp"
@@ -44,20 +43,12 @@ struct ServerEnv {
   // Our calls whose reactors gRPC still holds (CallScope's lifetime, which
   // ends after gRPC's OnDone: the answer is sent), admitted or not.
   std::atomic<std::uint32_t> live_calls{0};
+  // The budget's bytes held for the workers' kept buffers (worker_memory.hpp).
+  std::atomic<std::uint64_t> kept_bytes{0};
   // Told when live_calls falls to 0 (allocator.hpp); null in tests without one.
   HeapTrimmer* trimmer = nullptr;
   // Ends calls whose default deadline passes (deadline_watch.hpp); null in tests without one.
   DeadlineWatch* deadlines = nullptr;
 };
-
-// The calling worker thread's engine workspace (visibility/plan.hpp): each
-// worker reuses its read buffer and rasters from call to call. At most
-// Workspace::kMaxKeptBytes per kept buffer (read window, OHF, terrain, mask)
-// a worker, outside memory_budget_mb's reservations (a request's
-// reservation covers its cells while it runs).
-inline visibility::Workspace& worker_workspace() {
-  thread_local visibility::Workspace workspace;
-  return workspace;
-}
 
 }  // namespace horizon::server

@@ -19,6 +19,7 @@
 #include "translate.hpp"
 #include "viewshed_many_call.hpp"
 #include "viewshed_output.hpp"
+#include "worker_memory.hpp"
 
 namespace horizon::server {
 namespace {
@@ -198,13 +199,15 @@ grpc::Status ViewshedCall::compute() {
       out.geotiff.format == terrain::TiffFormat::kCog || out.geotiff.compression == terrain::TiffCompression::kNone;
   const std::uint64_t per_cell =
       MemoryBudget::kEncodingBytesPerCell + (laid_out ? MemoryBudget::kLayoutBytesPerCell : 0);
-  if (auto s = scope_.reserve(plan->cost.bytes + cells * per_cell,
-                              planned_work("this viewshed", plan->cost, options->radial.ray_spacing));
+  // The worker's kept buffers serve this run; its own are kept when it is done (worker_memory.hpp).
+  WorkspaceLease lease(scope_);
+  if (auto s = lease.reserve(plan->cost.bytes, cells * per_cell,
+                             planned_work("this viewshed", plan->cost, options->radial.ray_spacing));
       !s.ok())
     return scope_.status_of(s.error());
 
-  auto run = visibility::run_viewshed(*plan, *d.source, &env.cache, scope_.control(), env.gpu, env.backend,
-                                      &worker_workspace());
+  auto run =
+      visibility::run_viewshed(*plan, *d.source, &env.cache, scope_.control(), env.gpu, env.backend, lease.workspace());
   if (!run.ok()) return scope_.status_of(rename_field(run.error(), "options."));
   const visibility::ViewshedResult* const result = &run->result;
   const visibility::WorkStats& stats = result->stats;
@@ -285,7 +288,7 @@ grpc::Status ViewshedCall::compute() {
   summary_.set_evaluated_cells(visible + hidden);
   summary_.set_visible_area_km2(static_cast<double>(visible) * f.metres_per_col * f.metres_per_row / 1e6);
   fill_stats(result->stats, *summary_.mutable_stats());
-  worker_workspace().recycle(std::move(run->result));  // everything sent is copied out: its rasters serve the next call
+  lease.workspace()->recycle(std::move(run->result));  // everything sent is copied out: its rasters serve the next call
   return grpc::Status::OK;
 }
 

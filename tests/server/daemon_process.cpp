@@ -145,9 +145,9 @@ bool DaemonProcess::wait_for_metrics(const std::function<bool(const std::string&
 bool DaemonProcess::memory_returned() const {
   return wait_for_metrics(
       [](const std::string& m) {
-        return metric(m, "horizon_memory_reserved_bytes") == metric(m, "horizon_block_cache_budget_bytes") +
-                                                                 metric(m, "horizon_receive_buffer_bytes") +
-                                                                 metric(m, "horizon_gpu_image_bytes");
+        return metric(m, "horizon_memory_reserved_bytes") ==
+               metric(m, "horizon_block_cache_budget_bytes") + metric(m, "horizon_receive_buffer_bytes") +
+                   metric(m, "horizon_gpu_image_bytes") + metric(m, "horizon_worker_kept_bytes");
       },
       std::chrono::seconds(5));
 }

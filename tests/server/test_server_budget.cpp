@@ -88,6 +88,27 @@ TEST(ServerBudget, AReservationAbsorbsAnotherOfTheSameBudget) {
   EXPECT_TRUE(budget.try_reserve(100, empty));
 }
 
+// A worker keeping a call's buffers takes their bytes out of the call's
+// reservation (WorkspaceLease): the budget's total does not move, and each
+// part gives back its own share.
+TEST(ServerBudget, AReservationSplitsInTwoThatGiveBackTheirOwnShares) {
+  MemoryBudget budget(MemoryBudget::kBaseBytes + 100);
+  Reservation call;
+  ASSERT_TRUE(budget.try_reserve(70, call));
+  Reservation kept = call.split(30);
+  EXPECT_EQ(call.bytes(), 40u);
+  EXPECT_EQ(kept.bytes(), 30u);
+  EXPECT_EQ(budget.reserved(), 70u);
+  Reservation rest = call.split(1000);  // no more than it holds
+  EXPECT_EQ(rest.bytes(), 40u);
+  EXPECT_EQ(call.bytes(), 0u);
+  EXPECT_EQ(Reservation().split(5).bytes(), 0u);  // an empty one has nothing to give
+  rest.release();
+  EXPECT_EQ(budget.reserved(), 30u);
+  kept.release();
+  EXPECT_EQ(budget.reserved(), 0u);
+}
+
 // Trims wait for the daemon to be idle at the end of the delay, and come at
 // most once an interval however often it falls idle. (Bounds are generous:
 // each waits several times the delay the trimmer is given.)

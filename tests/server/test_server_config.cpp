@@ -164,6 +164,20 @@ TEST(ServerConfig, TiledDatasetsAndTheBlockCache) {
   EXPECT_EQ(d->block_cache_bytes, (256ull - 48 - 32) << 19);
 }
 
+// The workers' kept buffers take a quarter of the budget unless told, and
+// never more than the whole.
+TEST(ServerConfig, WorkersKeepAQuarterOfTheBudgetUnlessTold) {
+  auto c = parse_config(document(""), "test.json", "/");
+  ASSERT_TRUE(c.ok()) << c.error().message;
+  EXPECT_EQ(c->worker_kept_bytes, 64ull << 20);
+  auto none = parse_config(document(R"("worker_kept_mb": 0)"), "test.json", "/");
+  ASSERT_TRUE(none.ok()) << none.error().message;
+  EXPECT_EQ(none->worker_kept_bytes, 0u);
+  auto all = parse_config(document(R"("worker_kept_mb": 256)"), "test.json", "/");
+  ASSERT_TRUE(all.ok()) << all.error().message;
+  EXPECT_EQ(all->worker_kept_bytes, 256ull << 20);
+}
+
 // gRPC's receive buffers hold at least the largest request the limits allow
 // (1 MiB + 96 bytes a box: 10.2 MiB for the default 100 000 boxes), and the
 // default grows with the limits.
@@ -285,11 +299,13 @@ INSTANTIATE_TEST_SUITE_P(
                 document(R"("block_cache_mb": 150, "receive_buffer_mb": 60)"), "block_cache_mb"},
         BadCase{"receive_buffer_mb leaves no room for the cache", document(R"("receive_buffer_mb": 250)"),
                 "receive_buffer_mb"},
+        BadCase{"worker_kept_mb over the budget", document(R"("worker_kept_mb": 257)"), "worker_kept_mb"},
+        BadCase{"worker_kept_mb negative", document(R"("worker_kept_mb": -1)"), "worker_kept_mb"},
         BadCase{"io_threads 0", document(R"("io_threads": 0)"), "io_threads"},
         BadCase{"meshes not an object", document(R"("meshes": [1])"), "meshes"},
         BadCase{"mesh neither dataset nor file", document(R"("meshes": {"m": {"sectors": 8}})"), "meshes.m"},
-        BadCase{"mesh both dataset and file",
-                document(R"("meshes": {"m": {"dataset": "rainier", "file": "m.obj"}})"), "meshes.m"},
+        BadCase{"mesh both dataset and file", document(R"("meshes": {"m": {"dataset": "rainier", "file": "m.obj"}})"),
+                "meshes.m"},
         BadCase{"mesh unknown dataset", document(R"("meshes": {"m": {"dataset": "everest"}})"), "meshes.m.dataset"},
         BadCase{"mesh unknown key", document(R"("meshes": {"m": {"dataset": "rainier", "sector": 8}})"),
                 "meshes.m.sector"},
@@ -302,17 +318,17 @@ INSTANTIATE_TEST_SUITE_P(
                 "meshes.m.vertices"},
         BadCase{"mesh merge_cutoff 0", document(R"("meshes": {"m": {"dataset": "rainier", "merge_cutoff": 0}})"),
                 "meshes.m.merge_cutoff"},
-        BadCase{"mesh max_error negative",
-                document(R"("meshes": {"m": {"dataset": "rainier", "max_error_m": -1}})"), "meshes.m.max_error_m"},
+        BadCase{"mesh max_error negative", document(R"("meshes": {"m": {"dataset": "rainier", "max_error_m": -1}})"),
+                "meshes.m.max_error_m"},
         BadCase{"mesh file with vertices", document(R"("meshes": {"m": {"file": "m.obj", "vertices": 100}})"),
                 "meshes.m.vertices"},
         BadCase{"mesh box of five", document(R"("meshes": {"m": {"dataset": "rainier", "boxes": [[1, 2, 3, 4, 5]]}})"),
                 "meshes.m.boxes[0]"},
-        BadCase{"mesh box reversed",
-                document(R"("meshes": {"m": {"dataset": "rainier", "boxes": [[0, 0, 1, 1, 0, 1], [5, 0, 1, 1, 0, 1]]}})"),
-                "meshes.m.boxes[1]"},
-        BadCase{"mesh boxes over max_boxes",
-                document(R"("limits": {"max_boxes": 1},
+        BadCase{
+            "mesh box reversed",
+            document(R"("meshes": {"m": {"dataset": "rainier", "boxes": [[0, 0, 1, 1, 0, 1], [5, 0, 1, 1, 0, 1]]}})"),
+            "meshes.m.boxes[1]"},
+        BadCase{"mesh boxes over max_boxes", document(R"("limits": {"max_boxes": 1},
                             "meshes": {"m": {"dataset": "rainier", "boxes": [[0, 0, 1, 1, 0, 1], [0, 0, 1, 1, 0, 1]]}})"),
                 "meshes.m.boxes"},
         BadCase{"mesh_cache_dir empty", document(R"("mesh_cache_dir": "")"), "mesh_cache_dir"}),
