@@ -35,8 +35,8 @@ CallScope::~CallScope() {
   if (env_.live_calls.fetch_sub(1) == 1 && env_.trimmer) env_.trimmer->idle();
 }
 
-std::optional<grpc::Status> CallScope::admit(std::uint64_t message_bytes) {
-  auto refused = admission(message_bytes);
+std::optional<grpc::Status> CallScope::admit(const google::protobuf::Message& request, std::uint64_t message_bytes) {
+  auto refused = admission(request, message_bytes);
   if (refused) ticket_.take();  // never queued: a cancel has nothing to drop
   return refused;
 }
@@ -47,7 +47,8 @@ std::optional<grpc::Status> CallScope::cancel() {
   return status_of(make_error(ErrorCode::kCancelled, "cancelled before it started"));
 }
 
-std::optional<grpc::Status> CallScope::admission(std::uint64_t message_bytes) {
+std::optional<grpc::Status> CallScope::admission(const google::protobuf::Message& request,
+                                                 std::uint64_t message_bytes) {
   if (!env_.datasets.loaded())
     return grpc::Status(grpc::StatusCode::UNAVAILABLE, "horizond is loading its datasets; retry shortly");
   // With TLS, a call that arrived on the plaintext health port is refused:
@@ -79,6 +80,9 @@ std::optional<grpc::Status> CallScope::admission(std::uint64_t message_bytes) {
                                          " requests in flight (limits.max_pending = " +
                                          std::to_string(env_.config.limits.max_pending) + "); retry later",
                                      "limits.max_pending"));
+  // A request the budget could not take while it was parsed arrives empty.
+  if (auto refusal = proto::refused_parse(request))
+    return to_grpc_status(make_error(ErrorCode::kResourceExhausted, *refusal, "memory_budget_mb"));
   // What has arrived is already in memory; a call that cannot also hold its
   // answer is refused now rather than queued, and frees its request at once.
   if (message_bytes > 0 && !env_.memory.try_reserve(message_bytes, messages_))

@@ -19,6 +19,7 @@
 #include <string>
 #include <string_view>
 
+#include <google/protobuf/message.h>
 #include <grpcpp/server_context.h>
 #include <grpcpp/support/status.h>
 
@@ -84,11 +85,12 @@ class CallScope {
   CallScope(const CallScope&) = delete;
   CallScope& operator=(const CallScope&) = delete;
 
-  // Ok, or the status to finish with at once. `message_bytes`: what the
-  // call's messages hold while it waits and runs (the request as received,
-  // the answer it will build), reserved here, before the call queues, and
-  // held until it ends.
-  std::optional<grpc::Status> admit(std::uint64_t message_bytes = 0);
+  // Ok, or the status to finish with at once. `request`: as gRPC handed it
+  // over (a request whose parse the memory budget refused, parse_guard.hpp,
+  // is refused here). `message_bytes`: what the call's messages hold while
+  // it waits and runs (the request as received, the answer it will build),
+  // reserved here, before the call queues, and held until it ends.
+  std::optional<grpc::Status> admit(const google::protobuf::Message& request, std::uint64_t message_bytes = 0);
   // The call's place in the worker queue, for the task that runs it
   // (worker_pool.hpp): the task runs the call only if ticket().take().
   QueueTicket ticket() const { return ticket_; }
@@ -127,7 +129,7 @@ class CallScope {
   void finish(const grpc::Status& status);
 
  private:
-  std::optional<grpc::Status> admission(std::uint64_t message_bytes);
+  std::optional<grpc::Status> admission(const google::protobuf::Message& request, std::uint64_t message_bytes);
 
   ServerEnv& env_;
   grpc::CallbackServerContext* context_;

@@ -115,6 +115,7 @@ struct Daemon::Impl {
 
   Config config;
   MemoryBudget memory;
+  ParseAllowanceOfBudget parse_allowance{memory};
   Metrics metrics;
   DeadlineWatch deadlines;    // outlives every call (env.deadlines)
   Reservation cache_memory;   // the block cache's whole budget, held for the daemon's life
@@ -230,8 +231,11 @@ Status Daemon::start() {
   grpc::ResourceQuota quota("horizond");
   quota.Resize(d.config.receive_buffer_bytes);
   builder.SetResourceQuota(quota);
+  // From the first request on, each is parsed only when the budget can take it.
+  proto::set_parse_allowance(&d.parse_allowance);
   d.server = builder.BuildAndStart();
   if (!d.server || port == 0 || (!d.config.health_listen.empty() && health_port == 0)) {
+    proto::set_parse_allowance(nullptr);
     const bool main_port = !d.server || port == 0;
     const std::string key = main_port ? "listen" : "health_listen";
     return make_error(ErrorCode::kIoError,
@@ -331,6 +335,7 @@ void Daemon::shutdown() {
   }
   d.pool.join();
   if (d.server) d.server->Wait();
+  proto::set_parse_allowance(nullptr);  // no parse can run now
   log_event("info", "stopped", {});
 }
 

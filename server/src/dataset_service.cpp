@@ -46,7 +46,7 @@ grpc::ServerUnaryReactor* DatasetService::ListDatasets(grpc::CallbackServerConte
     reactor->Finish(status);
     return reactor;
   };
-  if (auto refused = scope.admit()) return finish(*refused);
+  if (auto refused = scope.admit(*request)) return finish(*refused);
   if (request->page_size() < 0)
     return finish(to_grpc_status(make_error(ErrorCode::kInvalidArgument, "page_size: must be >= 0", "page_size")));
   const int page_size = request->page_size() == 0 ? 100 : std::min(request->page_size(), 1000);
@@ -77,7 +77,7 @@ grpc::ServerUnaryReactor* DatasetService::GetDataset(grpc::CallbackServerContext
     reactor->Finish(status);
     return reactor;
   };
-  if (auto refused = scope.admit()) return finish(*refused);
+  if (auto refused = scope.admit(*request)) return finish(*refused);
   auto dataset = scope.dataset(request->name());
   if (!dataset.ok()) {
     Error e = dataset.error();

@@ -19,11 +19,14 @@
 // from one run to the next (worker_memory.hpp). A reservation that does not
 // fit is refused: the request gets RESOURCE_EXHAUSTED. What is left outside the
 // accounting (code, libraries, allocator slack) is the fixed kBaseBytes
-// the budget sets aside at start.
+// the budget sets aside at start. The parse of each request holds a bound of
+// what it allocates until it is parsed (ParseAllowanceOfBudget).
 #pragma once
 
 #include <atomic>
 #include <cstdint>
+
+#include "parse_guard.hpp"
 
 namespace horizon::server {
 
@@ -97,6 +100,20 @@ class MemoryBudget {
 
   const std::uint64_t total_;
   std::atomic<std::int64_t> available_;
+};
+
+// The budget as the allowance of the requests' parsing (protos/guard/
+// parse_guard.hpp): a request is parsed only when the bound of what parsing
+// it allocates fits, and holds that bound until it is parsed; admission
+// then reserves what it really holds.
+class ParseAllowanceOfBudget final : public proto::ParseAllowance {
+ public:
+  explicit ParseAllowanceOfBudget(MemoryBudget& budget) : budget_(budget) {}
+  bool take(std::uint64_t bytes) override { return budget_.try_take(bytes); }
+  void give(std::uint64_t bytes) override { budget_.give(bytes); }
+
+ private:
+  MemoryBudget& budget_;
 };
 
 }  // namespace horizon::server

@@ -159,12 +159,12 @@ grpc::Status cull(CallScope& scope, const MeshSet& set, const v1::CullMeshReques
 }  // namespace
 
 grpc::ServerUnaryReactor* MeshService::ListMeshes(grpc::CallbackServerContext* context,
-                                                  const v1::ListMeshesRequest* /*request*/,
+                                                  const v1::ListMeshesRequest* request,
                                                   v1::ListMeshesResponse* response) {
   auto* reactor = context->DefaultReactor();
   CallScope scope(env_, context, "ListMeshes");
   grpc::Status status = grpc::Status::OK;
-  if (auto refused = scope.admit()) {
+  if (auto refused = scope.admit(*request)) {
     status = *refused;
   } else {
     for (const auto& [name, served] : *env_.meshes.snapshot()) {
@@ -205,7 +205,7 @@ grpc::ServerUnaryReactor* MeshService::DescribeMesh(grpc::CallbackServerContext*
   const std::uint64_t messages = held_bytes(*request) + groups * kBytesPerRun +
                                  std::uint64_t{request->vertex_count()} * kBytesPerVertex +
                                  std::uint64_t{request->triangle_count()} * kBytesPerTriangle;
-  return UnaryCall::start(env_, context, "DescribeMesh", messages,
+  return UnaryCall::start(env_, context, "DescribeMesh", *request, messages,
                           [set = std::move(set), request, response](CallScope& scope) {
                             return describe(scope, *set, *request, *response);
                           });
@@ -222,7 +222,7 @@ grpc::ServerUnaryReactor* MeshService::CullMesh(grpc::CallbackServerContext* con
   // The request, and an answer of every leaf drawn (a run and an index each) and every box's flag.
   const std::uint64_t messages = held_bytes(*request) + groups * kBytesPerRun + boxes;
   return UnaryCall::start(
-      env_, context, "CullMesh", messages,
+      env_, context, "CullMesh", *request, messages,
       [set = std::move(set), request, response](CallScope& scope) { return cull(scope, *set, *request, *response); });
 }
 

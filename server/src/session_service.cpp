@@ -73,7 +73,7 @@ class SessionCall final : public grpc::ServerBidiReactor<v1::SessionRequest, v1:
         last_activity_(Clock::now()) {}
 
   void start() {
-    if (auto refused = scope_.admit()) return finish_now(*refused);
+    if (auto refused = scope_.admit(in_)) return finish_now(*refused);  // nothing read yet: in_ is empty
     if (env_.config.sessions.max == 0 || !registry_.enter(this))
       return finish_now(to_grpc_status(make_error(
           ErrorCode::kResourceExhausted,
@@ -94,6 +94,10 @@ class SessionCall final : public grpc::ServerBidiReactor<v1::SessionRequest, v1:
     last_activity_ = Clock::now();
     if (!ok) {
       read_closed_ = true;
+    } else if (auto refusal = proto::refused_parse(in_)) {
+      // The memory budget could not take this message while it was parsed (parse_guard.hpp).
+      end_locked(to_grpc_status(make_error(ErrorCode::kResourceExhausted, *refusal, "memory_budget_mb")));
+      in_.Clear();
     } else {
       switch (in_.kind_case()) {
         case v1::SessionRequest::kOpen:

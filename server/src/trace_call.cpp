@@ -99,7 +99,7 @@ class TraceCall final : public grpc::ServerWriteReactor<v1::TraceResponse> {
       : scope_(env, context, "TraceCamera"), request_(request) {}
 
   void start() {
-    if (auto refused = scope_.admit(held_bytes(request_))) return finish(*refused);
+    if (auto refused = scope_.admit(request_, held_bytes(request_))) return finish(*refused);
     handoff_.publish();  // gRPC may run OnCancel from now on
     scope_.env().pool.post([this, ticket = scope_.ticket()]() mutable {
       if (!ticket.take()) return;  // cancelled in the queue: finished, perhaps deleted

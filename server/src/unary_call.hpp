@@ -1,7 +1,7 @@
 // unary_call.hpp — a unary RPC whose work runs on the worker pool.
 //
-// The reactor is created on a gRPC thread, admits the call (reserving
-// `message_bytes` for its messages: CallScope::admit), and posts the
+// The reactor is created on a gRPC thread, admits the call (its request
+// checked and `message_bytes` reserved for its messages: CallScope::admit), and posts the
 // work to the Asio pool; the work fills the response and returns the status,
 // and the reactor finishes the call from the pool thread. OnCancel (client
 // cancelled, deadline passed, server shutting down past its grace) sets the
@@ -28,10 +28,11 @@ class UnaryCall final : public grpc::ServerUnaryReactor {
   using Work = std::function<grpc::Status(CallScope&)>;
 
   // Starts the call; returns the reactor to hand back to gRPC.
-  static grpc::ServerUnaryReactor* start(ServerEnv& env, grpc::CallbackServerContext* context,
-                                         std::string_view method, std::uint64_t message_bytes, Work work) {
+  static grpc::ServerUnaryReactor* start(ServerEnv& env, grpc::CallbackServerContext* context, std::string_view method,
+                                         const google::protobuf::Message& request, std::uint64_t message_bytes,
+                                         Work work) {
     auto* call = new UnaryCall(env, context, method);
-    if (auto refused = call->scope_.admit(message_bytes)) {
+    if (auto refused = call->scope_.admit(request, message_bytes)) {
       call->finish(*refused);
       return call;
     }

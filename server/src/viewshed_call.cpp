@@ -33,7 +33,7 @@ class ViewshedCall final : public grpc::ServerWriteReactor<v1::ViewshedResponse>
       : scope_(env, context, "ComputeViewshed"), request_(request) {}
 
   void start() {
-    if (auto refused = scope_.admit(held_bytes(request_))) return finish(*refused);
+    if (auto refused = scope_.admit(request_, held_bytes(request_))) return finish(*refused);
     if (request_.include_progress()) scope_.set_progress([this](double fraction) { on_progress(fraction); });
     handoff_.publish();  // gRPC may run OnCancel from now on
     scope_.env().pool.post([this, ticket = scope_.ticket()]() mutable {

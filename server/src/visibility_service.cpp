@@ -15,9 +15,9 @@ grpc::ServerUnaryReactor* VisibilityService::LineOfSight(grpc::CallbackServerCon
                                                          const v1::LineOfSightRequest* request,
                                                          v1::LineOfSightResponse* response) {
   // request and response stay valid until the call finishes.
-  return UnaryCall::start(env_, context, "LineOfSight", held_bytes(*request), [request, response](CallScope& scope) {
-    return run_line_of_sight(scope, *request, *response);
-  });
+  return UnaryCall::start(
+      env_, context, "LineOfSight", *request, held_bytes(*request),
+      [request, response](CallScope& scope) { return run_line_of_sight(scope, *request, *response); });
 }
 
 grpc::ServerUnaryReactor* VisibilityService::CullBoxes(grpc::CallbackServerContext* context,
@@ -26,7 +26,7 @@ grpc::ServerUnaryReactor* VisibilityService::CullBoxes(grpc::CallbackServerConte
   // The boxes as received, and the answer's, one per box.
   const std::uint64_t messages =
       held_bytes(*request) + static_cast<std::uint64_t>(request->boxes_size()) * MemoryBudget::kResponseBytesPerBox;
-  return UnaryCall::start(env_, context, "CullBoxes", messages,
+  return UnaryCall::start(env_, context, "CullBoxes", *request, messages,
                           [request, response](CallScope& scope) { return run_cull_boxes(scope, *request, *response); });
 }
 
@@ -36,7 +36,7 @@ grpc::ServerUnaryReactor* VisibilityService::RegionVisibility(grpc::CallbackServ
   // The request as received, and a verdict per box.
   const std::uint64_t messages =
       held_bytes(*request) + static_cast<std::uint64_t>(request->boxes_size()) * sizeof(v1::RegionBoxVerdict);
-  return UnaryCall::start(env_, context, "RegionVisibility", messages, [request, response](CallScope& scope) {
+  return UnaryCall::start(env_, context, "RegionVisibility", *request, messages, [request, response](CallScope& scope) {
     return run_region_visibility(scope, *request, *response);
   });
 }

@@ -227,6 +227,61 @@ v1::CullBoxesRequest ecuador_boxes(int count) {
   return request;
 }
 
+// Small elements make a parsed request many times its wire size: a million
+// empty boxes are 2 MB on the wire and ~94 MB once parsed (empty observers
+// alike), and gRPC parses a request before any handler sees it. Each is
+// weighed first (protos/guard/parse_guard.hpp): refused unparsed, naming
+// what it would take, with the daemon's memory where it was.
+TEST(ServerHostile, RequestsThatWouldParseBeyondTheBudgetAreRefusedUnparsed) {
+  DaemonOptions options;
+  options.datasets = {{"ecuador", "ecuador_andes_utm17s_10m_383x415.tif"}};
+  options.memory_budget_mb = 128;
+  options.extra_json = R"("block_cache_mb": 16, "engine_threads": 1, "gpu": {"contexts": 0},)";
+  DaemonProcess daemon(options);
+  ASSERT_TRUE(daemon.ready()) << daemon.error();
+  const std::uint64_t start = daemon.rss_bytes();
+  auto stub = v1::VisibilityService::NewStub(daemon.channel());
+
+  v1::CullBoxesRequest boxes;
+  boxes.set_dataset("ecuador");
+  *boxes.mutable_observer() = point(713877.7, 9558936.7, 10.0);
+  for (int i = 0; i < 1'000'000; ++i) boxes.add_boxes();
+  ASSERT_LT(boxes.ByteSizeLong(), 2'100'000u);
+  v1::CullBoxesResponse response;
+  grpc::Status s = stub->CullBoxes(context_with_deadline(std::chrono::seconds(30)).get(), boxes, &response);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
+  EXPECT_NE(s.error_message().find("1000002 messages would take about"), std::string::npos) << s.error_message();
+
+  v1::ViewshedRequest observers;
+  observers.set_dataset("ecuador");
+  for (int i = 0; i < 1'000'000; ++i) observers.add_observers();
+  auto context = context_with_deadline(std::chrono::seconds(30));
+  auto reader = stub->ComputeViewshed(context.get(), observers);
+  v1::ViewshedResponse message;
+  while (reader->Read(&message)) {
+  }
+  s = reader->Finish();
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
+  EXPECT_NE(s.error_message().find("MiB to read"), std::string::npos) << s.error_message();
+
+  // Parsed, either would have raised the daemon's memory by ~94 MB.
+  const std::uint64_t peak = daemon.peak_rss_bytes();
+  EXPECT_LT(peak, start + (24ull << 20)) << "peak RSS " << (peak >> 20) << " MiB, at start " << (start >> 20);
+  // Still serving, the budget whole.
+  EXPECT_TRUE(daemon.memory_returned()) << daemon.metrics();
+  boxes.mutable_boxes()->DeleteSubrange(10, 1'000'000 - 10);
+  for (auto& b : *boxes.mutable_boxes()) {
+    b.set_x_min(713800);
+    b.set_x_max(713810);
+    b.set_y_min(9558900);
+    b.set_y_max(9558910);
+    b.set_z_max(5000);
+  }
+  s = stub->CullBoxes(context_with_deadline().get(), boxes, &response);
+  EXPECT_TRUE(s.ok()) << s.error_message();
+  EXPECT_EQ(response.boxes_size(), 10);
+}
+
 // Clients on connections of their own, each sending the largest CullBoxes
 // call the defaults take (100 000 boxes, ~5 MB on the wire, ~15 MB held
 // once received and answered) at once, against a small budget. What is on

@@ -1,0 +1,112 @@
+// parse_guard.hpp — every horizon.v1 request is weighed before it is parsed.
+//
+// gRPC parses a request before any handler sees it, so the daemon's
+// admission (server/src/call_scope.hpp) used to count a request's memory
+// only once it was built. Small elements make the built message many times
+// its wire size: 1 000 000 empty boxes are 2 MB on the wire and ~94 MB
+// parsed, and gRPC takes messages up to the limits' largest (10 MB by
+// default). Here each request type's gRPC serialisation
+// (grpc::SerializationTraits, gRPC's extension point for it) first walks
+// the wire bytes and bounds what parsing will allocate: every message it
+// holds at its C++ size, a repeated field's pointer or scalar element four
+// times (its array doubles as it grows, and on an arena the arrays it
+// outgrew stay), and the wire bytes for strings and unknown fields. A process that installs a ParseAllowance (the
+// daemon: its memory budget) takes that bound from it for the parse and gives it back after; when the allowance
+// refuses, nothing is parsed, the message is left empty but for a refusal that refused_parse() reads, and the handler
+// answers RESOURCE_EXHAUSTED with it. Without an allowance (the CLI, the
+// clients, tests) messages parse as gRPC's default does.
+//
+// The specialisations must be seen before any use of the types'
+// serialisation in every translation unit, so horizon_proto gives this
+// header to each of its users' C++ sources as a forced include
+// (protos/CMakeLists.txt); their definitions are in parse_guard.cpp, once.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include <grpcpp/impl/codegen/serialization_traits.h>
+
+namespace google::protobuf {
+class Descriptor;
+class Message;
+class MessageLite;
+namespace io {
+class ZeroCopyInputStream;
+}  // namespace io
+}  // namespace google::protobuf
+
+namespace grpc {
+class ByteBuffer;
+class Status;
+}  // namespace grpc
+
+namespace horizon::v1 {
+class ListDatasetsRequest;
+class GetDatasetRequest;
+class ListMeshesRequest;
+class DescribeMeshRequest;
+class CullMeshRequest;
+class SessionRequest;
+class TraceRequest;
+class ViewshedRequest;
+class LineOfSightRequest;
+class CullBoxesRequest;
+class RegionVisibilityRequest;
+}  // namespace horizon::v1
+
+namespace horizon::proto {
+
+// What a process lets its requests' parsing hold at once.
+class ParseAllowance {
+ public:
+  virtual ~ParseAllowance() = default;
+  // Takes `bytes` for a parse, or nothing (false).
+  virtual bool take(std::uint64_t bytes) = 0;
+  virtual void give(std::uint64_t bytes) = 0;
+};
+
+// Installs `allowance` (null: none) for every later parse; it must outlive
+// them (the daemon installs it before it listens and removes it after the
+// server has stopped).
+void set_parse_allowance(ParseAllowance* allowance);
+
+// An upper bound of the bytes parsing `wire_bytes` of wire read from `wire`
+// as a `type` allocates (see the header's comment), and the messages it
+// holds, itself included. A wire that does not parse is bounded as far as
+// it goes, and its bytes.
+struct ParseBound {
+  std::uint64_t bytes = 0;
+  std::uint64_t messages = 0;
+};
+ParseBound parse_bound(const google::protobuf::Descriptor& type, google::protobuf::io::ZeroCopyInputStream& wire,
+                       std::uint64_t wire_bytes);
+ParseBound parse_bound(const google::protobuf::Descriptor& type, const std::string& wire);
+
+// The refusal a guarded parse left in `request` instead of its fields, if any.
+std::optional<std::string> refused_parse(const google::protobuf::Message& request);
+
+}  // namespace horizon::proto
+
+#define HORIZON_GUARDED_REQUEST(T)                                                                                   \
+  template <>                                                                                                        \
+  class grpc::SerializationTraits<T, void> {                                                                         \
+   public:                                                                                                           \
+    static grpc::Status Serialize(const google::protobuf::MessageLite& msg, grpc::ByteBuffer* bb, bool* own_buffer); \
+    static grpc::Status Deserialize(grpc::ByteBuffer* buffer, google::protobuf::MessageLite* msg);                   \
+  };
+
+HORIZON_GUARDED_REQUEST(horizon::v1::ListDatasetsRequest)
+HORIZON_GUARDED_REQUEST(horizon::v1::GetDatasetRequest)
+HORIZON_GUARDED_REQUEST(horizon::v1::ListMeshesRequest)
+HORIZON_GUARDED_REQUEST(horizon::v1::DescribeMeshRequest)
+HORIZON_GUARDED_REQUEST(horizon::v1::CullMeshRequest)
+HORIZON_GUARDED_REQUEST(horizon::v1::SessionRequest)
+HORIZON_GUARDED_REQUEST(horizon::v1::TraceRequest)
+HORIZON_GUARDED_REQUEST(horizon::v1::ViewshedRequest)
+HORIZON_GUARDED_REQUEST(horizon::v1::LineOfSightRequest)
+HORIZON_GUARDED_REQUEST(horizon::v1::CullBoxesRequest)
+HORIZON_GUARDED_REQUEST(horizon::v1::RegionVisibilityRequest)
+
+#undef HORIZON_GUARDED_REQUEST
