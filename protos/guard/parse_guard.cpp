@@ -180,26 +180,22 @@ std::optional<std::string> refused_parse(const google::protobuf::Message& reques
   return std::nullopt;
 }
 
+bool is_guarded(const Descriptor& type) {
+#define HORIZON_IS_REQUEST(T) &type == horizon::v1::T::descriptor() ||
+  return HORIZON_GUARDED_REQUESTS(HORIZON_IS_REQUEST) false;
+#undef HORIZON_IS_REQUEST
+}
+
 }  // namespace horizon::proto
 
-#define HORIZON_GUARDED_REQUEST(T)                                                                     \
-  grpc::Status grpc::SerializationTraits<T, void>::Serialize(const google::protobuf::MessageLite& msg, \
-                                                             grpc::ByteBuffer* bb, bool* own_buffer) { \
-    return grpc::GenericSerialize<grpc::ProtoBufferWriter, T>(msg, bb, own_buffer);                    \
-  }                                                                                                    \
-  grpc::Status grpc::SerializationTraits<T, void>::Deserialize(grpc::ByteBuffer* buffer,               \
-                                                               google::protobuf::MessageLite* msg) {   \
-    return horizon::proto::guarded_parse<T>(buffer, msg);                                              \
+#define HORIZON_GUARDED_REQUEST(T)                                                                                  \
+  grpc::Status grpc::SerializationTraits<horizon::v1::T, void>::Serialize(const google::protobuf::MessageLite& msg, \
+                                                                          grpc::ByteBuffer* bb, bool* own_buffer) { \
+    return grpc::GenericSerialize<grpc::ProtoBufferWriter, horizon::v1::T>(msg, bb, own_buffer);                    \
+  }                                                                                                                 \
+  grpc::Status grpc::SerializationTraits<horizon::v1::T, void>::Deserialize(grpc::ByteBuffer* buffer,               \
+                                                                            google::protobuf::MessageLite* msg) {   \
+    return horizon::proto::guarded_parse<horizon::v1::T>(buffer, msg);                                              \
   }
-
-HORIZON_GUARDED_REQUEST(horizon::v1::ListDatasetsRequest)
-HORIZON_GUARDED_REQUEST(horizon::v1::GetDatasetRequest)
-HORIZON_GUARDED_REQUEST(horizon::v1::ListMeshesRequest)
-HORIZON_GUARDED_REQUEST(horizon::v1::DescribeMeshRequest)
-HORIZON_GUARDED_REQUEST(horizon::v1::CullMeshRequest)
-HORIZON_GUARDED_REQUEST(horizon::v1::SessionRequest)
-HORIZON_GUARDED_REQUEST(horizon::v1::TraceRequest)
-HORIZON_GUARDED_REQUEST(horizon::v1::ViewshedRequest)
-HORIZON_GUARDED_REQUEST(horizon::v1::LineOfSightRequest)
-HORIZON_GUARDED_REQUEST(horizon::v1::CullBoxesRequest)
-HORIZON_GUARDED_REQUEST(horizon::v1::RegionVisibilityRequest)
+HORIZON_GUARDED_REQUESTS(HORIZON_GUARDED_REQUEST)
+#undef HORIZON_GUARDED_REQUEST

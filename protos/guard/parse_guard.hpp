@@ -42,18 +42,24 @@ class ByteBuffer;
 class Status;
 }  // namespace grpc
 
+// Every request type of the horizon.v1 services, the guarded ones.
+#define HORIZON_GUARDED_REQUESTS(X) \
+  X(ListDatasetsRequest)            \
+  X(GetDatasetRequest)              \
+  X(ListMeshesRequest)              \
+  X(DescribeMeshRequest)            \
+  X(CullMeshRequest)                \
+  X(SessionRequest)                 \
+  X(TraceRequest)                   \
+  X(ViewshedRequest)                \
+  X(LineOfSightRequest)             \
+  X(CullBoxesRequest)               \
+  X(RegionVisibilityRequest)
+
 namespace horizon::v1 {
-class ListDatasetsRequest;
-class GetDatasetRequest;
-class ListMeshesRequest;
-class DescribeMeshRequest;
-class CullMeshRequest;
-class SessionRequest;
-class TraceRequest;
-class ViewshedRequest;
-class LineOfSightRequest;
-class CullBoxesRequest;
-class RegionVisibilityRequest;
+#define HORIZON_DECLARE_REQUEST(T) class T;
+HORIZON_GUARDED_REQUESTS(HORIZON_DECLARE_REQUEST)
+#undef HORIZON_DECLARE_REQUEST
 }  // namespace horizon::v1
 
 namespace horizon::proto {
@@ -87,26 +93,18 @@ ParseBound parse_bound(const google::protobuf::Descriptor& type, const std::stri
 // The refusal a guarded parse left in `request` instead of its fields, if any.
 std::optional<std::string> refused_parse(const google::protobuf::Message& request);
 
+// Whether `type` is one of HORIZON_GUARDED_REQUESTS (a test holds every
+// service's request types to it).
+bool is_guarded(const google::protobuf::Descriptor& type);
+
 }  // namespace horizon::proto
 
 #define HORIZON_GUARDED_REQUEST(T)                                                                                   \
   template <>                                                                                                        \
-  class grpc::SerializationTraits<T, void> {                                                                         \
+  class grpc::SerializationTraits<horizon::v1::T, void> {                                                            \
    public:                                                                                                           \
     static grpc::Status Serialize(const google::protobuf::MessageLite& msg, grpc::ByteBuffer* bb, bool* own_buffer); \
     static grpc::Status Deserialize(grpc::ByteBuffer* buffer, google::protobuf::MessageLite* msg);                   \
   };
-
-HORIZON_GUARDED_REQUEST(horizon::v1::ListDatasetsRequest)
-HORIZON_GUARDED_REQUEST(horizon::v1::GetDatasetRequest)
-HORIZON_GUARDED_REQUEST(horizon::v1::ListMeshesRequest)
-HORIZON_GUARDED_REQUEST(horizon::v1::DescribeMeshRequest)
-HORIZON_GUARDED_REQUEST(horizon::v1::CullMeshRequest)
-HORIZON_GUARDED_REQUEST(horizon::v1::SessionRequest)
-HORIZON_GUARDED_REQUEST(horizon::v1::TraceRequest)
-HORIZON_GUARDED_REQUEST(horizon::v1::ViewshedRequest)
-HORIZON_GUARDED_REQUEST(horizon::v1::LineOfSightRequest)
-HORIZON_GUARDED_REQUEST(horizon::v1::CullBoxesRequest)
-HORIZON_GUARDED_REQUEST(horizon::v1::RegionVisibilityRequest)
-
+HORIZON_GUARDED_REQUESTS(HORIZON_GUARDED_REQUEST)
 #undef HORIZON_GUARDED_REQUEST

@@ -14,7 +14,10 @@
 
 #include "allocator.hpp"
 #include "arena_allocator.hpp"
+#include "horizon/v1/datasets.pb.h"
+#include "horizon/v1/mesh.pb.h"
 #include "horizon/v1/session.pb.h"
+#include "horizon/v1/trace.pb.h"
 #include "horizon/v1/visibility.pb.h"
 #include "memory_budget.hpp"
 
@@ -164,6 +167,22 @@ TEST(ParseGuard, TheBoundCoversWhatParsingHolds) {
   }
   // The empty boxes: 200 kB on the wire, megabytes parsed.
   EXPECT_GT(cases[1].first, 30 * empty.ByteSizeLong());
+}
+
+// Every method of every horizon.v1 service takes a guarded request: an RPC
+// added without its request in HORIZON_GUARDED_REQUESTS fails here.
+TEST(ParseGuard, EveryServiceRequestIsGuarded) {
+  int methods = 0;
+  for (const google::protobuf::FileDescriptor* file :
+       {v1::ListDatasetsRequest::descriptor()->file(), v1::CullMeshRequest::descriptor()->file(),
+        v1::SessionRequest::descriptor()->file(), v1::TraceRequest::descriptor()->file(),
+        v1::CullBoxesRequest::descriptor()->file()})
+    for (int s = 0; s < file->service_count(); ++s)
+      for (int m = 0; m < file->service(s)->method_count(); ++m, ++methods)
+        EXPECT_TRUE(proto::is_guarded(*file->service(s)->method(m)->input_type()))
+            << file->service(s)->method(m)->full_name();
+  EXPECT_EQ(methods, 11);
+  EXPECT_FALSE(proto::is_guarded(*v1::CullBoxesResponse::descriptor()));
 }
 
 // A wire that does not parse is bounded as far as it goes, plus its bytes.
