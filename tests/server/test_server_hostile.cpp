@@ -418,6 +418,56 @@ TEST(ServerHostile, ACullsBoxesArePaidForBeforeTheyAreConverted) {
   EXPECT_EQ(response.boxes_size(), 100);
 }
 
+// A LineOfSight call's plans are paid for before they are made: with a
+// budget that holds the call's request (admitted) but not also its 10 000
+// lines' plans, the call is refused naming the planning, before it makes
+// them.
+TEST(ServerHostile, ALineOfSightsPlansArePaidForBeforeTheyAreMade) {
+  constexpr int kLines = 10'000;
+  auto dem = terrain::read_dem(bundled_dem("ecuador_andes_utm17s_10m_383x415.tif"));
+  ASSERT_TRUE(dem.ok());
+  const auto& t = dem->georef.transform;
+  v1::LineOfSightRequest request;
+  request.set_dataset("ecuador");
+  for (int i = 0; i < kLines; ++i) {
+    v1::SightLine* line = request.add_lines();
+    *line->mutable_from() = point(t.x_at(20 + i % 300), t.y_at(30), 5.0);
+    *line->mutable_to() = point(t.x_at(40 + i % 300), t.y_at(380), 5.0);
+  }
+  // What admission holds (VisibilityService::LineOfSight): the request on the call's arena.
+  server::ArenaAllocator<v1::LineOfSightRequest, v1::LineOfSightResponse> allocator;
+  auto* holder = allocator.AllocateMessages();
+  *holder->request() = request;
+  const std::uint64_t messages = server::held_bytes(*holder->request());
+  holder->Release();
+  const std::uint64_t plans = std::uint64_t{kLines} * sizeof(visibility::LinePlan);
+  ASSERT_GT(plans, std::uint64_t{2} << 20) << "too few bytes a plan to tell the steps apart";
+  // Free after the fixed parts: the messages and half the plans' bytes.
+  constexpr std::uint64_t kReceiveMb = 16, kCacheMb = 4;
+  const std::uint64_t fixed = server::MemoryBudget::kBaseBytes + ((kReceiveMb + kCacheMb) << 20);
+  const std::uint64_t free = messages + plans / 2;
+  // The request's parse holds its bound of the budget meanwhile: that fits.
+  ASSERT_LE(proto::parse_bound(*v1::LineOfSightRequest::descriptor(), request.SerializeAsString()).bytes, free);
+  DaemonOptions options;
+  options.datasets = {{"ecuador", "ecuador_andes_utm17s_10m_383x415.tif"}};
+  options.memory_budget_mb = static_cast<int>((fixed + free + (1 << 20) - 1) >> 20);
+  options.extra_json = "\"receive_buffer_mb\": " + std::to_string(kReceiveMb) +
+                       ", \"block_cache_mb\": " + std::to_string(kCacheMb) + R"(, "gpu": {"contexts": 0},)";
+  DaemonProcess daemon(options);
+  ASSERT_TRUE(daemon.ready()) << daemon.error();
+  auto stub = v1::VisibilityService::NewStub(daemon.channel());
+  v1::LineOfSightResponse response;
+  const grpc::Status s = stub->LineOfSight(context_with_deadline(std::chrono::seconds(60)).get(), request, &response);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
+  EXPECT_NE(s.error_message().find("planning these 10000 sight lines needs about"), std::string::npos)
+      << s.error_message();
+  // A call of fewer lines fits and is answered.
+  request.mutable_lines()->DeleteSubrange(100, kLines - 100);
+  const grpc::Status ok = stub->LineOfSight(context_with_deadline(std::chrono::seconds(60)).get(), request, &response);
+  EXPECT_TRUE(ok.ok()) << ok.error_message();
+  EXPECT_EQ(response.results_size(), 100);
+}
+
 // Clients that start a large viewshed stream, read its first message and
 // then never read again: the daemon's writes wait on the stream's flow
 // control, not on a worker, so the other clients are served meanwhile; the
