@@ -28,8 +28,8 @@ using google::protobuf::io::CodedInputStream;
 
 std::atomic<ParseAllowance*> g_allowance{nullptr};
 
-// The unknown field a refused parse leaves (the largest field number protobuf allows).
-constexpr int kRefusalField = (1 << 29) - 1;
+// The unknown fields a refused parse leaves: the largest field numbers protobuf allows.
+constexpr int kRefusalField = (1 << 29) - 1, kMalformedField = kRefusalField - 1;
 // protobuf's own nesting limit.
 constexpr int kMaxDepth = 100;
 // A repeated field's array per element, in elements: it doubles as it grows
@@ -131,27 +131,34 @@ template <class T>
 grpc::Status guarded_parse(grpc::ByteBuffer* buffer, google::protobuf::MessageLite* msg) {
   ParseAllowance* allowance = g_allowance.load(std::memory_order_acquire);
   if (!allowance || !buffer) return grpc::GenericDeserialize<grpc::ProtoBufferReader, T>(buffer, msg);
+  const std::uint64_t wire_bytes = buffer->Length();
   ParseBound bound;
   {
     grpc::ProtoBufferReader reader(buffer);
     if (!reader.status().ok()) return reader.status();
     CodedInputStream in(&reader);
-    bound = bound_of(*T::descriptor(), in, buffer->Length());
+    bound = bound_of(*T::descriptor(), in, wire_bytes);
   }
-  if (!allowance->take(bound.bytes)) {
-    const std::uint64_t mib = (bound.bytes + (1 << 20) - 1) >> 20;
+  // What a refused request holds instead of its fields.
+  const auto refuse = [&](int field, const std::string& why) {
     auto* message = static_cast<T*>(msg);
     message->Clear();
-    message->GetReflection()->MutableUnknownFields(message)->AddLengthDelimited(
-        kRefusalField,
-        "this request's " + std::to_string(bound.messages) + " messages would take about " + std::to_string(mib) +
-            " MiB to read, more than memory_budget_mb leaves free now; retry later or split the request");
+    message->GetReflection()->MutableUnknownFields(message)->AddLengthDelimited(field, why);
     buffer->Clear();
     return grpc::Status::OK;
+  };
+  if (!allowance->take(bound.bytes)) {
+    const std::uint64_t mib = (bound.bytes + (1 << 20) - 1) >> 20;
+    return refuse(kRefusalField, "this request's " + std::to_string(bound.messages) + " messages would take about " +
+                                     std::to_string(mib) +
+                                     " MiB to read, more than memory_budget_mb leaves free now; retry later or "
+                                     "split the request");
   }
-  grpc::Status status = grpc::GenericDeserialize<grpc::ProtoBufferReader, T>(buffer, msg);
+  const grpc::Status status = grpc::GenericDeserialize<grpc::ProtoBufferReader, T>(buffer, msg);
   allowance->give(bound.bytes);
-  return status;
+  if (status.ok()) return status;
+  return refuse(kMalformedField, "the request's " + std::to_string(wire_bytes) + " bytes are not a valid " +
+                                     T::descriptor()->full_name() + " (cut short, or not its protobuf encoding)");
 }
 
 }  // namespace
@@ -171,12 +178,14 @@ ParseBound parse_bound(const Descriptor& type, const std::string& wire) {
   return parse_bound(type, stream, wire.size());
 }
 
-std::optional<std::string> refused_parse(const google::protobuf::Message& request) {
+std::optional<ParseRefusal> refused_parse(const google::protobuf::Message& request) {
   const google::protobuf::UnknownFieldSet& unknown = request.GetReflection()->GetUnknownFields(request);
-  for (int i = 0; i < unknown.field_count(); ++i)
-    if (unknown.field(i).number() == kRefusalField &&
-        unknown.field(i).type() == google::protobuf::UnknownField::TYPE_LENGTH_DELIMITED)
-      return unknown.field(i).length_delimited();
+  for (int i = 0; i < unknown.field_count(); ++i) {
+    const google::protobuf::UnknownField& f = unknown.field(i);
+    if ((f.number() == kRefusalField || f.number() == kMalformedField) &&
+        f.type() == google::protobuf::UnknownField::TYPE_LENGTH_DELIMITED)
+      return ParseRefusal{f.number() == kMalformedField, f.length_delimited()};
+  }
   return std::nullopt;
 }
 

@@ -10,11 +10,16 @@
 // the wire bytes and bounds what parsing will allocate: every message it
 // holds at its C++ size, a repeated field's pointer or scalar element four
 // times (its array doubles as it grows, and on an arena the arrays it
-// outgrew stay), and the wire bytes for strings and unknown fields. A process that installs a ParseAllowance (the
-// daemon: its memory budget) takes that bound from it for the parse and gives it back after; when the allowance
-// refuses, nothing is parsed, the message is left empty but for a refusal that refused_parse() reads, and the handler
-// answers RESOURCE_EXHAUSTED with it. Without an allowance (the CLI, the
-// clients, tests) messages parse as gRPC's default does.
+// outgrew stay), and the wire bytes for strings and unknown fields.
+//
+// A process that installs a ParseAllowance (the daemon: its memory budget)
+// takes that bound from it for the parse and gives it back after. When the
+// allowance refuses, nothing is parsed; when the bytes do not parse, what
+// was parsed is dropped. Either way the message is left empty but for a
+// refusal that refused_parse() reads, and the handler answers with it
+// (RESOURCE_EXHAUSTED, INVALID_ARGUMENT): gRPC's callback API would answer
+// a failed parse UNIMPLEMENTED, with no message. Without an allowance (the
+// CLI, the clients, tests) messages parse as gRPC's default does.
 //
 // The specialisations must be seen before any use of the types'
 // serialisation in every translation unit, so horizon_proto gives this
@@ -90,8 +95,12 @@ ParseBound parse_bound(const google::protobuf::Descriptor& type, google::protobu
                        std::uint64_t wire_bytes);
 ParseBound parse_bound(const google::protobuf::Descriptor& type, const std::string& wire);
 
-// The refusal a guarded parse left in `request` instead of its fields, if any.
-std::optional<std::string> refused_parse(const google::protobuf::Message& request);
+// What a guarded parse left in a request instead of its fields.
+struct ParseRefusal {
+  bool malformed = false;  // the bytes do not parse; else the allowance refused them
+  std::string message;     // in the user's words, for the status
+};
+std::optional<ParseRefusal> refused_parse(const google::protobuf::Message& request);
 
 // Whether `type` is one of HORIZON_GUARDED_REQUESTS (a test holds every
 // service's request types to it).

@@ -80,9 +80,9 @@ std::optional<grpc::Status> CallScope::admission(const google::protobuf::Message
                                          " requests in flight (limits.max_pending = " +
                                          std::to_string(env_.config.limits.max_pending) + "); retry later",
                                      "limits.max_pending"));
-  // A request the budget could not take while it was parsed arrives empty.
-  if (auto refusal = proto::refused_parse(request))
-    return to_grpc_status(make_error(ErrorCode::kResourceExhausted, *refusal, "memory_budget_mb"));
+  // A request the budget could not take while it was parsed, or whose bytes
+  // did not parse, arrives empty (parse_guard.hpp).
+  if (auto refusal = proto::refused_parse(request)) return refused_status(*refusal);
   // What has arrived is already in memory; a call that cannot also hold its
   // answer is refused now rather than queued, and frees its request at once.
   if (message_bytes > 0 && !env_.memory.try_reserve(message_bytes, messages_))
@@ -121,6 +121,12 @@ Status CallScope::reserve(std::uint64_t bytes, const std::string& what) {
   memory_.absorb(std::move(more));
   env_.metrics.set_memory_reserved(env_.memory.reserved());
   return Status::Ok();
+}
+
+grpc::Status refused_status(const proto::ParseRefusal& refusal) {
+  return to_grpc_status(refusal.malformed
+                            ? make_error(ErrorCode::kInvalidArgument, refusal.message, "request")
+                            : make_error(ErrorCode::kResourceExhausted, refusal.message, "memory_budget_mb"));
 }
 
 bool cancel_reads_as_deadline(std::chrono::steady_clock::time_point now,

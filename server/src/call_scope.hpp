@@ -51,6 +51,11 @@ bool cancel_reads_as_deadline(std::chrono::steady_clock::time_point now,
 // Clients learn which file of a dataset failed, not where the server keeps it.
 Error without_server_paths(Error error, const std::filesystem::path& data_root, const std::filesystem::path& scratch);
 
+// The status of a request gRPC handed over unparsed (parse_guard.hpp):
+// RESOURCE_EXHAUSTED naming memory_budget_mb, or INVALID_ARGUMENT naming
+// the request when its bytes do not parse.
+grpc::Status refused_status(const proto::ParseRefusal& refusal);
+
 // Names a planned request for reserve()'s refusal: `what`, and the sweep's
 // rays and the ray_spacing behind them when those are most of the cost.
 std::string planned_work(const std::string& what, const visibility::Cost& cost, double ray_spacing);

@@ -95,8 +95,8 @@ class SessionCall final : public grpc::ServerBidiReactor<v1::SessionRequest, v1:
     if (!ok) {
       read_closed_ = true;
     } else if (auto refusal = proto::refused_parse(in_)) {
-      // The memory budget could not take this message while it was parsed (parse_guard.hpp).
-      end_locked(to_grpc_status(make_error(ErrorCode::kResourceExhausted, *refusal, "memory_budget_mb")));
+      // Not parsed: the memory budget could not take it, or its bytes do not parse (parse_guard.hpp).
+      end_locked(refused_status(*refusal));
       in_.Clear();
     } else {
       switch (in_.kind_case()) {

@@ -11,6 +11,7 @@
 #include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <iostream>
 #include <mutex>
 #include <sstream>
@@ -416,6 +417,35 @@ TEST(ServerHostile, ACullsBoxesArePaidForBeforeTheyAreConverted) {
                               ->CullBoxes(context_with_deadline(std::chrono::seconds(60)).get(), few, &response);
   EXPECT_TRUE(ok.ok()) << ok.error_message();
   EXPECT_EQ(response.boxes_size(), 100);
+}
+
+// Bytes that are no protobuf encoding of the request are answered
+// INVALID_ARGUMENT naming the type (gRPC's callback API alone would answer
+// UNIMPLEMENTED with no message), and the daemon goes on serving.
+TEST(ServerHostile, ARequestWhoseBytesDoNotParseIsNamedInvalid) {
+  DaemonOptions options;
+  options.datasets = {{"ecuador", "ecuador_andes_utm17s_10m_383x415.tif"}};
+  DaemonProcess daemon(options);
+  ASSERT_TRUE(daemon.ready()) << daemon.error();
+  grpc::GenericStub stub(daemon.channel());
+  // Field 1 (dataset), a string whose length runs past the end.
+  const std::string cut = std::string("\x0a\x40", 2) + "ecuador";
+  grpc::Slice slice(cut);
+  grpc::ByteBuffer request(&slice, 1), response;
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+  std::promise<grpc::Status> done;
+  stub.UnaryCall(&context, "/horizon.v1.VisibilityService/CullBoxes", grpc::StubOptions(), &request, &response,
+                 [&done](grpc::Status s) { done.set_value(std::move(s)); });
+  const grpc::Status s = done.get_future().get();
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << s.error_message();
+  EXPECT_NE(s.error_message().find("9 bytes are not a valid horizon.v1.CullBoxesRequest"), std::string::npos)
+      << s.error_message();
+  v1::ListDatasetsResponse datasets;
+  EXPECT_TRUE(v1::DatasetService::NewStub(daemon.channel())
+                  ->ListDatasets(context_with_deadline().get(), v1::ListDatasetsRequest(), &datasets)
+                  .ok());
+  EXPECT_EQ(datasets.datasets_size(), 1);
 }
 
 // A LineOfSight call's plans are paid for before they are made: with a
