@@ -1,6 +1,7 @@
 #include "parse_guard.hpp"
 
 #include <atomic>
+#include <unordered_map>
 
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/io/coded_stream.h>
@@ -36,11 +37,28 @@ constexpr int kMaxDepth = 100;
 // (up to twice the elements), and on an arena the arrays it outgrew stay.
 constexpr std::uint64_t kGrowth = 4;
 
-std::uint64_t message_bytes(const Descriptor& type) {
-  const google::protobuf::Message* prototype =
-      google::protobuf::MessageFactory::generated_factory()->GetPrototype(&type);
-  // An arena allocates in steps of 8 bytes.
-  return prototype ? (prototype->SpaceUsedLong() + 7) / 8 * 8 : 256;
+// What the scan needs of a message type, looked up once per thread.
+struct TypeFacts {
+  std::uint64_t bytes = 0;  // its object, as an arena allocates it (in steps of 8 bytes)
+  // No message or repeated field: its parse allocates nothing past its
+  // object but its strings and unknown fields (the wire's bytes), so the
+  // scan skips its bytes without reading its fields (a box of a CullBoxes
+  // call: 100 000 of them scan in a fraction of their parse's time).
+  bool flat = true;
+};
+
+const TypeFacts& facts_of(const Descriptor& type) {
+  thread_local std::unordered_map<const Descriptor*, TypeFacts> known;
+  auto [it, added] = known.try_emplace(&type);
+  if (added) {
+    const google::protobuf::Message* prototype =
+        google::protobuf::MessageFactory::generated_factory()->GetPrototype(&type);
+    it->second.bytes = prototype ? (prototype->SpaceUsedLong() + 7) / 8 * 8 : 256;
+    for (int i = 0; i < type.field_count(); ++i)
+      if (type.field(i)->is_repeated() || type.field(i)->cpp_type() == FieldDescriptor::CPPTYPE_MESSAGE)
+        it->second.flat = false;
+  }
+  return it->second;
 }
 
 // A repeated scalar's element in memory.
@@ -74,8 +92,13 @@ bool scan(const Descriptor& type, CodedInputStream& in, ParseBound& bound, int d
       std::uint32_t length = 0;
       if (!in.ReadVarint32(&length)) return false;
       // Its object, and for a repeated field its pointers (kGrowth).
-      bound.bytes += message_bytes(*f->message_type()) + (f->is_repeated() ? kGrowth * sizeof(void*) : 0);
+      const TypeFacts& facts = facts_of(*f->message_type());
+      bound.bytes += facts.bytes + (f->is_repeated() ? kGrowth * sizeof(void*) : 0);
       ++bound.messages;
+      if (facts.flat) {
+        if (!in.Skip(static_cast<int>(length))) return false;
+        continue;
+      }
       const CodedInputStream::Limit limit = in.PushLimit(static_cast<int>(length));
       if (!scan(*f->message_type(), in, bound, depth + 1)) return false;
       if (in.BytesUntilLimit() != 0) return false;
@@ -117,7 +140,7 @@ bool scan(const Descriptor& type, CodedInputStream& in, ParseBound& bound, int d
 
 ParseBound bound_of(const Descriptor& type, CodedInputStream& in, std::uint64_t wire_bytes) {
   ParseBound bound;
-  bound.bytes = message_bytes(type);
+  bound.bytes = facts_of(type).bytes;
   bound.messages = 1;
   in.SetRecursionLimit(kMaxDepth + 1);
   scan(type, in, bound, 0);
