@@ -31,8 +31,10 @@ std::atomic<ParseAllowance*> g_allowance{nullptr};
 
 // The unknown fields a refused parse leaves: the largest field numbers protobuf allows.
 constexpr int kRefusalField = (1 << 29) - 1, kMalformedField = kRefusalField - 1;
-// protobuf's own nesting limit.
+// protobuf's own nesting limit, and the longest length an int holds (a
+// longer one cannot be in a message gRPC took).
 constexpr int kMaxDepth = 100;
+constexpr std::uint32_t kMaxLength = 0x7fffffff;
 // A repeated field's array per element, in elements: it doubles as it grows
 // (up to twice the elements), and on an arena the arrays it outgrew stay.
 constexpr std::uint64_t kGrowth = 4;
@@ -90,7 +92,7 @@ bool scan(const Descriptor& type, CodedInputStream& in, ParseBound& bound, int d
     if (f && f->cpp_type() == FieldDescriptor::CPPTYPE_MESSAGE &&
         wire_type == WireFormatLite::WIRETYPE_LENGTH_DELIMITED) {
       std::uint32_t length = 0;
-      if (!in.ReadVarint32(&length)) return false;
+      if (!in.ReadVarint32(&length) || length > kMaxLength) return false;
       // Its object, and for a repeated field its pointers (kGrowth).
       const TypeFacts& facts = facts_of(*f->message_type());
       bound.bytes += facts.bytes + (f->is_repeated() ? kGrowth * sizeof(void*) : 0);
@@ -108,7 +110,7 @@ bool scan(const Descriptor& type, CodedInputStream& in, ParseBound& bound, int d
     if (f && f->is_repeated() && wire_type == WireFormatLite::WIRETYPE_LENGTH_DELIMITED && f->is_packable()) {
       // Packed: count the elements (fixed-size ones by length, varints by their last bytes).
       std::uint32_t length = 0;
-      if (!in.ReadVarint32(&length)) return false;
+      if (!in.ReadVarint32(&length) || length > kMaxLength) return false;
       const CodedInputStream::Limit limit = in.PushLimit(static_cast<int>(length));
       std::uint64_t count = 0;
       const int fixed = f->type() == FieldDescriptor::TYPE_DOUBLE || f->type() == FieldDescriptor::TYPE_FIXED64 ||
@@ -142,7 +144,6 @@ ParseBound bound_of(const Descriptor& type, CodedInputStream& in, std::uint64_t 
   ParseBound bound;
   bound.bytes = facts_of(type).bytes;
   bound.messages = 1;
-  in.SetRecursionLimit(kMaxDepth + 1);
   scan(type, in, bound, 0);
   // Strings, bytes and unknown fields hold at most their wire bytes; and an
   // arena's last block, partly used.

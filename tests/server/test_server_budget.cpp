@@ -196,6 +196,11 @@ TEST(ParseGuard, ABrokenWireIsBoundedByWhatItHolds) {
   EXPECT_GT(bound.messages, 400u);
   EXPECT_LT(bound.messages, 600u);
   EXPECT_GE(bound.bytes, wire.size());
+  // A box whose length is 2^32 - 1 (no int holds it): the walk stops there.
+  const std::string huge = request.SerializeAsString() + std::string("\x1a\xff\xff\xff\xff\x0f", 6);
+  const proto::ParseBound at_huge = proto::parse_bound(*v1::CullBoxesRequest::descriptor(), huge);
+  EXPECT_EQ(at_huge.messages, 1001u);
+  EXPECT_GE(at_huge.bytes, huge.size());
 }
 
 // Trims wait for the daemon to be idle at the end of the delay, and come at
