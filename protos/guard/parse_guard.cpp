@@ -191,6 +191,10 @@ void set_parse_allowance(ParseAllowance* allowance) {
   g_allowance.store(allowance, std::memory_order_release);
 }
 
+void remove_parse_allowance(ParseAllowance* allowance) {
+  g_allowance.compare_exchange_strong(allowance, nullptr, std::memory_order_acq_rel);
+}
+
 ParseBound parse_bound(const Descriptor& type, google::protobuf::io::ZeroCopyInputStream& wire,
                        std::uint64_t wire_bytes) {
   CodedInputStream in(&wire);

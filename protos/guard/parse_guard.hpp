@@ -78,10 +78,13 @@ class ParseAllowance {
   virtual void give(std::uint64_t bytes) = 0;
 };
 
-// Installs `allowance` (null: none) for every later parse; it must outlive
-// them (the daemon installs it before it listens and removes it after the
-// server has stopped).
+// Installs `allowance` for every later parse of the process; it must outlive
+// them (the daemon installs it before it listens). One at a time: a later
+// install replaces an earlier one.
 void set_parse_allowance(ParseAllowance* allowance);
+// Removes `allowance` if it is the one installed (the daemon, after its
+// server has stopped: a daemon that stops never removes another's).
+void remove_parse_allowance(ParseAllowance* allowance);
 
 // An upper bound of the bytes parsing `wire_bytes` of wire read from `wire`
 // as a `type` allocates (see the header's comment), and the messages it

@@ -235,7 +235,7 @@ Status Daemon::start() {
   proto::set_parse_allowance(&d.parse_allowance);
   d.server = builder.BuildAndStart();
   if (!d.server || port == 0 || (!d.config.health_listen.empty() && health_port == 0)) {
-    proto::set_parse_allowance(nullptr);
+    proto::remove_parse_allowance(&d.parse_allowance);
     const bool main_port = !d.server || port == 0;
     const std::string key = main_port ? "listen" : "health_listen";
     return make_error(ErrorCode::kIoError,
@@ -335,7 +335,7 @@ void Daemon::shutdown() {
   }
   d.pool.join();
   if (d.server) d.server->Wait();
-  proto::set_parse_allowance(nullptr);  // no parse can run now
+  proto::remove_parse_allowance(&d.parse_allowance);  // no parse of this server's can run now
   log_event("info", "stopped", {});
 }
 

@@ -11,6 +11,7 @@
 #include <utility>
 
 #include <google/protobuf/arena.h>
+#include <grpcpp/support/byte_buffer.h>
 
 #include "allocator.hpp"
 #include "arena_allocator.hpp"
@@ -183,6 +184,39 @@ TEST(ParseGuard, EveryServiceRequestIsGuarded) {
             << file->service(s)->method(m)->full_name();
   EXPECT_EQ(methods, 11);
   EXPECT_FALSE(proto::is_guarded(*v1::CullBoxesResponse::descriptor()));
+}
+
+// An allowance that counts its takes and refuses none.
+struct CountingAllowance final : proto::ParseAllowance {
+  int takes = 0;
+  bool take(std::uint64_t) override { return ++takes > 0; }
+  void give(std::uint64_t) override {}
+};
+
+// Parses a GetDatasetRequest through its gRPC serialisation, as a daemon does.
+void parse_through_grpc() {
+  v1::GetDatasetRequest in;
+  in.set_name("rainier");
+  grpc::ByteBuffer buffer;
+  bool own = false;
+  ASSERT_TRUE(grpc::SerializationTraits<v1::GetDatasetRequest>::Serialize(in, &buffer, &own).ok());
+  v1::GetDatasetRequest out;
+  ASSERT_TRUE(grpc::SerializationTraits<v1::GetDatasetRequest>::Deserialize(&buffer, &out).ok());
+  EXPECT_EQ(out.name(), "rainier");
+}
+
+// A daemon that stops removes its own allowance, never one installed since.
+TEST(ParseGuard, ADaemonRemovesOnlyItsOwnAllowance) {
+  CountingAllowance first, second;
+  proto::set_parse_allowance(&first);
+  proto::set_parse_allowance(&second);
+  proto::remove_parse_allowance(&first);  // not the one installed: nothing changes
+  parse_through_grpc();
+  EXPECT_EQ(first.takes, 0);
+  EXPECT_EQ(second.takes, 1);
+  proto::remove_parse_allowance(&second);
+  parse_through_grpc();
+  EXPECT_EQ(second.takes, 1);
 }
 
 // A wire that does not parse is bounded as far as it goes, plus its bytes.
