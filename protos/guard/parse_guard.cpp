@@ -1,7 +1,10 @@
 #include "parse_guard.hpp"
 
+#include <algorithm>
 #include <atomic>
+#include <bit>
 #include <unordered_map>
+#include <vector>
 
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/io/coded_stream.h>
@@ -35,36 +38,66 @@ constexpr int kRefusalField = (1 << 29) - 1, kMalformedField = kRefusalField - 1
 // longer one cannot be in a message gRPC took).
 constexpr int kMaxDepth = 100;
 constexpr std::uint32_t kMaxLength = 0x7fffffff;
-// A repeated field's array per element, in elements: it doubles as it grows
-// (up to twice the elements), and on an arena the arrays it outgrew stay.
-constexpr std::uint64_t kGrowth = 4;
+// What glibc's malloc adds to an allocation of a multiple of 8 bytes (its
+// size word, the rounding to 16, the 32-byte least chunk).
+constexpr std::uint64_t kMallocOverhead = 24;
+// A std::string as a field holds it: the object (on the arena, or a heap
+// allocation) and, past its 15 inline characters, a heap buffer of its
+// bytes and their NUL (counted with the bytes).
+constexpr std::uint64_t kStringBytes = sizeof(std::string) + 2 * kMallocOverhead;
+// An unknown field (a field number the type lacks, or a known one sent in
+// another wire type): a 16-byte entry of its set's vector, which doubles as
+// it grows and holds old and new while it does (three entries an entry at
+// worst); a length-delimited one adds a std::string, a group a set of its own.
+constexpr std::uint64_t kUnknownBytes = 3 * 16;
+constexpr std::uint64_t kUnknownGroupBytes = 64 + kMallocOverhead;
+// A message's unknown fields, once it has any: the container that holds its set.
+constexpr std::uint64_t kUnknownSetBytes = 64 + kMallocOverhead;
 
 // What the scan needs of a message type, looked up once per thread.
 struct TypeFacts {
   std::uint64_t bytes = 0;  // its object, as an arena allocates it (in steps of 8 bytes)
-  // No message or repeated field: its parse allocates nothing past its
-  // object but its strings and unknown fields (the wire's bytes), so the
-  // scan skips its bytes without reading its fields (a box of a CullBoxes
-  // call: 100 000 of them scan in a fraction of their parse's time).
+  // No message, repeated or string field: its parse allocates nothing past
+  // its object but its unknown fields, so the scan reads only its tags (the
+  // boxes of a 100 000-box CullBoxes call: ~3 ms, a tenth of their parse).
   bool flat = true;
+  bool has_messages = false;  // a message field, the only place unknown fields can nest
+  // The largest field number it knows, and the wire type each field is sent
+  // in when not packed: a field is unknown unless it matches.
+  std::vector<std::int8_t> wire_types;  // by field number; -1: none
 };
 
 const TypeFacts& facts_of(const Descriptor& type) {
   thread_local std::unordered_map<const Descriptor*, TypeFacts> known;
   auto [it, added] = known.try_emplace(&type);
   if (added) {
+    TypeFacts& facts = it->second;
     const google::protobuf::Message* prototype =
         google::protobuf::MessageFactory::generated_factory()->GetPrototype(&type);
-    it->second.bytes = prototype ? (prototype->SpaceUsedLong() + 7) / 8 * 8 : 256;
-    for (int i = 0; i < type.field_count(); ++i)
-      if (type.field(i)->is_repeated() || type.field(i)->cpp_type() == FieldDescriptor::CPPTYPE_MESSAGE)
-        it->second.flat = false;
+    facts.bytes = prototype ? (prototype->SpaceUsedLong() + 7) / 8 * 8 : 256;
+    int largest = 0;
+    for (int i = 0; i < type.field_count(); ++i) {
+      const FieldDescriptor& f = *type.field(i);
+      largest = std::max(largest, f.number());
+      if (f.is_repeated() || f.cpp_type() == FieldDescriptor::CPPTYPE_MESSAGE ||
+          f.cpp_type() == FieldDescriptor::CPPTYPE_STRING)
+        facts.flat = false;
+      if (f.cpp_type() == FieldDescriptor::CPPTYPE_MESSAGE) facts.has_messages = true;
+    }
+    facts.wire_types.assign(static_cast<std::size_t>(largest) + 1, -1);
+    for (int i = 0; i < type.field_count(); ++i) {
+      const FieldDescriptor& f = *type.field(i);
+      facts.wire_types[static_cast<std::size_t>(f.number())] = static_cast<std::int8_t>(
+          WireFormatLite::WireTypeForFieldType(static_cast<WireFormatLite::FieldType>(f.type())));
+    }
   }
   return it->second;
 }
 
-// A repeated scalar's element in memory.
+// A repeated field's element in its array.
 std::uint64_t element_bytes(const FieldDescriptor& f) {
+  if (f.cpp_type() == FieldDescriptor::CPPTYPE_MESSAGE || f.cpp_type() == FieldDescriptor::CPPTYPE_STRING)
+    return sizeof(void*);
   switch (f.cpp_type()) {
     case FieldDescriptor::CPPTYPE_BOOL:
       return 1;
@@ -73,82 +106,212 @@ std::uint64_t element_bytes(const FieldDescriptor& f) {
     case FieldDescriptor::CPPTYPE_FLOAT:
     case FieldDescriptor::CPPTYPE_ENUM:
       return 4;
-    case FieldDescriptor::CPPTYPE_STRING:
-      return sizeof(std::string) + sizeof(void*);  // the string and its slot; its bytes are the wire's
     default:
       return 8;
   }
 }
 
-// Bounds the fields of one `type` message read from `in` up to its limit;
-// false on a wire fault (what was read so far stays counted).
-bool scan(const Descriptor& type, CodedInputStream& in, ParseBound& bound, int depth) {
-  if (depth > kMaxDepth) return false;
-  while (true) {
-    const std::uint32_t tag = in.ReadTag();
-    if (tag == 0) return true;  // the end (of the stream, or of this message's limit)
-    const FieldDescriptor* f = type.FindFieldByNumber(static_cast<int>(WireFormatLite::GetTagFieldNumber(tag)));
-    const auto wire_type = WireFormatLite::GetTagWireType(tag);
-    if (f && f->cpp_type() == FieldDescriptor::CPPTYPE_MESSAGE &&
-        wire_type == WireFormatLite::WIRETYPE_LENGTH_DELIMITED) {
-      std::uint32_t length = 0;
-      if (!in.ReadVarint32(&length) || length > kMaxLength) return false;
-      // Its object, and for a repeated field its pointers (kGrowth).
-      const TypeFacts& facts = facts_of(*f->message_type());
-      bound.bytes += facts.bytes + (f->is_repeated() ? kGrowth * sizeof(void*) : 0);
-      ++bound.messages;
-      if (facts.flat) {
-        if (!in.Skip(static_cast<int>(length))) return false;
-        continue;
+// What a walk has counted so far.
+struct Tally {
+  std::uint64_t used = 0;         // allocated bytes: objects, arrays, strings, unknown fields
+  std::uint64_t allocations = 0;  // of those, the ones that are a heap allocation each when not on an arena
+  std::uint64_t array_waste = 0;  // on an arena: blocks left part-used when an array did not fit
+  std::uint64_t largest_object = 0;
+  std::uint64_t messages = 0;
+  std::uint64_t unknown_fields = 0;
+};
+
+// One repeated field's `count` elements of `element` bytes in one message.
+// Its array is an 8-byte header and the elements. Each time it grows it at
+// least doubles (RepeatedField from 16 bytes, RepeatedPtrField from four
+// pointers, either straight to what a packed run needs when that is more),
+// so its last is at most twice what it needs, and the arrays it outgrew,
+// which stay on an arena, add up to less than the last but for their
+// headers. An array that does not fit its arena's block starts a new one,
+// leaving at most the smaller of itself and a block unused.
+void count_array(std::uint64_t count, std::uint64_t element, Tally& tally) {
+  if (count == 0) return;
+  const std::uint64_t last = 2 * ((8 + count * element + 7) / 8 * 8);
+  tally.used += 2 * last + 8 * static_cast<std::uint64_t>(std::bit_width(count) + 1);
+  tally.allocations += 1;
+  for (std::uint64_t array = last; array >= 16; array /= 2) tally.array_waste += std::min(array, kArenaBlockBytes);
+}
+
+// Repeated fields' element counts of the messages being walked, a frame a
+// message (one thread's walk at a time).
+thread_local std::vector<std::uint64_t> t_counts;
+
+// Counts a string's (or bytes', or a length-delimited unknown field's)
+// objects and bytes, its tag read; false on a wire fault.
+bool skip_string(CodedInputStream& in, Tally& tally) {
+  std::uint32_t length = 0;
+  if (!in.ReadVarint32(&length) || length > kMaxLength) return false;
+  tally.used += kStringBytes + (length + 15) / 8 * 8;
+  return in.Skip(static_cast<int>(length));
+}
+
+// Counts one unknown field whose tag was read; false on a wire fault.
+bool skip_unknown(CodedInputStream& in, std::uint32_t tag, Tally& tally, int depth) {
+  tally.used += kUnknownBytes;
+  ++tally.unknown_fields;
+  switch (WireFormatLite::GetTagWireType(tag)) {
+    case WireFormatLite::WIRETYPE_LENGTH_DELIMITED:
+      return skip_string(in, tally);
+    case WireFormatLite::WIRETYPE_START_GROUP: {
+      // Its fields are a set of their own, each counted.
+      if (depth > kMaxDepth) return false;
+      tally.used += kUnknownGroupBytes;
+      while (true) {
+        const std::uint32_t inner = in.ReadTag();
+        if (inner == 0) return false;
+        if (WireFormatLite::GetTagWireType(inner) == WireFormatLite::WIRETYPE_END_GROUP)
+          return WireFormatLite::GetTagFieldNumber(inner) == WireFormatLite::GetTagFieldNumber(tag);
+        if (!skip_unknown(in, inner, tally, depth + 1)) return false;
       }
-      const CodedInputStream::Limit limit = in.PushLimit(static_cast<int>(length));
-      if (!scan(*f->message_type(), in, bound, depth + 1)) return false;
-      if (in.BytesUntilLimit() != 0) return false;
-      in.PopLimit(limit);
-      continue;
     }
-    if (f && f->is_repeated() && wire_type == WireFormatLite::WIRETYPE_LENGTH_DELIMITED && f->is_packable()) {
-      // Packed: count the elements (fixed-size ones by length, varints by their last bytes).
-      std::uint32_t length = 0;
-      if (!in.ReadVarint32(&length) || length > kMaxLength) return false;
-      const CodedInputStream::Limit limit = in.PushLimit(static_cast<int>(length));
-      std::uint64_t count = 0;
-      const int fixed = f->type() == FieldDescriptor::TYPE_DOUBLE || f->type() == FieldDescriptor::TYPE_FIXED64 ||
-                                f->type() == FieldDescriptor::TYPE_SFIXED64
-                            ? 8
-                        : f->type() == FieldDescriptor::TYPE_FLOAT || f->type() == FieldDescriptor::TYPE_FIXED32 ||
-                                f->type() == FieldDescriptor::TYPE_SFIXED32
-                            ? 4
-                            : 0;
-      if (fixed > 0) {
-        count = length / static_cast<std::uint32_t>(fixed);
-        if (!in.Skip(static_cast<int>(length))) return false;
-      } else {
-        std::uint64_t value = 0;
-        while (in.BytesUntilLimit() > 0) {
-          if (!in.ReadVarint64(&value)) return false;
-          ++count;
-        }
-      }
-      in.PopLimit(limit);
-      bound.bytes += kGrowth * count * element_bytes(*f);
-      continue;
-    }
-    if (f && f->is_repeated()) bound.bytes += kGrowth * element_bytes(*f);  // one element, unpacked
-    // Singular scalars are inside their message's object; strings and unknown fields are their wire bytes.
-    if (!WireFormatLite::SkipField(&in, tag)) return false;
+    case WireFormatLite::WIRETYPE_END_GROUP:
+      return false;  // a group that never started
+    default:
+      return WireFormatLite::SkipField(&in, tag);
   }
 }
 
-ParseBound bound_of(const Descriptor& type, CodedInputStream& in, std::uint64_t wire_bytes) {
-  ParseBound bound;
-  bound.bytes = facts_of(type).bytes;
-  bound.messages = 1;
-  scan(type, in, bound, 0);
-  // Strings, bytes and unknown fields hold at most their wire bytes; and an
-  // arena's last block, partly used.
-  bound.bytes += wire_bytes + (64 << 10);
-  return bound;
+// Reads a flat message's fields up to its limit: its known fields are
+// scalars inside its object, so only unknown ones count. False on a wire fault.
+bool scan_flat(const TypeFacts& facts, CodedInputStream& in, Tally& tally, int depth) {
+  bool has_unknown = false;
+  while (true) {
+    const std::uint32_t tag = in.ReadTag();
+    if (tag == 0) return true;
+    const std::uint32_t number = WireFormatLite::GetTagFieldNumber(tag);
+    const auto wire_type = static_cast<std::int8_t>(WireFormatLite::GetTagWireType(tag));
+    if (number < facts.wire_types.size() && facts.wire_types[number] == wire_type) {
+      std::uint64_t value = 0;
+      std::uint32_t fixed32 = 0;
+      const bool ok = wire_type == WireFormatLite::WIRETYPE_FIXED64   ? in.ReadLittleEndian64(&value)
+                      : wire_type == WireFormatLite::WIRETYPE_FIXED32 ? in.ReadLittleEndian32(&fixed32)
+                                                                      : in.ReadVarint64(&value);
+      if (!ok) return false;
+      continue;
+    }
+    if (!has_unknown) tally.used += kUnknownSetBytes;
+    has_unknown = true;
+    if (!skip_unknown(in, tag, tally, depth)) return false;
+  }
+}
+
+// Bounds one `type` message read from `in` up to its limit, its object
+// included; false on a wire fault (what was read so far stays counted).
+bool scan(const Descriptor& type, CodedInputStream& in, Tally& tally, int depth) {
+  if (depth > kMaxDepth) return false;
+  const TypeFacts& facts = facts_of(type);
+  tally.used += facts.bytes;
+  tally.allocations += 1;
+  tally.largest_object = std::max(tally.largest_object, facts.bytes);
+  ++tally.messages;
+  if (facts.flat) return scan_flat(facts, in, tally, depth);
+  // This message's repeated fields' counts; its arrays are counted at its end.
+  const std::size_t frame = t_counts.size();
+  t_counts.resize(frame + static_cast<std::size_t>(type.field_count()), 0);
+  bool ok = true, has_unknown = false;
+  while (ok) {
+    const std::uint32_t tag = in.ReadTag();
+    if (tag == 0) break;  // the end (of the stream, or of this message's limit)
+    const std::uint32_t number = WireFormatLite::GetTagFieldNumber(tag);
+    const auto wire_type = static_cast<std::int8_t>(WireFormatLite::GetTagWireType(tag));
+    const FieldDescriptor* f = number < facts.wire_types.size() && facts.wire_types[number] >= 0
+                                   ? type.FindFieldByNumber(static_cast<int>(number))
+                                   : nullptr;
+    const bool packed =
+        f && f->is_repeated() && f->is_packable() && wire_type == WireFormatLite::WIRETYPE_LENGTH_DELIMITED;
+    if (!f || (wire_type != facts.wire_types[number] && !packed)) {
+      if (!has_unknown) tally.used += kUnknownSetBytes;
+      has_unknown = true;
+      ok = skip_unknown(in, tag, tally, depth);
+      continue;
+    }
+    const std::size_t slot = frame + static_cast<std::size_t>(f->index());
+    if (f->cpp_type() == FieldDescriptor::CPPTYPE_MESSAGE) {
+      std::uint32_t length = 0;
+      if (!in.ReadVarint32(&length) || length > kMaxLength) {
+        ok = false;
+        break;
+      }
+      if (f->is_repeated()) ++t_counts[slot];
+      const CodedInputStream::Limit limit = in.PushLimit(static_cast<int>(length));
+      ok = scan(*f->message_type(), in, tally, depth + 1) && in.ConsumedEntireMessage() && in.BytesUntilLimit() == 0;
+      in.PopLimit(limit);
+      continue;
+    }
+    if (packed) {
+      // Count the elements (fixed-size ones by length, varints by their last bytes).
+      std::uint32_t length = 0;
+      if (!in.ReadVarint32(&length) || length > kMaxLength) {
+        ok = false;
+        break;
+      }
+      const std::int8_t element_wire = facts.wire_types[number];
+      if (element_wire == WireFormatLite::WIRETYPE_FIXED64 || element_wire == WireFormatLite::WIRETYPE_FIXED32) {
+        t_counts[slot] += length / (element_wire == WireFormatLite::WIRETYPE_FIXED64 ? 8u : 4u);
+        ok = in.Skip(static_cast<int>(length));
+        continue;
+      }
+      const CodedInputStream::Limit limit = in.PushLimit(static_cast<int>(length));
+      std::uint64_t value = 0;
+      while (ok && in.BytesUntilLimit() > 0) {
+        ok = in.ReadVarint64(&value);
+        ++t_counts[slot];
+      }
+      in.PopLimit(limit);
+      continue;
+    }
+    if (f->is_repeated()) ++t_counts[slot];
+    // Singular scalars are inside their message's object.
+    ok =
+        f->cpp_type() == FieldDescriptor::CPPTYPE_STRING ? skip_string(in, tally) : WireFormatLite::SkipField(&in, tag);
+  }
+  for (int i = 0; i < type.field_count(); ++i)
+    count_array(t_counts[frame + static_cast<std::size_t>(i)], element_bytes(*type.field(i)), tally);
+  t_counts.resize(frame);
+  return ok;
+}
+
+// The larger of what parsing allocates on the heap (each object, string and
+// final array its own allocation, the outgrown arrays freed) and on an arena
+// (everything but strings' buffers and unknown fields in its blocks: the
+// arrays' waste, each object's at most once a block, and the last block's
+// unused tail, which is at most twice what came before it while blocks
+// still grow).
+ParseBound bound_of(const Descriptor& type, CodedInputStream& in) {
+  Tally tally;
+  const bool read = scan(type, in, tally, 0) && in.ConsumedEntireMessage();
+  const std::uint64_t heap = tally.used + kMallocOverhead * tally.allocations;
+  const std::uint64_t blocks = 10 + tally.used / (kArenaBlockBytes / 2);  // 4 KiB, 8 KiB, ..., then full blocks
+  const std::uint64_t tail = std::min(kArenaBlockBytes, std::max<std::uint64_t>(8 << 10, 2 * tally.used));
+  const std::uint64_t arena = tally.used + tally.array_waste + blocks * tally.largest_object + tail;
+  return ParseBound{std::max(heap, arena), heap, tally.messages, tally.unknown_fields, !read};
+}
+
+// Frees `message`'s unknown fields and its messages', which the daemon never
+// reads: what admission then counts (arena_allocator.hpp's held_bytes) is
+// what the request holds. A set swapped out frees its vector; Clear would
+// keep it.
+void drop_unknown_fields(google::protobuf::Message& message) {
+  const google::protobuf::Reflection& reflection = *message.GetReflection();
+  google::protobuf::UnknownFieldSet none;
+  reflection.MutableUnknownFields(&message)->Swap(&none);
+  if (!facts_of(*message.GetDescriptor()).has_messages) return;
+  std::vector<const FieldDescriptor*> fields;
+  reflection.ListFields(message, &fields);
+  for (const FieldDescriptor* f : fields) {
+    if (f->cpp_type() != FieldDescriptor::CPPTYPE_MESSAGE) continue;
+    if (!f->is_repeated()) {
+      drop_unknown_fields(*reflection.MutableMessage(&message, f));
+      continue;
+    }
+    for (int i = 0, n = reflection.FieldSize(message, f); i < n; ++i)
+      drop_unknown_fields(*reflection.MutableRepeatedMessage(&message, f, i));
+  }
 }
 
 template <class T>
@@ -161,7 +324,7 @@ grpc::Status guarded_parse(grpc::ByteBuffer* buffer, google::protobuf::MessageLi
     grpc::ProtoBufferReader reader(buffer);
     if (!reader.status().ok()) return reader.status();
     CodedInputStream in(&reader);
-    bound = bound_of(*T::descriptor(), in, wire_bytes);
+    bound = bound_of(*T::descriptor(), in);
   }
   // What a refused request holds instead of its fields.
   const auto refuse = [&](int field, const std::string& why) {
@@ -171,6 +334,9 @@ grpc::Status guarded_parse(grpc::ByteBuffer* buffer, google::protobuf::MessageLi
     buffer->Clear();
     return grpc::Status::OK;
   };
+  const std::string malformed = "the request's " + std::to_string(wire_bytes) + " bytes are not a valid " +
+                                T::descriptor()->full_name() + " (cut short, or not its protobuf encoding)";
+  if (bound.malformed) return refuse(kMalformedField, malformed);
   if (!allowance->take(bound.bytes)) {
     const std::uint64_t mib = (bound.bytes + (1 << 20) - 1) >> 20;
     return refuse(kRefusalField, "this request's " + std::to_string(bound.messages) + " messages would take about " +
@@ -179,10 +345,10 @@ grpc::Status guarded_parse(grpc::ByteBuffer* buffer, google::protobuf::MessageLi
                                      "split the request");
   }
   const grpc::Status status = grpc::GenericDeserialize<grpc::ProtoBufferReader, T>(buffer, msg);
+  if (status.ok() && bound.unknown_fields > 0) drop_unknown_fields(*static_cast<T*>(msg));
   allowance->give(bound.bytes);
   if (status.ok()) return status;
-  return refuse(kMalformedField, "the request's " + std::to_string(wire_bytes) + " bytes are not a valid " +
-                                     T::descriptor()->full_name() + " (cut short, or not its protobuf encoding)");
+  return refuse(kMalformedField, malformed);
 }
 
 }  // namespace
@@ -195,15 +361,10 @@ void remove_parse_allowance(ParseAllowance* allowance) {
   g_allowance.compare_exchange_strong(allowance, nullptr, std::memory_order_acq_rel);
 }
 
-ParseBound parse_bound(const Descriptor& type, google::protobuf::io::ZeroCopyInputStream& wire,
-                       std::uint64_t wire_bytes) {
-  CodedInputStream in(&wire);
-  return bound_of(type, in, wire_bytes);
-}
-
 ParseBound parse_bound(const Descriptor& type, const std::string& wire) {
   google::protobuf::io::ArrayInputStream stream(wire.data(), static_cast<int>(wire.size()));
-  return parse_bound(type, stream, wire.size());
+  CodedInputStream in(&stream);
+  return bound_of(type, in);
 }
 
 std::optional<ParseRefusal> refused_parse(const google::protobuf::Message& request) {

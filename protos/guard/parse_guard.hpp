@@ -7,15 +7,26 @@
 // parsed, and gRPC takes messages up to the limits' largest (10 MB by
 // default). Here each request type's gRPC serialisation
 // (grpc::SerializationTraits, gRPC's extension point for it) first walks
-// the wire bytes and bounds what parsing will allocate: every message it
-// holds at its C++ size, a repeated field's pointer or scalar element four
-// times (its array doubles as it grows, and on an arena the arrays it
-// outgrew stay), and the wire bytes for strings and unknown fields.
+// the wire bytes and bounds what parsing will allocate, on the heap or on
+// an arena whose blocks are at most kArenaBlockBytes:
+//   - every message it holds at its C++ size;
+//   - a repeated field's arrays: each doubles in bytes as it grows, and on
+//     an arena the arrays it outgrew stay, and one that does not fit its
+//     block leaves that block part-used;
+//   - strings, and unknown fields (numbers the type lacks, or a known
+//     field in another wire type): their bytes, and a few dozen bytes each
+//     for the objects that hold them, counted field by field (a million
+//     3-byte unknown fields hold ~17 MB, and half as much again while
+//     their vector grows);
+//   - malloc's overhead per allocation on the heap; on an arena, an object
+//     too large for what is left of its block, and the last block's tail.
 //
 // A process that installs a ParseAllowance (the daemon: its memory budget)
-// takes that bound from it for the parse and gives it back after. When the
-// allowance refuses, nothing is parsed; when the bytes do not parse, what
-// was parsed is dropped. Either way the message is left empty but for a
+// takes that bound from it for the parse and gives it back after, and drops
+// the unknown fields of what it parsed (nothing reads them), so that what
+// the request holds is what its handler's admission counts. When the
+// allowance refuses, or the walk cannot read the bytes, nothing is parsed;
+// when protobuf cannot parse them, what was parsed is dropped. Either way the message is left empty but for a
 // refusal that refused_parse() reads, and the handler answers with it
 // (RESOURCE_EXHAUSTED, INVALID_ARGUMENT): gRPC's callback API would answer
 // a failed parse UNIMPLEMENTED, with no message. Without an allowance (the
@@ -37,9 +48,6 @@ namespace google::protobuf {
 class Descriptor;
 class Message;
 class MessageLite;
-namespace io {
-class ZeroCopyInputStream;
-}  // namespace io
 }  // namespace google::protobuf
 
 namespace grpc {
@@ -69,6 +77,10 @@ HORIZON_GUARDED_REQUESTS(HORIZON_DECLARE_REQUEST)
 
 namespace horizon::proto {
 
+// The largest block of an arena the bound holds for (ArenaAllocator's, in
+// the daemon). A larger block leaves a larger tail unused.
+inline constexpr std::uint64_t kArenaBlockBytes = 1 << 20;
+
 // What a process lets its requests' parsing hold at once.
 class ParseAllowance {
  public:
@@ -86,16 +98,21 @@ void set_parse_allowance(ParseAllowance* allowance);
 // server has stopped: a daemon that stops never removes another's).
 void remove_parse_allowance(ParseAllowance* allowance);
 
-// An upper bound of the bytes parsing `wire_bytes` of wire read from `wire`
-// as a `type` allocates (see the header's comment), and the messages it
-// holds, itself included. A wire that does not parse is bounded as far as
-// it goes, and its bytes.
+// An upper bound of the bytes parsing `wire` as a `type` allocates (see the
+// header's comment), and the messages it holds, itself included.
 struct ParseBound {
   std::uint64_t bytes = 0;
+  std::uint64_t heap_bytes = 0;  // the bound of a parse on the heap alone (no arena), at most `bytes`
   std::uint64_t messages = 0;
+  // Unknown fields on the wire. A guarded parse drops them once parsed
+  // (nothing reads them), so what the request holds after is its fields'.
+  std::uint64_t unknown_fields = 0;
+  // The walk could not read the wire to its end (cut short, a length past
+  // its end, a group never closed, nesting past protobuf's limit): `bytes`
+  // and `messages` count what it read. A guarded parse refuses such a
+  // request unparsed, so nothing the walk did not see is ever parsed.
+  bool malformed = false;
 };
-ParseBound parse_bound(const google::protobuf::Descriptor& type, google::protobuf::io::ZeroCopyInputStream& wire,
-                       std::uint64_t wire_bytes);
 ParseBound parse_bound(const google::protobuf::Descriptor& type, const std::string& wire);
 
 // What a guarded parse left in a request instead of its fields.

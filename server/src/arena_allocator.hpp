@@ -5,11 +5,14 @@
 // are bumps in a few blocks, freed at once when gRPC releases the call.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 
 #include <google/protobuf/arena.h>
 #include <google/protobuf/message.h>
 #include <grpcpp/support/message_allocator.h>
+
+#include "parse_guard.hpp"
 
 namespace horizon::server {
 
@@ -19,6 +22,20 @@ namespace horizon::server {
 inline std::uint64_t held_bytes(const google::protobuf::Message& message) {
   if (google::protobuf::Arena* arena = message.GetArena()) return arena->SpaceAllocated();
   return message.SpaceUsedLong();
+}
+
+// The arena a call's messages live on. Blocks grow from 4 KiB (a small call
+// stays small) to 1 MiB, so a large call's blocks are mapped pages that go
+// back to the system when it ends (allocator.hpp) rather than heap that
+// stays fragmented. The parse guard's bound holds for blocks up to its
+// kArenaBlockBytes.
+inline constexpr std::size_t kCallArenaBlockBytes = 1 << 20;
+static_assert(kCallArenaBlockBytes <= proto::kArenaBlockBytes, "the parse guard's bound covers the call arena");
+inline google::protobuf::ArenaOptions call_arena_options() {
+  google::protobuf::ArenaOptions o;
+  o.start_block_size = 4 << 10;
+  o.max_block_size = kCallArenaBlockBytes;
+  return o;
 }
 
 template <class Request, class Response>
@@ -36,16 +53,7 @@ class ArenaAllocator final : public grpc::MessageAllocator<Request, Response> {
     void Release() override { delete this; }
 
    private:
-    // Blocks grow from 4 KiB (a small call stays small) to 1 MiB, so a large
-    // call's blocks are mapped pages that go back to the system when it ends
-    // (allocator.hpp) rather than heap that stays fragmented.
-    static google::protobuf::ArenaOptions options() {
-      google::protobuf::ArenaOptions o;
-      o.start_block_size = 4 << 10;
-      o.max_block_size = 1 << 20;
-      return o;
-    }
-    google::protobuf::Arena arena_{options()};
+    google::protobuf::Arena arena_{call_arena_options()};
   };
 };
 

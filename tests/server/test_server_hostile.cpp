@@ -19,6 +19,7 @@
 #include <thread>
 #include <vector>
 
+#include <google/protobuf/unknown_field_set.h>
 #include <grpcpp/create_channel.h>
 #include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/security/credentials.h>
@@ -265,7 +266,24 @@ TEST(ServerHostile, RequestsThatWouldParseBeyondTheBudgetAreRefusedUnparsed) {
   EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
   EXPECT_NE(s.error_message().find("MiB to read"), std::string::npos) << s.error_message();
 
-  // Parsed, either would have raised the daemon's memory by ~94 MB.
+  // 10 000 boxes of 200 unknown fields each (100 numbers a Box lacks, and
+  // x_min sent as a varint 100 times): 5 MB on the wire, ~43 MB parsed.
+  v1::CullBoxesRequest unknown;
+  unknown.set_dataset("ecuador");
+  for (int i = 0; i < 10'000; ++i) {
+    google::protobuf::UnknownFieldSet& fields =
+        *unknown.add_boxes()->GetReflection()->MutableUnknownFields(unknown.mutable_boxes(i));
+    for (int k = 0; k < 100; ++k) {
+      fields.AddVarint(1000, 1);
+      fields.AddVarint(2, 1);
+    }
+  }
+  ASSERT_LT(unknown.ByteSizeLong(), 5'100'000u);
+  s = stub->CullBoxes(context_with_deadline(std::chrono::seconds(30)).get(), unknown, &response);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
+  EXPECT_NE(s.error_message().find("10001 messages would take about"), std::string::npos) << s.error_message();
+
+  // Parsed, the first two would each have raised the daemon's memory by ~94 MB, the third by ~43 MB.
   const std::uint64_t peak = daemon.peak_rss_bytes();
   EXPECT_LT(peak, start + (24ull << 20)) << "peak RSS " << (peak >> 20) << " MiB, at start " << (start >> 20);
   // Still serving, the budget whole.
@@ -400,7 +418,8 @@ TEST(ServerHostile, ACullsBoxesArePaidForBeforeTheyAreConverted) {
   options.datasets = {{"ecuador", "ecuador_andes_utm17s_10m_383x415.tif"}};
   options.memory_budget_mb = static_cast<int>(budget_mb);
   options.extra_json = "\"receive_buffer_mb\": " + std::to_string(kReceiveMb) +
-                       ", \"block_cache_mb\": " + std::to_string(kCacheMb) + R"(, "gpu": {"contexts": 0},)";
+                       ", \"block_cache_mb\": " + std::to_string(kCacheMb) +
+                       R"(, "gpu": {"contexts": 0}, "limits": {"max_lines": 20000},)";
   DaemonProcess daemon(options);
   ASSERT_TRUE(daemon.ready()) << daemon.error();
   v1::CullBoxesResponse response;
@@ -449,11 +468,12 @@ TEST(ServerHostile, ARequestWhoseBytesDoNotParseIsNamedInvalid) {
 }
 
 // A LineOfSight call's plans are paid for before they are made: with a
-// budget that holds the call's request (admitted) but not also its 10 000
-// lines' plans, the call is refused naming the planning, before it makes
-// them.
+// budget that holds the call's request (admitted) but not also its 20 000
+// lines' plans (twice the default limit, so that the plans outweigh the
+// budget's rounding to MiB), the call is refused naming the planning,
+// before it makes them.
 TEST(ServerHostile, ALineOfSightsPlansArePaidForBeforeTheyAreMade) {
-  constexpr int kLines = 10'000;
+  constexpr int kLines = 20'000;
   auto dem = terrain::read_dem(bundled_dem("ecuador_andes_utm17s_10m_383x415.tif"));
   ASSERT_TRUE(dem.ok());
   const auto& t = dem->georef.transform;
@@ -472,24 +492,28 @@ TEST(ServerHostile, ALineOfSightsPlansArePaidForBeforeTheyAreMade) {
   holder->Release();
   const std::uint64_t plans = std::uint64_t{kLines} * sizeof(visibility::LinePlan);
   ASSERT_GT(plans, std::uint64_t{2} << 20) << "too few bytes a plan to tell the steps apart";
-  // Free after the fixed parts: the messages and half the plans' bytes.
+  // Free after the fixed parts: the messages and half the plans' bytes, or
+  // the request's parse bound where that is more (the parse holds it of the
+  // budget meanwhile); either way less than the messages and the plans.
   constexpr std::uint64_t kReceiveMb = 16, kCacheMb = 4;
   const std::uint64_t fixed = server::MemoryBudget::kBaseBytes + ((kReceiveMb + kCacheMb) << 20);
-  const std::uint64_t free = messages + plans / 2;
-  // The request's parse holds its bound of the budget meanwhile: that fits.
-  ASSERT_LE(proto::parse_bound(*v1::LineOfSightRequest::descriptor(), request.SerializeAsString()).bytes, free);
+  const std::uint64_t free =
+      std::max(messages + plans / 2,
+               proto::parse_bound(*v1::LineOfSightRequest::descriptor(), request.SerializeAsString()).bytes);
+  ASSERT_LT(free + (1 << 20), messages + plans) << "the budget's rounding to MiB could hold the plans too";
   DaemonOptions options;
   options.datasets = {{"ecuador", "ecuador_andes_utm17s_10m_383x415.tif"}};
   options.memory_budget_mb = static_cast<int>((fixed + free + (1 << 20) - 1) >> 20);
   options.extra_json = "\"receive_buffer_mb\": " + std::to_string(kReceiveMb) +
-                       ", \"block_cache_mb\": " + std::to_string(kCacheMb) + R"(, "gpu": {"contexts": 0},)";
+                       ", \"block_cache_mb\": " + std::to_string(kCacheMb) +
+                       R"(, "gpu": {"contexts": 0}, "limits": {"max_lines": 20000},)";
   DaemonProcess daemon(options);
   ASSERT_TRUE(daemon.ready()) << daemon.error();
   auto stub = v1::VisibilityService::NewStub(daemon.channel());
   v1::LineOfSightResponse response;
   const grpc::Status s = stub->LineOfSight(context_with_deadline(std::chrono::seconds(60)).get(), request, &response);
   EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
-  EXPECT_NE(s.error_message().find("planning these 10000 sight lines needs about"), std::string::npos)
+  EXPECT_NE(s.error_message().find("planning these 20000 sight lines needs about"), std::string::npos)
       << s.error_message();
   // A call of fewer lines fits and is answered.
   request.mutable_lines()->DeleteSubrange(100, kLines - 100);
