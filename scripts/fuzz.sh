@@ -20,7 +20,7 @@ source scripts/compiler_cache.sh
 seconds="${FUZZ_SECONDS:-60}"
 build_dir="${HORIZON_FUZZ_BUILD_DIR:-build-fuzz}"
 targets=("$@")
-((${#targets[@]})) || targets=(raster config requests mesh)
+((${#targets[@]})) || targets=(raster config requests mesh parse_guard)
 
 CXX=clang++-14 cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" \
   -DHORIZON_FUZZ=ON -DHORIZON_SANITIZE=ON -DHORIZON_BUILD_TESTS=OFF -DHORIZON_BUILD_BENCH=OFF >/dev/null
