@@ -10,6 +10,7 @@
 #include <google/protobuf/io/coded_stream.h>
 #include <google/protobuf/io/zero_copy_stream_impl_lite.h>
 #include <google/protobuf/message.h>
+#include <google/protobuf/stubs/common.h>
 #include <google/protobuf/unknown_field_set.h>
 #include <google/protobuf/wire_format_lite.h>
 #include <grpcpp/impl/codegen/proto_utils.h>
@@ -119,6 +120,7 @@ struct Tally {
   std::uint64_t largest_object = 0;
   std::uint64_t messages = 0;
   std::uint64_t unknown_fields = 0;
+  const FieldDescriptor* not_utf8 = nullptr;  // a string field whose bytes are not UTF-8
 };
 
 // One repeated field's `count` elements of `element` bytes in one message.
@@ -141,13 +143,45 @@ void count_array(std::uint64_t count, std::uint64_t element, Tally& tally) {
 // message (one thread's walk at a time).
 thread_local std::vector<std::uint64_t> t_counts;
 
+// Reads the next `length` bytes of `in` and says whether they are UTF-8 as
+// protobuf's parse checks a proto3 string; false on a wire fault. Read in
+// pieces of 64 KiB, so that a long string is never copied whole: a piece
+// holds back an unfinished character for the next.
+bool read_utf8(CodedInputStream& in, std::uint32_t length, bool& valid) {
+  thread_local std::string piece;
+  std::size_t carried = 0;
+  valid = true;
+  do {
+    const std::uint32_t step = std::min<std::uint32_t>(length, 64 << 10);
+    piece.resize(carried + step);
+    if (step > 0 && !in.ReadRaw(piece.data() + carried, static_cast<int>(step))) return false;
+    length -= step;
+    std::size_t end = piece.size();
+    if (length > 0) {
+      std::size_t tail = 0;  // continuation bytes at the end, then their lead byte
+      while (tail < 3 && tail < end && (static_cast<unsigned char>(piece[end - 1 - tail]) & 0xC0) == 0x80) ++tail;
+      if (tail < end && static_cast<unsigned char>(piece[end - 1 - tail]) >= 0xC0) end -= tail + 1;
+    }
+    if (!google::protobuf::internal::IsStructurallyValidUTF8(piece.data(), static_cast<int>(end))) valid = false;
+    carried = piece.size() - end;
+    piece.erase(0, end);
+  } while (length > 0 && valid);
+  return true;
+}
+
 // Counts a string's (or bytes', or a length-delimited unknown field's)
-// objects and bytes, its tag read; false on a wire fault.
-bool skip_string(CodedInputStream& in, Tally& tally) {
+// objects and bytes, its tag read; false on a wire fault, or when `text`
+// (a proto3 string field) is not UTF-8, which fails protobuf's parse: it is
+// named in the tally.
+bool skip_string(CodedInputStream& in, Tally& tally, const FieldDescriptor* text = nullptr) {
   std::uint32_t length = 0;
   if (!in.ReadVarint32(&length) || length > kMaxLength) return false;
   tally.used += kStringBytes + (length + 15) / 8 * 8;
-  return in.Skip(static_cast<int>(length));
+  if (!text) return in.Skip(static_cast<int>(length));
+  bool valid = true;
+  if (!read_utf8(in, length, valid)) return false;
+  if (!valid && !tally.not_utf8) tally.not_utf8 = text;
+  return valid;
 }
 
 // Counts one unknown field whose tag was read; false on a wire fault.
@@ -267,8 +301,10 @@ bool scan(const Descriptor& type, CodedInputStream& in, Tally& tally, int depth)
     }
     if (f->is_repeated()) ++t_counts[slot];
     // Singular scalars are inside their message's object.
-    ok =
-        f->cpp_type() == FieldDescriptor::CPPTYPE_STRING ? skip_string(in, tally) : WireFormatLite::SkipField(&in, tag);
+    if (f->cpp_type() == FieldDescriptor::CPPTYPE_STRING)
+      ok = skip_string(in, tally, f->type() == FieldDescriptor::TYPE_STRING ? f : nullptr);
+    else
+      ok = WireFormatLite::SkipField(&in, tag);
   }
   for (int i = 0; i < type.field_count(); ++i)
     count_array(t_counts[frame + static_cast<std::size_t>(i)], element_bytes(*type.field(i)), tally);
@@ -289,7 +325,9 @@ ParseBound bound_of(const Descriptor& type, CodedInputStream& in) {
   const std::uint64_t blocks = 10 + tally.used / (kArenaBlockBytes / 2);  // 4 KiB, 8 KiB, ..., then full blocks
   const std::uint64_t tail = std::min(kArenaBlockBytes, std::max<std::uint64_t>(8 << 10, 2 * tally.used));
   const std::uint64_t arena = tally.used + tally.array_waste + blocks * tally.largest_object + tail;
-  return ParseBound{std::max(heap, arena), heap, tally.messages, tally.unknown_fields, !read};
+  ParseBound bound{std::max(heap, arena), heap, tally.messages, tally.unknown_fields, !read};
+  if (tally.not_utf8) bound.not_utf8 = tally.not_utf8->full_name();
+  return bound;
 }
 
 // Frees `message`'s unknown fields and its messages', which the daemon never
@@ -334,8 +372,10 @@ grpc::Status guarded_parse(grpc::ByteBuffer* buffer, google::protobuf::MessageLi
     buffer->Clear();
     return grpc::Status::OK;
   };
-  const std::string malformed = "the request's " + std::to_string(wire_bytes) + " bytes are not a valid " +
-                                T::descriptor()->full_name() + " (cut short, or not its protobuf encoding)";
+  const std::string malformed =
+      bound.not_utf8.empty() ? "the request's " + std::to_string(wire_bytes) + " bytes are not a valid " +
+                                   T::descriptor()->full_name() + " (cut short, or not its protobuf encoding)"
+                             : "the request's " + bound.not_utf8 + " is not UTF-8 text (every string field must be)";
   if (bound.malformed) return refuse(kMalformedField, malformed);
   if (!allowance->take(bound.bytes)) {
     const std::uint64_t mib = (bound.bytes + (1 << 20) - 1) >> 20;

@@ -108,10 +108,12 @@ struct ParseBound {
   // (nothing reads them), so what the request holds after is its fields'.
   std::uint64_t unknown_fields = 0;
   // The walk could not read the wire to its end (cut short, a length past
-  // its end, a group never closed, nesting past protobuf's limit): `bytes`
-  // and `messages` count what it read. A guarded parse refuses such a
-  // request unparsed, so nothing the walk did not see is ever parsed.
+  // its end, a group never closed, nesting past protobuf's limit, a string
+  // field that is not UTF-8): `bytes` and `messages` count what it read. A
+  // guarded parse refuses such a request unparsed, so nothing the walk did
+  // not see is ever parsed (and protobuf logs nothing of it).
   bool malformed = false;
+  std::string not_utf8;  // the full name of the first string field that was not UTF-8
 };
 ParseBound parse_bound(const google::protobuf::Descriptor& type, const std::string& wire);
 

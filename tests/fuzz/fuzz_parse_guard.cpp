@@ -5,6 +5,7 @@
 //   - the walk's bound of a parse on the heap covers what protobuf's parse
 //     holds on the heap, and its bound covers a parse on the daemon's call
 //     arena (arena_allocator.hpp), the arena's blocks included;
+//   - a wire the walk cannot read (malformed) is one protobuf cannot parse;
 //   - a guarded parse (as the daemon's gRPC serialisation does it, under an
 //     allowance) leaves no unknown field at any depth, and a wire the walk
 //     could not read is refused unparsed, the message holding the refusal.
@@ -88,7 +89,11 @@ template <class T>
 void check(const std::string& wire) {
   const horizon::proto::ParseBound bound = horizon::proto::parse_bound(*T::descriptor(), wire);
   const std::string& type = T::descriptor()->full_name();
-  if (!bound.malformed) {
+  if (bound.malformed) {
+    // The walk refuses only what protobuf's parse refuses too.
+    T message;
+    if (message.ParseFromString(wire)) fail(type, "the walk refused a wire protobuf parses");
+  } else {
     {
       T message;
       const std::uint64_t before = heap_in_use();

@@ -197,6 +197,46 @@ TEST(ParseGuard, AGuardedParseDropsUnknownFields) {
   EXPECT_FALSE(kept.boxes(3).GetReflection()->GetUnknownFields(kept.boxes(3)).empty());
 }
 
+// A proto3 string field that is not UTF-8 fails protobuf's parse. The walk
+// finds it first and names it (the daemon's refusal says which field, and
+// protobuf logs nothing); a long string is read in pieces, whose ends may
+// split a character.
+TEST(ParseGuard, AStringThatIsNotUtf8IsNamed) {
+  v1::CullBoxesRequest request;
+  request.add_boxes()->set_z_max(1);
+  const std::string bad = request.SerializeAsString() + std::string(
+                                                            "\x0a\x03"
+                                                            "a\xff"
+                                                            "b",
+                                                            5);  // dataset: a, 0xff, b
+  const proto::ParseBound bound = proto::parse_bound(*v1::CullBoxesRequest::descriptor(), bad);
+  EXPECT_TRUE(bound.malformed);
+  EXPECT_EQ(bound.not_utf8, "horizon.v1.CullBoxesRequest.dataset");
+
+  std::string euros;  // 50 000 three-byte characters: 150 000 bytes, pieces of 65 536 end inside one
+  for (int i = 0; i < 50'000; ++i) euros += "\xe2\x82\xac";
+  request.set_dataset(euros);
+  const std::string good = request.SerializeAsString();
+  ASSERT_TRUE(v1::CullBoxesRequest().ParseFromString(good));
+  EXPECT_FALSE(proto::parse_bound(*v1::CullBoxesRequest::descriptor(), good).malformed);
+  euros[100'000] = 'x';  // a character cut after its first byte, in the second piece
+  request.set_dataset(euros);
+  const proto::ParseBound cut = proto::parse_bound(*v1::CullBoxesRequest::descriptor(), request.SerializeAsString());
+  EXPECT_TRUE(cut.malformed);
+  EXPECT_EQ(cut.not_utf8, "horizon.v1.CullBoxesRequest.dataset");
+
+  CountingAllowance allowance;
+  proto::set_parse_allowance(&allowance);
+  v1::CullBoxesRequest parsed;
+  parse_through_grpc(bad, parsed);
+  proto::remove_parse_allowance(&allowance);
+  const auto refusal = proto::refused_parse(parsed);
+  ASSERT_TRUE(refusal.has_value());
+  EXPECT_TRUE(refusal->malformed);
+  EXPECT_NE(refusal->message.find("horizon.v1.CullBoxesRequest.dataset is not UTF-8 text"), std::string::npos)
+      << refusal->message;
+}
+
 // Every method of every horizon.v1 service takes a guarded request: an RPC
 // added without its request in HORIZON_GUARDED_REQUESTS fails here.
 TEST(ParseGuard, EveryServiceRequestIsGuarded) {

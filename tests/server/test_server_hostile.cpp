@@ -440,7 +440,8 @@ TEST(ServerHostile, ACullsBoxesArePaidForBeforeTheyAreConverted) {
 
 // Bytes that are no protobuf encoding of the request are answered
 // INVALID_ARGUMENT naming the type (gRPC's callback API alone would answer
-// UNIMPLEMENTED with no message), and the daemon goes on serving.
+// UNIMPLEMENTED with no message), a string field that is not UTF-8 naming
+// the field, and the daemon goes on serving.
 TEST(ServerHostile, ARequestWhoseBytesDoNotParseIsNamedInvalid) {
   DaemonOptions options;
   options.datasets = {{"ecuador", "ecuador_andes_utm17s_10m_383x415.tif"}};
@@ -460,6 +461,21 @@ TEST(ServerHostile, ARequestWhoseBytesDoNotParseIsNamedInvalid) {
   EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << s.error_message();
   EXPECT_NE(s.error_message().find("9 bytes are not a valid horizon.v1.CullBoxesRequest"), std::string::npos)
       << s.error_message();
+  // A dataset name that is not UTF-8 (protobuf's parse fails on it): named.
+  grpc::Slice latin1(
+      std::string("\x0a\x07"
+                  "ecuad\xf3r",
+                  9));
+  grpc::ByteBuffer text(&latin1, 1);
+  grpc::ClientContext text_context;
+  text_context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+  std::promise<grpc::Status> text_done;
+  stub.UnaryCall(&text_context, "/horizon.v1.VisibilityService/CullBoxes", grpc::StubOptions(), &text, &response,
+                 [&text_done](grpc::Status status) { text_done.set_value(std::move(status)); });
+  const grpc::Status named = text_done.get_future().get();
+  EXPECT_EQ(named.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << named.error_message();
+  EXPECT_NE(named.error_message().find("horizon.v1.CullBoxesRequest.dataset is not UTF-8 text"), std::string::npos)
+      << named.error_message();
   v1::ListDatasetsResponse datasets;
   EXPECT_TRUE(v1::DatasetService::NewStub(daemon.channel())
                   ->ListDatasets(context_with_deadline().get(), v1::ListDatasetsRequest(), &datasets)
