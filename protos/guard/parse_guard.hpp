@@ -26,10 +26,11 @@
 // the unknown fields of what it parsed (nothing reads them), so that what
 // the request holds is what its handler's admission counts. When the
 // allowance refuses, or the walk cannot read the bytes, nothing is parsed;
-// when protobuf cannot parse them, what was parsed is dropped. Either way the message is left empty but for a
-// refusal that refused_parse() reads, and the handler answers with it
-// (RESOURCE_EXHAUSTED, INVALID_ARGUMENT): gRPC's callback API would answer
-// a failed parse UNIMPLEMENTED, with no message. Without an allowance (the
+// when protobuf cannot parse them, what was parsed is dropped. Either way
+// the message is left empty but for a refusal that refused_parse() reads,
+// and the handler answers with it (RESOURCE_EXHAUSTED, INVALID_ARGUMENT):
+// gRPC's callback API would answer a failed parse UNIMPLEMENTED, with no
+// message. Without an allowance (the
 // CLI, the clients, tests) messages parse as gRPC's default does.
 //
 // The specialisations must be seen before any use of the types'
