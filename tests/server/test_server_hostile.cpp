@@ -448,31 +448,27 @@ TEST(ServerHostile, ARequestWhoseBytesDoNotParseIsNamedInvalid) {
   DaemonProcess daemon(options);
   ASSERT_TRUE(daemon.ready()) << daemon.error();
   grpc::GenericStub stub(daemon.channel());
+  // CullBoxes with `bytes` as its request, as they are.
+  const auto cull_boxes = [&stub](const std::string& bytes) {
+    grpc::Slice slice(bytes);
+    grpc::ByteBuffer request(&slice, 1), response;
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+    std::promise<grpc::Status> done;
+    stub.UnaryCall(&context, "/horizon.v1.VisibilityService/CullBoxes", grpc::StubOptions(), &request, &response,
+                   [&done](grpc::Status status) { done.set_value(std::move(status)); });
+    return done.get_future().get();
+  };
   // Field 1 (dataset), a string whose length runs past the end.
-  const std::string cut = std::string("\x0a\x40", 2) + "ecuador";
-  grpc::Slice slice(cut);
-  grpc::ByteBuffer request(&slice, 1), response;
-  grpc::ClientContext context;
-  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
-  std::promise<grpc::Status> done;
-  stub.UnaryCall(&context, "/horizon.v1.VisibilityService/CullBoxes", grpc::StubOptions(), &request, &response,
-                 [&done](grpc::Status s) { done.set_value(std::move(s)); });
-  const grpc::Status s = done.get_future().get();
+  const grpc::Status s = cull_boxes(std::string("\x0a\x40", 2) + "ecuador");
   EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << s.error_message();
   EXPECT_NE(s.error_message().find("9 bytes are not a valid horizon.v1.CullBoxesRequest"), std::string::npos)
       << s.error_message();
   // A dataset name that is not UTF-8 (protobuf's parse fails on it): named.
-  grpc::Slice latin1(
-      std::string("\x0a\x07"
-                  "ecuad\xf3r",
-                  9));
-  grpc::ByteBuffer text(&latin1, 1);
-  grpc::ClientContext text_context;
-  text_context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
-  std::promise<grpc::Status> text_done;
-  stub.UnaryCall(&text_context, "/horizon.v1.VisibilityService/CullBoxes", grpc::StubOptions(), &text, &response,
-                 [&text_done](grpc::Status status) { text_done.set_value(std::move(status)); });
-  const grpc::Status named = text_done.get_future().get();
+  const grpc::Status named =
+      cull_boxes(std::string("\x0a\x07"
+                             "ecuad\xf3r",
+                             9));
   EXPECT_EQ(named.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << named.error_message();
   EXPECT_NE(named.error_message().find("horizon.v1.CullBoxesRequest.dataset is not UTF-8 text"), std::string::npos)
       << named.error_message();
