@@ -393,6 +393,11 @@ Status write_band(TIFF* t, const std::string& path, const Grid<T>& grid, int ban
     std::unique_ptr<RleDeflater> rle;
     std::vector<T> block;
     std::vector<std::uint8_t> scratch;
+    // A block's stream before it is copied out at its own size: the bound
+    // an encoder must be given is the block's size or more, while a code
+    // raster's tile packs to a few hundred bytes, so the blocks' buffers
+    // would otherwise touch as much fresh memory as the raster itself.
+    std::vector<std::uint8_t> packed;
   };
   std::mutex idle_mutex;
   std::vector<std::unique_ptr<Encoder>> idle;
@@ -425,16 +430,17 @@ Status write_band(TIFF* t, const std::string& path, const Grid<T>& grid, int ban
       }
       if (l.predictor == PREDICTOR_HORIZONTAL) predict_horizontal(block.data(), bw, rows);
       const std::size_t bytes = block.size() * sizeof(T);
-      std::vector<std::uint8_t>& out = encoded[index];
+      std::vector<std::uint8_t>& packed = e->packed;
       if (run_length) {
-        if (!e->rle->compress(reinterpret_cast<const std::uint8_t*>(block.data()), bytes, out)) failed[index] = 1;
+        if (!e->rle->compress(reinterpret_cast<const std::uint8_t*>(block.data()), bytes, packed)) failed[index] = 1;
       } else {
-        out.resize(libdeflate_zlib_compress_bound(e->compressor.get(), bytes));
+        packed.resize(libdeflate_zlib_compress_bound(e->compressor.get(), bytes));
         const std::size_t size =
-            libdeflate_zlib_compress(e->compressor.get(), block.data(), bytes, out.data(), out.size());
+            libdeflate_zlib_compress(e->compressor.get(), block.data(), bytes, packed.data(), packed.size());
         if (size == 0) failed[index] = 1;
-        out.resize(size);
+        packed.resize(size);
       }
+      if (!failed[index]) encoded[index].assign(packed.begin(), packed.end());
     }
     std::lock_guard lock(idle_mutex);
     idle.push_back(std::move(e));
