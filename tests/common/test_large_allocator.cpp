@@ -9,6 +9,7 @@
 #include <numeric>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "horizon/common/large_allocator.hpp"
@@ -26,6 +27,38 @@ TEST(LargeAllocator, OnlyBlocksOfTwoMebibytesAndMoreAreMapped) {
 #endif
   EXPECT_FALSE(detail::is_large_block((std::size_t{2} << 20) - 1));
   EXPECT_FALSE(detail::is_large_block(0));
+}
+
+TEST(LargeAllocator, HugePagesAreAskedForOnlyOnRequestModeWithFreeBlocksToSpare) {
+  // A VM's /proc/buddyinfo: orders 0..10; order 9 is one 2 MiB page, order
+  // 10 two. Free here: DMA 1 + 3 * 2, DMA32 1 + 753 * 2, Normal 126 + 2942 *
+  // 2: 7524 huge pages.
+  const std::string_view roomy =
+      "Node 0, zone      DMA      0      0      0      0      0      0      0      0      1      1      3 \n"
+      "Node 0, zone    DMA32      1      2      2      2      1      2      0      3      3      1    753 \n"
+      "Node 0, zone   Normal  16941   9822   7091   6380   2608   1195    538    181     44    126   2942 \n";
+  const std::string_view madvise = "always [madvise] never\n";
+  constexpr std::size_t kMiB = std::size_t{1} << 20;
+  EXPECT_TRUE(detail::want_huge_pages(madvise, roomy, 48 * kMiB));
+  // Twice the block's huge pages and 32 more must be free: 7524 = 2 * 3746 + 32.
+  EXPECT_TRUE(detail::want_huge_pages(madvise, roomy, 3746 * 2 * kMiB));
+  EXPECT_FALSE(detail::want_huge_pages(madvise, roomy, 3746 * 2 * kMiB + 1));
+  // Fragmented: free memory in small blocks only (3 + 1 huge pages free).
+  const std::string_view fragmented =
+      "Node 0, zone   Normal  916941   99822   7091   6380   2608   1195    538    181     44      3      0 \n"
+      "Node 1, zone   Normal  16941   9822   7091   6380   2608   1195    538    181     44      1      0\n";
+  EXPECT_FALSE(detail::want_huge_pages(madvise, fragmented, 2 * kMiB));
+  // Two nodes are summed: 20 + 2 * 10 = 40 >= 2 * 4 + 32; a fifth page is one too many.
+  const std::string_view two_nodes =
+      "Node 0, zone   Normal 1 1 1 1 1 1 1 1 1 20 0\nNode 1, zone   Normal 1 1 1 1 1 1 1 1 1 0 10";
+  EXPECT_TRUE(detail::want_huge_pages(madvise, two_nodes, 8 * kMiB));
+  EXPECT_FALSE(detail::want_huge_pages(madvise, two_nodes, 10 * kMiB - 1));
+  // Other modes: "always" backs blocks unasked, "never" refuses; an
+  // unreadable file (empty text) asks for nothing.
+  EXPECT_FALSE(detail::want_huge_pages("[always] madvise never\n", roomy, 48 * kMiB));
+  EXPECT_FALSE(detail::want_huge_pages("always madvise [never]\n", roomy, 48 * kMiB));
+  EXPECT_FALSE(detail::want_huge_pages("", roomy, 48 * kMiB));
+  EXPECT_FALSE(detail::want_huge_pages(madvise, "", 48 * kMiB));
 }
 
 TEST(LargeAllocator, LargeAndSmallVectorsHoldTheirValues) {
@@ -91,6 +124,33 @@ long huge_kb_at(const void* address) {
   return -1;
 }
 
+// The text of a kernel file, empty when it cannot be read.
+std::string kernel_text(const char* path) {
+  std::ifstream in(path);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// Where the kernel would hand out huge pages now, a mapped block starts on
+// a 2 MiB boundary and huge pages back all of it; the values stay.
+TEST(LargeAllocator, AMappedBlockIsOnHugePagesWhereTheKernelHasThemToSpare) {
+  constexpr std::size_t kMiB = std::size_t{1} << 20;
+  const std::size_t bytes = 16 * kMiB;
+  if (!detail::is_large_block(bytes)) GTEST_SKIP() << "this build maps no block (a sanitizer build, or not Linux)";
+  if (!detail::want_huge_pages(kernel_text("/sys/kernel/mm/transparent_hugepage/enabled"),
+                               kernel_text("/proc/buddyinfo"), bytes))
+    GTEST_SKIP() << "this kernel hands out no huge pages on request now (THP mode, or free 2 MiB blocks short)";
+  terrain::Grid<float> g(2048, 2048, 3.25f);
+  ASSERT_EQ(g.capacity() * sizeof(float), bytes);
+  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(g.data()) % (2 * kMiB), 0u);
+  EXPECT_GE(huge_kb_at(g.data()), 16 * 1024) << "smaps shows the block not wholly on huge pages";
+  g.at(2047, 2047) = -1.5f;
+  EXPECT_EQ(g.at(0, 0), 3.25f);
+  EXPECT_EQ(g.at(2047, 2046), 3.25f);
+  EXPECT_EQ(g.at(2047, 2047), -1.5f);
+}
+
 // A block kept for many runs (a daemon's Workspace) asks for huge pages
 // once; the kernel backs the block's aligned 2 MiB spans and the values stay.
 TEST(LargeAllocator, AKeptBlockIsBackedByHugePagesWhereTheKernelCan) {
@@ -102,7 +162,7 @@ TEST(LargeAllocator, AKeptBlockIsBackedByHugePagesWhereTheKernelCan) {
   const std::size_t bytes = g.capacity() * sizeof(float);
   if (!back_with_huge_pages(g.data(), bytes))
     GTEST_SKIP() << "this kernel or build backs no block with huge pages (MADV_COLLAPSE: Linux 6.1+)";
-  // Every whole 2 MiB span inside the block: at least 7 of the 8 (the block is page-aligned, not 2 MiB-aligned).
+  // Every whole 2 MiB span inside the block: at least 7 of the 8 (a block may be page-aligned only).
   EXPECT_GE(huge_kb_at(g.data()), 7 * 2048) << "smaps shows no huge pages for the block";
   EXPECT_EQ(g.at(0, 0), 3.25f);
   EXPECT_EQ(g.at(1024, 1000), 3.25f);
