@@ -7,9 +7,11 @@
 // written byte by byte here (libtiff would not write such headers).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -272,13 +274,20 @@ TEST(GeoTiffLimits, HonestFileReadsUpToTheLimitExactly) {
   ASSERT_TRUE(unlimited.ok()) << unlimited.error().message;
 }
 
-// `data` as a zlib stream (RFC 1950) of one stored deflate block (RFC 1951
-// 3.2.4): no compression, so it is written by hand.
+// `data` as a zlib stream (RFC 1950) of stored deflate blocks of up to
+// 65 535 bytes each (RFC 1951 3.2.4): no compression, so it is written by
+// hand, and the stream is as long as the data.
 std::string zlib_stored(const std::string& data) {
-  std::string out = "\x78\x01\x01";  // zlib header; a final stored block
-  put(out, data.size(), 2);
-  put(out, ~data.size() & 0xffff, 2);
-  out += data;
+  std::string out = "\x78\x01";  // zlib header
+  std::size_t at = 0;
+  do {
+    const std::size_t n = std::min<std::size_t>(65535, data.size() - at);
+    out.push_back(at + n == data.size() ? '\x01' : '\x00');  // BFINAL on the last block; BTYPE 00, stored
+    put(out, n, 2);
+    put(out, ~n & 0xffff, 2);
+    out.append(data, at, n);
+    at += n;
+  } while (at < data.size());
   std::uint32_t a = 1, b = 0;  // Adler-32, stored big-endian
   for (unsigned char c : data) {
     a = (a + c) % 65521;
@@ -286,6 +295,51 @@ std::string zlib_stored(const std::string& data) {
   }
   for (int shift : {24, 16, 8, 0}) out.push_back(static_cast<char>((((b << 16) | a) >> shift) & 0xff));
   return out;
+}
+
+// The bytes this process has read through read(2) and its kin so far
+// (/proc/self/io's rchar, all threads), or nothing where that is not kept.
+std::optional<std::uint64_t> bytes_read_so_far() {
+  std::ifstream io("/proc/self/io");
+  std::string key;
+  std::uint64_t value = 0;
+  while (io >> key >> value)
+    if (key == "rchar:") return value;
+  return std::nullopt;
+}
+
+// A tall strip's compressed bytes are not read whole for a window at its
+// top: the reader maps such a file, and libtiff decodes the rows wanted
+// from the mapping, touching only their bytes. Read through read(2)
+// instead, libtiff takes in the whole strip, 8 MB here (stored, so as long
+// as its cells), for 256 000 bytes of rows.
+TEST(GeoTiffLimits, AWindowAtTheTopOfATallStripReadsWithoutTheWholeStrip) {
+  TempDir dir;
+  constexpr std::uint32_t kWidth = 1000, kRows = 2000;
+  std::string cells(std::size_t{kWidth} * kRows * 4, '\0');
+  for (std::uint32_t i = 0; i < kWidth * kRows; ++i) {
+    const float v = static_cast<float>(i);  // row * 1000 + col, exact in a float
+    std::memcpy(cells.data() + std::size_t{i} * 4, &v, 4);
+  }
+  const std::string path = write(dir, "tall.tif", one_strip(kWidth, kRows, 32, 8, zlib_stored(cells)));
+  ReadOptions o = plain_grid(std::uint64_t{1} << 20);
+  o.window = Window{10, 0, 30, 64};  // the top 64 rows: 256 000 bytes decoded
+  const auto before = bytes_read_so_far();
+  auto top = read_geotiff(path, o);
+  const auto after = bytes_read_so_far();
+  ASSERT_TRUE(top.ok()) << top.error().message;
+  if (before && after) {
+    EXPECT_LT(*after - *before, 1000000u) << "the read took in most of the strip's 8 MB";
+  }
+  ASSERT_EQ(top->width(), 20);
+  ASSERT_EQ(top->height(), 64);
+  EXPECT_EQ(top->elevation.at(0, 0), 10.0f);
+  EXPECT_EQ(top->elevation.at(19, 63), 63029.0f);
+  // The whole strip needs 8 000 000 bytes decoded: refused from the header.
+  o.window.reset();
+  auto whole = read_geotiff(path, o);
+  ASSERT_FALSE(whole.ok());
+  EXPECT_TRUE(has(whole.error(), "needs 8000000 bytes decoded at once")) << whole.error().message;
 }
 
 // A strip whose byte count runs past the end of the file is refused as
