@@ -18,6 +18,7 @@
 #include <random>
 #include <string>
 
+#include "horizon/common/huge_pages.hpp"
 #include "horizon/common/large_allocator.hpp"
 #include "horizon/geodesy/observer.hpp"
 #include "horizon/gpu/context_pool.hpp"
@@ -193,13 +194,20 @@ BENCHMARK(BM_RadialKernels)->DenseRange(0, 2)->Unit(benchmark::kMillisecond)->Us
 // over it and the terrain; 1: radial_mask, the sweep coding each cell into
 // a kept byte grid (ViewshedOptions::mask_only, the CLI's and the daemon's
 // visible rasters). The elevations are a copy of the DEM's, on 4 KiB pages
-// (range(2) 0) or, as a daemon worker's kept buffers are, backed by huge
-// pages with the output (1: back_with_huge_pages).
+// with the output (range(2) 0: the allocator asks for no huge pages while
+// the benchmark runs) or, as a daemon worker's kept buffers are, backed by
+// huge pages with the output (1: back_with_huge_pages).
 void BM_VisibleRaster(benchmark::State& state) {
   const KernelCap cap(state, state.range(0));
   const terrain::Dem* dem = cap.ok() ? bench_dem(state) : nullptr;
   if (!dem) return;
   const bool in_sweep = state.range(1) != 0, huge = state.range(2) != 0;
+  // On the 4 KiB road the copy and the outputs below ask for no huge pages.
+  struct SmallPagesWhile {
+    const bool allowed = huge_pages_allowed();
+    explicit SmallPagesWhile(bool small) { allow_huge_pages(allowed && !small); }
+    ~SmallPagesWhile() { allow_huge_pages(allowed); }
+  } small_pages(!huge);
   state.SetLabel(std::string(in_sweep ? "radial_mask" : "radial_ohf + visibility_mask") +
                  (huge ? ", huge pages" : ", 4 KiB pages"));
   const terrain::Grid<float> elevation = dem->elevation;

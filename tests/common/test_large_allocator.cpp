@@ -12,6 +12,7 @@
 #include <string_view>
 #include <vector>
 
+#include "horizon/common/huge_pages.hpp"
 #include "horizon/common/large_allocator.hpp"
 #include "horizon/terrain/grid.hpp"
 
@@ -149,6 +150,14 @@ TEST(LargeAllocator, AMappedBlockIsOnHugePagesWhereTheKernelHasThemToSpare) {
   EXPECT_EQ(g.at(0, 0), 3.25f);
   EXPECT_EQ(g.at(2047, 2046), 3.25f);
   EXPECT_EQ(g.at(2047, 2047), -1.5f);
+
+  // Not while huge pages are disallowed (horizon/common/huge_pages.hpp).
+  ASSERT_TRUE(huge_pages_allowed());
+  allow_huge_pages(false);
+  terrain::Grid<float> small(2048, 2048, 1.0f);
+  allow_huge_pages(true);
+  EXPECT_EQ(huge_kb_at(small.data()), 0) << "a block mapped while huge pages were disallowed is on them";
+  EXPECT_EQ(small.at(2047, 2047), 1.0f);
 }
 
 // A block kept for many runs (a daemon's Workspace) asks for huge pages

@@ -1,10 +1,12 @@
 #include "horizon/common/large_allocator.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cstdint>
 #include <string>
 #include <string_view>
 
+#include "horizon/common/huge_pages.hpp"
 #include "horizon/common/parallel.hpp"
 
 #if defined(__linux__)
@@ -12,6 +14,23 @@
 #include <sys/mman.h>
 #include <unistd.h>
 #endif
+
+namespace horizon {
+namespace {
+
+std::atomic<bool> g_huge_pages_allowed{true};
+
+}  // namespace
+
+void allow_huge_pages(bool allowed) noexcept {
+  g_huge_pages_allowed.store(allowed, std::memory_order_relaxed);
+}
+
+bool huge_pages_allowed() noexcept {
+  return g_huge_pages_allowed.load(std::memory_order_relaxed);
+}
+
+}  // namespace horizon
 
 namespace horizon::detail {
 namespace {
@@ -81,6 +100,7 @@ std::string_view read_text(const char* path, char* buffer, std::size_t size) {
 }
 
 bool huge_pages_for(std::size_t bytes) {
+  if (!huge_pages_allowed()) return false;
   // The mode is set at boot or by an administrator: read once.
   static const std::string mode = [] {
     char text[256];
