@@ -195,7 +195,9 @@ struct AwkwardCase {
 // The sweep's awkward cases: a random terrain with a block of voids,
 // scattered voids and one at (20, 20); eyes on and off cell centres, in a
 // corner, on that void (standing at a given altitude), with and without max
-// distance (one beyond the grid); voids transparent and filled; under every
+// distance (one beyond the grid), and one whose diagonals pass through cell
+// centres that rounding puts a hair to either side (60.4, 66.6: 61 - 60.4
+// and 66.6 - 66 differ in their last bits); voids transparent and filled; under every
 // kernel form this CPU runs. Calls check(c) for each, with a trace naming it.
 template <class Check>
 void for_each_awkward_case(Check check) {
@@ -210,7 +212,7 @@ void for_each_awkward_case(Check check) {
   };
   const double kNone = std::numeric_limits<double>::infinity();
   const Eye eyes[] = {{40.3, 33.7, kNone}, {44, 35, kNone},      {89, 0, kNone},  {89, 69, 900.0}, {20, 20, kNone},
-                      {20, 20, 450.0},     {60.5, 10.25, 600.0}, {44, 35, 1e300}, {44, 35, 700.0}};
+                      {20, 20, 450.0},     {60.5, 10.25, 600.0}, {44, 35, 1e300}, {44, 35, 700.0}, {60.4, 66.6, kNone}};
   using visibility::sweep::simd::Isa;
   struct Restore {
     ~Restore() { visibility::sweep::simd::isa_limit() = Isa::kAvx512; }

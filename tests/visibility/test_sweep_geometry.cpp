@@ -169,7 +169,7 @@ TEST(SweepGeometry, TheGlFormUploadsTheSharedTables) {
           const std::size_t at = static_cast<std::size_t>(g.steps_at + 6 * n);
           EXPECT_TRUE(same_bits(disk.table[at], static_cast<float>(s.step(n))));
           EXPECT_TRUE(same_bits(disk.table[at + 3], inv_step[n]));
-          const CellSpan span = wedge(s.eye_v, s.step(n), s.include_diagonal);
+          const CellSpan span = owned_cells(f, s, n);
           EXPECT_EQ(disk.table[at + 4], span.lo);
           EXPECT_EQ(disk.table[at + 5], span.hi);
           EXPECT_EQ(disk.doubles[g.d_at + 1 + n], 1.0 / s.step(n));

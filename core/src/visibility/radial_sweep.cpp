@@ -129,10 +129,11 @@ SectorPlan plan_sector(const Sector& s, const SweepConstants& c, double ray_spac
   p.cell_hi.assign(s.lines, -1);
   p.ray_lo.assign(s.lines, 0);
   p.ray_hi.assign(s.lines, -1);
+  const sweep::SectorLines lines = sweep::sector_lines(*c.frame, sweep::SectorAxis{s.rows, s.dir});
   for (int n = 0; n < s.lines; ++n) {
     const double k = step_of(s, n);
     // Sector wedge: |j - v_eye| <= k (or < k), inside the window along v.
-    const sweep::CellSpan wedge = sweep::wedge(s.eye_v, k, s.include_diagonal);
+    const sweep::CellSpan wedge = sweep::owned_cells(*c.frame, lines, n);
     int jlo = std::max(wedge.lo, s.win_v0);
     int jhi = std::min(wedge.hi, s.win_v1 - 1);
     // Max-distance disc (exact test per cell happens in the kernel; this only bounds the loop).

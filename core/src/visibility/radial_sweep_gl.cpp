@@ -148,7 +148,7 @@ DiskPlan plan_disk(const ViewFrame& f, double ray_spacing) {
     for (int n = 0; n < g.lines; ++n) {
       const double k = g.step(n);
       const float kf = static_cast<float>(k);
-      const sweep::CellSpan wedge = sweep::wedge(g.eye_v, k, g.include_diagonal);
+      const sweep::CellSpan wedge = sweep::owned_cells(f, g, n);
       table.insert(table.end(), {kf, static_cast<float>(k - 1.0), 1.0f / kf, inv_step[static_cast<std::size_t>(n)],
                                  static_cast<float>(wedge.lo), static_cast<float>(wedge.hi)});
       doubles.push_back(1.0 / k);

@@ -168,6 +168,31 @@ inline CellSpan wedge(double eye_v, double k, bool include_diagonal) {
   return span;
 }
 
+// The cells sector `g` owns on its line n, as wedge() gives them, with each
+// end settled by comparing the cell's distance from the eye across the
+// sector with the line's along it, both taken from DEM numbers and the
+// frame's eye: a cell near a diagonal is then judged by its two sectors
+// with the same two doubles, and falls in exactly one. (wedge() alone
+// rounds eye_v -+ k: with the eye at column 60.4, row 70.6, row 70 of
+// column 61 came out a tie for the east sector, which leaves ties to
+// north, and beyond the wedge for the north one, and no sector wrote it.)
+inline CellSpan owned_cells(const ViewFrame& f, const SectorLines& g, int n) {
+  const bool rows = g.axis.rows;
+  const double eye_u = rows ? f.observer_row : f.observer_col;
+  const double eye_v = rows ? f.observer_col : f.observer_row;
+  const double k = std::abs(static_cast<double>(g.line0 + g.axis.dir * n) - eye_u);
+  const auto owns = [&](int j) {
+    const double d = std::abs(static_cast<double>(j + g.v0) - eye_v);
+    return d < k || (g.include_diagonal && d == k);
+  };
+  CellSpan span = wedge(g.eye_v, g.step(n), g.include_diagonal);
+  --span.lo;
+  ++span.hi;
+  while (span.lo <= span.hi && !owns(span.lo)) ++span.lo;
+  while (span.hi >= span.lo && !owns(span.hi)) --span.hi;
+  return span;
+}
+
 // Which two rays bracket a cell. The cell at v position j on the line at
 // step k lies at ray coordinate rho = (j - eye_v) / k * half, computed in
 // double from inv_k = 1 / k (double); it takes rays lower_ray(rho) and
