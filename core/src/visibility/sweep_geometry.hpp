@@ -153,7 +153,8 @@ inline std::vector<float> inv_dvs(double eye_v, int count) {
 
 // The v positions [lo, hi] a sector owns on the line at step k (empty when
 // lo > hi), before any window or distance limit: |v - eye_v| <= k with the
-// diagonal, < k without, so that every cell but the eye's own has one owner.
+// diagonal, < k without, so that every cell but the eye's own has one owner
+// (up to rounding, which owned_cells, below, settles).
 struct CellSpan {
   int lo = 0, hi = -1;
 };
