@@ -15,6 +15,7 @@
 
 #include "config.hpp"
 #include "daemon.hpp"
+#include "rpc_helpers.hpp"
 
 namespace horizon::server {
 namespace {
@@ -23,19 +24,9 @@ namespace {
 int health_status(grpc::GenericStub& stub, const std::string& service) {
   std::string request;
   if (!service.empty()) request = std::string("\x0a", 1) + static_cast<char>(service.size()) + service;
-  grpc::Slice slice(request);
-  grpc::ByteBuffer in(&slice, 1), out;
-  grpc::ClientContext context;
-  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(5));
-  std::promise<grpc::Status> done;
-  stub.UnaryCall(&context, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &in, &out,
-                 [&done](grpc::Status s) { done.set_value(std::move(s)); });
-  const grpc::Status status = done.get_future().get();
-  if (!status.ok()) return -1;
-  std::vector<grpc::Slice> slices;
-  if (!out.Dump(&slices).ok()) return -1;
   std::string bytes;
-  for (const grpc::Slice& s : slices) bytes.append(reinterpret_cast<const char*>(s.begin()), s.size());
+  if (!testing::raw_unary_call(stub, "/grpc.health.v1.Health/Check", request, std::chrono::seconds(5), &bytes).ok())
+    return -1;
   // field 1 (status), varint: 0x08 <value>
   return bytes.size() == 2 && bytes[0] == '\x08' ? bytes[1] : -1;
 }

@@ -450,14 +450,7 @@ TEST(ServerHostile, ARequestWhoseBytesDoNotParseIsNamedInvalid) {
   grpc::GenericStub stub(daemon.channel());
   // CullBoxes with `bytes` as its request, as they are.
   const auto cull_boxes = [&stub](const std::string& bytes) {
-    grpc::Slice slice(bytes);
-    grpc::ByteBuffer request(&slice, 1), response;
-    grpc::ClientContext context;
-    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
-    std::promise<grpc::Status> done;
-    stub.UnaryCall(&context, "/horizon.v1.VisibilityService/CullBoxes", grpc::StubOptions(), &request, &response,
-                   [&done](grpc::Status status) { done.set_value(std::move(status)); });
-    return done.get_future().get();
+    return testing::raw_unary_call(stub, "/horizon.v1.VisibilityService/CullBoxes", bytes, std::chrono::seconds(10));
   };
   // Field 1 (dataset), a string whose length runs past the end.
   const grpc::Status s = cull_boxes(std::string("\x0a\x40", 2) + "ecuador");
