@@ -1,10 +1,10 @@
 // test_cli_proj_runtime.cpp — PROJ and libgeotiff are opened only when a CRS
 // needs them (core/src/geodesy/proj_runtime.cpp,
 // core/src/terrain/geotiff_runtime.cpp): a DEM in a built-in CRS (WGS 84, a
-// UTM zone) is read and its viewshed written without loading either; another
-// CRS loads PROJ; a user-defined CRS loads libgeotiff too; and a library
-// that cannot be loaded is named in the CRS's error, while built-in CRSs
-// work without it.
+// UTM zone of WGS 84 or SIRGAS 2000) is read and its viewshed written
+// without loading either; another CRS loads PROJ; a user-defined CRS loads
+// libgeotiff too; and a library that cannot be loaded is named in the CRS's
+// error, while built-in CRSs work without it.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -14,6 +14,8 @@
 
 #include "cli_run.hpp"
 #include "gdal_crs_cases.hpp"
+#include "horizon/terrain/dem_reader.hpp"
+#include "horizon/terrain/geotiff_writer.hpp"
 
 namespace horizon::testing {
 namespace {
@@ -33,6 +35,20 @@ std::string user_defined_crs_dem(const TempDir& dir) {
   return made.exit_code == 0 ? path : std::string();
 }
 
+// The bundled Olinda DEM (SIRGAS 2000 / UTM zone 25S, built in) tagged
+// SAD69 / UTM zone 25S (EPSG:29195), which is not: the same coordinates on
+// a datum PROJ shifts to WGS 84 by a Helmert transformation.
+std::string other_crs_dem(const TempDir& dir) {
+  auto dem = terrain::read_dem(bundled_dem("olinda_coast_utm25s_111x111.tif"));
+  EXPECT_TRUE(dem.ok());
+  if (!dem.ok()) return {};
+  dem->georef.epsg = 29195;
+  const std::string path = dir.file("sad69.tif");
+  const Status written = terrain::write_geotiff(path, dem->elevation, dem->georef, std::nullopt);
+  EXPECT_TRUE(written.ok()) << written.error().message;
+  return written.ok() ? path : std::string();
+}
+
 bool loaded(const CommandResult& r, const std::string& soname) {
   std::string needle = "file=";
   needle += soname;
@@ -45,6 +61,8 @@ TEST(CliProjRuntime, BuiltInCrsLoadsNeitherProjNorGeotiff) {
       {"info", bundled_dem("ecuador_andes_utm17s_10m_383x415.tif")},
       {"viewshed", bundled_dem("rainier_summit_srtm3_400x400.tif"), "--observer", "-121.76,46.85", "-o",
        dir.file("v.tif")},
+      {"viewshed", bundled_dem("olinda_coast_utm25s_111x111.tif"), "--observer", "293770,9115766", "-o",
+       dir.file("o.tif")},
   };
   for (const auto& args : runs) {
     const auto r = horizon_with_env("LD_DEBUG", "files", args);
@@ -54,15 +72,18 @@ TEST(CliProjRuntime, BuiltInCrsLoadsNeitherProjNorGeotiff) {
     EXPECT_FALSE(loaded(r, HORIZON_GEOTIFF_SONAME)) << args[0] << " loaded libgeotiff";
   }
   EXPECT_TRUE(fs::exists(dir.file("v.tif")));
+  EXPECT_TRUE(fs::exists(dir.file("o.tif")));
 }
 
 TEST(CliProjRuntime, OtherCrsLoadsProjWhenRead) {
-  // SIRGAS 2000 / UTM zone 25S is not built in.
-  const auto r = horizon_with_env("LD_DEBUG", "files", {"info", bundled_dem("olinda_coast_utm25s_111x111.tif")});
+  TempDir dir;
+  const std::string path = other_crs_dem(dir);
+  ASSERT_FALSE(path.empty());
+  const auto r = horizon_with_env("LD_DEBUG", "files", {"info", path});
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_TRUE(loaded(r, HORIZON_PROJ_SONAME)) << r.output;
   EXPECT_FALSE(loaded(r, HORIZON_GEOTIFF_SONAME)) << "an EPSG code needs no libgeotiff";
-  EXPECT_NE(r.output.find("CRS:         EPSG:31985 (SIRGAS 2000 / UTM zone 25S)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("CRS:         EPSG:29195 (SAD69 / UTM zone 25S)"), std::string::npos) << r.output;
 }
 
 TEST(CliProjRuntime, UserDefinedCrsLoadsGeotiff) {
@@ -95,17 +116,21 @@ TEST(CliProjRuntime, UnloadableProjIsNamed) {
                                   {"viewshed", bundled_dem("rainier_summit_srtm3_400x400.tif"), "--observer",
                                    "-121.76,46.85", "-o", dir.file("v.tif")});
   EXPECT_EQ(v.exit_code, 0) << v.output;
-
-  const auto info =
+  const auto olinda =
       horizon_with_env("LD_LIBRARY_PATH", libs.string(), {"info", bundled_dem("olinda_coast_utm25s_111x111.tif")});
+  EXPECT_NE(olinda.output.find("CRS:         EPSG:31985 (SIRGAS 2000 / UTM zone 25S)"), std::string::npos)
+      << olinda.output;
+
+  const std::string other = other_crs_dem(dir);
+  ASSERT_FALSE(other.empty());
+  const auto info = horizon_with_env("LD_LIBRARY_PATH", libs.string(), {"info", other});
   ASSERT_EQ(info.exit_code, 0) << info.output;
   EXPECT_NE(info.output.find("CRS:         cannot be used: "), std::string::npos) << info.output;
   // dlerror()'s reason, its directory cut as in every PROJ message.
   EXPECT_NE(info.output.find("PROJ cannot be loaded (" HORIZON_PROJ_SONAME ": "), std::string::npos) << info.output;
 
   const auto refused = horizon_with_env("LD_LIBRARY_PATH", libs.string(),
-                                        {"viewshed", bundled_dem("olinda_coast_utm25s_111x111.tif"), "--observer",
-                                         "293770,9115766", "-o", dir.file("o.tif")});
+                                        {"viewshed", other, "--observer", "293770,9115766", "-o", dir.file("o.tif")});
   EXPECT_EQ(refused.exit_code, 1) << refused.output;
   EXPECT_NE(refused.output.find("PROJ cannot be loaded"), std::string::npos) << refused.output;
   EXPECT_FALSE(fs::exists(dir.file("o.tif")));
@@ -123,10 +148,9 @@ TEST(CliProjRuntime, UnloadableGeotiffIsNamed) {
                              "(libgeotiff cannot be loaded ("),
             std::string::npos)
       << info.output;
-  // An EPSG code needs no libgeotiff.
-  const auto olinda =
-      horizon_with_env("LD_LIBRARY_PATH", libs.string(), {"info", bundled_dem("olinda_coast_utm25s_111x111.tif")});
-  EXPECT_NE(olinda.output.find("CRS:         EPSG:31985"), std::string::npos) << olinda.output;
+  // An EPSG code PROJ reads needs no libgeotiff.
+  const auto other = horizon_with_env("LD_LIBRARY_PATH", libs.string(), {"info", other_crs_dem(dir)});
+  EXPECT_NE(other.output.find("CRS:         EPSG:29195"), std::string::npos) << other.output;
 }
 
 }  // namespace

@@ -126,7 +126,7 @@ TEST(Stress, RaisingTheEyeHidesOnlyCellsTheLowerEyeSawInError) {
     EXPECT_GE(r.explained, 1u) << r.algorithm << ": the known case below no longer flips; update this test";
     // Which observer flips first hangs on the cell sizes' last digits. This
     // DEM is in a WGS 84 / UTM zone, whose scale is GeographicLib's exact k
-    // (geodesy/wgs84_crs.hpp); PROJ's numerically differentiated one, 1e-10
+    // (geodesy/builtin_crs.hpp); PROJ's numerically differentiated one, 1e-10
     // away, made the first case found the observer at (col 149, row 357).
     EXPECT_NE(r.first_explained.find("observer cell (col 200, row 341), height 2 m, max distance 1499.7 m: raised by "
                                      "10 m hides 1 cells that R3 hides from the lower eye, first cell (col 100, row "

@@ -48,8 +48,8 @@
 #include <unordered_map>
 #include <vector>
 
+#include "builtin_crs.hpp"
 #include "proj_support.hpp"
-#include "wgs84_crs.hpp"
 
 namespace horizon::geodesy {
 namespace detail {
@@ -131,9 +131,9 @@ struct CrsData {
   double unit_size = 1.0;  // metres (projected) or degrees (geographic) per unit
   double a = kEarthRadiusMetres, e2 = 0.0;
   std::optional<GeographicLib::Ellipsoid> ellipsoid;  // set with a and e2
-  // WGS 84, a WGS 84 / UTM zone or web Mercator, described without PROJ
-  // (wgs84_crs.hpp): its WKT is PROJ's, made on first use.
-  std::optional<Wgs84Crs> wgs84;
+  // A CRS described without PROJ (builtin_crs.hpp): its WKT is PROJ's, made
+  // on first use.
+  std::optional<BuiltinCrs> builtin;
   mutable std::once_flag wkt_once;
   mutable std::string wkt;
 
@@ -444,21 +444,32 @@ Registry& registry() {
   return *r;
 }
 
-// The facts of WGS 84, a WGS 84 / UTM zone or web Mercator, as PROJ gives
-// them; no PROJ object is made until a call needs one.
-void describe_wgs84(const detail::Wgs84Crs& crs, CrsData& d) {
-  constexpr double kWgs84InverseFlattening = 298.257223563;
-  d.wgs84 = crs;
-  d.geographic = crs.geographic;
-  d.name = d.horizontal_name = detail::wgs84_crs_name(crs);
+// The facts of a built-in CRS, as PROJ gives them; no PROJ object is made
+// until a call needs one.
+void describe_builtin(const detail::BuiltinCrs& crs, CrsData& d) {
+  d.builtin = crs;
+  d.geographic = crs.geographic();
+  d.name = d.horizontal_name = detail::builtin_crs_name(crs);
   d.epsg = d.horizontal_epsg = crs.epsg;
-  d.unit_name = crs.geographic ? "degree" : "metre";
+  d.unit_name = crs.geographic() ? "degree" : "metre";
   d.unit_size = 1.0;
-  d.projection = crs.geographic     ? ""
-                 : crs.web_mercator ? "Popular Visualisation Pseudo Mercator"
-                                    : "Transverse Mercator";
-  const double f = 1.0 / kWgs84InverseFlattening;
-  d.a = kEarthRadiusMetres;
+  switch (crs.kind) {
+    case detail::BuiltinKind::kGeographic:
+      d.projection = "";
+      break;
+    case detail::BuiltinKind::kTransverseMercator:
+      d.projection = "Transverse Mercator";
+      break;
+    case detail::BuiltinKind::kWebMercator:
+      d.projection = "Popular Visualisation Pseudo Mercator";
+      break;
+  }
+  // The flattening in build_set's arithmetic, from the semi-minor axis as
+  // PROJ derives it, so that both describe the ellipsoid to the last bit.
+  const detail::EllipsoidFacts e = detail::ellipsoid_of(crs.datum);
+  const double b = e.a * (1.0 - 1.0 / e.inverse_flattening);
+  const double f = (e.a - b) / e.a;
+  d.a = e.a;
   d.e2 = f * (2.0 - f);
   d.ellipsoid.emplace(d.a, f);
 }
@@ -471,8 +482,8 @@ Result<std::shared_ptr<const CrsData>> describe(const std::string& definition) {
   }
   auto data = std::make_shared<CrsData>();
   data->definition = definition;
-  if (auto wgs84 = detail::wgs84_crs(definition)) {
-    describe_wgs84(*wgs84, *data);
+  if (auto builtin = detail::builtin_crs(definition)) {
+    describe_builtin(*builtin, *data);
   } else {
     auto set = build_set(definition, data.get());  // outside the lock: a database query
     if (!set.ok()) return set.error();
@@ -571,7 +582,7 @@ double Crs::unit_size() const {
 }
 const std::string& Crs::wkt() const {
   const CrsData& d = *data_;
-  if (d.wgs84)
+  if (d.builtin)
     std::call_once(d.wkt_once, [&d] {
       CrsData full;
       if (build_set(d.definition, &full).ok()) d.wkt = std::move(full.wkt);
@@ -583,9 +594,10 @@ Result<XY> Crs::from_lonlat(LonLat p) const {
   const std::string& name = data_->name;
   if (!std::isfinite(p.lon) || !std::isfinite(p.lat) || std::abs(p.lat) > 90.0)
     return out_of_range(name, "position (" + format_lonlat(p) + ") is not a valid longitude/latitude");
-  if (const auto& wgs84 = data_->wgs84) {
-    if (wgs84->geographic) return XY{p.lon, p.lat};
-    if (auto xy = wgs84->web_mercator ? detail::web_mercator_from_lonlat(p) : detail::utm_from_lonlat(*wgs84, p))
+  if (const auto& builtin = data_->builtin) {
+    if (builtin->geographic()) return XY{p.lon, p.lat};
+    if (auto xy = builtin->kind == detail::BuiltinKind::kWebMercator ? detail::web_mercator_from_lonlat(p)
+                                                                     : detail::tm_from_lonlat(*builtin, p))
       return *xy;
   }
   Lease lease(*data_);
@@ -616,11 +628,11 @@ Result<LonLat> Crs::to_lonlat(XY p) const {
     return out_of_range(d.name, "position (" + format_xy(p) + ") is not finite");
   if (d.geographic && std::abs(p.y * d.unit_size) > 90.0)
     return out_of_range(d.name, "position (" + format_xy(p) + ") has a latitude beyond 90 degrees");
-  if (d.wgs84) {
-    if (d.wgs84->geographic) return LonLat{GeographicLib::Math::AngNormalize(p.x), p.y};
-    if (d.wgs84->web_mercator) {
+  if (d.builtin) {
+    if (d.builtin->geographic()) return LonLat{GeographicLib::Math::AngNormalize(p.x), p.y};
+    if (d.builtin->kind == detail::BuiltinKind::kWebMercator) {
       if (auto ll = detail::web_mercator_to_lonlat(p)) return ll->lonlat;
-    } else if (auto ll = detail::utm_to_lonlat(*d.wgs84, p)) {
+    } else if (auto ll = detail::tm_to_lonlat(*d.builtin, p)) {
       return ll->lonlat;
     }
   }
@@ -662,10 +674,10 @@ GroundScale Crs::ground_scale(XY p) const {
   }
   const GroundScale nominal{d.unit_size, d.unit_size};
   if (!std::isfinite(p.x) || !std::isfinite(p.y)) return nominal;
-  if (d.wgs84 && d.wgs84->web_mercator) {
+  if (d.builtin && d.builtin->kind == detail::BuiltinKind::kWebMercator) {
     if (auto ll = detail::web_mercator_to_lonlat(p)) return ll->scale;
-  } else if (d.wgs84) {  // UTM is conformal: one scale k both ways
-    if (auto ll = detail::utm_to_lonlat(*d.wgs84, p)) return GroundScale{1.0 / ll->k, 1.0 / ll->k};
+  } else if (d.builtin) {  // transverse Mercator is conformal: one scale k both ways
+    if (auto ll = detail::tm_to_lonlat(*d.builtin, p)) return GroundScale{1.0 / ll->k, 1.0 / ll->k};
   }
   Lease lease(d);
   ProjSet* set = lease.get();

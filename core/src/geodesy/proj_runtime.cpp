@@ -3,7 +3,7 @@
 // Horizon does not link libproj. libproj pulls SQLite and libcurl with its
 // TLS and Kerberos stack into every process that links it (28 shared
 // libraries, about 4 ms of each process's start), while most runs never call
-// PROJ: WGS 84, its UTM zones and web Mercator are built in (wgs84_crs.hpp).
+// PROJ: the CRSs of most DEMs are built in (builtin_crs.hpp).
 // So this file defines each PROJ function Horizon calls, with proj.h's own
 // signature, as a forwarder to the same function in the library opened with
 // dlopen on the first call: HORIZON_PROJ_SONAME, the soname of the libproj

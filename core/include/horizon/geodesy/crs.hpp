@@ -51,11 +51,14 @@
 // member function is therefore safe to call from any number of threads at
 // once. Point conversions cost a few microseconds.
 //
-// WGS 84, its UTM zones and web Mercator (EPSG:4326, 32601-32660,
-// 32701-32760, 3857: most DEMs) are described and converted without PROJ's
-// database (opening it costs a process 5-20 ms); PROJ's objects are built
-// for them only for a WKT, an equivalence test or a position far outside
-// the projection's usual range.
+// The CRSs of most DEMs are described and converted without PROJ (loading
+// it and opening its database costs a process 5-55 ms): longitude/latitude
+// and the UTM zones of WGS 84, SIRGAS 2000, ETRS89 and NZGD2000, New
+// Zealand's NZTM 2000 and web Mercator (EPSG:4326, 32601-32660, 32701-32760,
+// 3857, 4674, 31965-31985, 6210, 6211, 5396, 4258, 25828-25837, 4167, 2193,
+// 2133-2135, 5700; core/src/geodesy/builtin_crs.hpp says why those datums).
+// PROJ's objects are built for them only for a WKT, an equivalence test or
+// a position far outside the projection's usual range.
 #pragma once
 
 #include <memory>
