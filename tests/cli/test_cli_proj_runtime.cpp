@@ -1,8 +1,9 @@
 // test_cli_proj_runtime.cpp — PROJ and libgeotiff are opened only when a CRS
 // needs them (core/src/geodesy/proj_runtime.cpp,
 // core/src/terrain/geotiff_runtime.cpp): a DEM in a built-in CRS (WGS 84, a
-// UTM zone of WGS 84 or SIRGAS 2000) is read and its viewshed written
-// without loading either; another CRS loads PROJ; a user-defined CRS loads
+// UTM zone of WGS 84 or SIRGAS 2000, NAD83) is read and its viewshed written
+// without loading either, though NAD83 loads PROJ for a position in WGS 84;
+// another CRS loads PROJ; a user-defined CRS loads
 // libgeotiff too; and a library that cannot be loaded is named in the CRS's
 // error, while built-in CRSs work without it.
 #include <gtest/gtest.h>
@@ -35,18 +36,23 @@ std::string user_defined_crs_dem(const TempDir& dir) {
   return made.exit_code == 0 ? path : std::string();
 }
 
+// A copy of a bundled DEM tagged with another EPSG code.
+std::string retagged_dem(const TempDir& dir, const std::string& bundled, int epsg) {
+  auto dem = terrain::read_dem(bundled_dem(bundled));
+  EXPECT_TRUE(dem.ok());
+  if (!dem.ok()) return {};
+  dem->georef.epsg = epsg;
+  const std::string path = dir.file("epsg" + std::to_string(epsg) + ".tif");
+  const Status written = terrain::write_geotiff(path, dem->elevation, dem->georef, std::nullopt);
+  EXPECT_TRUE(written.ok()) << written.error().message;
+  return written.ok() ? path : std::string();
+}
+
 // The bundled Olinda DEM (SIRGAS 2000 / UTM zone 25S, built in) tagged
 // SAD69 / UTM zone 25S (EPSG:29195), which is not: the same coordinates on
 // a datum PROJ shifts to WGS 84 by a Helmert transformation.
 std::string other_crs_dem(const TempDir& dir) {
-  auto dem = terrain::read_dem(bundled_dem("olinda_coast_utm25s_111x111.tif"));
-  EXPECT_TRUE(dem.ok());
-  if (!dem.ok()) return {};
-  dem->georef.epsg = 29195;
-  const std::string path = dir.file("sad69.tif");
-  const Status written = terrain::write_geotiff(path, dem->elevation, dem->georef, std::nullopt);
-  EXPECT_TRUE(written.ok()) << written.error().message;
-  return written.ok() ? path : std::string();
+  return retagged_dem(dir, "olinda_coast_utm25s_111x111.tif", 29195);
 }
 
 bool loaded(const CommandResult& r, const std::string& soname) {
@@ -73,6 +79,24 @@ TEST(CliProjRuntime, BuiltInCrsLoadsNeitherProjNorGeotiff) {
   }
   EXPECT_TRUE(fs::exists(dir.file("v.tif")));
   EXPECT_TRUE(fs::exists(dir.file("o.tif")));
+}
+
+TEST(CliProjRuntime, Nad83LoadsProjOnlyForWgs84Positions) {
+  // The Rainier crop's longitudes and latitudes tagged NAD83 (EPSG:4269).
+  TempDir dir;
+  const std::string path = retagged_dem(dir, "rainier_summit_srtm3_400x400.tif", 4269);
+  ASSERT_FALSE(path.empty());
+  const std::vector<std::string> viewshed = {"viewshed", path, "--observer", "-121.76,46.85", "-o", dir.file("n.tif")};
+  const auto plain = horizon_with_env("LD_DEBUG", "files", viewshed);
+  ASSERT_EQ(plain.exit_code, 0) << plain.output;
+  ASSERT_TRUE(loaded(plain, "libtiff")) << "LD_DEBUG gave no list:\n" << plain.output;
+  EXPECT_FALSE(loaded(plain, HORIZON_PROJ_SONAME)) << "a NAD83 viewshed loaded PROJ";
+  // --json gives the observer's WGS 84 longitude and latitude: PROJ's datum transformation.
+  std::vector<std::string> json = viewshed;
+  json.push_back("--json");
+  const auto with_json = horizon_with_env("LD_DEBUG", "files", json);
+  ASSERT_EQ(with_json.exit_code, 0) << with_json.output;
+  EXPECT_TRUE(loaded(with_json, HORIZON_PROJ_SONAME)) << with_json.output;
 }
 
 TEST(CliProjRuntime, OtherCrsLoadsProjWhenRead) {

@@ -2,7 +2,9 @@
 // (core/src/geodesy/builtin_crs.hpp). These tests hold that description to
 // PROJ's own: "EPSG:n" takes the built-in path, "epsg:n" (the same CRS
 // spelled so the built-in path does not match it) goes through PROJ, and
-// both must say and compute the same, for every built-in code.
+// both must say and compute the same, for every built-in code. NAD83's go
+// to WGS 84 through PROJ on both paths; their description and ground scale
+// are the built-in path's own.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -33,11 +35,14 @@ std::vector<std::pair<int, double>> transverse_mercator_codes() {
   zones(2133, 58, 60);              // NZGD2000 / UTM zone 58S..60S
   zones(5700, 1, 1);                // NZGD2000 / UTM zone 1S
   codes.emplace_back(2193, 173.0);  // NZGD2000 / New Zealand Transverse Mercator 2000
+  zones(26901, 1, 23);              // NAD83 / UTM zone 1N..23N
+  zones(9712, 24, 24);              // NAD83 / UTM zone 24N
+  zones(3372, 59, 60);              // NAD83 / UTM zone 59N, 60N
   return codes;
 }
 
-// Geographic: WGS 84, SIRGAS 2000, ETRS89, NZGD2000.
-constexpr int kGeographicCodes[] = {4326, 4674, 4258, 4167};
+// Geographic: WGS 84, SIRGAS 2000, ETRS89, NZGD2000, NAD83.
+constexpr int kGeographicCodes[] = {4326, 4674, 4258, 4167, 4269};
 
 std::vector<int> builtin_codes() {
   std::vector<int> codes(std::begin(kGeographicCodes), std::end(kGeographicCodes));
@@ -109,7 +114,7 @@ TEST(CrsBuiltin, TransverseMercatorConvertsAndScalesAsProjDoes) {
   const double lats[] = {-83.0, -60.0, -33.3, -1.0, 0.0, 0.5, 27.9, 47.0, 71.0, 84.0};
   const double offsets[] = {-29.0, -3.0, -0.4, 0.0, 1.7, 3.0, 8.0, 29.0, 31.0, 45.0};
   const auto codes = transverse_mercator_codes();
-  ASSERT_EQ(codes.size(), 120u + 24u + 10u + 5u);
+  ASSERT_EQ(codes.size(), 120u + 24u + 10u + 5u + 26u);
   int compared = 0;
   for (const auto& [epsg, lon0] : codes) {
     const Pair p = pair_of(epsg);
@@ -126,7 +131,7 @@ TEST(CrsBuiltin, TransverseMercatorConvertsAndScalesAsProjDoes) {
   EXPECT_GT(compared, static_cast<int>(codes.size()) * 80);  // nearly every position converts
 }
 
-void expect_geographic_identity(const Pair& p) {
+void expect_geographic_as_proj(const Pair& p) {
   for (const LonLat ll : {LonLat{-121.76, 46.853}, LonLat{179.999, -89.0}, LonLat{-180.0, 0.0}}) {
     const auto a = p.builtin.from_lonlat(ll);
     const auto b = p.proj.from_lonlat(ll);
@@ -149,19 +154,35 @@ void expect_geographic_identity(const Pair& p) {
   EXPECT_FALSE(p.builtin.to_lonlat({0.0, 91.0}).ok());
 }
 
-TEST(CrsBuiltin, GeographicIsTheIdentityAsInProj) {
+TEST(CrsBuiltin, GeographicConvertsAndScalesAsProjDoes) {
   // On each datum: PROJ takes SIRGAS 2000, ETRS89 and NZGD2000 to WGS 84 by
-  // a null transformation, and their ground scale is GRS 1980's.
+  // a null transformation (the identity), NAD83 by one it picks by place;
+  // the ground scale of all four is GRS 1980's.
   for (const int epsg : kGeographicCodes) {
     SCOPED_TRACE(epsg);
-    expect_geographic_identity(pair_of(epsg));
+    expect_geographic_as_proj(pair_of(epsg));
   }
+}
+
+TEST(CrsBuiltin, Nad83GoesToWgs84AsProjPicksByPlace) {
+  // In Hawaii PROJ picks "NAD83 to WGS 84 (3)", a Helmert shift of ~0.5 m
+  // (Indiana's "(1)" is null): the built-in description must not take the
+  // numbers over unchanged.
+  const Pair p = pair_of(4269);
+  const LonLat honolulu{-157.8, 21.3};
+  const auto a = p.builtin.from_lonlat(honolulu);
+  const auto b = p.proj.from_lonlat(honolulu);
+  ASSERT_TRUE(a.ok());
+  ASSERT_TRUE(b.ok());
+  EXPECT_EQ(a->x, b->x);
+  EXPECT_EQ(a->y, b->y);
+  EXPECT_GT(std::abs(a->x - honolulu.lon) + std::abs(a->y - honolulu.lat), 1e-6);
 }
 
 TEST(CrsBuiltin, RefusesWhatProjRefuses) {
   // 89 degrees from the central meridian, a pole, a NaN; far beyond the false easting.
-  for (const auto& [epsg, lon0] :
-       {std::pair{32633, 15.0}, std::pair{31985, -33.0}, std::pair{25832, 9.0}, std::pair{2193, 173.0}}) {
+  for (const auto& [epsg, lon0] : {std::pair{32633, 15.0}, std::pair{26915, -93.0}, std::pair{31985, -33.0},
+                                   std::pair{25832, 9.0}, std::pair{2193, 173.0}}) {
     SCOPED_TRACE(epsg);
     const Pair p = pair_of(epsg);
     for (const LonLat bad : {LonLat{lon0 + 89.0, 10.0}, LonLat{0.0, 90.5}, LonLat{std::nan(""), 0.0}}) {

@@ -45,52 +45,39 @@ BuiltinCrs utm(int epsg, BuiltinDatum datum, int zone, bool south) {
                     .false_northing = south ? kUtmFalseNorthingSouth : 0.0};
 }
 
-BuiltinCrs geographic(int epsg, BuiltinDatum datum) {
-  return BuiltinCrs{.epsg = epsg, .datum = datum};
-}
-
-// The UTM zone of a code in [first, first + count): zone first_zone onward.
-std::optional<BuiltinCrs> utm_in(int code, int first, int count, int first_zone, BuiltinDatum datum, bool south) {
-  if (code < first || code >= first + count) return std::nullopt;
-  return utm(code, datum, first_zone + (code - first), south);
-}
+// Runs of consecutive codes: geographic (zone 0) or UTM zones from first_zone on.
+struct CodeRun {
+  int first_code, count;
+  BuiltinDatum datum;
+  int first_zone;
+  bool south;
+};
+constexpr CodeRun kCodeRuns[] = {
+    {4326, 1, BuiltinDatum::kWgs84, 0, false},         {32601, 60, BuiltinDatum::kWgs84, 1, false},
+    {32701, 60, BuiltinDatum::kWgs84, 1, true},        {4674, 1, BuiltinDatum::kSirgas2000, 0, false},
+    {31965, 12, BuiltinDatum::kSirgas2000, 11, false}, {6210, 2, BuiltinDatum::kSirgas2000, 23, false},
+    {31977, 9, BuiltinDatum::kSirgas2000, 17, true},   {5396, 1, BuiltinDatum::kSirgas2000, 26, true},
+    {4258, 1, BuiltinDatum::kEtrs89, 0, false},        {25828, 10, BuiltinDatum::kEtrs89, 28, false},
+    {4167, 1, BuiltinDatum::kNzgd2000, 0, false},      {2133, 3, BuiltinDatum::kNzgd2000, 58, true},
+    {5700, 1, BuiltinDatum::kNzgd2000, 1, true},       {4269, 1, BuiltinDatum::kNad83, 0, false},
+    {26901, 23, BuiltinDatum::kNad83, 1, false},       {9712, 1, BuiltinDatum::kNad83, 24, false},
+    {3372, 2, BuiltinDatum::kNad83, 59, false},
+};
 
 std::optional<BuiltinCrs> builtin_code(int code) {
-  using enum BuiltinDatum;
-  switch (code) {
-    case 4326:
-      return geographic(code, kWgs84);
-    case 4674:
-      return geographic(code, kSirgas2000);
-    case 4258:
-      return geographic(code, kEtrs89);
-    case 4167:
-      return geographic(code, kNzgd2000);
-    case 3857:
-      return BuiltinCrs{.epsg = code, .kind = BuiltinKind::kWebMercator};
-    case 6210:
-      return utm(code, kSirgas2000, 23, false);
-    case 6211:
-      return utm(code, kSirgas2000, 24, false);
-    case 5396:
-      return utm(code, kSirgas2000, 26, true);
-    case 5700:
-      return utm(code, kNzgd2000, 1, true);
-    case kNztmCode:
-      return BuiltinCrs{.epsg = code,
-                        .datum = kNzgd2000,
-                        .kind = BuiltinKind::kTransverseMercator,
-                        .lon0 = 173.0,
-                        .false_easting = 1600000.0,
-                        .false_northing = 10000000.0};
-    default:
-      break;
+  if (code == 3857) return BuiltinCrs{.epsg = code, .kind = BuiltinKind::kWebMercator};
+  if (code == kNztmCode)
+    return BuiltinCrs{.epsg = code,
+                      .datum = BuiltinDatum::kNzgd2000,
+                      .kind = BuiltinKind::kTransverseMercator,
+                      .lon0 = 173.0,
+                      .false_easting = 1600000.0,
+                      .false_northing = 10000000.0};
+  for (const CodeRun& run : kCodeRuns) {
+    if (code < run.first_code || code >= run.first_code + run.count) continue;
+    if (run.first_zone == 0) return BuiltinCrs{.epsg = code, .datum = run.datum};
+    return utm(code, run.datum, run.first_zone + (code - run.first_code), run.south);
   }
-  for (const auto& found :
-       {utm_in(code, 32601, 60, 1, kWgs84, false), utm_in(code, 32701, 60, 1, kWgs84, true),
-        utm_in(code, 31965, 12, 11, kSirgas2000, false), utm_in(code, 31977, 9, 17, kSirgas2000, true),
-        utm_in(code, 25828, 10, 28, kEtrs89, false), utm_in(code, 2133, 3, 58, kNzgd2000, true)})
-    if (found) return found;
   return std::nullopt;
 }
 
@@ -102,6 +89,8 @@ const char* datum_name(BuiltinDatum datum) {
       return "ETRS89";
     case BuiltinDatum::kNzgd2000:
       return "NZGD2000";
+    case BuiltinDatum::kNad83:
+      return "NAD83";
     case BuiltinDatum::kWgs84:
       break;
   }

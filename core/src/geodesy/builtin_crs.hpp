@@ -4,13 +4,13 @@
 // every SRTM and Copernicus tile), a WGS 84 / UTM zone (EPSG:32601-32660
 // north, 32701-32760 south), web Mercator (EPSG:3857, web map tiles), or
 // longitude/latitude, a UTM zone or New Zealand's transverse Mercator on a
-// national datum of the GRS 1980 ellipsoid that EPSG ties to WGS 84 by a
-// null transformation (below). PROJ describes those through its SQLite
-// database: loading libproj and its libraries, then opening proj.db and
-// searching it, costs a process 5-55 ms (the most where page faults are
-// dear, as in some VMs): as much as the whole viewshed of a million-cell DEM. Crs (crs.cpp) therefore describes these
-// CRSs from the facts here and builds PROJ's objects for them only when a caller needs one (a WKT, an equivalence test,
-// a position outside the range below).
+// national datum of the GRS 1980 ellipsoid (below). PROJ describes those
+// through its SQLite database: loading libproj and its libraries, then
+// opening proj.db and searching it, costs a process 5-55 ms (the most where
+// page faults are dear, as in some VMs), as much as the whole viewshed of a
+// million-cell DEM. Crs (crs.cpp) therefore describes these CRSs from the
+// facts here and builds PROJ's objects for them only when a caller needs
+// one (a WKT, an equivalence test, a position outside the range below).
 //
 // The facts are PROJ's own for these codes (names, units, method, the
 // ellipsoid); tests/geodesy/test_crs_builtin.cpp compares them, and every
@@ -23,8 +23,12 @@
 // EPSG:1149) and NZGD2000 (New Zealand; EPSG:1565). PROJ applies those as
 // the identity on longitude and latitude, so a WGS 84 position has the same
 // numbers on these datums, and only the projection's ellipsoid differs.
-// NAD83 is not built in: EPSG has dozens of transformations from it to WGS
-// 84, and PROJ picks among them by place.
+// NAD83 (North America, GRS 1980) is described here but not converted: EPSG
+// has dozens of transformations from it to WGS 84 and PROJ picks among them
+// by place, so its positions go to and from WGS 84 through PROJ, built when
+// a position is first converted. A viewshed given its observer in the
+// DEM's own coordinates needs none: the facts and the ground scale (the
+// projection's alone, which no datum shift changes) are enough.
 //
 // Conversions: GeographicLib's transverse Mercator (Krüger's series to
 // order 6, scale 0.9996 on the central meridian for UTM and NZTM alike),
@@ -49,7 +53,13 @@
 
 namespace horizon::geodesy::detail {
 
-enum class BuiltinDatum { kWgs84, kSirgas2000, kEtrs89, kNzgd2000 };
+enum class BuiltinDatum { kWgs84, kSirgas2000, kEtrs89, kNzgd2000, kNad83 };
+
+// Whether a WGS 84 longitude/latitude has the same numbers on the datum
+// (PROJ's transformation is the identity): all but NAD83.
+inline bool identity_to_wgs84(BuiltinDatum datum) {
+  return datum != BuiltinDatum::kNad83;
+}
 
 enum class BuiltinKind { kGeographic, kTransverseMercator, kWebMercator };
 

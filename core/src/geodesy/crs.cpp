@@ -594,7 +594,7 @@ Result<XY> Crs::from_lonlat(LonLat p) const {
   const std::string& name = data_->name;
   if (!std::isfinite(p.lon) || !std::isfinite(p.lat) || std::abs(p.lat) > 90.0)
     return out_of_range(name, "position (" + format_lonlat(p) + ") is not a valid longitude/latitude");
-  if (const auto& builtin = data_->builtin) {
+  if (const auto& builtin = data_->builtin; builtin && detail::identity_to_wgs84(builtin->datum)) {
     if (builtin->geographic()) return XY{p.lon, p.lat};
     if (auto xy = builtin->kind == detail::BuiltinKind::kWebMercator ? detail::web_mercator_from_lonlat(p)
                                                                      : detail::tm_from_lonlat(*builtin, p))
@@ -628,7 +628,7 @@ Result<LonLat> Crs::to_lonlat(XY p) const {
     return out_of_range(d.name, "position (" + format_xy(p) + ") is not finite");
   if (d.geographic && std::abs(p.y * d.unit_size) > 90.0)
     return out_of_range(d.name, "position (" + format_xy(p) + ") has a latitude beyond 90 degrees");
-  if (d.builtin) {
+  if (d.builtin && detail::identity_to_wgs84(d.builtin->datum)) {
     if (d.builtin->geographic()) return LonLat{GeographicLib::Math::AngNormalize(p.x), p.y};
     if (d.builtin->kind == detail::BuiltinKind::kWebMercator) {
       if (auto ll = detail::web_mercator_to_lonlat(p)) return ll->lonlat;

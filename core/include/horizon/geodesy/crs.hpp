@@ -57,8 +57,10 @@
 // Zealand's NZTM 2000 and web Mercator (EPSG:4326, 32601-32660, 32701-32760,
 // 3857, 4674, 31965-31985, 6210, 6211, 5396, 4258, 25828-25837, 4167, 2193,
 // 2133-2135, 5700; core/src/geodesy/builtin_crs.hpp says why those datums).
-// PROJ's objects are built for them only for a WKT, an equivalence test or
-// a position far outside the projection's usual range.
+// NAD83's (4269, 26901-26923, 9712, 3372, 3373) are described without PROJ,
+// and go to and from WGS 84 through it. PROJ's objects are built for them
+// only for a WKT, an equivalence test, a position far outside the
+// projection's usual range or (NAD83) a conversion to or from WGS 84.
 #pragma once
 
 #include <memory>
