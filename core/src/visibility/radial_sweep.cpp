@@ -112,7 +112,9 @@ inline int floor_div(int a, int b) {
   return a >= 0 ? a / b : -((-a + b - 1) / b);
 }
 
-SectorPlan plan_sector(const Sector& s, const SweepConstants& c, double ray_spacing, int thinning_levels) {
+// `lines` is the geometry `s` was made from (sweep_sectors).
+SectorPlan plan_sector(const Sector& s, const sweep::SectorLines& lines, const SweepConstants& c, double ray_spacing,
+                       int thinning_levels) {
   SectorPlan p;
   const double k_far = step_of(s, s.lines - 1);
   // A multiple of 2^levels / 2, so that every task's first and last ray
@@ -129,7 +131,6 @@ SectorPlan plan_sector(const Sector& s, const SweepConstants& c, double ray_spac
   p.cell_hi.assign(s.lines, -1);
   p.ray_lo.assign(s.lines, 0);
   p.ray_hi.assign(s.lines, -1);
-  const sweep::SectorLines lines = sweep::sector_lines(*c.frame, sweep::SectorAxis{s.rows, s.dir});
   for (int n = 0; n < s.lines; ++n) {
     const double k = step_of(s, n);
     // Sector wedge: |j - v_eye| <= k (or < k), inside the window along v.
@@ -600,6 +601,7 @@ Status sweep_sectors(const terrain::HeightView& z, const ViewFrame& f, const Rad
   // The four sectors. North/south step rows (v = column, contiguous); east/west
   // step columns (v = row, stride = pitch).
   std::vector<Sector> sectors;
+  std::vector<sweep::SectorLines> geometry;  // each sector's, for its plan
   for (const sweep::SectorAxis axis : sweep::kSectorOrder) {
     const sweep::SectorLines g = sweep::sector_lines(f, axis);  // lines, k0 and eye_v (sweep_geometry.hpp)
     if (g.lines <= 0) continue;
@@ -636,6 +638,7 @@ Status sweep_sectors(const terrain::HeightView& z, const ViewFrame& f, const Rad
     s.out_v0 -= s.v_offset;
     s.v_count -= s.v_offset;
     sectors.push_back(s);
+    geometry.push_back(g);
   }
 
   std::vector<SectorPlan> plans;
@@ -647,7 +650,7 @@ Status sweep_sectors(const terrain::HeightView& z, const ViewFrame& f, const Rad
     // A sector's tables take time in proportion to its rays (plan.hpp bounds
     // them): a cancel or a deadline is heard between sectors, too.
     HORIZON_RETURN_IF_ERROR(check_control(control));
-    plans.push_back(plan_sector(sectors[si], c, options.ray_spacing, options.thinning_levels));
+    plans.push_back(plan_sector(sectors[si], geometry[si], c, options.ray_spacing, options.thinning_levels));
     const int half = plans.back().rays.half;
     for (int ra = -half; ra < half; ra += kRaysPerTask)
       tasks.push_back({static_cast<int>(si), ra, std::min(ra + kRaysPerTask, half)});
