@@ -379,7 +379,9 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
     //    (max(kp, 0), k), if any (|m| <= 1: at most one), and where its
     //    horizon lies with it (`code`). The re-sampling blend needs nothing
     //    else from the rays, so step 3 is done here in the same pass.
-    const LineStep ls{eye, eye_lo, eye_v, v_min, v_max, kf, kp, std::max(kp, 0.0f), j_max, zv, s.fill};
+    const LineStep ls{eye,   eye_lo, eye_v,  v_min,
+                      v_max, kf,     kp,     std::max(kp, 0.0f),
+                      j_max, zv,     s.fill, s.z_v == 1 ? s.v_count - 1 : -1};
     if (lo <= hi) {
       const int prev_line = std::clamp(line - s.dir, 0, s.line_count - 1);
       const float* prev = s.z + prev_line * s.z_line;

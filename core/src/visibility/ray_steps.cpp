@@ -100,22 +100,48 @@ namespace {
 
 // The AVX2 forms: eight rays per iteration, lane for lane the scalar loops'
 // operations (simd.hpp gives std::min / std::max's exact NaN and tie
-// behaviour); the last, partial group runs through the scalar loop.
+// behaviour); the last, partial group runs through the scalar loop. Each
+// kernel first finds where its group reads (cross_at8, line_at8), then reads
+// (Reads8: one run of each line, or gathers), then computes the slopes.
 struct Step8 {
   __m256 eye_v, k_start, kf, inv_kf, v_min, v_max, kp, eye, eye_lo, fill;
   __m256i zv, j_max;
+  int run_last;
 };
 
 HORIZON_AVX2 inline Step8 step8(const LineStep& ls) {
   using namespace simd;
   const float inv_kf = 1.0f / ls.kf;
-  return {f8(ls.eye_v), f8(ls.k_start), f8(ls.kf),     f8(inv_kf),  f8(ls.v_min), f8(ls.v_max),
-          f8(ls.kp),    f8(ls.eye),     f8(ls.eye_lo), f8(ls.fill), i8(ls.zv),    i8(ls.j_max)};
+  return {f8(ls.eye_v), f8(ls.k_start), f8(ls.kf),   f8(inv_kf), f8(ls.v_min), f8(ls.v_max), f8(ls.kp),
+          f8(ls.eye),   f8(ls.eye_lo),  f8(ls.fill), i8(ls.zv),  i8(ls.j_max), ls.run_last};
 }
 
-struct Cross8 {
-  __m256 slope;
-  __m256i v;
+// A group's terrain reads. Where v is contiguous (LineStep::run_last) and
+// every v position the group reads, [lowest, highest] lane by lane, lies in
+// one run of sixteen inside the line, a line is two plain loads and each lane
+// picks its element by permute; otherwise each read is a hardware gather.
+// The bits are the same; the run saves the gathers' cost (rays one cell
+// apart or closer put eight rays' reads within about ten cells).
+class Reads8 {
+ public:
+  HORIZON_AVX2 Reads8(const Step8& s, __m256i lowest, __m256i highest) : zv_(s.zv) {
+    if (s.run_last < 0) return;
+    const int base = simd::lowest8(lowest);
+    if (base < 0 || base + 15 > s.run_last) return;
+    const __m256i beyond = _mm256_cmpgt_epi32(highest, simd::i8(base + 15));
+    if (!_mm256_testz_si256(beyond, beyond)) return;
+    base_ = base;
+  }
+
+  // line[v * zv] for each lane's v.
+  HORIZON_AVX2 __m256 at(const float* line, __m256i v) const {
+    if (base_ < 0) return _mm256_i32gather_ps(line, _mm256_mullo_epi32(v, zv_), 4);
+    return simd::pick8(simd::load_run8(line + base_), _mm256_sub_epi32(v, simd::i8(base_)));
+  }
+
+ private:
+  __m256i zv_;
+  int base_ = -1;
 };
 
 // Heights as the view's void policy reads them: the fill applied only when
@@ -126,9 +152,13 @@ HORIZON_AVX2 inline __m256 heights8(__m256 v, __m256 fill) {
   return v;
 }
 
-template <bool kFill>
-HORIZON_AVX2 inline Cross8 cross8(const Step8& s, __m256 m, __m256 inv_m, __m256 curv_k, const float* prev,
-                                  const float* cur) {
+// Where a group's v-line crossings lie (cross_one's geometry).
+struct CrossAt8 {
+  __m256 kc, tc, valid;
+  __m256i jc;
+};
+
+HORIZON_AVX2 inline CrossAt8 cross_at8(const Step8& s, __m256 m, __m256 inv_m) {
   using namespace simd;
   const __m256 zero = _mm256_setzero_ps(), one = f8(1.0f);
   const __m256 v_start = _mm256_add_ps(s.eye_v, _mm256_mul_ps(m, s.k_start));
@@ -143,28 +173,47 @@ HORIZON_AVX2 inline Cross8 cross8(const Step8& s, __m256 m, __m256 inv_m, __m256
   const __m256 valid = _mm256_and_ps(
       crosses, _mm256_and_ps(_mm256_cmp_ps(cv, s.v_min, _CMP_GE_OQ), _mm256_cmp_ps(cv, s.v_max, _CMP_LE_OQ)));
   const __m256 cv_clamped = min_of(max_of(cv, s.v_min), s.v_max);
-  const __m256i jc = _mm256_cvttps_epi32(cv_clamped);
   const __m256 kc = max_of(_mm256_mul_ps(_mm256_sub_ps(cv_clamped, s.eye_v), inv_m), f8(1.0e-6f));
-  const __m256 tc = _mm256_sub_ps(kc, s.kp);
-  const __m256i at = _mm256_mullo_epi32(jc, s.zv);
-  const __m256 pa = heights8<kFill>(_mm256_i32gather_ps(prev, at, 4), s.fill);
-  const __m256 pb = heights8<kFill>(_mm256_i32gather_ps(cur, at, 4), s.fill);
-  const __m256 s_cross =
-      _mm256_sub_ps(_mm256_div_ps(eye_relative8(pa, pb, tc, s.eye, s.eye_lo), kc), _mm256_mul_ps(curv_k, kc));
-  return {min_of(s_cross, _mm256_blendv_ps(f8(kNoHorizon), f8(3.0e38f), valid)),
-          _mm256_blendv_epi8(i8(-1), jc, _mm256_castps_si256(valid))};
+  return {kc, _mm256_sub_ps(kc, s.kp), valid, _mm256_cvttps_epi32(cv_clamped)};
 }
 
+struct Cross8 {
+  __m256 slope;
+  __m256i v;
+};
+
+// The crossings' slopes from the heights read at them on lines n-1 (pa) and n (pb).
 template <bool kFill>
-HORIZON_AVX2 inline __m256 line8(const Step8& s, __m256 m, __m256 curv_k, const float* cur) {
+HORIZON_AVX2 inline Cross8 cross8(const Step8& s, const CrossAt8& x, __m256 pa, __m256 pb, __m256 curv_k) {
+  using namespace simd;
+  pa = heights8<kFill>(pa, s.fill);
+  pb = heights8<kFill>(pb, s.fill);
+  const __m256 s_cross =
+      _mm256_sub_ps(_mm256_div_ps(eye_relative8(pa, pb, x.tc, s.eye, s.eye_lo), x.kc), _mm256_mul_ps(curv_k, x.kc));
+  return {min_of(s_cross, _mm256_blendv_ps(f8(kNoHorizon), f8(3.0e38f), x.valid)),
+          _mm256_blendv_epi8(i8(-1), x.jc, _mm256_castps_si256(x.valid))};
+}
+
+// Where a group crosses line n: the bracket's first v index and the fraction past it.
+struct LineAt8 {
+  __m256 t;
+  __m256i j0;
+};
+
+HORIZON_AVX2 inline LineAt8 line_at8(const Step8& s, __m256 m) {
   using namespace simd;
   const __m256 v = min_of(max_of(_mm256_add_ps(s.eye_v, _mm256_mul_ps(m, s.kf)), s.v_min), s.v_max);
   const __m256i j0 = mini_of(_mm256_cvttps_epi32(v), s.j_max);
-  const __m256 t = _mm256_sub_ps(v, _mm256_cvtepi32_ps(j0));
-  const __m256i at = _mm256_mullo_epi32(j0, s.zv);
-  const __m256 a = heights8<kFill>(_mm256_i32gather_ps(cur, at, 4), s.fill);
-  const __m256 b = heights8<kFill>(_mm256_i32gather_ps(cur, _mm256_add_epi32(at, s.zv), 4), s.fill);
-  return _mm256_sub_ps(_mm256_mul_ps(eye_relative8(a, b, t, s.eye, s.eye_lo), s.inv_kf), _mm256_mul_ps(curv_k, s.kf));
+  return {_mm256_sub_ps(v, _mm256_cvtepi32_ps(j0)), j0};
+}
+
+// The slopes where a group crosses line n, from the bracket's heights a and b.
+template <bool kFill>
+HORIZON_AVX2 inline __m256 line8(const Step8& s, const LineAt8& l, __m256 a, __m256 b, __m256 curv_k) {
+  a = heights8<kFill>(a, s.fill);
+  b = heights8<kFill>(b, s.fill);
+  return _mm256_sub_ps(_mm256_mul_ps(simd::eye_relative8(a, b, l.t, s.eye, s.eye_lo), s.inv_kf),
+                       _mm256_mul_ps(curv_k, s.kf));
 }
 
 // The code a crossing leaves: its v line when it beats the maximum, else `arg`.
@@ -197,8 +246,9 @@ HORIZON_AVX2 int step_cross_avx2(const LineStep& ls, int count, const float* slo
   const Step8 s = step8(ls);
   int i = 0;
   for (; i + 8 <= count; i += 8) {
-    const Cross8 c = cross8<kFill>(s, _mm256_loadu_ps(slope + i), _mm256_loadu_ps(inv_slope + i),
-                                   _mm256_loadu_ps(curv_k + i), prev, cur);
+    const CrossAt8 x = cross_at8(s, _mm256_loadu_ps(slope + i), _mm256_loadu_ps(inv_slope + i));
+    const Reads8 read(s, x.jc, x.jc);
+    const Cross8 c = cross8<kFill>(s, x, read.at(prev, x.jc), read.at(cur, x.jc), _mm256_loadu_ps(curv_k + i));
     _mm256_storeu_ps(cross_slope + i, c.slope);
     store8(cross_v + i, c.v);
     store8(code + i, code8(c, _mm256_loadu_ps(h + i), load8(arg + i)));
@@ -211,10 +261,13 @@ HORIZON_AVX2 int step_line_avx2(const LineStep& ls, int count, const float* slop
                                 const float* cur, const float* cross_slope, const int* cross_v, float* h, int* arg,
                                 int n) {
   const Step8 s = step8(ls);
-  const __m256i line = simd::i8(n);
+  const __m256i line = simd::i8(n), one = simd::i8(1);
   int i = 0;
   for (; i + 8 <= count; i += 8) {
-    const __m256 s_line = line8<kFill>(s, _mm256_loadu_ps(slope + i), _mm256_loadu_ps(curv_k + i), cur);
+    const LineAt8 l = line_at8(s, _mm256_loadu_ps(slope + i));
+    const __m256i j1 = _mm256_add_epi32(l.j0, one);
+    const Reads8 read(s, l.j0, j1);
+    const __m256 s_line = line8<kFill>(s, l, read.at(cur, l.j0), read.at(cur, j1), _mm256_loadu_ps(curv_k + i));
     __m256 best = _mm256_loadu_ps(h + i);
     __m256i where = load8(arg + i);
     fold8(best, where, _mm256_loadu_ps(cross_slope + i), load8(cross_v + i), s_line, line);
@@ -229,15 +282,19 @@ HORIZON_AVX2 int step_rays_avx2(const LineStep& ls, int count, const float* slop
                                 const float* curv_k, const float* prev, const float* cur, float* h, int* arg, int* code,
                                 int n) {
   const Step8 s = step8(ls);
-  const __m256i line = simd::i8(n);
+  const __m256i line = simd::i8(n), one = simd::i8(1);
   int i = 0;
   for (; i + 8 <= count; i += 8) {
     const __m256 m = _mm256_loadu_ps(slope + i), ck = _mm256_loadu_ps(curv_k + i);
-    const Cross8 c = cross8<kFill>(s, m, _mm256_loadu_ps(inv_slope + i), ck, prev, cur);
+    const CrossAt8 x = cross_at8(s, m, _mm256_loadu_ps(inv_slope + i));
+    const LineAt8 l = line_at8(s, m);
+    const __m256i j1 = _mm256_add_epi32(l.j0, one);
+    const Reads8 read(s, simd::mini_of(x.jc, l.j0), simd::maxi_of(x.jc, j1));
+    const Cross8 c = cross8<kFill>(s, x, read.at(prev, x.jc), read.at(cur, x.jc), ck);
     __m256 best = _mm256_loadu_ps(h + i);
     __m256i where = load8(arg + i);
     store8(code + i, code8(c, best, where));
-    fold8(best, where, c.slope, c.v, line8<kFill>(s, m, ck, cur), line);
+    fold8(best, where, c.slope, c.v, line8<kFill>(s, l, read.at(cur, l.j0), read.at(cur, j1), ck), line);
     _mm256_storeu_ps(h + i, best);
     store8(arg + i, where);
   }
@@ -250,14 +307,39 @@ HORIZON_AVX2 int step_rays_avx2(const LineStep& ls, int count, const float* slop
 struct Step16 {
   __m512 eye_v, k_start, kf, inv_kf, v_min, v_max, kp, eye, eye_lo, fill;
   __m512i zv, j_max;
+  int run_last;
 };
 
 HORIZON_AVX512 inline Step16 step16(const LineStep& ls) {
   using namespace simd;
   const float inv_kf = 1.0f / ls.kf;
-  return {f16(ls.eye_v), f16(ls.k_start), f16(ls.kf),     f16(inv_kf),  f16(ls.v_min), f16(ls.v_max),
-          f16(ls.kp),    f16(ls.eye),     f16(ls.eye_lo), f16(ls.fill), i16(ls.zv),    i16(ls.j_max)};
+  return {f16(ls.eye_v), f16(ls.k_start), f16(ls.kf),   f16(inv_kf), f16(ls.v_min), f16(ls.v_max), f16(ls.kp),
+          f16(ls.eye),   f16(ls.eye_lo),  f16(ls.fill), i16(ls.zv),  i16(ls.j_max), ls.run_last};
 }
+
+// Reads8 for sixteen lanes, of which `in` hold rays: a run is thirty-two
+// positions (two loads of a line), picked by one two-register permute.
+class Reads16 {
+ public:
+  HORIZON_AVX512 Reads16(const Step16& s, __mmask16 in, __m512i lowest, __m512i highest) : zv_(s.zv), in_(in) {
+    if (s.run_last < 0 || in == 0) return;
+    const int base = _mm512_mask_reduce_min_epi32(in, lowest);
+    if (base < 0 || base + 31 > s.run_last) return;
+    if (_mm512_mask_cmpgt_epi32_mask(in, highest, simd::i16(base + 31)) != 0) return;
+    base_ = base;
+  }
+
+  // line[v * zv] for each lane's v (0 in absent lanes when gathered).
+  HORIZON_AVX512 __m512 at(const float* line, __m512i v) const {
+    if (base_ < 0) return simd::gather_masked(line, _mm512_mullo_epi32(v, zv_), in_);
+    return simd::pick16(simd::load_run16(line + base_), _mm512_sub_epi32(v, simd::i16(base_)));
+  }
+
+ private:
+  __m512i zv_;
+  __mmask16 in_;
+  int base_ = -1;
+};
 
 struct Cross16 {
   __m512 slope;
@@ -270,9 +352,13 @@ HORIZON_AVX512 inline __m512 heights16(__m512 v, __m512 fill) {
   return v;
 }
 
-template <bool kFill>
-HORIZON_AVX512 inline Cross16 cross16(const Step16& s, __mmask16 in, __m512 m, __m512 inv_m, __m512 curv_k,
-                                      const float* prev, const float* cur) {
+struct CrossAt16 {
+  __m512 kc, tc;
+  __mmask16 valid;
+  __m512i jc;
+};
+
+HORIZON_AVX512 inline CrossAt16 cross_at16(const Step16& s, __m512 m, __m512 inv_m) {
   using namespace simd;
   const __m512 zero = _mm512_setzero_ps(), one = f16(1.0f);
   const __m512 v_start = _mm512_add_ps(s.eye_v, _mm512_mul_ps(m, s.k_start));
@@ -286,28 +372,39 @@ HORIZON_AVX512 inline Cross16 cross16(const Step16& s, __mmask16 in, __m512 m, _
   const __mmask16 valid =
       crosses & _mm512_cmp_ps_mask(cv, s.v_min, _CMP_GE_OQ) & _mm512_cmp_ps_mask(cv, s.v_max, _CMP_LE_OQ);
   const __m512 cv_clamped = min_of(max_of(cv, s.v_min), s.v_max);
-  const __m512i jc = _mm512_cvttps_epi32(cv_clamped);
   const __m512 kc = max_of(_mm512_mul_ps(_mm512_sub_ps(cv_clamped, s.eye_v), inv_m), f16(1.0e-6f));
-  const __m512 tc = _mm512_sub_ps(kc, s.kp);
-  const __m512i at = _mm512_mullo_epi32(jc, s.zv);
-  const __m512 pa = heights16<kFill>(gather_masked(prev, at, in), s.fill);
-  const __m512 pb = heights16<kFill>(gather_masked(cur, at, in), s.fill);
-  const __m512 s_cross =
-      _mm512_sub_ps(_mm512_div_ps(eye_relative16(pa, pb, tc, s.eye, s.eye_lo), kc), _mm512_mul_ps(curv_k, kc));
-  return {min_of(s_cross, _mm512_mask_blend_ps(valid, f16(kNoHorizon), f16(3.0e38f))),
-          _mm512_mask_blend_epi32(valid, i16(-1), jc)};
+  return {kc, _mm512_sub_ps(kc, s.kp), valid, _mm512_cvttps_epi32(cv_clamped)};
 }
 
 template <bool kFill>
-HORIZON_AVX512 inline __m512 line16(const Step16& s, __mmask16 in, __m512 m, __m512 curv_k, const float* cur) {
+HORIZON_AVX512 inline Cross16 cross16(const Step16& s, const CrossAt16& x, __m512 pa, __m512 pb, __m512 curv_k) {
+  using namespace simd;
+  pa = heights16<kFill>(pa, s.fill);
+  pb = heights16<kFill>(pb, s.fill);
+  const __m512 s_cross =
+      _mm512_sub_ps(_mm512_div_ps(eye_relative16(pa, pb, x.tc, s.eye, s.eye_lo), x.kc), _mm512_mul_ps(curv_k, x.kc));
+  return {min_of(s_cross, _mm512_mask_blend_ps(x.valid, f16(kNoHorizon), f16(3.0e38f))),
+          _mm512_mask_blend_epi32(x.valid, i16(-1), x.jc)};
+}
+
+struct LineAt16 {
+  __m512 t;
+  __m512i j0;
+};
+
+HORIZON_AVX512 inline LineAt16 line_at16(const Step16& s, __m512 m) {
   using namespace simd;
   const __m512 v = min_of(max_of(_mm512_add_ps(s.eye_v, _mm512_mul_ps(m, s.kf)), s.v_min), s.v_max);
   const __m512i j0 = mini_of(_mm512_cvttps_epi32(v), s.j_max);
-  const __m512 t = _mm512_sub_ps(v, _mm512_cvtepi32_ps(j0));
-  const __m512i at = _mm512_mullo_epi32(j0, s.zv);
-  const __m512 a = heights16<kFill>(gather_masked(cur, at, in), s.fill);
-  const __m512 b = heights16<kFill>(gather_masked(cur, _mm512_add_epi32(at, s.zv), in), s.fill);
-  return _mm512_sub_ps(_mm512_mul_ps(eye_relative16(a, b, t, s.eye, s.eye_lo), s.inv_kf), _mm512_mul_ps(curv_k, s.kf));
+  return {_mm512_sub_ps(v, _mm512_cvtepi32_ps(j0)), j0};
+}
+
+template <bool kFill>
+HORIZON_AVX512 inline __m512 line16(const Step16& s, const LineAt16& l, __m512 a, __m512 b, __m512 curv_k) {
+  a = heights16<kFill>(a, s.fill);
+  b = heights16<kFill>(b, s.fill);
+  return _mm512_sub_ps(_mm512_mul_ps(simd::eye_relative16(a, b, l.t, s.eye, s.eye_lo), s.inv_kf),
+                       _mm512_mul_ps(curv_k, s.kf));
 }
 
 HORIZON_AVX512 inline __m512i code16(const Cross16& c, __m512 h, __m512i arg) {
@@ -337,9 +434,10 @@ HORIZON_AVX512 void step_cross_avx512(const LineStep& ls, int count, const float
   const Step16 s = step16(ls);
   for (int i = 0; i < count; i += 16) {
     const __mmask16 in = lanes16(i, count);
+    const CrossAt16 x = cross_at16(s, _mm512_maskz_loadu_ps(in, slope + i), _mm512_maskz_loadu_ps(in, inv_slope + i));
+    const Reads16 read(s, in, x.jc, x.jc);
     const Cross16 c =
-        cross16<kFill>(s, in, _mm512_maskz_loadu_ps(in, slope + i), _mm512_maskz_loadu_ps(in, inv_slope + i),
-                       _mm512_maskz_loadu_ps(in, curv_k + i), prev, cur);
+        cross16<kFill>(s, x, read.at(prev, x.jc), read.at(cur, x.jc), _mm512_maskz_loadu_ps(in, curv_k + i));
     _mm512_mask_storeu_ps(cross_slope + i, in, c.slope);
     _mm512_mask_storeu_epi32(cross_v + i, in, c.v);
     _mm512_mask_storeu_epi32(code + i, in,
@@ -352,11 +450,14 @@ HORIZON_AVX512 void step_line_avx512(const LineStep& ls, int count, const float*
                                      const float* cur, const float* cross_slope, const int* cross_v, float* h, int* arg,
                                      int n) {
   const Step16 s = step16(ls);
-  const __m512i line = simd::i16(n);
+  const __m512i line = simd::i16(n), one = simd::i16(1);
   for (int i = 0; i < count; i += 16) {
     const __mmask16 in = lanes16(i, count);
+    const LineAt16 l = line_at16(s, _mm512_maskz_loadu_ps(in, slope + i));
+    const __m512i j1 = _mm512_add_epi32(l.j0, one);
+    const Reads16 read(s, in, l.j0, j1);
     const __m512 s_line =
-        line16<kFill>(s, in, _mm512_maskz_loadu_ps(in, slope + i), _mm512_maskz_loadu_ps(in, curv_k + i), cur);
+        line16<kFill>(s, l, read.at(cur, l.j0), read.at(cur, j1), _mm512_maskz_loadu_ps(in, curv_k + i));
     __m512 best = _mm512_maskz_loadu_ps(in, h + i);
     __m512i where = _mm512_maskz_loadu_epi32(in, arg + i);
     fold16(best, where, _mm512_maskz_loadu_ps(in, cross_slope + i), _mm512_maskz_loadu_epi32(in, cross_v + i), s_line,
@@ -371,15 +472,19 @@ HORIZON_AVX512 void step_rays_avx512(const LineStep& ls, int count, const float*
                                      const float* curv_k, const float* prev, const float* cur, float* h, int* arg,
                                      int* code, int n) {
   const Step16 s = step16(ls);
-  const __m512i line = simd::i16(n);
+  const __m512i line = simd::i16(n), one = simd::i16(1);
   for (int i = 0; i < count; i += 16) {
     const __mmask16 in = lanes16(i, count);
     const __m512 m = _mm512_maskz_loadu_ps(in, slope + i), ck = _mm512_maskz_loadu_ps(in, curv_k + i);
-    const Cross16 c = cross16<kFill>(s, in, m, _mm512_maskz_loadu_ps(in, inv_slope + i), ck, prev, cur);
+    const CrossAt16 x = cross_at16(s, m, _mm512_maskz_loadu_ps(in, inv_slope + i));
+    const LineAt16 l = line_at16(s, m);
+    const __m512i j1 = _mm512_add_epi32(l.j0, one);
+    const Reads16 read(s, in, simd::mini_of(x.jc, l.j0), simd::maxi_of(x.jc, j1));
+    const Cross16 c = cross16<kFill>(s, x, read.at(prev, x.jc), read.at(cur, x.jc), ck);
     __m512 best = _mm512_maskz_loadu_ps(in, h + i);
     __m512i where = _mm512_maskz_loadu_epi32(in, arg + i);
     _mm512_mask_storeu_epi32(code + i, in, code16(c, best, where));
-    fold16(best, where, c.slope, c.v, line16<kFill>(s, in, m, ck, cur), line);
+    fold16(best, where, c.slope, c.v, line16<kFill>(s, l, read.at(cur, l.j0), read.at(cur, j1), ck), line);
     _mm512_mask_storeu_ps(h + i, in, best);
     _mm512_mask_storeu_epi32(arg + i, in, where);
   }

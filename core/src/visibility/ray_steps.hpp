@@ -8,7 +8,8 @@
 // default re-sampling blend), step_rays does both loops in one pass before
 // them. Together they are about half of the fast viewshed's time.
 // Each has a scalar loop, an AVX2 kernel (eight rays at once, hardware
-// gathers for the terrain reads) and an AVX-512 kernel (sixteen), with the
+// gathers for the terrain reads, or loads of one run of each line when v is
+// contiguous: see LineStep::run_last) and an AVX-512 kernel (sixteen), with the
 // same float operations in the same order, chosen at run time
 // (simd::kernel_isa()); all give the same bits
 // (tests/visibility/test_ray_steps.cpp).
@@ -24,6 +25,12 @@ struct LineStep {
   float v_min, v_max, kf, kp, k_start;  // v_min / v_max: the window's first and last v line
   int j_max, zv;                        // last v index a bracket may start at; v stride of the elevation
   float fill;                           // what a void reads as (Sector::fill)
+  // Where v is contiguous (zv == 1, the north and south sectors), the last v
+  // index of `prev` and `cur` that may be read, inside the window or not:
+  // the vector kernels then read a group's samples as one run of each line
+  // (plain loads and in-register permutes) instead of hardware gathers,
+  // whenever the run fits. -1: gathers only. The bits are the same.
+  int run_last = -1;
 };
 
 // Crossing of a v grid line strictly inside (k_start, k) for rays [0, count)

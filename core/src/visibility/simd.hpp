@@ -66,6 +66,31 @@ HORIZON_AVX2 inline __m256 gather_masked(const float* base, __m256i index, __m25
   return _mm256_mask_i32gather_ps(_mm256_setzero_ps(), base, index, mask, 4);
 }
 
+// The lowest of eight indices.
+HORIZON_AVX2 inline int lowest8(__m256i x) {
+  __m128i m = _mm_min_epi32(_mm256_castsi256_si128(x), _mm256_extracti128_si256(x, 1));
+  m = _mm_min_epi32(m, _mm_shuffle_epi32(m, _MM_SHUFFLE(1, 0, 3, 2)));
+  m = _mm_min_epi32(m, _mm_shuffle_epi32(m, _MM_SHUFFLE(2, 3, 0, 1)));
+  return _mm_cvtsi128_si32(m);
+}
+
+// Sixteen consecutive heights of one line, from which each lane takes the
+// one at its offset: a gather's values where every lane reads near the
+// others (along rows, where v is contiguous), for two loads and permutes.
+struct Run8 {
+  __m256 lo, hi;
+};
+
+HORIZON_AVX2 inline Run8 load_run8(const float* first) {
+  return {_mm256_loadu_ps(first), _mm256_loadu_ps(first + 8)};
+}
+
+// run[offset] lane by lane, offset in [0, 16).
+HORIZON_AVX2 inline __m256 pick8(const Run8& run, __m256i offset) {
+  const __m256 upper = _mm256_castsi256_ps(_mm256_cmpgt_epi32(offset, _mm256_set1_epi32(7)));
+  return _mm256_blendv_ps(_mm256_permutevar8x32_ps(run.lo, offset), _mm256_permutevar8x32_ps(run.hi, offset), upper);
+}
+
 // HeightView::fill lane by lane: voids (NaN) read as `fill` (itself NaN
 // when voids are transparent).
 HORIZON_AVX2 inline __m256 fill_voids(__m256 v, __m256 fill) {
@@ -104,6 +129,17 @@ HORIZON_AVX512 inline __m512 ceil16(__m512 x) {
 // base[index] for the lanes of `mask`, 0 elsewhere; the others are not read.
 HORIZON_AVX512 inline __m512 gather_masked(const float* base, __m512i index, __mmask16 mask) {
   return _mm512_mask_i32gather_ps(_mm512_setzero_ps(), mask, index, base, 4);
+}
+// Run8 for sixteen lanes: thirty-two consecutive heights, one two-register
+// permute per pick (offset in [0, 32)).
+struct Run16 {
+  __m512 lo, hi;
+};
+HORIZON_AVX512 inline Run16 load_run16(const float* first) {
+  return {_mm512_loadu_ps(first), _mm512_loadu_ps(first + 16)};
+}
+HORIZON_AVX512 inline __m512 pick16(const Run16& run, __m512i offset) {
+  return _mm512_permutex2var_ps(run.lo, offset, run.hi);
 }
 HORIZON_AVX512 inline __m512 fill_voids(__m512 v, __m512 fill) {
   return _mm512_mask_blend_ps(_mm512_cmp_ps_mask(v, v, _CMP_UNORD_Q), v, fill);
