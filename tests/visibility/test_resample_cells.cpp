@@ -1,8 +1,9 @@
 // The radial sweep's cell kernels (core/src/visibility/resample_cells.hpp):
 // the AVX2 and AVX-512 kernels must give the scalar kernel's bits, cell for
 // cell, on every kind of candidate (the line before, u lines, v lines, none),
-// with voids, along rows and along columns, and for ranges of every length
-// (partial groups of sixteen and eight included).
+// with voids, along rows and along columns, for neighbouring cells with the
+// same candidates or not, and for ranges of every length (partial groups of
+// sixteen and eight included).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -52,7 +53,7 @@ void compare_kernels(bool rows, std::mt19937& rng) {
   const float eye_hi = static_cast<float>(eye), eye_lo = static_cast<float>(eye - eye_hi);
   const int ray_half = 61;
 
-  for (const int n : {0, 1, 2, 7, 30, s.lines - 1}) {
+  for (const int n : {0, 1, 2, 7, 30, 31, 45, s.lines - 1}) {
     const double k = s.k0 + n;
     const CellLine cl{&s,
                       inv_step.data(),
@@ -74,10 +75,17 @@ void compare_kernels(bool rows, std::mt19937& rng) {
                       s.line_count,
                       s.z_line};
     // Codes: the line before, earlier u lines, v lines (the cell's own among
-    // them), and none.
+    // them), and none. On odd lines most rays repeat their neighbour's code,
+    // as a real sweep's do, so that groups of cells often share their
+    // candidates (and the vector kernels skip a kind of sample no lane needs).
     std::vector<int> code(2 * ray_half + 2);
     std::uniform_int_distribution<int> kind(0, 3), v_line(0, s.v_count - 1), u_line(0, std::max(0, n - 1));
+    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
     for (int& c : code) {
+      if (n % 2 == 1 && &c != code.data() && unit(rng) < 0.9f) {
+        c = (&c)[-1];
+        continue;
+      }
       switch (kind(rng)) {
         case 0:
           c = n - 1;
