@@ -64,6 +64,10 @@ geodesy::GridPoint centre_eye(const terrain::Dem& dem) {
   return p;
 }
 
+// The fast OHF of `dem` from its centre in steady state, as a daemon worker
+// runs it: the output and the east and west sectors' transposed lines
+// (radial_ohf's column_buffer) in buffers kept between calls
+// (BM_VisibleRaster compares the lines copied and read in place).
 void run_radial(benchmark::State& state, const terrain::Dem& dem, double spacing, double max_distance) {
   visibility::ViewshedOptions o;
   o.radial.ray_spacing = spacing;
@@ -74,10 +78,12 @@ void run_radial(benchmark::State& state, const terrain::Dem& dem, double spacing
     return;
   }
   terrain::Grid<float> ohf;
+  terrain::Grid<float> columns;  // the east and west sectors' lines, kept as a daemon worker keeps it
   visibility::WorkStats stats;
   for (auto _ : state) {
     stats = {};
-    const Status status = visibility::radial_ohf(dem.elevation, *frame, o.radial, 0, nullptr, ohf, stats);
+    const Status status = visibility::radial_ohf(dem.elevation, *frame, o.radial, 0, nullptr, ohf, stats,
+                                                 visibility::RadialBound::kNone, &columns);
     if (!status.ok()) {
       state.SkipWithError(status.error().message.c_str());
       return;
@@ -196,12 +202,16 @@ BENCHMARK(BM_RadialKernels)->DenseRange(0, 2)->Unit(benchmark::kMillisecond)->Us
 // visible rasters). The elevations are a copy of the DEM's, on 4 KiB pages
 // with the output (range(2) 0: the allocator asks for no huge pages while
 // the benchmark runs) or, as a daemon worker's kept buffers are, backed by
-// huge pages with the output (1: back_with_huge_pages).
+// huge pages with the output (1: back_with_huge_pages). range(3) 1: the
+// east and west sectors read a transposed copy of the window, made each
+// call into a kept buffer as a daemon worker's (radial_ohf's
+// column_buffer); 0: they read the elevations in place, as a one-off run
+// (the CLI) does.
 void BM_VisibleRaster(benchmark::State& state) {
   const KernelCap cap(state, state.range(0));
   const terrain::Dem* dem = cap.ok() ? bench_dem(state) : nullptr;
   if (!dem) return;
-  const bool in_sweep = state.range(1) != 0, huge = state.range(2) != 0;
+  const bool in_sweep = state.range(1) != 0, huge = state.range(2) != 0, copied = state.range(3) != 0;
   // On the 4 KiB road the copy and the outputs below ask for no huge pages.
   struct SmallPagesWhile {
     const bool allowed = huge_pages_allowed();
@@ -209,7 +219,7 @@ void BM_VisibleRaster(benchmark::State& state) {
     ~SmallPagesWhile() { allow_huge_pages(allowed); }
   } small_pages(!huge);
   state.SetLabel(std::string(in_sweep ? "radial_mask" : "radial_ohf + visibility_mask") +
-                 (huge ? ", huge pages" : ", 4 KiB pages"));
+                 (huge ? ", huge pages" : ", 4 KiB pages") + (copied ? ", columns copied" : ", columns in place"));
   const terrain::Grid<float> elevation = dem->elevation;
   if (huge && !back_with_huge_pages(elevation.data(), elevation.capacity() * sizeof(float))) {
     state.SkipWithError("no huge pages here (MADV_COLLAPSE: Linux 6.1+)");
@@ -225,15 +235,19 @@ void BM_VisibleRaster(benchmark::State& state) {
   result.frame = *frame;
   result.terrain = elevation;
   terrain::Grid<std::uint8_t> mask;
+  terrain::Grid<float> columns;  // the east and west sectors' lines, kept as a daemon worker keeps it
+  terrain::Grid<float>* const column_buffer = copied ? &columns : nullptr;
   visibility::AnswerCounts counts;
   visibility::WorkStats stats;
   bool backed = false;
   for (auto _ : state) {
     Status status;
     if (in_sweep) {
-      status = visibility::radial_mask(elevation, *frame, o.radial, 0.0, 0, nullptr, mask, counts, stats);
+      status =
+          visibility::radial_mask(elevation, *frame, o.radial, 0.0, 0, nullptr, mask, counts, stats, column_buffer);
     } else {
-      status = visibility::radial_ohf(elevation, *frame, o.radial, 0, nullptr, result.ohf, stats);
+      status = visibility::radial_ohf(elevation, *frame, o.radial, 0, nullptr, result.ohf, stats,
+                                      visibility::RadialBound::kNone, column_buffer);
       mask = visibility::visibility_mask(result, 0.0, 0, &counts);
     }
     if (!status.ok()) {
@@ -243,6 +257,7 @@ void BM_VisibleRaster(benchmark::State& state) {
     if (huge && !backed) {  // the kept outputs too, once they exist
       state.PauseTiming();
       back_with_huge_pages(mask.data(), mask.capacity());
+      if (!columns.empty()) back_with_huge_pages(columns.data(), columns.capacity() * sizeof(float));
       if (!result.ohf.empty()) back_with_huge_pages(result.ohf.data(), result.ohf.capacity() * sizeof(float));
       backed = true;
       state.ResumeTiming();
@@ -252,7 +267,10 @@ void BM_VisibleRaster(benchmark::State& state) {
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * stats.cells_evaluated));
   state.counters["visible"] = static_cast<double>(counts.visible);
 }
-BENCHMARK(BM_VisibleRaster)->ArgsProduct({{1, 2}, {0, 1}, {0, 1}})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_VisibleRaster)
+    ->ArgsProduct({{1, 2}, {0, 1}, {0, 1}, {0, 1}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 // Each algorithm mode through compute_viewshed on $HORIZON_BENCH_DEM, whole
 // DEM: 0 fast, 1 conservative, 2 exact, 3 r3 (the last two are slow: run them

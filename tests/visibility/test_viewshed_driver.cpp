@@ -102,9 +102,10 @@ TEST(ViewshedDriver, FilledVoidsAreHandedOverAsTheFilledGrid) {
 
 // mask_only: the result's mask is the one visibility_mask() makes from an
 // ordinary run, with the same counts, whichever road made it: the fast
-// sweep coding its cells (no OHF then, and a caller's OHF storage handed
-// back untouched), or an OHF coded afterwards (another algorithm, a field of
-// view, another blend); and the recoded rasters match too.
+// sweep coding its cells (no OHF then; a caller's OHF storage stays the
+// caller's, only lending its memory to the sweep's transposed east and west
+// lines), or an OHF coded afterwards (another algorithm, a field of view,
+// another blend); and the recoded rasters match too.
 TEST(ViewshedDriver, MaskOnlyGivesTheMaskOfAnOrdinaryRun) {
   terrain::Dem dem = hills();
   // Voids beyond max distance and inside it.
@@ -153,9 +154,8 @@ TEST(ViewshedDriver, MaskOnlyGivesTheMaskOfAnOrdinaryRun) {
     EXPECT_GT(expected.out_of_range, 0u);
     EXPECT_GT(expected.nodata, 0u);
     EXPECT_EQ(got->ohf.empty(), c.swept);
-    if (c.swept) {  // the storage came back as it was
-      ASSERT_EQ(storage.width(), 5);
-      EXPECT_EQ(storage.at(4, 3), 42.0f);
+    if (c.swept) {  // the storage stayed the caller's, holding the sweep's east and west lines
+      EXPECT_GE(storage.size(), got->frame.window.cell_count());
     }
     // Other codes, from the mask alone when there is no OHF.
     const visibility::ValueCodes codes{.visible = 7, .hidden = 3, .out_of_range = 9, .nodata = 200};

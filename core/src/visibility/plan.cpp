@@ -61,6 +61,12 @@ Status add_ohf_cost(const ViewshedOptions& o, const terrain::Window& output, dou
   if (o.algorithm != Algorithm::kR3) HORIZON_RETURN_IF_ERROR(add_sweep_cost(o, output, cost));
   switch (o.algorithm) {
     case Algorithm::kRadial:
+      // With a workspace, the east and west sectors' transposed lines fill
+      // the OHF raster's share (mask_only) or the terrain's (filled after
+      // the sweep), and one cell more around the window.
+      cost.bytes +=
+          (2 * (static_cast<std::uint64_t>(output.width()) + static_cast<std::uint64_t>(output.height())) + 4) *
+          sizeof(float);
       break;  // the sweep's steps are its time
     case Algorithm::kConservative:
       cost.seconds += cells * kConservativeSecondsPerCell;

@@ -53,6 +53,7 @@
 #include <utility>
 #include <vector>
 
+#include "column_lines.hpp"
 #include "horizon/common/parallel.hpp"
 #include "ray_steps.hpp"
 #include "resample_cells.hpp"
@@ -588,10 +589,13 @@ void finish_mask(const terrain::HeightView& z, const ViewFrame& f, unsigned thre
 }
 
 // The sweep of every sector into `ohf` or `mask` (one of them null, the other
-// sized to the frame's window and prepared), with the tasks' counts.
+// sized to the frame's window and prepared), with the tasks' counts. With a
+// `column_buffer` (and not the lower bound, whose samples are R3's own on the
+// grid) the east and west sectors read their lines from a transposed copy
+// in it (column_lines.hpp), numbered from the copy's first column.
 Status sweep_sectors(const terrain::HeightView& z, const ViewFrame& f, const RadialOptions& options, unsigned threads,
                      const RunControl* control, const SweepConstants& c, float* ohf, std::uint8_t* mask,
-                     SweepCounts& total, std::uint64_t& rays) {
+                     terrain::Grid<float>* column_buffer, SweepCounts& total, std::uint64_t& rays) {
   const terrain::Window& win = f.window;
   if (z.cell_count() >= (std::size_t{1} << 31) || z.stride() * std::ptrdiff_t{z.height()} >= (std::ptrdiff_t{1} << 31))
     return make_error(ErrorCode::kResourceExhausted,
@@ -599,6 +603,11 @@ Status sweep_sectors(const terrain::HeightView& z, const ViewFrame& f, const Rad
                       "dem");
   HORIZON_RETURN_IF_ERROR(sweep::check_ray_count(f, options.ray_spacing));
   const std::ptrdiff_t pitch = z.stride();
+  std::optional<sweep::ColumnLines> columns;
+  if (column_buffer != nullptr && !c.precise &&
+      (sweep::sector_lines(f, sweep::kSectorOrder[2]).lines > 0 ||
+       sweep::sector_lines(f, sweep::kSectorOrder[3]).lines > 0))
+    columns = sweep::transpose_columns(z, sweep::column_lines_extent(z, f), threads, *column_buffer);
 
   // The four sectors. North/south step rows (v = column, contiguous); east/west
   // step columns (v = row, stride = pitch).
@@ -639,6 +648,18 @@ Status sweep_sectors(const terrain::HeightView& z, const ViewFrame& f, const Rad
     s.win_v0 = 0;
     s.out_v0 -= s.v_offset;
     s.v_count -= s.v_offset;
+    if (!rows && columns) {
+      // Line i of the copy is DEM column columns->extent.col0 + i; the
+      // outputs' line numbers move with it. v is still counted from v_offset.
+      const terrain::Window& e = columns->extent;
+      s.z = columns->lines + (s.v_offset - e.row0);
+      s.z_line = columns->pitch;
+      s.z_v = 1;
+      s.v_count = e.row1 - s.v_offset;
+      s.line_count = e.width();
+      s.line0 -= e.col0;
+      s.out_line0 -= e.col0;
+    }
     sectors.push_back(s);
     geometry.push_back(g);
   }
@@ -697,7 +718,8 @@ void set_stats(const SweepCounts& counts, std::uint64_t rays, WorkStats& stats) 
 }  // namespace
 
 Status radial_ohf(const terrain::HeightView& z, const ViewFrame& f, const RadialOptions& options, unsigned threads,
-                  const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats, RadialBound bound) {
+                  const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats, RadialBound bound,
+                  terrain::Grid<float>* column_buffer) {
   // NaN where the sweep will not write, so that a 12 M-cell OHF is not written twice.
   prepare_output(ohf, f, threads, std::numeric_limits<float>::quiet_NaN());
   const bool lower_bound = bound == RadialBound::kLowerBound;
@@ -706,7 +728,8 @@ Status radial_ohf(const terrain::HeightView& z, const ViewFrame& f, const Radial
   c.frame = &f;
   SweepCounts counts;
   std::uint64_t rays = 0;
-  HORIZON_RETURN_IF_ERROR(sweep_sectors(z, f, options, threads, control, c, ohf.data(), nullptr, counts, rays));
+  HORIZON_RETURN_IF_ERROR(
+      sweep_sectors(z, f, options, threads, control, c, ohf.data(), nullptr, column_buffer, counts, rays));
   if (const auto eye = eye_cell(f)) {
     const bool void_target = std::isnan(z.at(eye->first + f.window.col0, eye->second + f.window.row0));
     ohf.at(eye->first, eye->second) =
@@ -719,7 +742,7 @@ Status radial_ohf(const terrain::HeightView& z, const ViewFrame& f, const Radial
 
 Status radial_mask(const terrain::HeightView& z, const ViewFrame& f, const RadialOptions& options, double target_height,
                    unsigned threads, const RunControl* control, terrain::Grid<std::uint8_t>& mask,
-                   AnswerCounts& answers, WorkStats& stats) {
+                   AnswerCounts& answers, WorkStats& stats, terrain::Grid<float>* column_buffer) {
   if (options.blend != RayBlend::kResample)
     return make_error(ErrorCode::kInvalidArgument,
                       "ray_blend: the visibility mask is made in the sweep by the re-sampling blend only; the other "
@@ -732,7 +755,8 @@ Status radial_mask(const terrain::HeightView& z, const ViewFrame& f, const Radia
   c.frame = &f;
   SweepCounts counts;
   std::uint64_t rays = 0;
-  HORIZON_RETURN_IF_ERROR(sweep_sectors(z, f, options, threads, control, c, nullptr, mask.data(), counts, rays));
+  HORIZON_RETURN_IF_ERROR(
+      sweep_sectors(z, f, options, threads, control, c, nullptr, mask.data(), column_buffer, counts, rays));
   answers = {};
   answers.visible = counts.visible;
   answers.hidden = counts.evaluated - counts.visible;

@@ -86,22 +86,29 @@ Result<ViewshedResult> compute(const terrain::Dem& dem, terrain::Grid<float>* sp
 
   const auto start = std::chrono::steady_clock::now();
   Status status;
+  // The fast sweep's east and west sectors read a transposed copy of the
+  // window (radial_ohf's column_buffer) in a kept raster the run does not
+  // fill while it sweeps: the caller's OHF storage when only a mask is made,
+  // its terrain storage (filled after the sweep) otherwise. Without storage
+  // (a one-off run, whose fresh pages would cost what the copy saves) they
+  // read the elevation in place.
   // mask_only: the sweep codes the cells itself when nothing needs its heights.
   const bool sweep_mask =
       options.mask_only && options.radial.blend == RayBlend::kResample && !options.field_of_view.limits();
   if (!try_gpu(elevation, *frame, options, control, gpu, policy, result, status)) switch (options.algorithm) {
       case Algorithm::kRadial:
         if (sweep_mask) {
-          // No heights: a caller's OHF storage goes back to it untouched.
+          // No heights: a caller's OHF storage goes back to it, only lent to the sweep's lines.
           if (storage.ohf) *storage.ohf = std::move(result.ohf);
           result.ohf = terrain::Grid<float>();
           result.mask.emplace();
           if (storage.mask) *result.mask = std::move(*storage.mask);  // size_output keeps its pages
           status = radial_mask(elevation, *frame, options.radial, options.target_height, options.threads, control,
-                               *result.mask, result.mask_counts, result.stats);
+                               *result.mask, result.mask_counts, result.stats, storage.ohf);
           break;
         }
-        status = radial_ohf(elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats);
+        status = radial_ohf(elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats,
+                            RadialBound::kNone, storage.terrain != &dem.elevation ? storage.terrain : nullptr);
         break;
       case Algorithm::kConservative:
         status = radial_ohf(elevation, *frame, options.radial, options.threads, control, result.ohf, result.stats,

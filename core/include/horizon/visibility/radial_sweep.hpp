@@ -44,9 +44,19 @@ enum class RadialBound {
 
 // Same contract as r3_ohf(): fills `ohf` (sized frame.window) with the OHF of
 // every in-range cell, NaN out of range or on a transparent void.
+//
+// `column_buffer`, when given, is a float grid the sweep may reshape and
+// fill with a transposed copy of the window (a few cells more: the east and
+// west sectors' columns as contiguous lines), so that those sectors read
+// their terrain as the north and south ones do: a caller's kept buffer that
+// the run does not otherwise use while it sweeps (a workspace's terrain
+// raster, or its OHF raster when only a mask is made), so that the copy
+// takes no new pages. The answer is the same bits with it or without it;
+// it only goes faster (the kLowerBound sweep does not use it). Without it
+// those sectors read the elevation in place.
 Status radial_ohf(const terrain::HeightView& elevation, const ViewFrame& frame, const RadialOptions& options,
                   unsigned threads, const RunControl* control, terrain::Grid<float>& ohf, WorkStats& stats,
-                  RadialBound bound = RadialBound::kNone);
+                  RadialBound bound = RadialBound::kNone, terrain::Grid<float>* column_buffer = nullptr);
 
 // The visibility mask that visibility_mask() would make at `target_height`
 // from radial_ohf()'s OHF, byte for byte, and its counts, without the OHF:
@@ -58,9 +68,9 @@ Status radial_ohf(const terrain::HeightView& elevation, const ViewFrame& frame, 
 // over them afterwards. The re-sampling blend
 // only (options.blend == kResample, the default; kInvalidArgument else).
 // The field of view is not applied (compute_viewshed falls back to the OHF
-// when one limits it).
+// when one limits it). `column_buffer`: as radial_ohf's.
 Status radial_mask(const terrain::HeightView& elevation, const ViewFrame& frame, const RadialOptions& options,
                    double target_height, unsigned threads, const RunControl* control, terrain::Grid<std::uint8_t>& mask,
-                   AnswerCounts& counts, WorkStats& stats);
+                   AnswerCounts& counts, WorkStats& stats, terrain::Grid<float>* column_buffer = nullptr);
 
 }  // namespace horizon::visibility

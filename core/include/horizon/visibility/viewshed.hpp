@@ -58,7 +58,10 @@ struct ViewshedResult {
 // Rasters whose storage a run may fill instead of allocating its own (a
 // caller's Workspace, plan.hpp): result.ohf, result.terrain and (mask_only)
 // result.mask take them over. Any may be null; their contents are
-// overwritten.
+// overwritten. While it sweeps, the fast algorithm fills the terrain
+// storage (or, mask_only, the OHF storage, which it then leaves with the
+// caller) with its east and west sectors' lines (radial_ohf's
+// column_buffer); without it those sectors read the DEM in place.
 struct ResultStorage {
   terrain::Grid<float>* ohf = nullptr;
   terrain::Grid<float>* terrain = nullptr;
