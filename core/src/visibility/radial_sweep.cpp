@@ -380,9 +380,8 @@ void sweep_rays(const Sector& s, const SectorPlan& p, const SweepConstants& c, i
     //    (max(kp, 0), k), if any (|m| <= 1: at most one), and where its
     //    horizon lies with it (`code`). The re-sampling blend needs nothing
     //    else from the rays, so step 3 is done here in the same pass.
-    const LineStep ls{eye,   eye_lo, eye_v,  v_min,
-                      v_max, kf,     kp,     std::max(kp, 0.0f),
-                      j_max, zv,     s.fill, s.z_v == 1 ? s.v_count - 1 : -1};
+    const LineStep ls{
+        eye, eye_lo, eye_v, v_min, v_max, kf, kp, std::max(kp, 0.0f), j_max, zv, s.fill, zv == 1 ? s.v_count - 1 : -1};
     if (lo <= hi) {
       const int prev_line = std::clamp(line - s.dir, 0, s.line_count - 1);
       const float* prev = s.z + prev_line * s.z_line;
@@ -603,11 +602,7 @@ Status sweep_sectors(const terrain::HeightView& z, const ViewFrame& f, const Rad
                       "dem");
   HORIZON_RETURN_IF_ERROR(sweep::check_ray_count(f, options.ray_spacing));
   const std::ptrdiff_t pitch = z.stride();
-  std::optional<sweep::ColumnLines> columns;
-  if (column_buffer != nullptr && !c.precise &&
-      (sweep::sector_lines(f, sweep::kSectorOrder[2]).lines > 0 ||
-       sweep::sector_lines(f, sweep::kSectorOrder[3]).lines > 0))
-    columns = sweep::transpose_columns(z, sweep::column_lines_extent(z, f), threads, *column_buffer);
+  std::optional<sweep::ColumnLines> columns;  // made for the first east or west sector that has lines
 
   // The four sectors. North/south step rows (v = column, contiguous); east/west
   // step columns (v = row, stride = pitch).
@@ -648,7 +643,8 @@ Status sweep_sectors(const terrain::HeightView& z, const ViewFrame& f, const Rad
     s.win_v0 = 0;
     s.out_v0 -= s.v_offset;
     s.v_count -= s.v_offset;
-    if (!rows && columns) {
+    if (!rows && column_buffer != nullptr && !c.precise) {
+      if (!columns) columns = sweep::transpose_columns(z, sweep::column_lines_extent(z, f), threads, *column_buffer);
       // Line i of the copy is DEM column columns->extent.col0 + i; the
       // outputs' line numbers move with it. v is still counted from v_offset.
       const terrain::Window& e = columns->extent;

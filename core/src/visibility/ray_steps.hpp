@@ -25,7 +25,8 @@ struct LineStep {
   float v_min, v_max, kf, kp, k_start;  // v_min / v_max: the window's first and last v line
   int j_max, zv;                        // last v index a bracket may start at; v stride of the elevation
   float fill;                           // what a void reads as (Sector::fill)
-  // Where v is contiguous (zv == 1, the north and south sectors), the last v
+  // Where v is contiguous (zv == 1: the north and south sectors, and the
+  // east and west ones reading a transposed copy), the last v
   // index of `prev` and `cur` that may be read, inside the window or not:
   // the vector kernels then read a group's samples as one run of each line
   // (plain loads and in-register permutes) instead of hardware gathers,
