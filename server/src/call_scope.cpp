@@ -1,5 +1,7 @@
 #include "call_scope.hpp"
 
+#include <algorithm>
+
 #include "auth.hpp"
 #include "grpc_status.hpp"
 
@@ -35,8 +37,9 @@ CallScope::~CallScope() {
   if (env_.live_calls.fetch_sub(1) == 1 && env_.trimmer) env_.trimmer->idle();
 }
 
-std::optional<grpc::Status> CallScope::admit(const google::protobuf::Message& request, std::uint64_t message_bytes) {
-  auto refused = admission(request, message_bytes);
+std::optional<grpc::Status> CallScope::admit(const google::protobuf::Message& request, std::uint64_t message_bytes,
+                                             std::uint64_t work_bytes, std::string_view work_what) {
+  auto refused = admission(request, message_bytes, work_bytes, work_what);
   if (refused) ticket_.take();  // never queued: a cancel has nothing to drop
   return refused;
 }
@@ -47,8 +50,16 @@ std::optional<grpc::Status> CallScope::cancel() {
   return status_of(make_error(ErrorCode::kCancelled, "cancelled before it started"));
 }
 
-std::optional<grpc::Status> CallScope::admission(const google::protobuf::Message& request,
-                                                 std::uint64_t message_bytes) {
+namespace {
+
+std::string mib(std::uint64_t bytes) {
+  return std::to_string((bytes + (1 << 20) - 1) >> 20) + " MiB";
+}
+
+}  // namespace
+
+std::optional<grpc::Status> CallScope::admission(const google::protobuf::Message& request, std::uint64_t message_bytes,
+                                                 std::uint64_t work_bytes, std::string_view work_what) {
   if (!env_.datasets.loaded())
     return grpc::Status(grpc::StatusCode::UNAVAILABLE, "horizond is loading its datasets; retry shortly");
   // With TLS, a call that arrived on the plaintext health port is refused:
@@ -84,15 +95,21 @@ std::optional<grpc::Status> CallScope::admission(const google::protobuf::Message
   // did not parse, arrives empty (parse_guard.hpp).
   if (auto refusal = proto::refused_parse(request)) return refused_status(*refusal);
   // What has arrived is already in memory; a call that cannot also hold its
-  // answer is refused now rather than queued, and frees its request at once.
-  if (message_bytes > 0 && !env_.memory.try_reserve(message_bytes, messages_))
-    return to_grpc_status(
-        make_error(ErrorCode::kResourceExhausted,
-                   "this request's messages need about " + std::to_string((message_bytes + (1 << 20) - 1) >> 20) +
-                       " MiB while it waits and runs, more than memory_budget_mb leaves free now (" +
-                       std::to_string(env_.memory.reserved() >> 20) + " MiB held); retry later or split the request",
-                   "memory_budget_mb"));
-  if (message_bytes > 0) env_.metrics.set_memory_reserved(env_.memory.reserved());
+  // answer, and what its request alone will make, is refused now rather than
+  // queued, and frees its request at once.
+  const std::uint64_t bytes = message_bytes + work_bytes;
+  if (bytes > 0 && !env_.memory.try_reserve_new(bytes, messages_)) {
+    std::string parts = "its messages " + mib(message_bytes);
+    if (work_bytes > 0) parts += ", " + std::string(work_what) + " " + mib(work_bytes);
+    return to_grpc_status(make_error(ErrorCode::kResourceExhausted,
+                                     "this request needs about " + mib(bytes) + " while it waits and runs (" + parts +
+                                         "), more than memory_budget_mb leaves free now (" +
+                                         std::to_string(env_.memory.reserved() >> 20) +
+                                         " MiB held); retry later or split the request",
+                                     "memory_budget_mb"));
+  }
+  if (work_bytes > 0) memory_.absorb(messages_.split(work_bytes));
+  if (bytes > 0) env_.metrics.set_memory_reserved(env_.memory.reserved());
   datasets_ = env_.datasets.snapshot();
   return std::nullopt;
 }
@@ -112,7 +129,9 @@ std::string planned_work(const std::string& what, const visibility::Cost& cost, 
 Status CallScope::reserve(std::uint64_t bytes, const std::string& what) {
   if (bytes <= memory_.bytes()) return Status::Ok();
   Reservation more;
-  if (!env_.memory.try_reserve(bytes - memory_.bytes(), more))
+  auto until = std::chrono::steady_clock::now() + kParseWait;
+  if (control_.deadline) until = std::min(until, *control_.deadline);
+  if (!env_.memory.reserve_after_parses(bytes - memory_.bytes(), more, until))
     return make_error(ErrorCode::kResourceExhausted,
                       what + " needs about " + std::to_string((bytes + (1 << 20) - 1) >> 20) +
                           " MiB of working memory, more than memory_budget_mb leaves free now (" +

@@ -41,6 +41,11 @@ namespace horizon::server {
 // cancel 19.55 ms into a call with a 20 ms deadline, before its own copy passed.
 inline constexpr std::chrono::milliseconds kDeadlineRace{50};
 
+// The longest a started call waits in reserve() for parses to end. A parse
+// of the largest request the limits take lasts milliseconds, and none starts
+// while a call waits; this is slack for a loaded machine.
+inline constexpr std::chrono::milliseconds kParseWait{1000};
+
 // True when a cancellation seen at `now` is the deadline passing (or about to).
 bool cancel_reads_as_deadline(std::chrono::steady_clock::time_point now,
                               std::optional<std::chrono::steady_clock::time_point> deadline);
@@ -95,7 +100,13 @@ class CallScope {
   // is refused here). `message_bytes`: what the call's messages hold while
   // it waits and runs (the request as received, the answer it will build),
   // reserved here, before the call queues, and held until it ends.
-  std::optional<grpc::Status> admit(const google::protobuf::Message& request, std::uint64_t message_bytes = 0);
+  // `work_bytes`: the part of the call's working memory its request alone
+  // fixes (CullBoxes: its boxes' conversion; LineOfSight: its lines' plans),
+  // `work_what` naming it ("converting these 9 boxes"); reserved here too,
+  // as the first step of reserve()'s. A call admitted has it, so that calls
+  // queued behind a running one cannot take what it needs to start.
+  std::optional<grpc::Status> admit(const google::protobuf::Message& request, std::uint64_t message_bytes = 0,
+                                    std::uint64_t work_bytes = 0, std::string_view work_what = {});
   // The call's place in the worker queue, for the task that runs it
   // (worker_pool.hpp): the task runs the call only if ticket().take().
   QueueTicket ticket() const { return ticket_; }
@@ -103,9 +114,12 @@ class CallScope {
   Result<std::shared_ptr<const Dataset>> dataset(const std::string& name);
   // Holds `bytes` of working memory for the rest of the call
   // (kResourceExhausted when it does not fit). A call may reserve in steps,
-  // each the whole it needs so far: a part before it converts its request
-  // (CullBoxes: its boxes), the whole once planned; each step takes only
-  // what the call does not hold yet.
+  // each the whole it needs so far: a part at admission (admit's
+  // work_bytes), the whole once planned; each step takes only what the call
+  // does not hold yet. Called from the call's worker: where only requests
+  // being parsed hold what it lacks, it waits for them to end, up to
+  // kParseWait and never past the call's deadline
+  // (MemoryBudget::reserve_after_parses).
   Status reserve(std::uint64_t bytes, const std::string& what);
   // Memory that serves the call, held with what reserve() holds (a worker's
   // kept buffers, worker_memory.hpp): reserve() takes only what it lacks beyond it.
@@ -134,7 +148,8 @@ class CallScope {
   void finish(const grpc::Status& status);
 
  private:
-  std::optional<grpc::Status> admission(const google::protobuf::Message& request, std::uint64_t message_bytes);
+  std::optional<grpc::Status> admission(const google::protobuf::Message& request, std::uint64_t message_bytes,
+                                        std::uint64_t work_bytes, std::string_view work_what);
 
   ServerEnv& env_;
   grpc::CallbackServerContext* context_;
@@ -143,8 +158,8 @@ class CallScope {
   RunControl control_;
   RequestRecord record_;
   std::shared_ptr<WatchedCall> watched_;  // under env.deadlines when the default deadline applies
-  Reservation messages_;                  // admit()'s
-  Reservation memory_;                    // reserve()'s
+  Reservation messages_;                  // admit()'s, for the messages
+  Reservation memory_;                    // reserve()'s, from admit()'s work_bytes on
   QueueTicket ticket_;
   bool admitted_ = false;
   bool finished_ = false;

@@ -34,14 +34,11 @@ grpc::Status run_cull_boxes(CallScope& scope, const v1::CullBoxesRequest& reques
   if (!options.ok()) return scope.status_of(options.error());
   scope.record().algorithm = std::string(visibility::algorithm_name(
       options->conservative ? visibility::Algorithm::kConservative : options->viewshed.algorithm));
-  // The boxes' conversion and plan hold kCullBytesPerBox a box: paid for
-  // before they are made, as the rest of the plan's cost is below.
+  // The boxes' conversion and plan hold kCullBytesPerBox a box: reserved
+  // with the messages at admission (VisibilityService::CullBoxes), before
+  // they are made, as the rest of the plan's cost is below.
   // The worker's kept buffers serve this run; its own are kept when it is done (worker_memory.hpp).
   WorkspaceLease lease(scope);
-  if (auto s = lease.reserve(0, static_cast<std::uint64_t>(n) * visibility::kCullBytesPerBox,
-                             "converting these " + std::to_string(n) + " boxes");
-      !s.ok())
-    return scope.status_of(s.error());
   auto boxes = to_boxes(request);
   if (!boxes.ok()) return scope.status_of(boxes.error());
 

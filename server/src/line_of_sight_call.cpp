@@ -34,12 +34,11 @@ grpc::Status run_line_of_sight(CallScope& scope, const v1::LineOfSightRequest& r
 
   // Every line planned first (points checked and placed, cells known), so the
   // memory is reserved before any line runs: the plans (held until the last
-  // line runs; their fixed part reserved before they are made, their lists
-  // of blocks once known), then with them the largest line's cells (lines run
-  // one after another) and every result message.
+  // line runs; their fixed part reserved at admission, before they are made:
+  // VisibilityService::LineOfSight; their lists of blocks once known), then
+  // with them the largest line's cells (lines run one after another) and
+  // every result message.
   std::uint64_t plan_bytes = static_cast<std::uint64_t>(n) * sizeof(visibility::LinePlan);
-  if (auto s = scope.reserve(plan_bytes, "planning these " + std::to_string(n) + " sight lines"); !s.ok())
-    return scope.status_of(s.error());
   std::vector<visibility::LinePlan> plans;
   plans.reserve(static_cast<std::size_t>(n));
   std::uint64_t largest = 0, messages = 0;

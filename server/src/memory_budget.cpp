@@ -1,5 +1,6 @@
 #include "memory_budget.hpp"
 
+#include <algorithm>
 #include <cassert>
 
 namespace horizon::server {
@@ -44,6 +45,43 @@ bool MemoryBudget::try_take(std::uint64_t bytes) {
     if (want > available) return false;
     if (available_.compare_exchange_weak(available, available - want)) return true;
   }
+}
+
+bool MemoryBudget::try_take_parse(std::uint64_t bytes) {
+  // Counted first, so that a waiter who sees the shortfall also sees this hold.
+  parsing_.fetch_add(static_cast<std::int64_t>(bytes));
+  if (waiting_.load() == 0 && try_take(bytes)) return true;
+  parsing_.fetch_sub(static_cast<std::int64_t>(bytes));
+  return false;
+}
+
+bool MemoryBudget::try_reserve_new(std::uint64_t bytes, Reservation& out) {
+  return waiting_.load() == 0 && try_reserve(bytes, out);
+}
+
+void MemoryBudget::give_parse(std::uint64_t bytes) {
+  give_back(bytes);
+  parsing_.fetch_sub(static_cast<std::int64_t>(bytes));
+  if (waiting_.load() > 0) {
+    std::lock_guard lock(parse_mutex_);
+    parse_ended_.notify_all();
+  }
+}
+
+bool MemoryBudget::reserve_after_parses(std::uint64_t bytes, Reservation& out,
+                                        std::chrono::steady_clock::time_point until) {
+  if (try_reserve(bytes, out)) return true;
+  const auto want = static_cast<std::int64_t>(bytes);
+  std::unique_lock lock(parse_mutex_);
+  waiting_.fetch_add(1);
+  bool taken = false;
+  while (!(taken = try_reserve(bytes, out)) && want <= available_.load() + parsing_.load() &&
+         std::chrono::steady_clock::now() < until) {
+    // Woken when a parse ends; the timeout covers a wake-up between the test and the wait.
+    parse_ended_.wait_until(lock, std::min(until, std::chrono::steady_clock::now() + std::chrono::milliseconds(5)));
+  }
+  waiting_.fetch_sub(1);
+  return taken;
 }
 
 bool MemoryBudget::try_reserve(std::uint64_t bytes, Reservation& out) {

@@ -7,10 +7,12 @@
 // contexts hold (gl_image_budget.hpp); each request's messages when it is
 // admitted, before it queues for a worker (the request as gRPC handed it
 // over, arena_allocator.hpp's held_bytes, and for CullBoxes its answer,
-// kResponseBytesPerBox a box); and each request's working set before any
-// work (CullBoxes and RegionVisibility hold their boxes' conversion first,
-// kCullBytesPerBox / region::kBytesPerBox a box, and LineOfSight its lines'
-// plans, then grow to the plan's whole): the engine's part from the
+// kResponseBytesPerBox a box), and with them what the request alone fixes
+// of its working set (CullBoxes and RegionVisibility their boxes'
+// conversion, kCullBytesPerBox / region::kBytesPerBox a box, LineOfSight its
+// lines' plans), so that calls queued behind a running one cannot hold what
+// it needs to start; and each request's working set before any work (grown
+// from that share to the plan's whole): the engine's part from the
 // request's plan (visibility/plan.hpp: the cells read, the OHF, the
 // algorithm's tables, per box and per profile sample), the server's own
 // part from what it will send
@@ -20,11 +22,18 @@
 // fit is refused: the request gets RESOURCE_EXHAUSTED. What is left outside the
 // accounting (code, libraries, allocator slack) is the fixed kBaseBytes
 // the budget sets aside at start. The parse of each request holds a bound of
-// what it allocates until it is parsed (ParseAllowanceOfBudget).
+// what it allocates until it is parsed (ParseAllowanceOfBudget); a call that
+// has started and finds the budget short only by what parses hold waits for
+// them to end (reserve_after_parses), and no parse starts and no call is
+// admitted meanwhile, so that a flood of arriving requests cannot starve the
+// calls already admitted.
 #pragma once
 
 #include <atomic>
+#include <chrono>
+#include <condition_variable>
 #include <cstdint>
+#include <mutex>
 
 #include "parse_guard.hpp"
 
@@ -90,6 +99,20 @@ class MemoryBudget {
   bool try_take(std::uint64_t bytes);
   void give(std::uint64_t bytes) { give_back(bytes); }
 
+  // A parse's hold (ParseAllowanceOfBudget): as try_take, but refused while
+  // a call waits in reserve_after_parses; give_parse() returns it.
+  bool try_take_parse(std::uint64_t bytes);
+  void give_parse(std::uint64_t bytes);
+  // try_reserve for a call being admitted: refused too while a call that has
+  // started waits in reserve_after_parses (the memory a parse gives back is
+  // that call's).
+  bool try_reserve_new(std::uint64_t bytes, Reservation& out);
+  // try_reserve for a call that has started: where the bytes do not fit now
+  // but would without what parses hold, waits for those parses to end (new
+  // ones are refused meanwhile), until `until` at the latest. False at once
+  // when even that would not make room.
+  bool reserve_after_parses(std::uint64_t bytes, Reservation& out, std::chrono::steady_clock::time_point until);
+
   std::uint64_t total() const { return total_; }
   // Bytes reserved now (without the base).
   std::uint64_t reserved() const;
@@ -100,6 +123,10 @@ class MemoryBudget {
 
   const std::uint64_t total_;
   std::atomic<std::int64_t> available_;
+  std::atomic<std::int64_t> parsing_{0};   // held by parses now
+  std::atomic<std::uint32_t> waiting_{0};  // calls in reserve_after_parses
+  std::mutex parse_mutex_;                 // for parse_ended_
+  std::condition_variable parse_ended_;
 };
 
 // The budget as the allowance of the requests' parsing (protos/guard/
@@ -109,8 +136,8 @@ class MemoryBudget {
 class ParseAllowanceOfBudget final : public proto::ParseAllowance {
  public:
   explicit ParseAllowanceOfBudget(MemoryBudget& budget) : budget_(budget) {}
-  bool take(std::uint64_t bytes) override { return budget_.try_take(bytes); }
-  void give(std::uint64_t bytes) override { budget_.give(bytes); }
+  bool take(std::uint64_t bytes) override { return budget_.try_take_parse(bytes); }
+  void give(std::uint64_t bytes) override { budget_.give_parse(bytes); }
 
  private:
   MemoryBudget& budget_;

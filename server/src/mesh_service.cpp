@@ -205,7 +205,7 @@ grpc::ServerUnaryReactor* MeshService::DescribeMesh(grpc::CallbackServerContext*
   const std::uint64_t messages = held_bytes(*request) + groups * kBytesPerRun +
                                  std::uint64_t{request->vertex_count()} * kBytesPerVertex +
                                  std::uint64_t{request->triangle_count()} * kBytesPerTriangle;
-  return UnaryCall::start(env_, context, "DescribeMesh", *request, messages,
+  return UnaryCall::start(env_, context, "DescribeMesh", *request, messages, 0, {},
                           [set = std::move(set), request, response](CallScope& scope) {
                             return describe(scope, *set, *request, *response);
                           });
@@ -222,7 +222,7 @@ grpc::ServerUnaryReactor* MeshService::CullMesh(grpc::CallbackServerContext* con
   // The request, and an answer of every leaf drawn (a run and an index each) and every box's flag.
   const std::uint64_t messages = held_bytes(*request) + groups * kBytesPerRun + boxes;
   return UnaryCall::start(
-      env_, context, "CullMesh", *request, messages,
+      env_, context, "CullMesh", *request, messages, 0, {},
       [set = std::move(set), request, response](CallScope& scope) { return cull(scope, *set, *request, *response); });
 }
 

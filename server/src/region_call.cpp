@@ -30,12 +30,9 @@ grpc::Status run_region_visibility(CallScope& scope, const v1::RegionVisibilityR
                                       "boxes: " + std::to_string(n) + " boxes, more than limits.max_boxes = " +
                                           std::to_string(env.config.limits.max_boxes),
                                       "boxes"));
-  // The boxes' conversion and plan hold kBytesPerBox a box: paid for before
+  // The boxes' conversion and plan hold kBytesPerBox a box: reserved with
+  // the messages at admission (VisibilityService::RegionVisibility), before
   // they are made, as the rest of the plan's holding is below.
-  if (auto s = scope.reserve(static_cast<std::uint64_t>(n) * region::kBytesPerBox,
-                             "converting these " + std::to_string(n) + " boxes");
-      !s.ok())
-    return scope.status_of(s.error());
   auto query = to_region_query(request, env.config.engine_threads);
   if (!query.ok()) return scope.status_of(query.error());
 

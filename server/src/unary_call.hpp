@@ -1,7 +1,8 @@
 // unary_call.hpp — a unary RPC whose work runs on the worker pool.
 //
 // The reactor is created on a gRPC thread, admits the call (its request
-// checked and `message_bytes` reserved for its messages: CallScope::admit), and posts the
+// checked, `message_bytes` reserved for its messages and `work_bytes` for
+// what its request alone will make: CallScope::admit), and posts the
 // work to the Asio pool; the work fills the response and returns the status,
 // and the reactor finishes the call from the pool thread. OnCancel (client
 // cancelled, deadline passed, server shutting down past its grace) sets the
@@ -30,9 +31,9 @@ class UnaryCall final : public grpc::ServerUnaryReactor {
   // Starts the call; returns the reactor to hand back to gRPC.
   static grpc::ServerUnaryReactor* start(ServerEnv& env, grpc::CallbackServerContext* context, std::string_view method,
                                          const google::protobuf::Message& request, std::uint64_t message_bytes,
-                                         Work work) {
+                                         std::uint64_t work_bytes, std::string_view work_what, Work work) {
     auto* call = new UnaryCall(env, context, method);
-    if (auto refused = call->scope_.admit(request, message_bytes)) {
+    if (auto refused = call->scope_.admit(request, message_bytes, work_bytes, work_what)) {
       call->finish(*refused);
       return call;
     }

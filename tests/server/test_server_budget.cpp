@@ -107,6 +107,62 @@ TEST(ServerBudget, AReservationSplitsInTwoThatGiveBackTheirOwnShares) {
   EXPECT_EQ(budget.reserved(), 0u);
 }
 
+// A call that has started and lacks only what parses hold waits for them to
+// end, and meanwhile no parse starts and no call is admitted: a flood of
+// arriving requests cannot take what the admitted call needs (the daemon's
+// CI once refused every one of 72 admitted CullBoxes calls so).
+TEST(ServerBudget, AStartedCallWaitsForParsesAndTakesWhatTheyGiveBack) {
+  MemoryBudget budget(MemoryBudget::kBaseBytes + 100);
+  Reservation admitted;
+  ASSERT_TRUE(budget.try_reserve_new(50, admitted));
+  ASSERT_TRUE(budget.try_take_parse(40));  // a request being parsed
+  std::atomic<bool> refused_during_wait{false};
+  std::thread parse([&] {
+    // New parses are taken (and given back) until the waiter is in its wait.
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (budget.try_take_parse(1) && std::chrono::steady_clock::now() < give_up) {
+      budget.give_parse(1);
+      std::this_thread::yield();
+    }
+    // Then no new call takes the room the waiter wants either.
+    Reservation other;
+    refused_during_wait = !budget.try_take_parse(1) && !budget.try_reserve_new(1, other);
+    budget.give_parse(40);  // the parse ends
+  });
+  Reservation more;
+  // 30 more: 10 free now, the parse's 40 once it ends.
+  EXPECT_TRUE(budget.reserve_after_parses(30, more, std::chrono::steady_clock::now() + std::chrono::seconds(60)));
+  parse.join();
+  EXPECT_TRUE(refused_during_wait.load());
+  EXPECT_EQ(more.bytes(), 30u);
+  EXPECT_EQ(budget.reserved(), 80u);
+  // No one waits now: parses and calls are taken again.
+  EXPECT_TRUE(budget.try_take_parse(20));
+  budget.give_parse(20);
+  Reservation next;
+  EXPECT_TRUE(budget.try_reserve_new(20, next));
+}
+
+// What parses' ending would not make room for is refused at once, whatever
+// the time left; what they would is refused at `until` if they never end.
+TEST(ServerBudget, AStartedCallWaitsOnlyForWhatParsesCouldGiveAndOnlyUntilItsTime) {
+  MemoryBudget budget(MemoryBudget::kBaseBytes + 100);
+  Reservation admitted, more;
+  ASSERT_TRUE(budget.try_reserve(50, admitted));
+  ASSERT_TRUE(budget.try_take_parse(40));
+  const auto start = std::chrono::steady_clock::now();
+  // 60 > 10 free + 40 parsing: no wait (a wrong answer here would wait an hour).
+  EXPECT_FALSE(budget.reserve_after_parses(60, more, start + std::chrono::hours(1)));
+  // 30 <= 50, but the parse never ends: refused at `until`.
+  EXPECT_FALSE(budget.reserve_after_parses(30, more, start + std::chrono::milliseconds(40)));
+  EXPECT_GE(std::chrono::steady_clock::now() - start, std::chrono::milliseconds(40));
+  EXPECT_EQ(more.bytes(), 0u);
+  EXPECT_EQ(budget.reserved(), 90u);
+  budget.give_parse(40);
+  EXPECT_TRUE(budget.reserve_after_parses(30, more, start));  // fits now: no wait, whatever `until`
+  EXPECT_EQ(budget.reserved(), 80u);
+}
+
 // Trims wait for the daemon to be idle at the end of the delay, and come at
 // most once an interval however often it falls idle. (Bounds are generous:
 // each waits several times the delay the trimmer is given.)
