@@ -302,8 +302,9 @@ TEST(ServerHostile, RequestsThatWouldParseBeyondTheBudgetAreRefusedUnparsed) {
 }
 
 // Clients on connections of their own, each sending the largest CullBoxes
-// call the defaults take (100 000 boxes, ~5 MB on the wire, ~15 MB held
-// once received and answered) at once, against a small budget. What is on
+// call the defaults take (100 000 boxes, ~5 MB on the wire; 19 MiB held
+// once received and answered, 13 MiB more for its boxes' conversion) at
+// once, against a small budget. What is on
 // the wire fills gRPC's receive quota (receive_buffer_mb, by default an
 // eighth of the budget: 16 MiB here, three such requests), and gRPC sheds
 // connections past it (the calls end UNAVAILABLE; a client retries, as the
