@@ -50,14 +50,6 @@ std::optional<grpc::Status> CallScope::cancel() {
   return status_of(make_error(ErrorCode::kCancelled, "cancelled before it started"));
 }
 
-namespace {
-
-std::string mib(std::uint64_t bytes) {
-  return std::to_string((bytes + (1 << 20) - 1) >> 20) + " MiB";
-}
-
-}  // namespace
-
 std::optional<grpc::Status> CallScope::admission(const google::protobuf::Message& request, std::uint64_t message_bytes,
                                                  std::uint64_t work_bytes, std::string_view work_what) {
   if (!env_.datasets.loaded())
@@ -99,11 +91,11 @@ std::optional<grpc::Status> CallScope::admission(const google::protobuf::Message
   // queued, and frees its request at once.
   const std::uint64_t bytes = message_bytes + work_bytes;
   if (bytes > 0 && !env_.memory.try_reserve_new(bytes, messages_)) {
-    std::string parts = "its messages " + mib(message_bytes);
-    if (work_bytes > 0) parts += ", " + std::string(work_what) + " " + mib(work_bytes);
+    std::string parts = "its messages " + mib_text(message_bytes);
+    if (work_bytes > 0) parts += ", " + std::string(work_what) + " " + mib_text(work_bytes);
     return to_grpc_status(make_error(ErrorCode::kResourceExhausted,
-                                     "this request needs about " + mib(bytes) + " while it waits and runs (" + parts +
-                                         "), more than memory_budget_mb leaves free now (" +
+                                     "this request needs about " + mib_text(bytes) + " while it waits and runs (" +
+                                         parts + "), more than memory_budget_mb leaves free now (" +
                                          std::to_string(env_.memory.reserved() >> 20) +
                                          " MiB held); retry later or split the request",
                                      "memory_budget_mb"));
@@ -133,8 +125,8 @@ Status CallScope::reserve(std::uint64_t bytes, const std::string& what) {
   if (control_.deadline) until = std::min(until, *control_.deadline);
   if (!env_.memory.reserve_after_parses(bytes - memory_.bytes(), more, until))
     return make_error(ErrorCode::kResourceExhausted,
-                      what + " needs about " + std::to_string((bytes + (1 << 20) - 1) >> 20) +
-                          " MiB of working memory, more than memory_budget_mb leaves free now (" +
+                      what + " needs about " + mib_text(bytes) +
+                          " of working memory, more than memory_budget_mb leaves free now (" +
                           std::to_string(env_.memory.reserved() >> 20) + " MiB held); retry later or ask less",
                       "memory_budget_mb");
   memory_.absorb(std::move(more));

@@ -37,10 +37,6 @@ bool same_config(const MeshConfig& a, const MeshConfig& b) {
 // insertion's per-cell marks and the cell's place in the Delaunay walk.
 constexpr std::uint64_t kBytesPerDemCell = 8;
 
-std::string mib(std::uint64_t bytes) {
-  return std::to_string((bytes + (1u << 20) - 1) >> 20) + " MiB";
-}
-
 }  // namespace
 
 Result<std::shared_ptr<const ServedMesh>> MeshRegistry::prepare(const Config& config, const MeshConfig& entry,
@@ -78,7 +74,7 @@ Result<std::shared_ptr<const ServedMesh>> MeshRegistry::prepare(const Config& co
   Reservation reading, preparing;
   const auto refuse = [&](std::uint64_t bytes, const std::string& what) {
     return make_error(ErrorCode::kResourceExhausted,
-                      "config '" + config.source + "': " + key + ": " + what + " needs about " + mib(bytes) +
+                      "config '" + config.source + "': " + key + ": " + what + " needs about " + mib_text(bytes) +
                           ", more than memory_budget_mb = " + std::to_string(config.memory_budget_bytes >> 20) +
                           " has left beside the block cache, the receive buffers and the other meshes",
                       key);
@@ -139,7 +135,7 @@ Result<std::shared_ptr<const ServedMesh>> MeshRegistry::prepare(const Config& co
   Reservation memory;
   if (!memory_.try_reserve(bytes, memory))
     return make_error(ErrorCode::kResourceExhausted,
-                      "config '" + config.source + "': " + key + ": the prepared mesh holds " + mib(bytes) +
+                      "config '" + config.source + "': " + key + ": the prepared mesh holds " + mib_text(bytes) +
                           ", more than memory_budget_mb = " + std::to_string(config.memory_budget_bytes >> 20) +
                           " has left beside the block cache, the receive buffers and the other meshes",
                       key);

@@ -368,10 +368,10 @@ Status Lease::hold_images(std::uint64_t bytes, const std::string& what) {
   ImageMemory* memory = pool.image_memory;
   if (memory == nullptr || bytes == 0) return Status::Ok();
   if (!memory->take(bytes))
-    return make_error(ErrorCode::kResourceExhausted,
-                      "gpu: " + what + " needs " + std::to_string((bytes + (1 << 20) - 1) >> 20) +
-                          " MiB of GL images, more than the memory budget leaves free now",
-                      "gpu");
+    return make_error(
+        ErrorCode::kResourceExhausted,
+        "gpu: " + what + " needs " + mib_text(bytes) + " of GL images, more than the memory budget leaves free now",
+        "gpu");
   std::lock_guard lock(pool.taken_mutex);
   pool.slots[static_cast<std::size_t>(index_)].taken += bytes;
   return Status::Ok();

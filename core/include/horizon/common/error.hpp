@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cassert>
+#include <cstdint>
 #include <string>
 #include <utility>
 #include <variant>
@@ -41,6 +42,9 @@ struct Error {
 // A number as messages write it: printf's %.*g with `significant` digits
 // ("0.5", "1e+06", "3e+38").
 std::string number_text(double value, int significant = 6);
+
+// A size as messages write it: whole MiB, rounded up ("13 MiB").
+std::string mib_text(std::uint64_t bytes);
 
 inline Error make_error(ErrorCode code, std::string message, std::string field = {}) {
   return Error{code, std::move(message), std::move(field)};
