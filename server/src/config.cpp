@@ -517,7 +517,6 @@ Result<Config> parse_config(const std::string& text, const std::string& source, 
   }
   // Requests on the wire: after the limits, which size the largest request.
   const std::uint64_t largest_request = largest_request_bytes(c.limits);
-  const auto mib_up = [](std::uint64_t bytes) { return (bytes + (1u << 20) - 1) >> 20; };
   if (j.contains("receive_buffer_mb")) {
     auto v = get_count(j, source, "receive_buffer_mb", "receive_buffer_mb", 1, 1u << 20);
     if (!v.ok()) return v.error();
@@ -525,10 +524,10 @@ Result<Config> parse_config(const std::string& text, const std::string& source, 
     if (c.receive_buffer_bytes < largest_request)
       return config_error(source, "receive_buffer_mb",
                           std::to_string(*v) + " MiB cannot hold the largest request the limits allow (" +
-                              std::to_string(mib_up(largest_request)) +
-                              " MiB: limits.max_boxes, max_lines or max_observers)");
+                              mib_text(largest_request) + ": limits.max_boxes, max_lines or max_observers)");
   } else {
-    c.receive_buffer_bytes = std::max<std::uint64_t>(c.memory_budget_bytes / 8, mib_up(largest_request) << 20);
+    const std::uint64_t largest_in_whole_mib = (largest_request + (1u << 20) - 1) >> 20 << 20;
+    c.receive_buffer_bytes = std::max<std::uint64_t>(c.memory_budget_bytes / 8, largest_in_whole_mib);
   }
   if (!j.contains("block_cache_mb")) {
     // Half of what the budget leaves after the process's own overhead and the
