@@ -234,6 +234,17 @@ HORIZON_AVX2 inline void store_cells8(const ResampleLine& L, int j, __m256 lanes
     if (keep[q]) L.out[(j + q) * L.o_v] = values[q];
 }
 
+// The upper bracketing ray's code for eight cells (marching ray i0 + 1),
+// none where it repeats the lower ray's (`a0`, as gathered) or is the line
+// before, which the kernel samples anyway.
+HORIZON_AVX2 inline __m256i upper_code8(const ResampleLine& L, __m256i i0, __m256 valid, __m256i a0) {
+  using namespace simd;
+  const __m256i none = i8(-1);
+  const __m256i a1 =
+      _mm256_mask_i32gather_epi32(none, L.code, _mm256_add_epi32(i0, i8(1)), _mm256_castps_si256(valid), 4);
+  return _mm256_blendv_epi8(a1, none, _mm256_or_si256(_mm256_cmpeq_epi32(a1, a0), _mm256_cmpeq_epi32(a1, i8(L.n - 1))));
+}
+
 HORIZON_AVX2 std::uint64_t resample_cells_avx2(const ResampleLine& L, int j_begin, int j_end) {
   using namespace simd;
   const CellLine& cl = *L.cells;
@@ -270,10 +281,11 @@ HORIZON_AVX2 std::uint64_t resample_cells_avx2(const ResampleLine& L, int j_begi
     const __m256i r = clampi8(_mm256_set_m128i(r_hi, r_lo), i8(-L.ray_half), i8(L.ray_half - 1));
     const __m256i i0 = _mm256_sra_epi32(_mm256_sub_epi32(r, i8(L.ra)), shift);
     const __m256i none = i8(-1), previous = i8(L.n - 1);
-    __m256i a0 = _mm256_mask_i32gather_epi32(none, L.code, i0, _mm256_castps_si256(valid), 4);
-    __m256i a1 = _mm256_mask_i32gather_epi32(none, L.code, _mm256_add_epi32(i0, i8(1)), _mm256_castps_si256(valid), 4);
-    a1 = _mm256_blendv_epi8(a1, none, _mm256_or_si256(_mm256_cmpeq_epi32(a1, a0), _mm256_cmpeq_epi32(a1, previous)));
-    a0 = _mm256_blendv_epi8(a0, none, _mm256_cmpeq_epi32(a0, previous));
+    // Where the lower ray found its horizon (none when that is the line
+    // before, which is sampled anyway); the upper ray's code is read only
+    // when the first candidate leaves a cell of the group to decide.
+    const __m256i a0_code = _mm256_mask_i32gather_epi32(none, L.code, i0, _mm256_castps_si256(valid), 4);
+    const __m256i a0 = _mm256_blendv_epi8(a0_code, none, _mm256_cmpeq_epi32(a0_code, previous));
     // cell_ray(cl, j).
     const __m256 m = _mm256_div_ps(_mm256_sub_ps(_mm256_cvtepi32_ps(jv), f8(cl.eye_v)), f8(cl.k));
     const __m256 inv_m = _mm256_mul_ps(f8(cl.k), _mm256_maskload_ps(cl.inv_dv + j, _mm256_castps_si256(valid)));
@@ -299,7 +311,7 @@ HORIZON_AVX2 std::uint64_t resample_cells_avx2(const ResampleLine& L, int j_begi
       if (L.n > 0) best = _mm256_max_ps(sample_u8(cl, m, curv_k, i8(L.n - 1), valid, f8(cl.inv_step[L.n - 1])), best);
       best = _mm256_max_ps(sample_at8(cl, valid, jv, m, inv_m, curv_k, a0), best);
     }
-    best = _mm256_max_ps(sample_at8(cl, valid, jv, m, inv_m, curv_k, a1), best);
+    best = _mm256_max_ps(sample_at8(cl, valid, jv, m, inv_m, curv_k, upper_code8(L, i0, valid, a0_code)), best);
     store_cells8(L, j, lanes, occlusion_heights8(best, valid, eye, k, curvature, d2_lo, d2_hi), zc, values, keep);
     written += static_cast<std::uint64_t>(__builtin_popcount(static_cast<unsigned>(valid_bits)));
   }
@@ -441,6 +453,14 @@ HORIZON_AVX512 inline void store_cells16(const ResampleLine& L, int j, __m512i j
   }
 }
 
+// upper_code8's sixteen-cell twin.
+HORIZON_AVX512 inline __m512i upper_code16(const ResampleLine& L, __m512i i0, __mmask16 valid, __m512i a0) {
+  using namespace simd;
+  const __m512i none = i16(-1);
+  const __m512i a1 = _mm512_mask_i32gather_epi32(none, valid, _mm512_add_epi32(i0, i16(1)), L.code, 4);
+  return _mm512_mask_blend_epi32(_mm512_cmpeq_epi32_mask(a1, a0) | _mm512_cmpeq_epi32_mask(a1, i16(L.n - 1)), a1, none);
+}
+
 HORIZON_AVX512 std::uint64_t resample_cells_avx512(const ResampleLine& L, int j_begin, int j_end) {
   using namespace simd;
   const CellLine& cl = *L.cells;
@@ -473,10 +493,10 @@ HORIZON_AVX512 std::uint64_t resample_cells_avx512(const ResampleLine& L, int j_
         clampi16(_mm512_inserti64x4(_mm512_castsi256_si512(r_lo), r_hi, 1), i16(-L.ray_half), i16(L.ray_half - 1));
     const __m512i i0 = _mm512_sra_epi32(_mm512_sub_epi32(r, i16(L.ra)), shift);
     const __m512i none = i16(-1), previous = i16(L.n - 1);
-    __m512i a0 = _mm512_mask_i32gather_epi32(none, valid, i0, L.code, 4);
-    __m512i a1 = _mm512_mask_i32gather_epi32(none, valid, _mm512_add_epi32(i0, i16(1)), L.code, 4);
-    a1 = _mm512_mask_blend_epi32(_mm512_cmpeq_epi32_mask(a1, a0) | _mm512_cmpeq_epi32_mask(a1, previous), a1, none);
-    a0 = _mm512_mask_blend_epi32(_mm512_cmpeq_epi32_mask(a0, previous), a0, none);
+    // The lower ray's code now, the upper ray's only where it is needed (as
+    // in the AVX2 kernel).
+    const __m512i a0_code = _mm512_mask_i32gather_epi32(none, valid, i0, L.code, 4);
+    const __m512i a0 = _mm512_mask_blend_epi32(_mm512_cmpeq_epi32_mask(a0_code, previous), a0_code, none);
     const __m512 m = _mm512_div_ps(_mm512_sub_ps(_mm512_cvtepi32_ps(jv), f16(cl.eye_v)), f16(cl.k));
     const __m512 inv_m = _mm512_mul_ps(f16(cl.k), _mm512_maskz_loadu_ps(valid, cl.inv_dv + j));
     const __m512 curv_k =
@@ -502,7 +522,7 @@ HORIZON_AVX512 std::uint64_t resample_cells_avx512(const ResampleLine& L, int j_
         best = _mm512_max_ps(sample_u16(cl, m, curv_k, i16(L.n - 1), valid, f16(cl.inv_step[L.n - 1])), best);
       best = _mm512_max_ps(sample_at16(cl, valid, jv, m, inv_m, curv_k, a0), best);
     }
-    best = _mm512_max_ps(sample_at16(cl, valid, jv, m, inv_m, curv_k, a1), best);
+    best = _mm512_max_ps(sample_at16(cl, valid, jv, m, inv_m, curv_k, upper_code16(L, i0, valid, a0_code)), best);
     store_cells16(L, j, jv, lanes, occlusion_heights16(best, valid, eye, k, curvature, d2_lo, d2_hi), zc, o_v);
     written += static_cast<std::uint64_t>(__builtin_popcount(static_cast<unsigned>(valid)));
   }
