@@ -104,7 +104,8 @@ HORIZON_AVX2 inline __m256i clampi8(__m256i x, __m256i lo, __m256i hi) {
 // sample_u on the u line at step `step` (per lane), for the lanes of `mask`;
 // inv_step holds 1 / step per lane (L.inv_step[step], gathered or, for one
 // step in every lane, broadcast).
-HORIZON_AVX2 __m256 sample_u8(const CellLine& L, __m256 m, __m256 curv_k, __m256i step, __m256 mask, __m256 inv_step) {
+HORIZON_AVX2 __attribute__((always_inline)) inline __m256 sample_u8(const CellLine& L, __m256 m, __m256 curv_k,
+                                                                    __m256i step, __m256 mask, __m256 inv_step) {
   using namespace simd;
   const __m256 kn = _mm256_add_ps(f8(L.k0), _mm256_cvtepi32_ps(step));
   const __m256 v = clamp8(_mm256_add_ps(f8(L.eye_v), _mm256_mul_ps(m, kn)), f8(L.v_min), f8(L.v_max));
@@ -123,8 +124,9 @@ HORIZON_AVX2 __m256 sample_u8(const CellLine& L, __m256 m, __m256 curv_k, __m256
 
 // sample_at(L, cell, code) per lane of `lanes`: the u line, the v line, or
 // kNoHorizon. A kind of line no lane needs is skipped.
-HORIZON_AVX2 __m256 sample_at8(const CellLine& L, __m256 lanes, __m256i j, __m256 m, __m256 inv_m, __m256 curv_k,
-                               __m256i code) {
+HORIZON_AVX2 __attribute__((always_inline)) inline __m256 sample_at8(const CellLine& L, __m256 lanes, __m256i j,
+                                                                     __m256 m, __m256 inv_m, __m256 curv_k,
+                                                                     __m256i code) {
   using namespace simd;
   const __m256 none = f8(kNoHorizon);
   // u lines: code >= 0.
@@ -328,8 +330,8 @@ HORIZON_AVX512 inline __m512i clampi16(__m512i x, __m512i lo, __m512i hi) {
   return simd::mini_of(simd::maxi_of(x, lo), hi);
 }
 
-HORIZON_AVX512 __m512 sample_u16(const CellLine& L, __m512 m, __m512 curv_k, __m512i step, __mmask16 mask,
-                                 __m512 inv_step) {
+HORIZON_AVX512 __attribute__((always_inline)) inline __m512 sample_u16(const CellLine& L, __m512 m, __m512 curv_k,
+                                                                       __m512i step, __mmask16 mask, __m512 inv_step) {
   using namespace simd;
   const __m512 kn = _mm512_add_ps(f16(L.k0), _mm512_cvtepi32_ps(step));
   const __m512 v = clamp16(_mm512_add_ps(f16(L.eye_v), _mm512_mul_ps(m, kn)), f16(L.v_min), f16(L.v_max));
@@ -346,8 +348,9 @@ HORIZON_AVX512 __m512 sample_u16(const CellLine& L, __m512 m, __m512 curv_k, __m
   return _mm512_sub_ps(_mm512_mul_ps(er, inv_step), _mm512_mul_ps(curv_k, kn));
 }
 
-HORIZON_AVX512 __m512 sample_at16(const CellLine& L, __mmask16 lanes, __m512i j, __m512 m, __m512 inv_m, __m512 curv_k,
-                                  __m512i code) {
+HORIZON_AVX512 __attribute__((always_inline)) inline __m512 sample_at16(const CellLine& L, __mmask16 lanes, __m512i j,
+                                                                        __m512 m, __m512 inv_m, __m512 curv_k,
+                                                                        __m512i code) {
   using namespace simd;
   const __m512 none = f16(kNoHorizon);
   const __mmask16 on_u = _mm512_mask_cmpgt_epi32_mask(lanes, code, i16(-1));
