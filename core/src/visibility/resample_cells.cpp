@@ -247,9 +247,13 @@ HORIZON_AVX2 inline __m256i upper_code8(const ResampleLine& L, __m256i i0, __m25
   return _mm256_blendv_epi8(a1, none, _mm256_or_si256(_mm256_cmpeq_epi32(a1, a0), _mm256_cmpeq_epi32(a1, i8(L.n - 1))));
 }
 
-HORIZON_AVX2 std::uint64_t resample_cells_avx2(const ResampleLine& L, int j_begin, int j_end) {
+HORIZON_AVX2 std::uint64_t resample_cells_avx2(const ResampleLine& line, int j_begin, int j_end) {
   using namespace simd;
-  const CellLine& cl = *L.cells;
+  // Copies of the line's constants: the codes are stored as bytes, which
+  // may alias anything, so through the references every group would read
+  // them again.
+  const ResampleLine L = line;
+  const CellLine cl = *L.cells;
   std::uint64_t written = 0;
   int j = j_begin;
   const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
@@ -464,9 +468,13 @@ HORIZON_AVX512 inline __m512i upper_code16(const ResampleLine& L, __m512i i0, __
   return _mm512_mask_blend_epi32(_mm512_cmpeq_epi32_mask(a1, a0) | _mm512_cmpeq_epi32_mask(a1, i16(L.n - 1)), a1, none);
 }
 
-HORIZON_AVX512 std::uint64_t resample_cells_avx512(const ResampleLine& L, int j_begin, int j_end) {
+HORIZON_AVX512 std::uint64_t resample_cells_avx512(const ResampleLine& line, int j_begin, int j_end) {
   using namespace simd;
-  const CellLine& cl = *L.cells;
+  // Copies of the line's constants: the codes are stored as bytes, which
+  // may alias anything, so through the references every group would read
+  // them again.
+  const ResampleLine L = line;
+  const CellLine cl = *L.cells;
   std::uint64_t written = 0;
   const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
   const __m512d eye_v = _mm512_set1_pd(L.eye_v), inv_k = _mm512_set1_pd(L.inv_k),
