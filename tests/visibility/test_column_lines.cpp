@@ -114,8 +114,60 @@ TEST(ColumnLines, TheExtentIsTheWindowAndTheEyesColumnWithOneCellMoreInsideTheGr
   EXPECT_EQ(column_lines_extent(t.view, frame_at(30.0, 20.0, {30, 20, 31, 21})), (terrain::Window{29, 19, 32, 22}));
 }
 
+// A wedge copies, of each column k cells from the eye, the rows within
+// k + 2 of the eye's (all the east and west sectors read) and leaves the
+// north and south sectors' cells beyond its margin as the buffer held them.
+void check_wedge_copies() {
+  const StridedTerrain t;  // 61 x 47
+  constexpr float kPoison = 9.0e9f;
+  struct Case {
+    double col, row;
+    terrain::Window extent;
+  };
+  const std::vector<Case> cases = {{30.5, 23.5, {0, 0, 61, 47}}, {0.2, 40.7, {0, 0, 61, 47}},
+                                   {60.9, 0.0, {0, 0, 61, 47}},  {20.0, 20.0, {9, 11, 31, 34}},
+                                   {45.3, 3.6, {40, 0, 61, 12}}, {12.0, 30.0, {11, 29, 14, 32}}};
+  for (const unsigned threads : {1u, 3u})
+    for (const Case& c : cases) {
+      SCOPED_TRACE(::testing::Message() << threads << " threads, eye (" << c.col << ", " << c.row << "), columns "
+                                        << c.extent.col0 << "-" << c.extent.col1 << ", rows " << c.extent.row0 << "-"
+                                        << c.extent.row1);
+      const terrain::Window& e = c.extent;
+      terrain::Grid<float> buffer(e.height(), e.width(), kPoison);
+      const ColumnWedge wedge{c.col, c.row};
+      const ColumnLines lines = transpose_columns(t.view, e, threads, buffer, &wedge);
+      std::size_t skipped = 0;
+      for (int col = e.col0; col < e.col1; ++col)
+        for (int row = e.row0; row < e.row1; ++row) {
+          const float copied = lines.lines[(col - e.col0) * lines.pitch + (row - e.row0)];
+          const double k = std::abs(col - c.col), dy = std::abs(row - c.row);
+          if (dy <= k + 2.0) {
+            ASSERT_TRUE(same_bits(copied, t.view.raw(col, row))) << "column " << col << ", row " << row;
+          } else if (dy > k + 12.0 + ColumnWedge::kMargin) {  // beyond a span of eight columns, the margin, rounding
+            ASSERT_EQ(copied, kPoison) << "column " << col << ", row " << row << " was copied";
+          }
+          skipped += copied == kPoison;
+        }
+      if (e.height() > 2 * (12 + ColumnWedge::kMargin)) {
+        EXPECT_GT(skipped, 0u) << "the wedge copied everything";
+      }
+    }
+}
+
+TEST(ColumnLines, AWedgeCopiesTheRowsTheEastAndWestSectorsRead) {
+  {
+    SCOPED_TRACE("scalar copy");
+    simd::isa_limit() = simd::Isa::kScalar;
+    check_wedge_copies();
+    simd::isa_limit() = simd::Isa::kAvx512;
+  }
+  for_each_vector_form(check_wedge_copies);
+}
+
 // The fast sweep's OHF and mask with the east and west lines copied equal
-// those read in place, bit for bit.
+// those read in place, bit for bit. The buffer is poisoned before each
+// run (a height that would hide the terrain behind it), so a read of a
+// cell the copy skipped changes the answer.
 class ColumnLinesSweep : public ::testing::TestWithParam<const char*> {};
 
 void compare_sweeps(const terrain::Dem& dem, const geodesy::GridPoint& eye, const ViewshedOptions& o,
@@ -124,9 +176,16 @@ void compare_sweeps(const terrain::Dem& dem, const geodesy::GridPoint& eye, cons
   const terrain::HeightView z = elevation_view(dem.elevation, o);
   auto frame = make_view_frame(dem, eye, o);
   ASSERT_TRUE(frame.ok()) << frame.error().message;
+  const terrain::Window extent = column_lines_extent(z, *frame);
+  const auto poison = [&] {
+    if (buffer.capacity() < extent.cell_count()) buffer = terrain::Grid<float>(extent.height(), extent.width());
+    buffer.reshape(extent.height(), extent.width());
+    std::fill(buffer.data(), buffer.data() + buffer.size(), 9.0e9f);
+  };
   terrain::Grid<float> in_place, copied;
   WorkStats stats_in_place, stats_copied;
   ASSERT_TRUE(radial_ohf(z, *frame, o.radial, 2, nullptr, in_place, stats_in_place).ok());
+  poison();
   ASSERT_TRUE(radial_ohf(z, *frame, o.radial, 2, nullptr, copied, stats_copied, RadialBound::kNone, &buffer).ok());
   ASSERT_FALSE(buffer.empty()) << "the sweep copied its east and west lines";
   ASSERT_EQ(in_place.size(), copied.size());
@@ -139,6 +198,7 @@ void compare_sweeps(const terrain::Dem& dem, const geodesy::GridPoint& eye, cons
   terrain::Grid<std::uint8_t> mask_in_place, mask_copied;
   AnswerCounts counts_in_place, counts_copied;
   ASSERT_TRUE(radial_mask(z, *frame, o.radial, 1.5, 2, nullptr, mask_in_place, counts_in_place, stats_in_place).ok());
+  poison();
   ASSERT_TRUE(
       radial_mask(z, *frame, o.radial, 1.5, 2, nullptr, mask_copied, counts_copied, stats_copied, &buffer).ok());
   ASSERT_EQ(mask_in_place.size(), mask_copied.size());

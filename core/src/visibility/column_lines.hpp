@@ -41,10 +41,29 @@ struct ColumnLines {
 // window), inside z.
 terrain::Window column_lines_extent(const terrain::HeightView& z, const ViewFrame& frame);
 
+// The part of each column that the east and west sectors read: those
+// sectors hold the cells nearer the eye's row than its column (|dy| < |dx|),
+// and every sample they take of the column k cells from the eye (a ray's,
+// its crossing's on the column before, a cell's re-sample) lies within
+// k + 2 rows of the eye's (a sight line's slope is at most one, plus the
+// two-cell bracket and the column before); kMargin rounds that up. The
+// rest of the window, the north and south sectors', need not be copied:
+// about half of it for an eye in the middle.
+struct ColumnWedge {
+  static constexpr int kMargin = 4;
+  double eye_col = 0.0, eye_row = 0.0;  // the frame's observer_col, observer_row
+
+  // The rows of `extent` that columns [c0, c1) need (the farthest of them
+  // from the eye sets the span); row0 == row1 when none.
+  terrain::Window rows_of(const terrain::Window& extent, int c0, int c1) const;
+};
+
 // Copies `extent` (inside z) of z's raw elevations transposed into
 // `buffer`, which is reshaped to extent.height() x extent.width(), keeping
-// its storage when that is large enough; on `threads`.
+// its storage when that is large enough; on `threads`. With a `wedge`, only
+// the rows of each column that it names are copied; the others hold
+// whatever the buffer held.
 ColumnLines transpose_columns(const terrain::HeightView& z, const terrain::Window& extent, unsigned threads,
-                              terrain::Grid<float>& buffer);
+                              terrain::Grid<float>& buffer, const ColumnWedge* wedge = nullptr);
 
 }  // namespace horizon::visibility::sweep

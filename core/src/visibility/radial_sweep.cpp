@@ -644,7 +644,10 @@ Status sweep_sectors(const terrain::HeightView& z, const ViewFrame& f, const Rad
     s.out_v0 -= s.v_offset;
     s.v_count -= s.v_offset;
     if (!rows && column_buffer != nullptr && !c.precise) {
-      if (!columns) columns = sweep::transpose_columns(z, sweep::column_lines_extent(z, f), threads, *column_buffer);
+      if (!columns) {
+        const sweep::ColumnWedge wedge{f.observer_col, f.observer_row};
+        columns = sweep::transpose_columns(z, sweep::column_lines_extent(z, f), threads, *column_buffer, &wedge);
+      }
       // Line i of the copy is DEM column columns->extent.col0 + i; the
       // outputs' line numbers move with it. v is still counted from v_offset.
       const terrain::Window& e = columns->extent;
