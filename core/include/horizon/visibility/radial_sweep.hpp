@@ -46,8 +46,9 @@ enum class RadialBound {
 // every in-range cell, NaN out of range or on a transparent void.
 //
 // `column_buffer`, when given, is a float grid the sweep may reshape and
-// fill with a transposed copy of the window (a few cells more: the east and
-// west sectors' columns as contiguous lines), so that those sectors read
+// fill with a transposed copy of the window's part the east and west
+// sectors read (their columns as contiguous lines; sized to the window and
+// a few cells more, of which only that part is written), so that those sectors read
 // their terrain as the north and south ones do: a caller's kept buffer that
 // the run does not otherwise use while it sweeps (a workspace's terrain
 // raster, or its OHF raster when only a mask is made), so that the copy
