@@ -162,6 +162,22 @@ HORIZON_AVX2 __attribute__((always_inline)) inline __m256 sample_at8(const CellL
   return _mm256_blendv_ps(_mm256_blendv_ps(none, sv, on_v), su, on_u);
 }
 
+// Stores the codes (kVisible, kHidden or kNoAnswer per 32-bit lane) of
+// the lanes of `lanes` (cells j, j + 1, ...) into the line's mask.
+HORIZON_AVX2 inline void store_code_bytes8(const ResampleLine& L, int j, __m256 lanes, __m256i code) {
+  // 32-bit lanes to bytes: 0, 1 and 255 survive both saturating packs.
+  const __m128i words = _mm_packs_epi32(_mm256_castsi256_si128(code), _mm256_extracti128_si256(code, 1));
+  const __m128i bytes = _mm_packus_epi16(words, words);
+  const int count = __builtin_popcount(static_cast<unsigned>(_mm256_movemask_ps(lanes)));  // lanes 0 .. count - 1
+  if (L.o_v == 1 && count == 8) {
+    _mm_storel_epi64(reinterpret_cast<__m128i*>(L.mask + j), bytes);
+    return;
+  }
+  alignas(16) std::uint8_t b[16];
+  _mm_store_si128(reinterpret_cast<__m128i*>(b), bytes);
+  for (int q = 0; q < count; ++q) L.mask[(j + q) * L.o_v] = b[q];
+}
+
 // The codes of put(), eight cells at once: the same float subtraction and
 // compares as min_target_height_at. `lanes` are the cells j, j + 1, ... in
 // the line's range, `ground` their elevations (NaN on a void target).
@@ -176,18 +192,15 @@ HORIZON_AVX2 inline void store_codes8(const ResampleLine& L, int j, __m256 lanes
   const __m256i code =
       _mm256_blendv_epi8(i8(kNoAnswer), _mm256_blendv_epi8(i8(kHidden), i8(kVisible), _mm256_castps_si256(seen)),
                          _mm256_castps_si256(answered));
-  // 32-bit lanes to bytes: 0, 1 and 255 survive both saturating packs.
-  const __m128i words = _mm_packs_epi32(_mm256_castsi256_si128(code), _mm256_extracti128_si256(code, 1));
-  const __m128i bytes = _mm_packus_epi16(words, words);
   *L.visible += static_cast<std::uint64_t>(__builtin_popcount(static_cast<unsigned>(_mm256_movemask_ps(visible))));
-  const int count = __builtin_popcount(static_cast<unsigned>(_mm256_movemask_ps(lanes)));  // lanes 0 .. count - 1
-  if (L.o_v == 1 && count == 8) {
-    _mm_storel_epi64(reinterpret_cast<__m128i*>(L.mask + j), bytes);
-    return;
-  }
-  alignas(16) std::uint8_t b[16];
-  _mm_store_si128(reinterpret_cast<__m128i*>(b), bytes);
-  for (int q = 0; q < count; ++q) L.mask[(j + q) * L.o_v] = b[q];
+  store_code_bytes8(L, j, lanes, code);
+}
+
+// store_codes8 for a group all_hidden8 found hidden: its answered cells
+// (`valid`) are hidden, its void targets have no answer, none is visible.
+HORIZON_AVX2 inline void store_hidden8(const ResampleLine& L, int j, __m256 lanes, __m256 valid) {
+  using namespace simd;
+  store_code_bytes8(L, j, lanes, _mm256_blendv_epi8(i8(kNoAnswer), i8(kHidden), _mm256_castps_si256(valid)));
 }
 
 // occlusion_height for eight cells from their best samples, in double (d2:
@@ -308,7 +321,7 @@ HORIZON_AVX2 std::uint64_t resample_cells_avx2(const ResampleLine& line, int j_b
       best = _mm256_max_ps(sample_at8(cl, valid, jv, m, inv_m, curv_k, a0), best);
       const __m256 height = occlusion_heights8(best, valid, eye, k, curvature, d2_lo, d2_hi);
       if (all_hidden8(L, valid, height, zc)) {
-        store_cells8(L, j, lanes, height, zc, values, keep);
+        store_hidden8(L, j, lanes, valid);
         written += static_cast<std::uint64_t>(__builtin_popcount(static_cast<unsigned>(valid_bits)));
         continue;
       }
@@ -395,6 +408,20 @@ HORIZON_AVX512 inline __m512d high_pd(__m512i x) {
   return _mm512_cvtepi32_pd(_mm512_extracti64x4_epi64(x, 1));
 }
 
+// store_code_bytes8's sixteen-cell twin.
+HORIZON_AVX512 inline void store_code_bytes16(const ResampleLine& L, int j, __mmask16 lanes, __m512i code) {
+  if (L.o_v == 1) {
+    _mm512_mask_cvtepi32_storeu_epi8(L.mask + j, lanes, code);
+    return;
+  }
+  alignas(16) std::uint8_t b[16];
+  _mm_store_si128(reinterpret_cast<__m128i*>(b), _mm512_cvtepi32_epi8(code));
+  for (unsigned left = lanes; left != 0; left &= left - 1) {
+    const int q = __builtin_ctz(left);
+    L.mask[(j + q) * L.o_v] = b[q];
+  }
+}
+
 // store_codes8, sixteen cells at once.
 HORIZON_AVX512 inline void store_codes16(const ResampleLine& L, int j, __mmask16 lanes, __m512 height, __m512 ground) {
   using namespace simd;
@@ -406,16 +433,13 @@ HORIZON_AVX512 inline void store_codes16(const ResampleLine& L, int j, __mmask16
   const __m512i code =
       _mm512_mask_blend_epi32(answered, i16(kNoAnswer), _mm512_mask_blend_epi32(seen, i16(kHidden), i16(kVisible)));
   *L.visible += static_cast<std::uint64_t>(__builtin_popcount(static_cast<unsigned>(lanes & answered & seen)));
-  if (L.o_v == 1) {
-    _mm512_mask_cvtepi32_storeu_epi8(L.mask + j, lanes, code);
-    return;
-  }
-  alignas(16) std::uint8_t b[16];
-  _mm_store_si128(reinterpret_cast<__m128i*>(b), _mm512_cvtepi32_epi8(code));
-  for (unsigned left = lanes; left != 0; left &= left - 1) {
-    const int q = __builtin_ctz(left);
-    L.mask[(j + q) * L.o_v] = b[q];
-  }
+  store_code_bytes16(L, j, lanes, code);
+}
+
+// store_hidden8's sixteen-cell twin.
+HORIZON_AVX512 inline void store_hidden16(const ResampleLine& L, int j, __mmask16 lanes, __mmask16 valid) {
+  using namespace simd;
+  store_code_bytes16(L, j, lanes, _mm512_mask_blend_epi32(valid, i16(kNoAnswer), i16(kHidden)));
 }
 
 // occlusion_height for sixteen cells from their best samples, in double
@@ -522,7 +546,7 @@ HORIZON_AVX512 std::uint64_t resample_cells_avx512(const ResampleLine& line, int
       best = _mm512_max_ps(sample_at16(cl, valid, jv, m, inv_m, curv_k, a0), best);
       const __m512 height = occlusion_heights16(best, valid, eye, k, curvature, d2_lo, d2_hi);
       if (all_hidden16(L, valid, height, zc)) {
-        store_cells16(L, j, jv, lanes, height, zc, o_v);
+        store_hidden16(L, j, lanes, valid);
         written += static_cast<std::uint64_t>(__builtin_popcount(static_cast<unsigned>(valid)));
         continue;
       }
