@@ -84,8 +84,8 @@ struct ReadPlan {
 // read it across rows without missing the TLB; the first keep of a buffer
 // pays the kernel's collapse once (13-18 ms for 48 MB here, up to ~140 ms on
 // a VM that had handed the memory back to its host).
-// The fast sweep copies its east and west sectors' lines (the window
-// transposed, radial_ohf's column_buffer) into the terrain raster before
+// The fast sweep copies its east and west sectors' lines (their part of
+// the window transposed, radial_ohf's column_buffer) into the terrain raster before
 // the run fills it, or into the OHF raster of a mask_only run, so that copy
 // takes no new pages either.
 // The sweep's per-task scratch needs no workspace: it is kept by each thread
