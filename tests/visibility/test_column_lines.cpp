@@ -74,14 +74,19 @@ void check_copies() {
     }
 }
 
-TEST(ColumnLines, TheCopyHoldsEveryCellOfItsExtentTransposed) {
+// `check` with the scalar copy, then with each vector form this CPU has.
+void with_every_copy(void (*check)()) {
   {
     SCOPED_TRACE("scalar copy");
     simd::isa_limit() = simd::Isa::kScalar;
-    check_copies();
+    check();
     simd::isa_limit() = simd::Isa::kAvx512;
   }
-  for_each_vector_form(check_copies);
+  for_each_vector_form(check);
+}
+
+TEST(ColumnLines, TheCopyHoldsEveryCellOfItsExtentTransposed) {
+  with_every_copy(check_copies);
 }
 
 TEST(ColumnLines, ABufferLargeEnoughIsReusedAndASmallOneGrown) {
@@ -155,13 +160,7 @@ void check_wedge_copies() {
 }
 
 TEST(ColumnLines, AWedgeCopiesTheRowsTheEastAndWestSectorsRead) {
-  {
-    SCOPED_TRACE("scalar copy");
-    simd::isa_limit() = simd::Isa::kScalar;
-    check_wedge_copies();
-    simd::isa_limit() = simd::Isa::kAvx512;
-  }
-  for_each_vector_form(check_wedge_copies);
+  with_every_copy(check_wedge_copies);
 }
 
 // The fast sweep's OHF and mask with the east and west lines copied equal
