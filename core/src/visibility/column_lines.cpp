@@ -1,9 +1,9 @@
 #include "column_lines.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <utility>
-#include <vector>
 
 #include "horizon/common/parallel.hpp"
 #include "simd.hpp"
@@ -14,6 +14,7 @@ namespace {
 // Columns per task: a task writes this many whole lines of the copy, and
 // reads a strip this wide down every row (64 floats: four cache lines a row).
 constexpr int kColumnsPerTask = 64;
+static_assert(kColumnsPerTask % 8 == 0, "a task is whole spans of eight columns");
 
 // The scalar copy of columns [c0, c1) x rows [r0, r1) (view coordinates),
 // for the edges of the blocked form and CPUs without AVX2.
@@ -28,6 +29,15 @@ void copy_scalar(const terrain::HeightView& z, const terrain::Window& extent, in
 // The rows [r0, r1) that columns [c0, c1) (at most eight) are copied over.
 struct ColumnSpan {
   int c0, c1, r0, r1;
+};
+
+// A task's spans, eight columns each.
+struct TaskSpans {
+  std::array<ColumnSpan, kColumnsPerTask / 8> span;
+  int count = 0;
+
+  const ColumnSpan* begin() const { return span.data(); }
+  const ColumnSpan* end() const { return span.data() + count; }
 };
 
 #ifdef HORIZON_SIMD_AVX2
@@ -59,8 +69,8 @@ HORIZON_AVX2 inline void transpose8(const float* from, std::ptrdiff_t stride, fl
 // eight floats to each of the task's lines); the blocks are counted from the
 // extent's first row. The rows above and below a span's blocks, and a span
 // narrower than eight columns, by the scalar copy.
-HORIZON_AVX2 void copy_blocked(const terrain::HeightView& z, const terrain::Window& extent,
-                               const std::vector<ColumnSpan>& spans, float* out, std::ptrdiff_t pitch) {
+HORIZON_AVX2 void copy_blocked(const terrain::HeightView& z, const terrain::Window& extent, const TaskSpans& spans,
+                               float* out, std::ptrdiff_t pitch) {
   const auto block_rows = [&](const ColumnSpan& s) {  // [first, last) of whole blocks inside the span's rows
     const int first = extent.row0 + (s.r0 - extent.row0 + 7) / 8 * 8;
     const int last = extent.row0 + (s.r1 - extent.row0) / 8 * 8;
@@ -119,11 +129,11 @@ ColumnLines transpose_columns(const terrain::HeightView& z, const terrain::Windo
     const int task_c0 = extent.col0 + static_cast<int>(t) * kColumnsPerTask;
     const int task_c1 = std::min(extent.col1, task_c0 + kColumnsPerTask);
     // Eight columns at a time, each over the rows it needs.
-    std::vector<ColumnSpan> spans;
+    TaskSpans spans;
     for (int c0 = task_c0; c0 < task_c1; c0 += 8) {
       const int c1 = std::min(task_c1, c0 + 8);
       const terrain::Window rows = wedge ? wedge->rows_of(extent, c0, c1) : extent;
-      if (rows.row0 < rows.row1) spans.push_back({c0, c1, rows.row0, rows.row1});
+      if (rows.row0 < rows.row1) spans.span[spans.count++] = {c0, c1, rows.row0, rows.row1};
     }
 #ifdef HORIZON_SIMD_AVX2
     if (simd::has_avx2()) {
