@@ -58,83 +58,87 @@ void compare_ray_steps() {
         // rays spread wider than a run, must fall back to gathers.
         const std::vector<int> run_lasts = zv == 1 ? std::vector<int>{-1, kV - 1} : std::vector<int>{-1};
         for (const int run_last : run_lasts)
-          for (const int count : {0, 1, 7, 8, 9, 15, 16, 17, 24, 25, 61, 193}) {
-            const LineStep ls{eye_hi, eye_lo, eye_v, 0.0f,    float(kV - 1), kf, kp, std::max(kp, 0.0f),
-                              kV - 2, zv,     fill,  run_last};
-            // Slopes evenly spaced in [-1, 1] as the plan makes them (0 and the
-            // diagonals included), with their inverses and curvature terms.
-            std::vector<float> slope(count), inv_slope(count), curv_k(count);
-            for (int i = 0; i < count; ++i) {
-              const double m = count == 1 ? 0.25 : -1.0 + 2.0 * i / (count - 1);
-              slope[i] = static_cast<float>(m);
-              inv_slope[i] = m == 0 ? 0.0f : static_cast<float>(1.0 / m);
-              curv_k[i] = static_cast<float>(6.7e-8 * (900.0 + m * m * 756.0));
-            }
-            // Running maxima from a random state: some rays without a horizon yet.
-            std::vector<float> h_scalar(count);
-            std::vector<int> arg_scalar(count);
-            for (int i = 0; i < count; ++i) {
-              const bool none = unit(rng) < 0.2f;
-              h_scalar[i] = none ? kNoHorizon : (unit(rng) - 0.5f) * 40.0f;
-              arg_scalar[i] = none ? -1 : static_cast<int>(unit(rng) * 9.0f);
-            }
-            std::vector<float> cs_scalar(count, 1.0f), cs_vector(count, 2.0f);
-            std::vector<int> cv_scalar(count, 5), cv_vector(count, 6), code_scalar(count, 7), code_vector(count, 8);
-            step_cross_scalar(ls, count, slope.data(), inv_slope.data(), curv_k.data(), prev.data(), cur.data(),
-                              h_scalar.data(), arg_scalar.data(), cs_scalar.data(), cv_scalar.data(),
-                              code_scalar.data());
-            step_cross(ls, count, slope.data(), inv_slope.data(), curv_k.data(), prev.data(), cur.data(),
-                       h_scalar.data(), arg_scalar.data(), cs_vector.data(), cv_vector.data(), code_vector.data());
-            expect_same_bits(cs_scalar, cs_vector, "cross slope", k);
-            expect_same_bits(cv_scalar, cv_vector, "crossed v line", k);
-            expect_same_bits(code_scalar, code_vector, "code", k);
-            for (int i = 0; i < count; ++i) {
-              const bool crossing_wins = cs_scalar[i] > h_scalar[i];
-              EXPECT_EQ(code_scalar[i], crossing_wins ? -2 - cv_scalar[i] : arg_scalar[i]);
-            }
+          for (const int count : {0, 1, 7, 8, 9, 15, 16, 17, 24, 25, 61, 193})
+            for (const bool falling : {false, true}) {
+              const LineStep ls{eye_hi, eye_lo, eye_v, 0.0f,    float(kV - 1), kf, kp, std::max(kp, 0.0f),
+                                kV - 2, zv,     fill,  run_last};
+              // Slopes evenly spaced in [-1, 1] as the plan makes them (0 and the
+              // diagonals included), with their inverses and curvature terms;
+              // also in falling order, where a group's first lane reads the
+              // highest cells, not the lowest (the run loads must then gather).
+              std::vector<float> slope(count), inv_slope(count), curv_k(count);
+              for (int i = 0; i < count; ++i) {
+                const int at = falling ? count - 1 - i : i;
+                const double m = count == 1 ? 0.25 : -1.0 + 2.0 * at / (count - 1);
+                slope[i] = static_cast<float>(m);
+                inv_slope[i] = m == 0 ? 0.0f : static_cast<float>(1.0 / m);
+                curv_k[i] = static_cast<float>(6.7e-8 * (900.0 + m * m * 756.0));
+              }
+              // Running maxima from a random state: some rays without a horizon yet.
+              std::vector<float> h_scalar(count);
+              std::vector<int> arg_scalar(count);
+              for (int i = 0; i < count; ++i) {
+                const bool none = unit(rng) < 0.2f;
+                h_scalar[i] = none ? kNoHorizon : (unit(rng) - 0.5f) * 40.0f;
+                arg_scalar[i] = none ? -1 : static_cast<int>(unit(rng) * 9.0f);
+              }
+              std::vector<float> cs_scalar(count, 1.0f), cs_vector(count, 2.0f);
+              std::vector<int> cv_scalar(count, 5), cv_vector(count, 6), code_scalar(count, 7), code_vector(count, 8);
+              step_cross_scalar(ls, count, slope.data(), inv_slope.data(), curv_k.data(), prev.data(), cur.data(),
+                                h_scalar.data(), arg_scalar.data(), cs_scalar.data(), cv_scalar.data(),
+                                code_scalar.data());
+              step_cross(ls, count, slope.data(), inv_slope.data(), curv_k.data(), prev.data(), cur.data(),
+                         h_scalar.data(), arg_scalar.data(), cs_vector.data(), cv_vector.data(), code_vector.data());
+              expect_same_bits(cs_scalar, cs_vector, "cross slope", k);
+              expect_same_bits(cv_scalar, cv_vector, "crossed v line", k);
+              expect_same_bits(code_scalar, code_vector, "code", k);
+              for (int i = 0; i < count; ++i) {
+                const bool crossing_wins = cs_scalar[i] > h_scalar[i];
+                EXPECT_EQ(code_scalar[i], crossing_wins ? -2 - cv_scalar[i] : arg_scalar[i]);
+              }
 
-            const std::vector<float> h_before = h_scalar;
-            const std::vector<int> arg_before = arg_scalar;
-            std::vector<float> h_vector = h_scalar;
-            std::vector<int> arg_vector = arg_scalar;
-            step_line_scalar(ls, count, slope.data(), curv_k.data(), cur.data(), cs_scalar.data(), cv_scalar.data(),
-                             h_scalar.data(), arg_scalar.data(), 11);
-            step_line(ls, count, slope.data(), curv_k.data(), cur.data(), cs_scalar.data(), cv_scalar.data(),
-                      h_vector.data(), arg_vector.data(), 11);
-            expect_same_bits(h_scalar, h_vector, "running maximum", k);
-            expect_same_bits(arg_scalar, arg_vector, "where the maximum lies", k);
-            // step_rays, both loops in one pass, from the same state: the same bits.
-            for (const bool scalar : {true, false}) {
-              std::vector<float> h_fused = h_before;
-              std::vector<int> arg_fused = arg_before, code_fused(count, 9);
-              (scalar ? step_rays_scalar : step_rays)(ls, count, slope.data(), inv_slope.data(), curv_k.data(),
-                                                      prev.data(), cur.data(), h_fused.data(), arg_fused.data(),
-                                                      code_fused.data(), 11);
-              expect_same_bits(h_scalar, h_fused, scalar ? "fused scalar maximum" : "fused maximum", k);
-              expect_same_bits(arg_scalar, arg_fused, scalar ? "fused scalar place" : "fused place", k);
-              expect_same_bits(code_scalar, code_fused, scalar ? "fused scalar code" : "fused code", k);
+              const std::vector<float> h_before = h_scalar;
+              const std::vector<int> arg_before = arg_scalar;
+              std::vector<float> h_vector = h_scalar;
+              std::vector<int> arg_vector = arg_scalar;
+              step_line_scalar(ls, count, slope.data(), curv_k.data(), cur.data(), cs_scalar.data(), cv_scalar.data(),
+                               h_scalar.data(), arg_scalar.data(), 11);
+              step_line(ls, count, slope.data(), curv_k.data(), cur.data(), cs_scalar.data(), cv_scalar.data(),
+                        h_vector.data(), arg_vector.data(), 11);
+              expect_same_bits(h_scalar, h_vector, "running maximum", k);
+              expect_same_bits(arg_scalar, arg_vector, "where the maximum lies", k);
+              // step_rays, both loops in one pass, from the same state: the same bits.
+              for (const bool scalar : {true, false}) {
+                std::vector<float> h_fused = h_before;
+                std::vector<int> arg_fused = arg_before, code_fused(count, 9);
+                (scalar ? step_rays_scalar : step_rays)(ls, count, slope.data(), inv_slope.data(), curv_k.data(),
+                                                        prev.data(), cur.data(), h_fused.data(), arg_fused.data(),
+                                                        code_fused.data(), 11);
+                expect_same_bits(h_scalar, h_fused, scalar ? "fused scalar maximum" : "fused maximum", k);
+                expect_same_bits(arg_scalar, arg_fused, scalar ? "fused scalar place" : "fused place", k);
+                expect_same_bits(code_scalar, code_fused, scalar ? "fused scalar code" : "fused code", k);
+              }
+              if (!std::isnan(fill)) {
+                // Filled as read == filled in memory and read as they are.
+                LineStep transparent = ls;
+                transparent.fill = std::numeric_limits<float>::quiet_NaN();
+                std::vector<float> h_copy = h_before;
+                std::vector<int> arg_copy = arg_before, code_copy(count, 9);
+                step_rays_scalar(transparent, count, slope.data(), inv_slope.data(), curv_k.data(), prev_filled.data(),
+                                 cur_filled.data(), h_copy.data(), arg_copy.data(), code_copy.data(), 11);
+                expect_same_bits(h_scalar, h_copy, "maximum over the filled copy", k);
+                expect_same_bits(arg_scalar, arg_copy, "place over the filled copy", k);
+                expect_same_bits(code_scalar, code_copy, "code over the filled copy", k);
+              }
+              // The same crossings again: every candidate now ties with the maximum
+              // it set, and a tie must keep the old place (line 11, not 12).
+              step_line_scalar(ls, count, slope.data(), curv_k.data(), cur.data(), cs_scalar.data(), cv_scalar.data(),
+                               h_scalar.data(), arg_scalar.data(), 12);
+              step_line(ls, count, slope.data(), curv_k.data(), cur.data(), cs_scalar.data(), cv_scalar.data(),
+                        h_vector.data(), arg_vector.data(), 12);
+              expect_same_bits(arg_scalar, arg_vector, "where the maximum lies after ties", k);
+              for (const int where : arg_scalar) EXPECT_NE(where, 12);
             }
-            if (!std::isnan(fill)) {
-              // Filled as read == filled in memory and read as they are.
-              LineStep transparent = ls;
-              transparent.fill = std::numeric_limits<float>::quiet_NaN();
-              std::vector<float> h_copy = h_before;
-              std::vector<int> arg_copy = arg_before, code_copy(count, 9);
-              step_rays_scalar(transparent, count, slope.data(), inv_slope.data(), curv_k.data(), prev_filled.data(),
-                               cur_filled.data(), h_copy.data(), arg_copy.data(), code_copy.data(), 11);
-              expect_same_bits(h_scalar, h_copy, "maximum over the filled copy", k);
-              expect_same_bits(arg_scalar, arg_copy, "place over the filled copy", k);
-              expect_same_bits(code_scalar, code_copy, "code over the filled copy", k);
-            }
-            // The same crossings again: every candidate now ties with the maximum
-            // it set, and a tie must keep the old place (line 11, not 12).
-            step_line_scalar(ls, count, slope.data(), curv_k.data(), cur.data(), cs_scalar.data(), cv_scalar.data(),
-                             h_scalar.data(), arg_scalar.data(), 12);
-            step_line(ls, count, slope.data(), curv_k.data(), cur.data(), cs_scalar.data(), cv_scalar.data(),
-                      h_vector.data(), arg_vector.data(), 12);
-            expect_same_bits(arg_scalar, arg_vector, "where the maximum lies after ties", k);
-            for (const int where : arg_scalar) EXPECT_NE(where, 12);
-          }
       }
   }
 }

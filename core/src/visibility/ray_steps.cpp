@@ -121,15 +121,20 @@ HORIZON_AVX2 inline Step8 step8(const LineStep& ls) {
 // one run of sixteen inside the line, a line is two plain loads and each lane
 // picks its element by permute; otherwise each read is a hardware gather.
 // The bits are the same; the run saves the gathers' cost (rays one cell
-// apart or closer put eight rays' reads within about ten cells).
+// apart or closer put eight rays' reads within about ten cells). The run
+// starts at lane 0's lowest read: the plan's rays rise in slope lane by
+// lane, so their reads do too (almost always; a group where another lane
+// reads lower is gathered), and one lane is cheaper to take than the
+// minimum of eight.
 class Reads8 {
  public:
   HORIZON_AVX2 Reads8(const Step8& s, __m256i lowest, __m256i highest) : zv_(s.zv) {
     if (s.run_last < 0) return;
-    const int base = simd::lowest8(lowest);
+    const int base = _mm256_cvtsi256_si32(lowest);
     if (base < 0 || base + 15 > s.run_last) return;
-    const __m256i beyond = _mm256_cmpgt_epi32(highest, simd::i8(base + 15));
-    if (!_mm256_testz_si256(beyond, beyond)) return;
+    const __m256i outside =
+        _mm256_or_si256(_mm256_cmpgt_epi32(simd::i8(base), lowest), _mm256_cmpgt_epi32(highest, simd::i8(base + 15)));
+    if (!_mm256_testz_si256(outside, outside)) return;
     base_ = base;
   }
 
@@ -323,9 +328,11 @@ class Reads16 {
  public:
   HORIZON_AVX512 Reads16(const Step16& s, __mmask16 in, __m512i lowest, __m512i highest) : zv_(s.zv), in_(in) {
     if (s.run_last < 0 || in == 0) return;
-    const int base = _mm512_mask_reduce_min_epi32(in, lowest);
+    const int base = _mm_cvtsi128_si32(_mm512_castsi512_si128(lowest));  // lane 0, always in (as Reads8's)
     if (base < 0 || base + 31 > s.run_last) return;
-    if (_mm512_mask_cmpgt_epi32_mask(in, highest, simd::i16(base + 31)) != 0) return;
+    if ((_mm512_mask_cmpgt_epi32_mask(in, simd::i16(base), lowest) |
+         _mm512_mask_cmpgt_epi32_mask(in, highest, simd::i16(base + 31))) != 0)
+      return;
     base_ = base;
   }
 

@@ -66,14 +66,6 @@ HORIZON_AVX2 inline __m256 gather_masked(const float* base, __m256i index, __m25
   return _mm256_mask_i32gather_ps(_mm256_setzero_ps(), base, index, mask, 4);
 }
 
-// The lowest of eight indices.
-HORIZON_AVX2 inline int lowest8(__m256i x) {
-  __m128i m = _mm_min_epi32(_mm256_castsi256_si128(x), _mm256_extracti128_si256(x, 1));
-  m = _mm_min_epi32(m, _mm_shuffle_epi32(m, _MM_SHUFFLE(1, 0, 3, 2)));
-  m = _mm_min_epi32(m, _mm_shuffle_epi32(m, _MM_SHUFFLE(2, 3, 0, 1)));
-  return _mm_cvtsi128_si32(m);
-}
-
 // Sixteen consecutive heights of one line, from which each lane takes the
 // one at its offset: a gather's values where every lane reads near the
 // others (along rows, where v is contiguous), for two loads and permutes.
